@@ -1,0 +1,43 @@
+"""S^2 and SO(3) algebra on SymPy 3-vectors: hat map, cross products, Cayley update.
+
+Input: 3x1 SymPy matrices. Output: SymPy matrices/expressions. No state.
+
+Example:
+    >>> import sympy as sp
+    >>> a = sp.Matrix(sp.symbols("a0:3")); b = sp.Matrix(sp.symbols("b0:3"))
+    >>> (hat(a) * b - a.cross(b)).applyfunc(sp.expand) == sp.zeros(3, 1)
+    True
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+__all__ = ["cayley_apply", "cayley_apply_tangent", "dot", "hat", "vec"]
+
+
+def vec(prefix: str) -> sp.Matrix:
+    """A 3x1 column of real symbols named prefix0, prefix1, prefix2."""
+    return sp.Matrix([sp.Symbol(f"{prefix}{c}", real=True) for c in range(3)])
+
+
+def hat(a: sp.Matrix) -> sp.Matrix:
+    """The hat map: hat(a) b = a x b."""
+    return sp.Matrix([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+
+
+def dot(a: sp.Matrix, b: sp.Matrix) -> sp.Expr:
+    """Euclidean inner product of two 3x1 columns."""
+    return sum((a[c] * b[c] for c in range(3)), sp.Integer(0))
+
+
+def cayley_apply(f: sp.Matrix, q: sp.Matrix) -> sp.Matrix:
+    """F q for the Cayley rotation F = (I + hat f)(I - hat f)^(-1), any f (closed form)."""
+    ff = dot(f, f)
+    return ((1 - ff) * q + 2 * f * dot(f, q) + 2 * f.cross(q)) / (1 + ff)
+
+
+def cayley_apply_tangent(f: sp.Matrix, q: sp.Matrix) -> sp.Matrix:
+    """F q when f is orthogonal to q (the paper's reduced form, eq. Fiqi)."""
+    ff = dot(f, f)
+    return ((1 - ff) * q + 2 * f.cross(q)) / (1 + ff)

@@ -1,0 +1,85 @@
+"""Equations to IR: common-subexpression elimination, power expansion, op counts.
+
+Input: `KernelDef`s (SymPy expressions) and a `System`. Output: frozen `Kernel`s and the
+`Module` that gathers them with the system's structure. Temporaries are named x0, x1, ... in
+the order SymPy's canonical cse produces them, so the same input always gives the same names.
+
+Example:
+    >>> import sympy as sp
+    >>> from s2gen.ir import Argument, KernelDef, Output
+    >>> x = sp.Symbol("x", real=True)
+    >>> k = lower(KernelDef("k", "doc", (Argument("x", (x,), scalar=True),),
+    ...                     (Output("y", (sp.sin(x) ** 2 + sp.sin(x),), scalar=True),)))
+    >>> [str(a.temp) for a in k.assignments if a.temp is not None]
+    ['x0']
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+from sympy.codegen.rewriting import create_expand_pow_optimization
+
+from .continuous import continuous_kernels
+from .discrete import explicit_kernels, newton_kernels
+from .ir import Assignment, Kernel, KernelDef, Module
+from .structure import coupling_pairs, system_kernels
+from .system import System
+
+__all__ = ["lower", "lower_system", "workspace_size"]
+
+_expand_pow = create_expand_pow_optimization(4)
+
+
+def _ops(exprs: list[sp.Expr]) -> int:
+    return int(sum(sp.count_ops(e) for e in exprs))
+
+
+def lower(kdef: KernelDef) -> Kernel:
+    """Eliminate common subexpressions of all outputs of one kernel together."""
+    flat = [e for out in kdef.outputs for e in out.exprs]
+    slots = [(out.name, k) for out in kdef.outputs for k in range(out.size)]
+    temps, reduced = sp.cse(
+        [sp.sympify(e) for e in flat],
+        symbols=sp.numbered_symbols("x", real=True),
+        order="canonical",
+    )
+    assignments = [Assignment(t, None, _expand_pow(e)) for t, e in temps]
+    assignments += [Assignment(None, slot, _expand_pow(e)) for slot, e in zip(slots, reduced)]
+    return Kernel(
+        name=kdef.name,
+        doc=kdef.doc,
+        inputs=kdef.inputs,
+        outputs=kdef.outputs,
+        assignments=tuple(assignments),
+        ops_before=_ops(flat),
+        ops_after=_ops([a.expr for a in assignments]),
+    )
+
+
+def workspace_size(n: int, coupled: bool) -> int:
+    """Doubles of caller-provided workspace the emitted driver needs (see the C header)."""
+    m = 3 * n
+    flow = 12 * m  # q, w, g, gn, qn, wn, f, d, r, ... one vector of 3n each
+    rk = 10 * 2 * m  # RK45: 7 stages, y, ynew, err (state is 6n)
+    dense = (m * m + 2 * m) if coupled else 0  # one 3n x 3n matrix, rhs and scratch
+    return flow + rk + dense
+
+
+def lower_system(system: System) -> Module:
+    """All kernels of one system, lowered, with the structure the templates need."""
+    pairs = coupling_pairs(system)
+    coupled = bool(pairs)
+    generic = continuous_kernels(coupled) + (newton_kernels() if coupled else explicit_kernels())
+    return Module(
+        name=system.name,
+        spec_hash=system.spec_hash(),
+        origin=system.origin,
+        n=system.n,
+        parameter_names=system.parameter_names,
+        parameter_values=system.parameter_values,
+        coupled=coupled,
+        pairs=pairs,
+        system_kernels=tuple(lower(k) for k in system_kernels(system)),
+        body_kernels=tuple(lower(k) for k in generic),
+        work_size=workspace_size(system.n, coupled),
+    )

@@ -1,0 +1,320 @@
+"""The validated, frozen description of a mechanical system on (S^2)^n.
+
+Input: SymPy objects (inertia matrix, potential) and plain numbers (parameters, initial state,
+run settings), from either front door (`spec.py` for TOML files and the Python API).
+Output: a `System`, the single record every later stage reads.
+
+Symbols: body i (1-based, as in the paper) has the unit vector q_i with components
+``q_symbol(i, 0..2)`` (SymPy symbols named ``q{i}_{c}``); parameters are real SymPy symbols named
+as declared. Validation errors are `SpecError`s naming the origin (file or API), the key and
+the offending item.
+
+Example:
+    >>> import sympy as sp
+    >>> m, g = sp.symbols("m g", real=True)
+    >>> s = System.create(name="pendulum", n=1, parameters={"m": 1.0, "g": 9.81},
+    ...                   inertia=sp.Matrix([[m]]), potential=-m * g * q_symbol(1, 2))
+    >>> s.n, s.parameter_names
+    (1, ('m', 'g'))
+"""
+
+from __future__ import annotations
+
+import hashlib
+import keyword
+import re
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+
+__all__ = [
+    "UNIT_LENGTH_TOLERANCE",
+    "RunSettings",
+    "SpecError",
+    "SpecWarning",
+    "System",
+    "q_symbol",
+    "q_symbols",
+    "q_vector",
+]
+
+#: A q_i further than this from unit length is an error; closer ones are normalized (warning).
+UNIT_LENGTH_TOLERANCE = 1e-3
+
+_C_IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_C_RESERVED = frozenset(
+    [
+        "auto",
+        "break",
+        "case",
+        "char",
+        "const",
+        "continue",
+        "default",
+        "do",
+        "double",
+        "else",
+        "enum",
+        "extern",
+        "float",
+        "for",
+        "goto",
+        "if",
+        "inline",
+        "int",
+        "long",
+        "register",
+        "restrict",
+        "return",
+        "short",
+        "signed",
+        "sizeof",
+        "static",
+        "struct",
+        "switch",
+        "typedef",
+        "union",
+        "unsigned",
+        "void",
+        "volatile",
+        "while",
+        "main",
+    ]
+)
+
+
+class SpecError(ValueError):
+    """A system specification is invalid. The message names file/origin, key and item."""
+
+
+class SpecWarning(UserWarning):
+    """A system specification was accepted after a small correction (e.g. normalization)."""
+
+
+def q_symbol(i: int, c: int) -> sp.Symbol:
+    """Component c (0, 1, 2) of body i's unit vector (i is 1-based)."""
+    return sp.Symbol(f"q{i}_{c}", real=True)
+
+
+def q_vector(i: int) -> sp.Matrix:
+    """Body i's unit vector as a 3x1 SymPy column (i is 1-based)."""
+    return sp.Matrix([q_symbol(i, c) for c in range(3)])
+
+
+def q_symbols(n: int) -> list[sp.Symbol]:
+    """All 3n position symbols in storage order (body-major, then component)."""
+    return [q_symbol(i, c) for i in range(1, n + 1) for c in range(3)]
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """Default run settings of a spec's [run] table (all optional)."""
+
+    h: float | None = None
+    T: float | None = None
+    method: str | None = None
+    rtol: float | None = None
+    atol: float | None = None
+
+
+@dataclass(frozen=True)
+class System:
+    """A validated mechanical system on (S^2)^n. Build it with `System.create`."""
+
+    name: str
+    n: int
+    parameter_names: tuple[str, ...]
+    parameter_values: tuple[float, ...]
+    inertia: sp.ImmutableMatrix
+    potential: sp.Expr
+    q0: np.ndarray | None = field(default=None, compare=False)
+    omega0: np.ndarray | None = field(default=None, compare=False)
+    run: RunSettings = RunSettings()
+    origin: str = "<python api>"
+
+    # ------------------------------------------------------------------ construction
+    @staticmethod
+    def create(
+        *,
+        name: str,
+        n: int,
+        parameters: Mapping[str, float],
+        inertia: sp.MatrixBase,
+        potential: sp.Expr,
+        q0: Sequence[Sequence[float]] | np.ndarray | None = None,
+        omega0: Sequence[Sequence[float]] | np.ndarray | None = None,
+        run: RunSettings | None = None,
+        origin: str = "<python api>",
+    ) -> System:
+        """Validate the pieces and return a frozen System (raises SpecError)."""
+        where = origin
+        if not isinstance(name, str) or not _C_IDENTIFIER.match(name):
+            raise SpecError(f"{where}: key 'name': {name!r} is not a C identifier")
+        if name in _C_RESERVED or keyword.iskeyword(name):
+            raise SpecError(f"{where}: key 'name': {name!r} is a reserved word in C or Python")
+        if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
+            raise SpecError(f"{where}: key 'bodies': expected a positive integer, got {n!r}")
+        n = int(n)
+        names = tuple(parameters.keys())
+        values: list[float] = []
+        for pname in names:
+            if not _C_IDENTIFIER.match(pname):
+                raise SpecError(f"{where}: [parameters]: {pname!r} is not an identifier")
+            if re.fullmatch(r"q[0-9]+_[0-9]+", pname):
+                raise SpecError(f"{where}: [parameters]: {pname!r} clashes with a position symbol")
+            try:
+                v = float(parameters[pname])
+            except (TypeError, ValueError):
+                raise SpecError(
+                    f"{where}: [parameters] {pname}: expected a number, got {parameters[pname]!r}"
+                ) from None
+            if not np.isfinite(v):
+                raise SpecError(f"{where}: [parameters] {pname}: value {v} is not finite")
+            values.append(v)
+        psyms = {sp.Symbol(p, real=True) for p in names}
+        subs = {sp.Symbol(p, real=True): v for p, v in zip(names, values)}
+
+        M = sp.ImmutableMatrix(inertia)
+        if M.shape != (n, n):
+            raise SpecError(f"{where}: [inertia] M: expected a {n}x{n} matrix, got {M.shape}")
+        for (r, c), entry in np.ndenumerate(np.array(M.tolist(), dtype=object)):
+            extra = sp.sympify(entry).free_symbols - psyms
+            if extra:
+                bad = ", ".join(sorted(str(s) for s in extra))
+                raise SpecError(
+                    f"{where}: [inertia] M[{r + 1}][{c + 1}]: depends on {bad}, "
+                    "but the inertia must be constant (parameters only)"
+                )
+        for r in range(n):
+            for c in range(r + 1, n):
+                if sp.simplify(M[r, c] - M[c, r]) != 0:
+                    raise SpecError(
+                        f"{where}: [inertia] M is not symmetric: M[{r + 1}][{c + 1}] = {M[r, c]}"
+                        f" but M[{c + 1}][{r + 1}] = {M[c, r]}"
+                    )
+        try:
+            Mnum = np.array(M.subs(subs).evalf().tolist(), dtype=float)
+        except (TypeError, ValueError):
+            raise SpecError(f"{where}: [inertia] M is not real at the parameter values") from None
+        if not np.all(np.isfinite(Mnum)):
+            raise SpecError(f"{where}: [inertia] M is not finite at the parameter values")
+        eig = np.linalg.eigvalsh(Mnum)
+        if eig[0] <= 0.0:
+            raise SpecError(
+                f"{where}: [inertia] M is not positive definite at the parameter values "
+                f"(smallest eigenvalue {eig[0]:.6g})"
+            )
+
+        V = sp.sympify(potential)
+        if not isinstance(V, sp.Expr):
+            raise SpecError(f"{where}: [potential] V: must be a scalar expression, got {V!r}")
+        qs = set(q_symbols(n))
+        extra = V.free_symbols - qs - psyms
+        if extra:
+            bad = ", ".join(sorted(str(s) for s in extra))
+            raise SpecError(
+                f"{where}: [potential] V: depends on {bad}; only q1..q{n} and the declared "
+                "parameters may appear"
+            )
+        if V.has(sp.Derivative, sp.Integral):
+            raise SpecError(f"{where}: [potential] V: must not contain derivatives or integrals")
+
+        q0a, w0a = _validate_initial(q0, omega0, n, where)
+        return System(
+            name=name,
+            n=n,
+            parameter_names=names,
+            parameter_values=tuple(values),
+            inertia=M,
+            potential=V,
+            q0=q0a,
+            omega0=w0a,
+            run=run or RunSettings(),
+            origin=origin,
+        )
+
+    # ------------------------------------------------------------------ queries
+    @property
+    def parameter_symbols(self) -> tuple[sp.Symbol, ...]:
+        """Parameter symbols in declared order (the order of the emitted `p[]` array)."""
+        return tuple(sp.Symbol(p, real=True) for p in self.parameter_names)
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """Parameter values by name."""
+        return dict(zip(self.parameter_names, self.parameter_values))
+
+    def inertia_numeric(self, values: Sequence[float] | None = None) -> np.ndarray:
+        """M evaluated at the given (default: the spec's) parameter values."""
+        vals = self.parameter_values if values is None else tuple(values)
+        subs = dict(zip(self.parameter_symbols, vals))
+        return np.array(self.inertia.subs(subs).evalf().tolist(), dtype=float)
+
+    @property
+    def is_diagonal(self) -> bool:
+        """True when every off-diagonal entry of M is identically zero."""
+        return all(self.inertia[r, c] == 0 for r in range(self.n) for c in range(self.n) if r != c)
+
+    def spec_hash(self) -> str:
+        """A short content hash of the specification (goes into emitted preambles)."""
+        h = hashlib.sha256()
+        h.update(self.name.encode())
+        h.update(str(self.n).encode())
+        for p, v in zip(self.parameter_names, self.parameter_values):
+            h.update(f"{p}={v!r};".encode())
+        h.update(sp.srepr(self.inertia).encode())
+        h.update(sp.srepr(self.potential).encode())
+        return h.hexdigest()[:16]
+
+
+def _validate_initial(
+    q0: Sequence[Sequence[float]] | np.ndarray | None,
+    omega0: Sequence[Sequence[float]] | np.ndarray | None,
+    n: int,
+    where: str,
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Check shapes, normalize q_i rounded to printed digits, project omega_i on T_q S^2."""
+    if q0 is None and omega0 is None:
+        return None, None
+    if q0 is None or omega0 is None:
+        raise SpecError(f"{where}: [initial]: give both 'q' and 'omega' (or neither)")
+    try:
+        q = np.array(q0, dtype=float)
+        w = np.array(omega0, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise SpecError(f"{where}: [initial]: not a list of numeric 3-vectors ({exc})") from None
+    for key, arr in (("q", q), ("omega", w)):
+        if arr.shape != (n, 3):
+            raise SpecError(
+                f"{where}: [initial] {key}: expected {n} vectors of 3 components, "
+                f"got shape {arr.shape}"
+            )
+        if not np.all(np.isfinite(arr)):
+            raise SpecError(f"{where}: [initial] {key}: contains a non-finite value")
+    norms = np.linalg.norm(q, axis=1)
+    notes = []
+    for i in range(n):
+        dev = abs(norms[i] - 1.0)
+        if dev > UNIT_LENGTH_TOLERANCE:
+            raise SpecError(
+                f"{where}: [initial] q{i + 1}: length {norms[i]:.6g} is not a unit vector "
+                f"(off by {dev:.3g} > {UNIT_LENGTH_TOLERANCE:g})"
+            )
+        if dev > 8 * np.finfo(float).eps:
+            notes.append(f"q{i + 1} normalized (length was 1{norms[i] - 1.0:+.3g})")
+    qn = q / norms[:, None]
+    radial = np.einsum("ij,ij->i", qn, w)
+    wn = w - radial[:, None] * qn
+    for i in range(n):
+        if radial[i] != 0.0 and abs(radial[i]) > 4 * np.finfo(float).eps * max(
+            1.0, float(np.linalg.norm(w[i]))
+        ):
+            notes.append(
+                f"omega{i + 1} projected onto the tangent plane (removed {radial[i]:+.3g})"
+            )
+    if notes:
+        warnings.warn(f"{where}: [initial]: " + "; ".join(notes), SpecWarning, stacklevel=3)
+    return qn, wn
