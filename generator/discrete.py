@@ -12,9 +12,10 @@ discrete Legendre transforms, projected on the tangent planes by a cross product
     k+1: q_i+ x sum_j M_ij (omega_j+ x q_j+) = q_i+ x ( D_{q_i+} L_d).
 With q_j+ = F_j q_j the first gives, multiplied by h,
     M_ii q_i x F_i q_i + sum_{j!=i} M_ij q_i x (F_j q_j - q_j) = d_i,
-    d_i = h M_ii omega_i + h sum_{j!=i} M_ij q_i x (omega_j x q_j) - h^2/2 q_i x g_i
-(the self term of d uses q_i x (omega_i x q_i) = omega_i on T S^2). With Cayley parameters
-f_i orthogonal to q_i, q_i x F_i q_i = 2 f_i / (1 + f_i.f_i), which closes the system: the
+    d_i = h sum_j M_ij q_i x (omega_j x q_j) - h^2/2 q_i x g_i.
+With Cayley parameters f_i orthogonal to q_i, q_i x F_i q_i = 2 (q_i.q_i) f_i / (1 + f_i.f_i)
+(= 2 f_i/(1 + f_i.f_i) on the sphere; the factor is kept so that round-off in |q_i| does not
+leak into the momentum), which closes the system: the
 component of the residual along q_i is what forces f_i . q_i = 0. The Jacobian in f is taken
 by SymPy. For diagonal M the system decouples and is solved in closed form:
     a_i = d_i / M_ii,  q_i+ = a_i x q_i + sqrt(1 - a_i.a_i) q_i   (feasible iff a_i.a_i <= 1),
@@ -32,7 +33,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from .geometry import cayley_apply, cayley_apply_tangent, dot, vec
+from .geometry import cayley_apply, cayley_displacement, dot, hat, vec
 from .ir import Argument, KernelDef, Output
 
 __all__ = ["explicit_kernels", "legendre_pair", "newton_kernels"]
@@ -122,21 +123,46 @@ def newton_kernels() -> list[KernelDef]:
     # h q_i x sum_j M_ij (omega_j x q_j), gradient part -h^2/2 q_i x g_i.
     at_rest = {**dict(zip(qni, qi)), **dict(zip(qnj, qj))}
     grad_part = (H * lp["minus_D1"]).subs(at_rest)
-    d_body = H * M_II * w - _tidy(grad_part.subs({M_IJ: 0}).subs(to_body, simultaneous=True))
+    # momentum part of the self term kept exact, h M_ii q x (omega x q), so d_i is tangent
+    d_body = H * M_II * q.cross(w.cross(q)) - _tidy(
+        grad_part.subs({M_IJ: 0}).subs(to_body, simultaneous=True)
+    )
     d_pair_i = _tidy(H * M_IJ * qi.cross(wj.cross(qj)))
     d_pair_j = _tidy(H * M_IJ * qj.cross(wi.cross(qi)))
 
     # f-dependent side: q_i x sum_j M_ij (F_j q_j - q_j); self term reduced on f_i . q_i = 0.
-    r_body = 2 * M_II * f / (1 + dot(f, f)) - vec("d")
-    r_pair_i = M_IJ * qi.cross(cayley_apply_tangent(fj, qj) - qj)
-    r_pair_j = M_IJ * qj.cross(cayley_apply_tangent(fi, qi) - qi)
+    # Displacements F_j q_j - q_j are written from f_j directly (`cayley_displacement`).
+    # q x F q = 2 (q.q) f / (1 + f.f) holds for f orthogonal to q at any |q|; keeping the factor
+    # (q.q) stops the round-off in |q| from leaking into the momentum step after step.
+    r_body = 2 * M_II * dot(q, q) * f / (1 + dot(f, f)) - vec("d")
+    r_pair_i = M_IJ * qi.cross(cayley_displacement(fj, qj))
+    r_pair_j = M_IJ * qj.cross(cayley_displacement(fi, qi))
 
     # Velocity side c_i = q_i+ x D_{q_i+} L_d, split into the one-body and the pair part.
+    # D2 is linear in the displacements q_j+ - q_j; they are replaced by their Cayley form, and
+    # in the self term q_i+ x (q_i+ - q_i) = q_i x F_i q_i = 2 f_i/(1 + f_i.f_i), so that the
+    # 1/h in front multiplies quantities of size h, never a difference of unit vectors.
     c_all = lp["D2"]
-    c_body = _tidy(c_all.subs({M_IJ: 0}).subs(to_body, simultaneous=True))
-    c_pair_i = _tidy(c_all.subs({M_II: 0}).subs({gc: 0 for gc in vec("gni")}))
-    swap = {**dict(zip(qi, qj)), **dict(zip(qj, qi)), **dict(zip(qni, qnj)), **dict(zip(qnj, qni))}
-    c_pair_j = c_pair_i.subs(swap, simultaneous=True)
+    disp = {**dict(zip(qni, qi + vec("ui"))), **dict(zip(qnj, qj + vec("uj")))}
+    c_disp = c_all.subs(disp, simultaneous=True)
+    self_part = c_disp.subs({M_IJ: 0}).subs({gc: 0 for gc in vec("gni")})
+    check = (self_part - M_II / H * (qi + vec("ui")).cross(vec("ui"))).applyfunc(sp.expand)
+    assert check == sp.zeros(3, 1), "self term of D2 must be M_ii/h q_i+ x (q_i+ - q_i)"
+    c_body = M_II / H * 2 * dot(q, q) * f / (1 + dot(f, f)) + _tidy(
+        c_all.subs({M_II: 0, M_IJ: 0}).subs(to_body, simultaneous=True)
+    )
+    pair_part = c_all.subs({M_II: 0}).subs({gc: 0 for gc in vec("gni")})
+    # pair part is M_ij/h q_i+ x (q_j+ - q_j): keep q_i+, substitute the displacement of j
+    c_pair_i = pair_part.subs(dict(zip(qnj, qj + cayley_displacement(fj, qj))), simultaneous=True)
+    c_pair_j = c_pair_i.subs(
+        {**dict(zip(qi, qj)), **dict(zip(qj, qi)), **dict(zip(qni, qnj)), **dict(zip(fj, fi))},
+        simultaneous=True,
+    )
+
+    # Completed diagonal block of the velocity system: -M_ii hat(q)^2 + M_ii q q^T.
+    completed = (-M_II * hat(q) * hat(q) + M_II * q * q.T).applyfunc(sp.expand)
+    a_diag = sp.factor(completed[0, 0])
+    assert completed == (a_diag * sp.eye(3)).applyfunc(sp.expand)
 
     def flat(mat: sp.Matrix) -> tuple[sp.Expr, ...]:
         return tuple(mat[r, c] for r in range(3) for c in range(3))
@@ -156,8 +182,8 @@ def newton_kernels() -> list[KernelDef]:
         ),
         KernelDef(
             "res_body",
-            "residual 2 M_ii f/(1+f.f) - d and its Jacobian block in f (row-major)",
-            (_s(M_II), _a("f", f), _a("d", vec("d"))),
+            "residual 2 M_ii (q.q) f/(1+f.f) - d and its Jacobian block in f (row-major)",
+            (_s(M_II), _a("q", q), _a("f", f), _a("d", vec("d"))),
             (_o("r", r_body), Output("jac", flat(r_body.jacobian(f)))),
         ),
         KernelDef(
@@ -172,6 +198,13 @@ def newton_kernels() -> list[KernelDef]:
             ),
         ),
         KernelDef(
+            "a_body",
+            "diagonal block of A(q+) for the VI velocity solve: M_ii (q.q) I, the exact completion"
+            " of -M_ii hat(q)^2 (equal to M_ii I on the sphere)",
+            (_s(M_II), _a("q", q)),
+            (Output("a", (a_diag,), scalar=True),),
+        ),
+        KernelDef(
             "cayley",
             "q+ = F q with F the Cayley rotation of f (exactly orthogonal for any f)",
             (_a("q", q), _a("f", f)),
@@ -179,14 +212,23 @@ def newton_kernels() -> list[KernelDef]:
         ),
         KernelDef(
             "c_body",
-            "velocity right side, one-body part: M_ii/h q+ x (q+ - q) - h/2 q+ x g+",
-            (_s(H), _s(M_II), _a("q", q), _a("qn", qn), _a("gn", gn)),
+            "velocity right side, one-body part: 2 M_ii/h (q.q) f/(1 + f.f) - h/2 q+ x g+",
+            (_s(H), _s(M_II), _a("q", q), _a("f", f), _a("qn", qn), _a("gn", gn)),
             (_o("c", c_body),),
         ),
         KernelDef(
             "c_pair",
-            "velocity right side, pair part: M_ij/h q_i+ x (q_j+ - q_j) (and i <-> j)",
-            (_s(H), _s(M_IJ), _a("qi", qi), _a("qni", qni), _a("qj", qj), _a("qnj", qnj)),
+            "velocity right side, pair part: M_ij/h q_i+ x (F_j q_j - q_j) (and i <-> j)",
+            (
+                _s(H),
+                _s(M_IJ),
+                _a("qi", qi),
+                _a("fi", fi),
+                _a("qni", qni),
+                _a("qj", qj),
+                _a("fj", fj),
+                _a("qnj", qnj),
+            ),
             (_o("ci", c_pair_i), _o("cj", c_pair_j)),
         ),
     ]

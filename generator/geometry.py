@@ -41,3 +41,13 @@ def cayley_apply_tangent(f: sp.Matrix, q: sp.Matrix) -> sp.Matrix:
     """F q when f is orthogonal to q (the paper's reduced form, eq. Fiqi)."""
     ff = dot(f, f)
     return ((1 - ff) * q + 2 * f.cross(q)) / (1 + ff)
+
+
+def cayley_displacement(f: sp.Matrix, q: sp.Matrix) -> sp.Matrix:
+    """F q - q for f orthogonal to q, written without the cancellation of q - q.
+
+    (2 f x q - 2 (f.f) q) / (1 + f.f): of the size of f, so dividing it by h amplifies no
+    round-off (the difference of two computed unit vectors would carry an error of 1 ulp of 1).
+    """
+    ff = dot(f, f)
+    return (2 * f.cross(q) - 2 * ff * q) / (1 + ff)
