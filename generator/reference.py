@@ -50,6 +50,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import sympy as sp
+
 from s2gen.system import System, q_symbols
 
 __all__ = [

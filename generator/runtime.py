@@ -237,7 +237,8 @@ class CBackend:
             self.work,
             ctypes.byref(stats),
         )
-        return status, q, w, en, {k: int(getattr(stats, k)) for k, _ in _Stats._fields_}
+        names = ("steps", "rejected", "gradient_evals", "newton_iters", "newton_max", "fail_step")
+        return status, q, w, en, {k: int(getattr(stats, k)) for k in names}
 
 
 def _c(a: np.ndarray) -> np.ndarray:
@@ -363,14 +364,17 @@ class ReferenceBackend:
             )
             return 0, tr.q, tr.omega, tr.energy, dict(tr.stats)
         except reference.ReferenceIntegrationError as exc:
-            part = exc.partial
             n = self.system.n
             q = np.full((nsteps + 1, n, 3), np.nan)
             w = np.full((nsteps + 1, n, 3), np.nan)
             en = np.full(nsteps + 1, np.nan)
-            k = len(part.t)
-            q[:k], w[:k], en[:k] = part.q, part.omega, part.energy
-            return 3, q, w, en, {"fail_step": k}
+            k = 0
+            if exc.partial is not None:
+                k = len(exc.partial.t)
+                q[:k], w[:k], en[:k] = exc.partial.q, exc.partial.omega, exc.partial.energy
+            text = str(exc).lower()
+            status = 1 if "infeasible" in text else 2 if "newton" in text else 3
+            return status, q, w, en, {"fail_step": k}
 
 
 @functools.lru_cache(maxsize=16)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+
 from s2gen.system import System
 from s2gen.systems import builtin, resolve
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import sympy as sp
+
 from s2gen.build import STRICT_FLAGS, compile_shared, compiler
 from s2gen.cli import GENERATED_SYSTEMS, regenerate
 from s2gen.continuous import system_matrix_blocks

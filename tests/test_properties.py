@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import SYSTEMS
+
 from s2gen import metrics
 from s2gen.runtime import Options, get_backend, simulate
 from s2gen.systems import builtin

@@ -12,6 +12,8 @@ import itertools
 import numpy as np
 import pytest
 import sympy as sp
+from scipy.integrate import solve_ivp
+
 from s2gen.reference import (
     ReferenceIntegrationError,
     ReferenceProblem,
@@ -26,7 +28,6 @@ from s2gen.reference import (
     vi_step,
 )
 from s2gen.system import System, q_symbol, q_vector
-from scipy.integrate import solve_ivp
 
 E3 = np.array([0.0, 0.0, 1.0])
 

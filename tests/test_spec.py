@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
+
 from s2gen.spec import define_system, load_spec, load_spec_text, parse_expression
 from s2gen.system import RunSettings, SpecError, SpecWarning, System, q_symbol
 from s2gen.systems import builtin, builtin_names, resolve
