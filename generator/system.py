@@ -36,6 +36,9 @@ __all__ = [
     "SpecError",
     "SpecWarning",
     "System",
+    "Term",
+    "TermData",
+    "local_vector",
     "q_symbol",
     "q_symbols",
     "q_vector",
@@ -120,6 +123,122 @@ class RunSettings:
     atol: float | None = None
 
 
+def local_vector(role: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
+    """Symbols of a term's own vectors: role "q" (one-body terms), "qi"/"qj" (pair terms), or
+    a vector data name; named role_0, role_1, role_2."""
+    return tuple(sp.Symbol(f"{role}_{c}", real=True) for c in range(3))  # type: ignore[return-value]
+
+
+@dataclass(frozen=True)
+class TermData:
+    """Per-member data of a term: `width` 1 (a scalar symbol `name`) or 3 (a vector, symbols
+    name_0..2), with `width` values per member, member-major."""
+
+    name: str
+    width: int
+    values: tuple[float, ...]
+
+    def symbols(self) -> tuple[sp.Symbol, ...]:
+        if self.width == 1:
+            return (sp.Symbol(self.name, real=True),)
+        return local_vector(self.name)
+
+
+@dataclass(frozen=True)
+class Term:
+    """A structured part of the potential: a sum of one expression over a list of members.
+
+    kind "body": expr in the body's vector q (symbols `local_vector("q")`), summed over bodies;
+    kind "pair": expr in qi, qj, summed over pairs (i, j). `select` is "all" (every body, or
+    every pair i < j), "chain" (pairs (i, i+1)) or "list" (`members`, 0-based). Per-member data
+    (spring constants, offsets, ...) enter as extra symbols; parameters as usual.
+    """
+
+    kind: str
+    expr: sp.Expr
+    select: str = "all"
+    members: tuple[tuple[int, ...], ...] = ()
+    data: tuple[TermData, ...] = ()
+    label: str = "term"
+
+    def count(self, n: int) -> int:
+        """Number of members for n bodies."""
+        if self.select == "list":
+            return len(self.members)
+        if self.kind == "body":
+            return n
+        return n - 1 if self.select == "chain" else n * (n - 1) // 2
+
+    def member_list(self, n: int) -> list[tuple[int, ...]]:
+        """The members (0-based) for n bodies, in loop order."""
+        if self.select == "list":
+            return list(self.members)
+        if self.kind == "body":
+            return [(i,) for i in range(n)]
+        if self.select == "chain":
+            return [(i, i + 1) for i in range(n - 1)]
+        return [(i, j) for i in range(n) for j in range(i + 1, n)]
+
+    def roles(self) -> tuple[str, ...]:
+        return ("q",) if self.kind == "body" else ("qi", "qj")
+
+    def position_symbols(self) -> tuple[sp.Symbol, ...]:
+        return tuple(s for role in self.roles() for s in local_vector(role))
+
+    def data_symbols(self) -> tuple[sp.Symbol, ...]:
+        return tuple(s for d in self.data for s in d.symbols())
+
+    def instance(self, member: tuple[int, ...], index: int) -> sp.Expr:
+        """The term of one member written in the global symbols q{i}_{c} (for checks)."""
+        subs: dict[sp.Symbol, sp.Expr] = {}
+        for role, body in zip(self.roles(), member):
+            subs.update(dict(zip(local_vector(role), (q_symbol(body + 1, c) for c in range(3)))))
+        for d in self.data:
+            vals = d.values[index * d.width : (index + 1) * d.width]
+            subs.update({s: sp.Float(v) for s, v in zip(d.symbols(), vals)})
+        return self.expr.xreplace(subs)
+
+
+def _validate_term(term: Term, n: int, psyms: set[sp.Symbol], where: str) -> None:
+    """Check kind, selection, members, data sizes and the symbols of one term."""
+    at = f"{where}: {term.label}"
+    if term.kind not in ("body", "pair"):
+        raise SpecError(f"{at}: kind must be 'body' or 'pair', got {term.kind!r}")
+    allowed = ("all", "list") if term.kind == "body" else ("all", "chain", "list")
+    if term.select not in allowed:
+        raise SpecError(f"{at}: selection must be one of {allowed}, got {term.select!r}")
+    if term.select == "list":
+        width = 1 if term.kind == "body" else 2
+        for k, mem in enumerate(term.members):
+            if len(mem) != width or not all(0 <= b < n for b in mem):
+                shown = [b + 1 for b in mem]
+                raise SpecError(f"{at}: member {k + 1} {shown} is not {width} body index(es) 1..{n}")
+            if width == 2 and mem[0] == mem[1]:
+                raise SpecError(f"{at}: member {k + 1} pairs body {mem[0] + 1} with itself")
+    elif term.members:
+        raise SpecError(f"{at}: members are given but the selection is {term.select!r}")
+    count = term.count(n)
+    for d in term.data:
+        if term.select == "all" and term.kind == "pair":
+            raise SpecError(
+                f"{at}: per-pair data '{d.name}' needs an explicit pair list or a chain "
+                "(a value common to all pairs is a parameter)"
+            )
+        if d.width not in (1, 3) or len(d.values) != d.width * count:
+            raise SpecError(
+                f"{at}: data '{d.name}' has {len(d.values)} values, expected {count} "
+                f"{'numbers' if d.width == 1 else '3-vectors'} (one per member)"
+            )
+        if not all(np.isfinite(d.values)):
+            raise SpecError(f"{at}: data '{d.name}' contains a non-finite value")
+    extra = term.expr.free_symbols - set(term.position_symbols()) - psyms - set(
+        term.data_symbols()
+    )
+    if extra:
+        bad = ", ".join(sorted(str(s) for s in extra))
+        raise SpecError(f"{at}: depends on {bad}, which is not a position, datum or parameter")
+
+
 @dataclass(frozen=True)
 class System:
     """A validated mechanical system on (S^2)^n. Build it with `System.create`."""
@@ -134,6 +253,7 @@ class System:
     omega0: np.ndarray | None = field(default=None, compare=False)
     run: RunSettings = RunSettings()
     origin: str = "<python api>"
+    terms: tuple[Term, ...] = ()
 
     # ------------------------------------------------------------------ construction
     @staticmethod
@@ -148,6 +268,7 @@ class System:
         omega0: Sequence[Sequence[float]] | np.ndarray | None = None,
         run: RunSettings | None = None,
         origin: str = "<python api>",
+        terms: Sequence[Term] = (),
     ) -> System:
         """Validate the pieces and return a frozen System (raises SpecError)."""
         where = origin
@@ -222,6 +343,8 @@ class System:
         if V.has(sp.Derivative, sp.Integral):
             raise SpecError(f"{where}: [potential] V: must not contain derivatives or integrals")
 
+        for term in terms:
+            _validate_term(term, n, psyms, where)
         q0a, w0a = _validate_initial(q0, omega0, n, where)
         return System(
             name=name,
@@ -234,6 +357,7 @@ class System:
             omega0=w0a,
             run=run or RunSettings(),
             origin=origin,
+            terms=tuple(terms),
         )
 
     # ------------------------------------------------------------------ queries
@@ -258,6 +382,15 @@ class System:
         """True when every off-diagonal entry of M is identically zero."""
         return all(self.inertia[r, c] == 0 for r in range(self.n) for c in range(self.n) if r != c)
 
+    def full_potential(self) -> sp.Expr:
+        """V as one expression: the general part plus every term instance (small n only)."""
+        total = self.potential
+        for t in self.terms:
+            total += sum(
+                (t.instance(m, k) for k, m in enumerate(t.member_list(self.n))), sp.Integer(0)
+            )
+        return total
+
     def spec_hash(self) -> str:
         """A short content hash of the specification (goes into emitted preambles)."""
         h = hashlib.sha256()
@@ -267,6 +400,11 @@ class System:
             h.update(f"{p}={v!r};".encode())
         h.update(sp.srepr(self.inertia).encode())
         h.update(sp.srepr(self.potential).encode())
+        for t in self.terms:
+            h.update(f"{t.kind};{t.select};{t.members};{t.label}".encode())
+            h.update(sp.srepr(t.expr).encode())
+            for d in t.data:
+                h.update(f"{d.name};{d.width};{d.values}".encode())
         return h.hexdigest()[:16]
 
 
