@@ -5,7 +5,9 @@ Input: `KernelDef`s (SymPy expressions) and a `System`. Output: frozen `Kernel`s
 the order SymPy's canonical cse produces them, so the same input always gives the same names.
 
 Example:
-    >>> import sympy as sp
+    >>> import functools
+
+import sympy as sp
     >>> from s2gen.ir import Argument, KernelDef, Output
     >>> x = sp.Symbol("x", real=True)
     >>> k = lower(KernelDef("k", "doc", (Argument("x", (x,), scalar=True),),
@@ -16,14 +18,16 @@ Example:
 
 from __future__ import annotations
 
+import functools
+
 import sympy as sp
 from sympy.codegen.rewriting import create_expand_pow_optimization
 
 from .continuous import continuous_kernels
 from .discrete import explicit_kernels, newton_kernels
-from .ir import Assignment, Kernel, KernelDef, Module
-from .structure import coupling_pairs, system_kernels
-from .system import System
+from .ir import Assignment, Kernel, KernelDef, Module, TermLoop
+from .structure import coupling_pairs, system_kernels, term_kernels
+from .system import System, Term
 
 __all__ = ["lower", "lower_system", "workspace_size"]
 
@@ -65,11 +69,31 @@ def workspace_size(n: int, coupled: bool) -> int:
     return flow + rk + dense
 
 
+def _term_loop(system: System, index: int, term: Term) -> TermLoop:
+    value, gradient = term_kernels(system, index, term)
+    return TermLoop(
+        index=index,
+        kind=term.kind,
+        select=term.select,
+        count=term.count(system.n),
+        members=term.members,
+        data=tuple((d.name, d.width, d.values) for d in term.data),
+        value=lower(value),
+        gradient=lower(gradient),
+    )
+
+
+@functools.lru_cache(maxsize=2)
+def generic_kernels(coupled: bool) -> tuple[Kernel, ...]:
+    """The system-independent kernels (derived and lowered once per process)."""
+    defs = continuous_kernels(coupled) + (newton_kernels() if coupled else explicit_kernels())
+    return tuple(lower(k) for k in defs)
+
+
 def lower_system(system: System) -> Module:
     """All kernels of one system, lowered, with the structure the templates need."""
     pairs = coupling_pairs(system)
     coupled = bool(pairs)
-    generic = continuous_kernels(coupled) + (newton_kernels() if coupled else explicit_kernels())
     return Module(
         name=system.name,
         spec_hash=system.spec_hash(),
@@ -80,6 +104,7 @@ def lower_system(system: System) -> Module:
         coupled=coupled,
         pairs=pairs,
         system_kernels=tuple(lower(k) for k in system_kernels(system)),
-        body_kernels=tuple(lower(k) for k in generic),
+        terms=tuple(_term_loop(system, k, t) for k, t in enumerate(system.terms)),
+        body_kernels=generic_kernels(coupled),
         work_size=workspace_size(system.n, coupled),
     )

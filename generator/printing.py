@@ -21,7 +21,7 @@ import sympy as sp
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.numpy import NumPyPrinter
 
-from .ir import Argument, Kernel, Module
+from .ir import Argument, Kernel, Module, TermLoop
 
 __all__ = ["CPrinter", "PrintedKernel", "PrintedModule", "PyPrinter", "print_module"]
 
@@ -69,6 +69,28 @@ class PrintedKernel:
 
 
 @dataclass(frozen=True)
+class PrintedTerm:
+    """A structured term as text: kernels, member/data tables, and the calls a loop makes.
+
+    `loop` is one of "bodies", "body_list", "all_pairs", "chain", "pair_list". C tables are
+    (type, name, length, rows of literals); NumPy setup lines define index and data arrays.
+    """
+
+    index: int
+    loop: str
+    count: int
+    value: PrintedKernel
+    gradient: PrintedKernel
+    c_tables: tuple[tuple[str, str, int, tuple[str, ...]], ...]
+    c_value_call: str
+    c_gradient_call: str
+    py_setup: tuple[str, ...]
+    py_value_call: str
+    py_gradient_call: str
+    py_index: tuple[str, ...]  # index arrays of the roles, to scatter gradients
+
+
+@dataclass(frozen=True)
 class PrintedModule:
     """Everything the templates lay out for one system (strings, numbers, tuples)."""
 
@@ -84,8 +106,11 @@ class PrintedModule:
     pair_i: tuple[int, ...]
     pair_j: tuple[int, ...]
     work_size: int
+    general: bool  # V has a general (unstructured) part with its own kernels
+    uniform_mass: bool  # all M_ii are one expression: the inertia kernel returns it once
     system_kernels: tuple[PrintedKernel, ...]
     body_kernels: tuple[PrintedKernel, ...]
+    terms: tuple[PrintedTerm, ...]
 
 
 def _system_names(arg: Argument, c: bool) -> dict[sp.Symbol, str]:
@@ -176,6 +201,65 @@ def _print_kernel(kernel: Kernel, system: bool) -> PrintedKernel:
     )
 
 
+def _rows(values: list[str], per_row: int = 6) -> tuple[str, ...]:
+    return tuple(", ".join(values[k : k + per_row]) for k in range(0, len(values), per_row))
+
+
+_LOOPS = {
+    ("body", "all"): "bodies",
+    ("body", "list"): "body_list",
+    ("pair", "all"): "all_pairs",
+    ("pair", "chain"): "chain",
+    ("pair", "list"): "pair_list",
+}
+
+
+def _print_term(name: str, t: TermLoop) -> PrintedTerm:
+    """Tables and call strings of one term loop (loop variables: m member, i and j bodies)."""
+    pre, up = f"{name}_t{t.index}", f"T{t.index}"
+    loop = _LOOPS[(t.kind, t.select)]
+    tables: list[tuple[str, str, int, tuple[str, ...]]] = []
+    setup: list[str] = []
+    roles = ("i",) if t.kind == "body" else ("i", "j")
+    if t.select == "list":
+        for r, role in enumerate(roles):
+            idx = [str(mem[r]) for mem in t.members]
+            tables.append(("int", f"{pre}_{role}", t.count, _rows(idx, 16)))
+            setup.append(f"{up}_{role.upper()} = numpy.array([{', '.join(idx)}], dtype=int)")
+    elif loop == "bodies":
+        setup.append(f"{up}_I = numpy.arange(NBODIES)")
+    elif loop == "chain":
+        setup += [f"{up}_I = numpy.arange(NBODIES - 1)", f"{up}_J = {up}_I + 1"]
+    else:
+        setup.append(f"{up}_I, {up}_J = numpy.triu_indices(NBODIES, 1)")
+    c_args, py_args = ["p"], ["p"]
+    for role in roles:
+        c_args.append(f"q + 3 * {role}")
+        py_args.append(f"q[{up}_{role.upper()}]")
+    for dname, width, values in t.data:
+        lits = [repr(float(v)) for v in values]
+        tables.append(("double", f"{pre}_{dname}", len(values), _rows(lits)))
+        arr = f"numpy.array([{', '.join(lits)}])"
+        setup.append(f"{up}_{dname.upper()} = {arr}" + ("" if width == 1 else ".reshape(-1, 3)"))
+        c_args.append(f"{pre}_{dname}[m]" if width == 1 else f"{pre}_{dname} + 3 * m")
+        py_args.append(f"{up}_{dname.upper()}")
+    grads = ["gb"] if t.kind == "body" else ["gi", "gj"]
+    return PrintedTerm(
+        index=t.index,
+        loop=loop,
+        count=t.count,
+        value=_print_kernel(t.value, False),
+        gradient=_print_kernel(t.gradient, False),
+        c_tables=tuple(tables),
+        c_value_call=f"{name}_k_t{t.index}_value({', '.join(c_args)}, &v)",
+        c_gradient_call=f"{name}_k_t{t.index}_gradient({', '.join(c_args + grads)})",
+        py_setup=tuple(setup),
+        py_value_call=f"_k_t{t.index}_value({', '.join(py_args)})",
+        py_gradient_call=f"_k_t{t.index}_gradient({', '.join(py_args)})",
+        py_index=tuple(f"{up}_{role.upper()}" for role in roles),
+    )
+
+
 def print_module(module: Module) -> PrintedModule:
     """Print every kernel of a module for both languages."""
     return PrintedModule(
@@ -193,6 +277,9 @@ def print_module(module: Module) -> PrintedModule:
         pair_i=tuple(i for i, _ in module.pairs),
         pair_j=tuple(j for _, j in module.pairs),
         work_size=module.work_size,
+        general=any(k.name == "gradient" for k in module.system_kernels),
+        uniform_mass=module.n > 1 and module.system_kernels[0].outputs[0].size == 1,
         system_kernels=tuple(_print_kernel(k, True) for k in module.system_kernels),
         body_kernels=tuple(_print_kernel(k, False) for k in module.body_kernels),
+        terms=tuple(_print_term(module.name, t) for t in module.terms if t.count > 0),
     )

@@ -14,6 +14,35 @@ of a vector, and the calls `dot(a, b)`, `cross(a, b)`, `norm(a)`, `sqrt`, `exp`,
 `cos`, `tan`, `Abs`. A multi-line string may break anywhere, as inside parentheses. Lines
 and columns in messages count from 1 within the expression string.
 
+Structured potentials: besides (or instead of) the general `V`, the [potential] table may hold
+one-body and pair terms, each a sum of one expression over its members::
+
+    [potential]
+    V = "..."                # optional general part when terms are given
+
+    [[potential.body]]       # a one-body term (any number of them)
+    V = "-m*g*l*dot(e3, q)"  # in the body's own vector q
+    bodies = "all"           # or a list of 1-based body indices, e.g. [1, 3]; default "all"
+    [potential.body.data]    # optional per-body data: one value per body of the selection
+    l = [0.1, 0.2]
+
+    [[potential.pair]]       # a pair term, in the pair's vectors qi and qj
+    V = "k/2*(norm(r + l/2*qj - l/2*qi) - norm(r))**2"
+    pairs = [[1, 2], [2, 3], [3, 4], [4, 1]]   # or "chain" (i, i+1) or "all" (every i < j)
+    [potential.pair.data]    # per-pair data (not with pairs = "all": use a parameter there)
+    k = [10, 20, 30, 40]
+    r = [[0.1, 0, 0], [0, -0.1, 0], [-0.1, 0, 0], [0, 0.1, 0]]
+
+A term expression sees its own vectors (`q`, or `qi` and `qj`), its data, the parameters and
+everything above except the global `q1..qn`. A datum is a list with one entry per member, all
+numbers (a scalar, symbol `name`) or all 3-vectors (usable wherever a vector is: `dot(r, qi)`,
+`r[1]`; symbols `name_0..name_2`); entries are numbers or expression strings in numbers and
+parameters, evaluated to floats. Data names must not clash with parameters, reserved names or
+`q`, `qi`, `qj`. Terms are labelled "[[potential.body]] #k" / "[[potential.pair]] #k" (k from
+1, in file order); errors name them, e.g. ``spec.toml: [[potential.pair]] #2 data.k: ...``.
+The Python API takes the same tables as dicts: ``define_system(..., body_terms=[{"V": ...,
+"bodies": ..., "data": {...}}], pair_terms=[{"V": ..., "pairs": ..., "data": {...}}])``.
+
 Example:
     >>> s = define_system(name="pendulum", bodies=1, parameters={"m": 1.0, "g": 9.81},
     ...                   diagonal=["m"], potential="-m*g*dot(e3, q1)")
@@ -38,7 +67,7 @@ from typing import Any, TypeAlias
 import numpy as np
 import sympy as sp
 
-from .system import RunSettings, SpecError, System, q_vector
+from .system import RunSettings, SpecError, System, Term, TermData, local_vector, q_vector
 
 __all__ = [
     "METHODS",
@@ -67,6 +96,8 @@ _AXES = {f"e{k + 1}": sp.ImmutableMatrix([int(k == c) for c in range(3)]) for k 
 RESERVED_NAMES = frozenset({"pi", *_SCALAR_FUNCTIONS, *_VECTOR_FUNCTIONS, *_AXES})
 _Q_NAME = re.compile(r"q([0-9]+)")
 _Q_RESERVED = re.compile(r"q[0-9]+(_[0-9]+)?")
+#: The own vectors of term expressions: q (one-body terms), qi and qj (pair terms).
+_ROLES = ("q", "qi", "qj")
 _MAX_LENGTH = 100_000
 _MAX_DIGITS = 1000
 _NON_FINITE = (sp.zoo, sp.oo, sp.S.NegativeInfinity, sp.nan)
@@ -116,14 +147,59 @@ Value: TypeAlias = "sp.Expr | sp.ImmutableMatrix"
 
 # ====================================================================== expression parser
 @dataclass(frozen=True)
+class _Names:
+    """The name table of one parse: what each name means, and why a missing one is missing.
+
+    `fixed` holds pi, the parameters, the axes and a term's local names; the global body
+    vectors q1..q{bodies} are resolved on demand (a long chain need not build n matrices).
+    """
+
+    fixed: Mapping[str, Value]
+    bodies: int  # q1..q{bodies} are the global body vectors (0 inside a term or without vectors)
+    n: int  # the number of bodies, for messages
+    roles: tuple[str, ...]  # a term's own vectors (q, or qi and qj); empty outside a term
+    term: bool
+    allow_vectors: bool
+
+    def lookup(self, name: str) -> Value | None:
+        """The value of `name`, or None when it means nothing here."""
+        if name in self.fixed:
+            return self.fixed[name]
+        match = _Q_NAME.fullmatch(name)
+        if match and not name.startswith("q0") and 1 <= int(match.group(1)) <= self.bodies:
+            return sp.ImmutableMatrix(q_vector(int(match.group(1))))
+        return None
+
+    def explain(self, name: str) -> str:
+        """Why `name` means nothing here (the message of the error)."""
+        global_q = _Q_NAME.fullmatch(name) is not None
+        if not self.allow_vectors and (global_q or name in _AXES or name in _ROLES):
+            return f"{name!r} is not allowed here (only numbers and parameters)"
+        own = " and ".join(self.roles)
+        if global_q and self.term:
+            return (
+                f"the global position {name!r} is not allowed in a term expression "
+                f"(a term sees only its own vectors, here {own})"
+            )
+        if global_q:
+            return f"no body {name!r}: the bodies are q1..q{self.n}"
+        if name in _ROLES and self.term:
+            return f"unknown name {name!r} (this term's own vectors are {own})"
+        if name in _ROLES:
+            return (
+                f"unknown name {name!r} (q, qi and qj exist only in term expressions: "
+                "[[potential.body]] has q, [[potential.pair]] has qi and qj)"
+            )
+        return f"unknown name {name!r}"
+
+
+@dataclass(frozen=True)
 class _Context:
     """What a parse may see, plus what it needs to point at the offending token."""
 
     body: str  # the text given to ast.parse
     where: str
-    n: int
-    parameters: frozenset[str]
-    allow_vectors: bool
+    names: _Names
     line_shift: int  # lines and first-line columns of `body` -> of the user's text
     col_shift: int
 
@@ -171,21 +247,30 @@ def parse_expression(
     parameters: Sequence[str],
     where: str,
     allow_vectors: bool = True,
+    local: Mapping[str, int] | None = None,
 ) -> sp.Expr:
     """Parse a scalar expression of the spec language into SymPy, safely (raises SpecError).
 
     With ``allow_vectors=False`` only numbers, parameters, pi and scalar functions may appear
-    (used for inertia entries and initial values).
+    (used for inertia entries and initial values). `local` makes it a term expression: it maps
+    the term's own names (its vectors q, or qi and qj, and its data) to their widths, 3 for a
+    vector (symbols name_0..name_2, see `local_vector`) or 1 for a scalar (the symbol name);
+    the global q1..qn are then refused.
 
     Example:
         >>> parse_expression("m*g*dot(e3, q1) + q2[0]/2", n=2, parameters=["m", "g"],
         ...                  where="spec.toml: [potential] V")
         g*m*q1_2 + q2_0/2
+        >>> parse_expression("k*(dot(r, qj) - 1) + qi[2]", n=2, parameters=["k"],
+        ...                  where="spec.toml: [[potential.pair]] #1 V",
+        ...                  local={"qi": 3, "qj": 3, "r": 3})
+        k*(qj_0*r_0 + qj_1*r_1 + qj_2*r_2 - 1) + qi_2
     """
     bad = [p for p in parameters if p in RESERVED_NAMES or _Q_RESERVED.fullmatch(p)]
     if bad:
         raise SpecError(f"{where}: parameter name {bad[0]!r} is reserved")
-    ctx, tree = _parse(text, where, n, parameters, allow_vectors)
+    names = _name_table(n, parameters, allow_vectors, local, where)
+    ctx, tree = _parse(text, where, names)
     try:
         result = _eval(ctx, tree.body)
     except RecursionError:
@@ -199,9 +284,34 @@ def parse_expression(
     return result
 
 
-def _parse(
-    text: str, where: str, n: int, parameters: Sequence[str], allow_vectors: bool
-) -> tuple[_Context, ast.Expression]:
+def _name_table(
+    n: int,
+    parameters: Sequence[str],
+    allow_vectors: bool,
+    local: Mapping[str, int] | None,
+    where: str,
+) -> _Names:
+    """The names a parse may use: pi, parameters, axes, then q1..qn or a term's local names."""
+    fixed: dict[str, Value] = {"pi": sp.pi}
+    fixed.update({p: sp.Symbol(p, real=True) for p in parameters})
+    if allow_vectors:
+        fixed.update(_AXES)
+    for name, width in (local or {}).items():
+        if name in fixed or name in RESERVED_NAMES or _Q_RESERVED.fullmatch(name):
+            what = "a parameter" if name in parameters else "reserved"
+            raise SpecError(f"{where}: local name {name!r} clashes with {what} name {name!r}")
+        if width not in (1, 3):
+            raise SpecError(f"{where}: local name {name!r} has width {width}, not 1 or 3")
+        if width == 1:
+            fixed[name] = sp.Symbol(name, real=True)
+        elif allow_vectors:
+            fixed[name] = sp.ImmutableMatrix(local_vector(name))
+    roles = tuple(r for r in _ROLES if local and local.get(r) == 3)
+    bodies = n if allow_vectors and local is None else 0
+    return _Names(fixed, bodies, n, roles, local is not None, allow_vectors)
+
+
+def _parse(text: str, where: str, names: _Names) -> tuple[_Context, ast.Expression]:
     """Parse `text` (leading whitespace dropped: ast would call it an indent) into a tree.
 
     A multi-line text that is not valid as written is retried inside parentheses, so long
@@ -218,9 +328,7 @@ def _parse(
     ctx = _Context(
         body=body,
         where=where,
-        n=n,
-        parameters=frozenset(parameters),
-        allow_vectors=allow_vectors,
+        names=names,
         line_shift=skipped.count("\n"),
         col_shift=len(skipped) - (skipped.rfind("\n") + 1),
     )
@@ -280,22 +388,12 @@ def _constant(ctx: _Context, node: ast.Constant) -> Value:
 
 def _name(ctx: _Context, node: ast.Name) -> Value:
     name = node.id
-    if name in ctx.parameters:
-        return sp.Symbol(name, real=True)
-    if name == "pi":
-        return sp.pi
+    value = ctx.names.lookup(name)
+    if value is not None:
+        return value
     if name in _SCALAR_FUNCTIONS or name in _VECTOR_FUNCTIONS:
         raise ctx.fail(node, f"function {name!r} used without a call, e.g. {name}(...)")
-    match = _Q_NAME.fullmatch(name)
-    if (match or name in _AXES) and not ctx.allow_vectors:
-        raise ctx.fail(node, f"{name!r} is not allowed here (only numbers and parameters)")
-    if name in _AXES:
-        return _AXES[name]
-    if match and 1 <= int(match.group(1)) <= ctx.n and not name.startswith("q0"):
-        return sp.ImmutableMatrix(q_vector(int(match.group(1))))
-    if match:
-        raise ctx.fail(node, f"no body {name!r}: the bodies are q1..q{ctx.n}")
-    raise ctx.fail(node, f"unknown name {name!r}")
+    raise ctx.fail(node, ctx.names.explain(name))
 
 
 def _unary(ctx: _Context, node: ast.UnaryOp) -> Value:
@@ -393,7 +491,7 @@ def _call(ctx: _Context, node: ast.Call) -> Value:
     if name not in _SCALAR_FUNCTIONS and name not in _VECTOR_FUNCTIONS:
         known = ", ".join(sorted([*_SCALAR_FUNCTIONS, *_VECTOR_FUNCTIONS]))
         raise ctx.fail(node.func, f"{name!r} is not a known function (known: {known})")
-    if name in _VECTOR_FUNCTIONS and not ctx.allow_vectors:
+    if name in _VECTOR_FUNCTIONS and not ctx.names.allow_vectors:
         raise ctx.fail(node.func, f"function {name!r} is not allowed here (no vectors)")
     if node.keywords:
         kw = node.keywords[0]
@@ -447,18 +545,23 @@ def define_system(
     name: str,
     bodies: int,
     parameters: Mapping[str, float],
-    potential: str | float | sp.Expr,
+    potential: str | float | sp.Expr | None = None,
     inertia: Sequence[Sequence[str | float | sp.Expr]] | sp.MatrixBase | None = None,
     diagonal: Sequence[str | float | sp.Expr] | None = None,
     initial_q: Sequence[Sequence[str | float | sp.Expr]] | np.ndarray | None = None,
     initial_omega: Sequence[Sequence[str | float | sp.Expr]] | np.ndarray | None = None,
     run: Mapping[str, Any] | RunSettings | None = None,
     origin: str = API_ORIGIN,
+    body_terms: Sequence[Mapping[str, Any]] | None = None,
+    pair_terms: Sequence[Mapping[str, Any]] | None = None,
 ) -> System:
     """Build a validated System from Python values (the same rules as a TOML spec).
 
     Expressions may be strings (parsed safely) or SymPy objects; give exactly one of
-    `inertia` (n x n) and `diagonal` (n entries). Raises SpecError naming `origin` and the key.
+    `inertia` (n x n) and `diagonal` (n entries). `body_terms` and `pair_terms` are lists of
+    dicts with the keys of a ``[[potential.body]]`` / ``[[potential.pair]]`` table (``V``,
+    ``bodies`` / ``pairs`` with 1-based indices, ``data``); `potential` (the general part) may
+    then be omitted. Raises SpecError naming `origin` and the key.
 
     Example:
         >>> s = define_system(name="pend", bodies=1, parameters={"m": 1.0, "l": 2.0},
@@ -466,20 +569,38 @@ def define_system(
         ...                   initial_q=[["sqrt(3)/2", 0, "1/2"]], initial_omega=[[0, 1, 0]])
         >>> s.inertia, s.q0.round(4).tolist()
         (Matrix([[l**2*m]]), [[0.866, 0.0, 0.5]])
+        >>> s = define_system(name="ring", bodies=3, parameters={"m": 1.0, "k": 2.0},
+        ...                   diagonal=["m"] * 3, body_terms=[{"V": "-m*q[2]"}],
+        ...                   pair_terms=[{"V": "c*dot(qi, qj)", "pairs": [[1, 2], [2, 3]],
+        ...                                "data": {"c": ["k", 3]}}])
+        >>> [t.member_list(s.n) for t in s.terms], s.terms[1].data
+        ([[(0,), (1,), (2,)], [(0, 1), (1, 2)]], (TermData(name='c', width=1, values=(2.0, 3.0)),))
     """
     params = _parameters(parameters, origin)
     n = _bodies(bodies, origin)
     names = list(params)
+    matrix = _inertia(inertia, diagonal, n, names, origin)
+    general = sp.Integer(0) if potential is None else _potential(potential, n, names, origin)
+    terms = [
+        *_terms(body_terms, _BODY, n, params, origin),
+        *_terms(pair_terms, _PAIR, n, params, origin),
+    ]
+    if potential is None and not terms:
+        raise SpecError(
+            f"{origin}: [potential] V: missing (give V, or terms [[potential.body]] / "
+            "[[potential.pair]])"
+        )
     return System.create(
         name=name,
         n=n,
         parameters=params,
-        inertia=_inertia(inertia, diagonal, n, names, origin),
-        potential=_potential(potential, n, names, origin),
+        inertia=matrix,
+        potential=general,
         q0=_initial(initial_q, "q", n, params, origin),
         omega0=_initial(initial_omega, "omega", n, params, origin),
         run=_run_settings(run, origin),
         origin=origin,
+        terms=terms,
     )
 
 
@@ -581,6 +702,271 @@ def _potential(potential: Any, n: int, names: Sequence[str], origin: str) -> sp.
     raise SpecError(f"{where}: expected an expression string or a SymPy scalar, got {potential!r}")
 
 
+# ---------------------------------------------------------------------- structured potentials
+@dataclass(frozen=True)
+class _TermKind:
+    """How one kind of term is written: its table, selection key, own vectors and selections."""
+
+    kind: str  # "body" or "pair" (Term.kind)
+    table: str  # the TOML array of tables, also the label prefix
+    select_key: str
+    roles: tuple[str, ...]
+    selections: tuple[str, ...]
+    options: str  # what the selection may be, for messages
+    default: str | None  # the selection when the key is omitted (None: required)
+
+
+_BODY = _TermKind(
+    "body",
+    "[[potential.body]]",
+    "bodies",
+    ("q",),
+    ("all",),
+    '"all" or a list of body indices',
+    "all",
+)
+_PAIR = _TermKind(
+    "pair",
+    "[[potential.pair]]",
+    "pairs",
+    ("qi", "qj"),
+    ("all", "chain"),
+    '"all", "chain" or a list of pairs [i, j] of body indices',
+    None,
+)
+
+
+def _terms(
+    entries: Any, kind: _TermKind, n: int, params: Mapping[str, float], origin: str
+) -> list[Term]:
+    """The terms of one kind (None: none), labelled "[[potential.body]] #k" (k from 1)."""
+    if entries is None:
+        return []
+    if isinstance(entries, (Mapping, str, bytes)) or not isinstance(entries, Sequence):
+        raise SpecError(
+            f"{origin}: {kind.table}: expected a list of term tables (in TOML an array of "
+            f"tables, written {kind.table}), got {entries!r}"
+        )
+    return [_term(entry, kind, k + 1, n, params, origin) for k, entry in enumerate(entries)]
+
+
+def _term(
+    entry: Any, kind: _TermKind, k: int, n: int, params: Mapping[str, float], origin: str
+) -> Term:
+    """One term table: its key V, its selection and its per-member data."""
+    label = f"{kind.table} #{k}"
+    where = f"{origin}: {label}"
+    if not isinstance(entry, Mapping):
+        raise SpecError(f"{where}: expected a table (V, {kind.select_key}, data), got {entry!r}")
+    _check_keys(entry, ("V", kind.select_key, "data"), where)
+    for key in ("V", kind.select_key):
+        if key not in entry and not (key == kind.select_key and kind.default):
+            raise SpecError(f"{where}: missing required key {key!r}")
+    for role in kind.roles:
+        if role in params:
+            raise SpecError(
+                f"{where}: the parameter {role!r} clashes with the term's own vector {role} "
+                "(rename the parameter)"
+            )
+    select, members = _selection(entry.get(kind.select_key, kind.default), kind, n, where)
+    count = Term(kind.kind, sp.Integer(0), select, members).count(n)
+    data = _term_data(entry.get("data"), kind, select, count, params, where)
+    _check_symbols(kind, data, params, where)
+    local = {**{role: 3 for role in kind.roles}, **{d.name: d.width for d in data}}
+    expr = _term_expression(entry["V"], kind, n, local, params, f"{where} V")
+    return Term(kind.kind, expr, select, members, data, label)
+
+
+def _selection(
+    value: Any, kind: _TermKind, n: int, where: str
+) -> tuple[str, tuple[tuple[int, ...], ...]]:
+    """The selection key: a named selection, or a list of members (1-based -> 0-based)."""
+    where = f"{where} {kind.select_key}"
+    if isinstance(value, str) and value in kind.selections:
+        return value, ()
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or not value:
+        raise SpecError(f"{where}: expected {kind.options} 1..{n}, got {value!r}")
+    return "list", tuple(
+        _member(item, kind, n, f"{where}[{m + 1}]") for m, item in enumerate(value)
+    )
+
+
+def _member(item: Any, kind: _TermKind, n: int, where: str) -> tuple[int, ...]:
+    """One listed body (i,) or pair (i, j), 0-based."""
+    if kind.kind == "body":
+        return (_body_index(item, n, where) - 1,)
+    if isinstance(item, np.ndarray):
+        item = item.tolist()
+    if isinstance(item, (str, bytes)) or not isinstance(item, Sequence) or len(item) != 2:
+        raise SpecError(f"{where}: expected a pair [i, j] of body indices 1..{n}, got {item!r}")
+    i, j = (_body_index(b, n, where) for b in item)
+    if i == j:
+        raise SpecError(f"{where}: the pair [{i}, {j}] joins body {i} with itself")
+    return (i - 1, j - 1)
+
+
+def _body_index(value: Any, n: int, where: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise SpecError(f"{where}: expected a body index 1..{n}, got {value!r}")
+    value = int(value)
+    if not 1 <= value <= n:
+        hint = " (indices are 1-based)" if value == 0 else ""
+        raise SpecError(f"{where}: body {value} is not one of 1..{n}{hint}")
+    return value
+
+
+def _term_data(
+    data: Any,
+    kind: _TermKind,
+    select: str,
+    count: int,
+    params: Mapping[str, float],
+    where: str,
+) -> tuple[TermData, ...]:
+    """The data table: name = one number or 3-vector per member."""
+    if data is None:
+        return ()
+    if not isinstance(data, Mapping):
+        raise SpecError(f"{where} data: expected a table of name = list of values, got {data!r}")
+    return tuple(
+        _datum(name, values, kind, select, count, params, f"{where} data.{name}")
+        for name, values in data.items()
+    )
+
+
+def _datum(
+    name: Any,
+    values: Any,
+    kind: _TermKind,
+    select: str,
+    count: int,
+    params: Mapping[str, float],
+    where: str,
+) -> TermData:
+    """One datum: its name checked, one value per member, all numbers or all 3-vectors."""
+    _check_data_name(name, params, where)
+    if kind.kind == "pair" and select == "all":
+        raise SpecError(
+            f'{where}: per-pair data need an explicit list of pairs or "chain" '
+            '(with pairs = "all", a value common to all pairs is a parameter)'
+        )
+    member = {"all": "body", "chain": "pair of the chain"}.get(select, f"listed {kind.kind}")
+    entries = _rows(values, count, where, f"values (one per {member})")
+    widths = [_entry_width(entry, f"{where}[{m + 1}]") for m, entry in enumerate(entries)]
+    for m, width in enumerate(widths):
+        if width != widths[0]:
+            shown = {1: "a number", 3: "a 3-vector"}
+            raise SpecError(
+                f"{where}[{m + 1}]: {shown[width]}, but entry 1 is {shown[widths[0]]} "
+                "(a datum is all numbers or all 3-vectors)"
+            )
+    flat = [
+        _number(value, f"{where}[{m + 1}]" + (f"[{c + 1}]" if width == 3 else ""), params)
+        for m, (entry, width) in enumerate(zip(entries, widths))
+        for c, value in enumerate(_vector_items(entry) or [entry])
+    ]
+    return TermData(name, widths[0] if widths else 1, tuple(flat))
+
+
+def _entry_width(entry: Any, where: str) -> int:
+    """1 for a scalar entry, 3 for a 3-vector; anything else is an error."""
+    if isinstance(entry, (str, sp.Expr)) or (
+        isinstance(entry, numbers.Real) and not isinstance(entry, bool)
+    ):
+        return 1
+    items = _vector_items(entry)
+    if items is not None and len(items) == 3:
+        return 3
+    got = repr(entry) if items is None else f"a list of {len(items)}"
+    raise SpecError(f"{where}: expected a number or a 3-vector, got {got}")
+
+
+def _vector_items(entry: Any) -> list[Any] | None:
+    """The components of a list-like entry (None if it is not one)."""
+    if isinstance(entry, (np.ndarray, sp.MatrixBase)):
+        return list(np.asarray(entry, dtype=object).ravel())
+    if isinstance(entry, Sequence) and not isinstance(entry, (str, bytes)):
+        return list(entry)
+    return None
+
+
+def _check_data_name(name: Any, params: Mapping[str, float], where: str) -> None:
+    if not isinstance(name, str) or not name.isidentifier() or not name.isascii():
+        raise SpecError(f"{where}: data name {name!r} is not an identifier")
+    if keyword.iskeyword(name):
+        raise SpecError(f"{where}: data name {name!r} is a reserved word")
+    if name in params:
+        raise SpecError(f"{where}: data name {name!r} clashes with the parameter {name!r}")
+    if name in _ROLES:
+        raise SpecError(
+            f"{where}: data name {name!r} is reserved for a term's own vector (q, qi, qj)"
+        )
+    if name in RESERVED_NAMES or _Q_RESERVED.fullmatch(name):
+        raise SpecError(
+            f"{where}: data name {name!r} is a reserved name (q1.., e1..e3, pi and the "
+            "function names have fixed meanings)"
+        )
+
+
+def _check_symbols(
+    kind: _TermKind, data: Sequence[TermData], params: Mapping[str, float], where: str
+) -> None:
+    """No two of the parameters, the term's own vectors and its data may share a SymPy
+    symbol (a vector datum r owns r_0, r_1, r_2; the vector q owns q_0, q_1, q_2)."""
+    owners = {p: f"the parameter {p!r}" for p in params}
+    claims = [(s.name, f"the term's vector {r}") for r in kind.roles for s in local_vector(r)]
+    claims += [(s.name, f"the datum {d.name!r}") for d in data for s in d.symbols()]
+    for symbol, owner in claims:
+        if symbol in owners:
+            raise SpecError(
+                f"{where}: {owner} uses the symbol {symbol}, which is also {owners[symbol]} "
+                "(rename one of them)"
+            )
+        owners[symbol] = owner
+
+
+def _term_expression(
+    value: Any,
+    kind: _TermKind,
+    n: int,
+    local: Mapping[str, int],
+    params: Mapping[str, float],
+    where: str,
+) -> sp.Expr:
+    """A term's V: a string in its local names, or a SymPy scalar in their symbols."""
+    if isinstance(value, str):
+        return parse_expression(value, n=n, parameters=list(params), where=where, local=local)
+    if isinstance(value, sp.MatrixBase):
+        raise SpecError(f"{where}: the term is a {value.shape} matrix, not a scalar")
+    if not isinstance(value, sp.Expr) and (
+        isinstance(value, bool) or not isinstance(value, numbers.Real)
+    ):
+        raise SpecError(f"{where}: expected an expression string or a SymPy scalar, got {value!r}")
+    expr = _scalar(value, where, list(params))
+    own = " and ".join(kind.roles)
+    names = {s.name for s in expr.free_symbols}
+    global_q = sorted(name for name in names if _Q_RESERVED.fullmatch(name))
+    if global_q:
+        raise SpecError(
+            f"{where}: the global positions {', '.join(global_q)} are not allowed in a term "
+            f"expression (a term sees only its own vectors, here {own})"
+        )
+    allowed = {s.name for name, width in local.items() for s in _local_symbols(name, width)}
+    extra = sorted(names - allowed - set(params))
+    if extra:
+        raise SpecError(
+            f"{where}: depends on {', '.join(extra)}, which is not one of the term's vectors "
+            f"({own}), its data or a parameter"
+        )
+    return expr
+
+
+def _local_symbols(name: str, width: int) -> tuple[sp.Symbol, ...]:
+    return local_vector(name) if width == 3 else (sp.Symbol(name, real=True),)
+
+
 def _initial(
     value: Any, key: str, n: int, params: Mapping[str, float], origin: str
 ) -> list[list[float]] | None:
@@ -651,7 +1037,7 @@ _TOP_KEYS = ("name", "bodies", "parameters", "inertia", "potential", "initial", 
 _TABLE_KEYS = {
     "parameters": None,
     "inertia": ("M", "diagonal"),
-    "potential": ("V",),
+    "potential": ("V", "body", "pair"),
     "initial": ("q", "omega"),
     "run": ("h", "T", "method", "rtol", "atol"),
 }
@@ -693,19 +1079,25 @@ def load_spec_text(text: str, *, origin: str = "<string>") -> System:
         if key not in data:
             raise SpecError(f"{origin}: missing required key {key!r}")
     tables = {key: _table(data, key, origin) for key in _TABLE_KEYS}
-    if "V" not in tables["potential"]:
-        raise SpecError(f"{origin}: [potential]: missing required key 'V'")
+    potential = tables["potential"]
+    if not {"V", "body", "pair"} & set(potential):
+        raise SpecError(
+            f"{origin}: [potential]: missing required key 'V' (required unless terms "
+            "[[potential.body]] or [[potential.pair]] are given)"
+        )
     return define_system(
         name=data["name"],
         bodies=data["bodies"],
         parameters=tables["parameters"],
-        potential=tables["potential"]["V"],
+        potential=potential.get("V"),
         inertia=tables["inertia"].get("M"),
         diagonal=tables["inertia"].get("diagonal"),
         initial_q=tables["initial"].get("q"),
         initial_omega=tables["initial"].get("omega"),
         run=tables["run"] or None,
         origin=origin,
+        body_terms=potential.get("body"),
+        pair_terms=potential.get("pair"),
     )
 
 

@@ -212,7 +212,9 @@ def _validate_term(term: Term, n: int, psyms: set[sp.Symbol], where: str) -> Non
         for k, mem in enumerate(term.members):
             if len(mem) != width or not all(0 <= b < n for b in mem):
                 shown = [b + 1 for b in mem]
-                raise SpecError(f"{at}: member {k + 1} {shown} is not {width} body index(es) 1..{n}")
+                raise SpecError(
+                    f"{at}: member {k + 1} {shown} is not {width} body index(es) 1..{n}"
+                )
             if width == 2 and mem[0] == mem[1]:
                 raise SpecError(f"{at}: member {k + 1} pairs body {mem[0] + 1} with itself")
     elif term.members:
@@ -225,15 +227,22 @@ def _validate_term(term: Term, n: int, psyms: set[sp.Symbol], where: str) -> Non
                 "(a value common to all pairs is a parameter)"
             )
         if d.width not in (1, 3) or len(d.values) != d.width * count:
+            got = len(d.values) / max(d.width, 1)
             raise SpecError(
-                f"{at}: data '{d.name}' has {len(d.values)} values, expected {count} "
+                f"{at}: data '{d.name}' has {got:g} entries of width {d.width}, expected {count} "
                 f"{'numbers' if d.width == 1 else '3-vectors'} (one per member)"
             )
         if not all(np.isfinite(d.values)):
             raise SpecError(f"{at}: data '{d.name}' contains a non-finite value")
-    extra = term.expr.free_symbols - set(term.position_symbols()) - psyms - set(
-        term.data_symbols()
+    if not isinstance(term.expr, sp.Expr) or term.expr.has(sp.Derivative, sp.Integral):
+        raise SpecError(f"{at}: must be a scalar expression without derivatives or integrals")
+    names = [s.name for s in (*term.position_symbols(), *term.data_symbols())]
+    clash = sorted(set(names) & {p.name for p in psyms}) or sorted(
+        {x for x in names if names.count(x) > 1}
     )
+    if clash:
+        raise SpecError(f"{at}: symbol '{clash[0]}' is both a parameter/position and a datum")
+    extra = term.expr.free_symbols - set(term.position_symbols()) - psyms - set(term.data_symbols())
     if extra:
         bad = ", ".join(sorted(str(s) for s in extra))
         raise SpecError(f"{at}: depends on {bad}, which is not a position, datum or parameter")
@@ -247,7 +256,7 @@ class System:
     n: int
     parameter_names: tuple[str, ...]
     parameter_values: tuple[float, ...]
-    inertia: sp.ImmutableMatrix
+    inertia: sp.ImmutableSparseMatrix
     potential: sp.Expr
     q0: np.ndarray | None = field(default=None, compare=False)
     omega0: np.ndarray | None = field(default=None, compare=False)
@@ -298,36 +307,29 @@ class System:
         psyms = {sp.Symbol(p, real=True) for p in names}
         subs = {sp.Symbol(p, real=True): v for p, v in zip(names, values)}
 
-        M = sp.ImmutableMatrix(inertia)
+        M = sp.ImmutableSparseMatrix(inertia)
         if M.shape != (n, n):
             raise SpecError(f"{where}: [inertia] M: expected a {n}x{n} matrix, got {M.shape}")
-        for (r, c), entry in np.ndenumerate(np.array(M.tolist(), dtype=object)):
-            extra = sp.sympify(entry).free_symbols - psyms
+        entries = {key: sp.sympify(v) for key, v in M.todok().items()}
+        for (r, c), entry in sorted(entries.items()):
+            extra = entry.free_symbols - psyms
             if extra:
                 bad = ", ".join(sorted(str(s) for s in extra))
                 raise SpecError(
                     f"{where}: [inertia] M[{r + 1}][{c + 1}]: depends on {bad}, "
                     "but the inertia must be constant (parameters only)"
                 )
-        for r in range(n):
-            for c in range(r + 1, n):
-                if sp.simplify(M[r, c] - M[c, r]) != 0:
-                    raise SpecError(
-                        f"{where}: [inertia] M is not symmetric: M[{r + 1}][{c + 1}] = {M[r, c]}"
-                        f" but M[{c + 1}][{r + 1}] = {M[c, r]}"
-                    )
-        try:
-            Mnum = np.array(M.subs(subs).evalf().tolist(), dtype=float)
-        except (TypeError, ValueError):
-            raise SpecError(f"{where}: [inertia] M is not real at the parameter values") from None
-        if not np.all(np.isfinite(Mnum)):
-            raise SpecError(f"{where}: [inertia] M is not finite at the parameter values")
-        eig = np.linalg.eigvalsh(Mnum)
-        if eig[0] <= 0.0:
-            raise SpecError(
-                f"{where}: [inertia] M is not positive definite at the parameter values "
-                f"(smallest eigenvalue {eig[0]:.6g})"
-            )
+        for (r, c), entry in sorted(entries.items()):
+            other = entries.get((c, r), sp.Integer(0))
+            upper_or_lone = r < c or (r > c and (c, r) not in entries)
+            if upper_or_lone and entry != other and sp.simplify(entry - other) != 0:
+                lo, hi = min(r, c), max(r, c)
+                raise SpecError(
+                    f"{where}: [inertia] M is not symmetric: M[{lo + 1}][{hi + 1}] = "
+                    f"{M[lo, hi]} but M[{hi + 1}][{lo + 1}] = {M[hi, lo]}"
+                )
+        _check_positive_definite(entries, n, subs, where)
+        M = sp.ImmutableSparseMatrix(n, n, entries)
 
         V = sp.sympify(potential)
         if not isinstance(V, sp.Expr):
@@ -375,7 +377,10 @@ class System:
         """M evaluated at the given (default: the spec's) parameter values."""
         vals = self.parameter_values if values is None else tuple(values)
         subs = dict(zip(self.parameter_symbols, vals))
-        return np.array(self.inertia.subs(subs).evalf().tolist(), dtype=float)
+        out = np.zeros((self.n, self.n))
+        for (r, c), entry in self.inertia.todok().items():
+            out[r, c] = float(sp.sympify(sp.sympify(entry).xreplace(subs)).evalf())
+        return out
 
     @property
     def is_diagonal(self) -> bool:
@@ -398,7 +403,8 @@ class System:
         h.update(str(self.n).encode())
         for p, v in zip(self.parameter_names, self.parameter_values):
             h.update(f"{p}={v!r};".encode())
-        h.update(sp.srepr(self.inertia).encode())
+        for key, entry in sorted(self.inertia.todok().items()):
+            h.update(f"{key}={sp.srepr(entry)};".encode())
         h.update(sp.srepr(self.potential).encode())
         for t in self.terms:
             h.update(f"{t.kind};{t.select};{t.members};{t.label}".encode())
@@ -406,6 +412,33 @@ class System:
             for d in t.data:
                 h.update(f"{d.name};{d.width};{d.values}".encode())
         return h.hexdigest()[:16]
+
+
+def _check_positive_definite(
+    entries: dict[tuple[int, int], sp.Expr], n: int, subs: dict[sp.Symbol, float], where: str
+) -> None:
+    """M must be real, finite and positive definite at the parameter values."""
+    values: dict[tuple[int, int], float] = {}
+    for key, entry in entries.items():
+        try:
+            values[key] = float(sp.sympify(entry.xreplace(subs)).evalf())
+        except (TypeError, ValueError):
+            raise SpecError(f"{where}: [inertia] M is not real at the parameter values") from None
+    if not all(np.isfinite(v) for v in values.values()):
+        raise SpecError(f"{where}: [inertia] M is not finite at the parameter values")
+    if all(r == c for r, c in values):
+        diag = np.array([values.get((i, i), 0.0) for i in range(n)])
+        smallest = float(diag.min())
+    else:
+        dense = np.zeros((n, n))
+        for (r, c), v in values.items():
+            dense[r, c] = v
+        smallest = float(np.linalg.eigvalsh(dense)[0])
+    if smallest <= 0.0:
+        raise SpecError(
+            f"{where}: [inertia] M is not positive definite at the parameter values "
+            f"(smallest eigenvalue {smallest:.6g})"
+        )
 
 
 def _validate_initial(
