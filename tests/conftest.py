@@ -43,7 +43,39 @@ SYSTEMS = {
     "three": three_bodies,
     "chain4": lambda: resolve(str(SPECS / "chain4.toml")),
     "springs4": lambda: resolve(str(SPECS / "springs4.toml")),
+    "springs4_terms": lambda: resolve(str(SPECS / "springs4_terms.toml")),
+    "lj_ring": lambda: lennard_jones_ring(),
 }
+
+
+def lennard_jones_ring(n: int = 12) -> System:
+    """n particles near a great circle with an all-pairs Lennard-Jones term (diagonal M)."""
+    import numpy as np
+
+    from s2gen.spec import define_system
+
+    ang = 2 * np.pi * np.arange(n) / n
+    q = np.stack([np.cos(ang), np.sin(ang), 0.05 * np.sin(3 * ang)], axis=1)
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    w = 0.3 * np.stack([np.zeros(n), np.zeros(n), np.ones(n)], axis=1)
+    w += 0.2 * np.cross(q, np.array([1.0, 0.0, 0.0]))
+    w -= np.einsum("ij,ij->i", w, q)[:, None] * q
+    d = 2 * np.sin(np.pi / n)
+    return define_system(
+        name="lj_ring",
+        bodies=n,
+        parameters={"m": 1.0, "eps": 0.01, "sigma": d / 2 ** (1 / 6)},
+        diagonal=["m"] * n,
+        pair_terms=[
+            {
+                "V": "4*eps*((sigma**2/dot(qi-qj, qi-qj))**6 - (sigma**2/dot(qi-qj, qi-qj))**3)",
+                "pairs": "all",
+            }
+        ],
+        initial_q=q.tolist(),
+        initial_omega=w.tolist(),
+        run={"h": 0.01, "T": 1.0},
+    )
 
 
 @pytest.fixture(scope="session", params=sorted(SYSTEMS))
