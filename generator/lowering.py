@@ -26,6 +26,7 @@ from sympy.codegen.rewriting import create_expand_pow_optimization
 from .continuous import continuous_kernels
 from .discrete import explicit_kernels, newton_kernels
 from .ir import Assignment, Kernel, KernelDef, Module, TermLoop
+from .rattle import rattle_kernels
 from .structure import coupling_pairs, system_kernels, term_kernels
 from .system import System, Term
 
@@ -86,7 +87,9 @@ def _term_loop(system: System, index: int, term: Term) -> TermLoop:
 @functools.lru_cache(maxsize=2)
 def generic_kernels(coupled: bool) -> tuple[Kernel, ...]:
     """The system-independent kernels (derived and lowered once per process)."""
-    defs = continuous_kernels(coupled) + (newton_kernels() if coupled else explicit_kernels())
+    defs = continuous_kernels(coupled) + (
+        newton_kernels() if coupled else explicit_kernels() + rattle_kernels()
+    )
     return tuple(lower(k) for k in defs)
 
 

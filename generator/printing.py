@@ -108,6 +108,7 @@ class PrintedModule:
     work_size: int
     general: bool  # V has a general (unstructured) part with its own kernels
     uniform_mass: bool  # all M_ii are one expression: the inertia kernel returns it once
+    yoshida: tuple[str, str, str]  # triple-jump coefficients (round-trip literals)
     system_kernels: tuple[PrintedKernel, ...]
     body_kernels: tuple[PrintedKernel, ...]
     terms: tuple[PrintedTerm, ...]
@@ -260,6 +261,13 @@ def _print_term(name: str, t: TermLoop) -> PrintedTerm:
     )
 
 
+def _yoshida() -> tuple[str, str, str]:
+    """Yoshida's triple jump: g1 = 1/(2 - 2^(1/3)), g2 = 1 - 2 g1 (so the steps add up to h)."""
+    g1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
+    g2 = 1.0 - 2.0 * g1
+    return repr(g1), repr(g2), repr(g1)
+
+
 def print_module(module: Module) -> PrintedModule:
     """Print every kernel of a module for both languages."""
     return PrintedModule(
@@ -278,6 +286,7 @@ def print_module(module: Module) -> PrintedModule:
         pair_j=tuple(j for _, j in module.pairs),
         work_size=module.work_size,
         general=any(k.name == "gradient" for k in module.system_kernels),
+        yoshida=_yoshida(),
         uniform_mass=module.n > 1 and module.system_kernels[0].outputs[0].size == 1,
         system_kernels=tuple(_print_kernel(k, True) for k in module.system_kernels),
         body_kernels=tuple(_print_kernel(k, False) for k in module.body_kernels),

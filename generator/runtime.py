@@ -42,10 +42,10 @@ __all__ = [
     "simulate",
 ]
 
-METHODS = ("vi", "rk45", "rk2", "rk2-proj", "rk4")
+METHODS = ("vi", "vi4", "rattle", "rk45", "rk2", "rk2-proj", "rk4")
 BACKENDS = ("c", "numpy", "reference")
 CONTROLS = ("matlab", "hairer")
-_METHOD_CODE = {"vi": 0, "rk45": 1, "rk2": 2, "rk2-proj": 3, "rk4": 4}
+_METHOD_CODE = {"vi": 0, "rk45": 1, "rk2": 2, "rk2-proj": 3, "rk4": 4, "vi4": 5, "rattle": 6}
 _STATUS = {
     1: "explicit VI step infeasible (|a_i| > 1 for some body): reduce the step size",
     2: "Newton's method did not converge in the VI step: reduce the step size or raise the limit",

@@ -32,6 +32,17 @@ def test_three_backends_agree(system, method: str) -> None:
         assert np.max(np.abs(tr.energy - ref.energy)) < 1e-10 * max(1.0, abs(ref.energy[0])), b
 
 
+@pytest.mark.parametrize("method", ["vi4", "rattle"])
+def test_c_and_numpy_agree_on_composition_and_rattle(system, method: str) -> None:
+    h = _h(system)
+    c = simulate(system, method, "c", h=h, T=300 * h)
+    n = simulate(system, method, "numpy", h=h, T=300 * h)
+    wscale = max(1.0, float(np.max(np.abs(c.omega))))
+    assert np.max(np.abs(c.q - n.q)) < 1e-10
+    assert np.max(np.abs(c.omega - n.omega)) < 1e-10 * wscale
+    assert c.stats == n.stats
+
+
 @pytest.mark.parametrize("control", ["matlab", "hairer"])
 def test_rk45_c_matches_numpy(system, control: str) -> None:
     """The emitted C and NumPy RK45 take the same steps (same algorithm, same arithmetic)."""

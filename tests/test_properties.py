@@ -106,3 +106,45 @@ def test_vi_conserves_angular_momentum(name: str, axes: list[int]) -> None:
         drift[method] = max(np.max(np.abs(J[:, a] - J[0, a])) for a in axes) / scale
     assert drift["vi"] < 5e-13, drift
     assert drift["rk4"] > 5e-12, drift
+
+
+@pytest.mark.parametrize("name", ["double_pendulum", "three", "chain4", "lj_ring"])
+def test_composition_fourth_order_and_rattle_second_order(name: str) -> None:
+    """Yoshida's composition of the VI has order 4 +- 0.2; RATTLE order 2 +- 0.1."""
+    s = SYSTEMS[name]()
+    T = 1.0
+    h0 = {"double_pendulum": 0.04, "three": 0.008, "chain4": 0.008, "lj_ring": 0.04}[name]
+    hs = h0 / 2.0 ** np.arange(4)
+    exact = simulate(s, "rk45", "c", h=hs[-1], T=T, options=Options(rtol=1e-13, atol=1e-13))
+    for method, order, tol in (("vi4", 4.0, 0.2), ("rattle", 2.0, 0.1)):
+        errs = [
+            np.max(np.abs(_final_state(simulate(s, method, "c", h=h, T=T)) - _final_state(exact)))
+            for h in hs
+        ]
+        assert abs(metrics.observed_order(hs, errs) - order) < tol, (method, errs)
+
+
+@pytest.mark.parametrize("name", ["double_pendulum", "three", "lj_ring"])
+def test_rattle_keeps_constraints(name: str) -> None:
+    s = SYSTEMS[name]()
+    tr = simulate(s, "rattle", "c", h=0.002, T=20.0)
+    assert metrics.unit_length_error(tr.q)["max_norm"] < 1e-13
+    tangency = np.abs(np.einsum("kic,kic->ki", tr.q, tr.omega))
+    assert np.max(tangency) < 1e-12 * max(1.0, float(np.max(np.abs(tr.omega))))
+
+
+@pytest.mark.parametrize("name", ["double_pendulum", "three", "chain4"])
+@pytest.mark.parametrize("method", ["vi", "vi4", "rattle"])
+def test_time_reversibility(name: str, method: str) -> None:
+    """N steps forward, reverse the velocities, N steps forward: back to the start."""
+    s = SYSTEMS[name]()
+    h = 0.01
+    fwd = simulate(s, method, "c", h=h, T=500 * h)
+    back = simulate(s, method, "c", h=h, T=500 * h, q0=fwd.q[-1], omega0=-fwd.omega[-1])
+    wscale = max(1.0, float(np.max(np.abs(fwd.omega))))
+    assert np.max(np.abs(back.q[-1] - s.q0)) < 1e-11
+    assert np.max(np.abs(back.omega[-1] + s.omega0)) < 1e-11 * wscale
+    # the check can fail: RK4 is not time-reversible
+    rk = simulate(s, "rk4", "c", h=h, T=500 * h)
+    rk_back = simulate(s, "rk4", "c", h=h, T=500 * h, q0=rk.q[-1], omega0=-rk.omega[-1])
+    assert np.max(np.abs(rk_back.q[-1] - s.q0)) > 1e-10

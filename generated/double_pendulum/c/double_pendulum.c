@@ -422,56 +422,56 @@ static void double_pendulum_build_a(const double *diag, const double *mp, const 
     }
 }
 
-/* Solve A x = b in place (b becomes x) for symmetric positive definite A (Cholesky; A is
- * overwritten by its factor). Returns 0 if A is not numerically positive definite. */
-static int double_pendulum_cholesky_solve(double *a, double *b)
+/* Solve A x = b in place (b becomes x) for symmetric positive definite A of size dim
+ * (Cholesky; A is overwritten by its factor). Returns 0 if A is not numerically positive definite. */
+static int double_pendulum_cholesky_solve(long dim, double *a, double *b)
 {
     long i, j, k;
-    for (j = 0; j < N3; ++j) {
-        double s = a[j * N3 + j];
+    for (j = 0; j < dim; ++j) {
+        double s = a[j * dim + j];
         for (k = 0; k < j; ++k) {
-            s -= a[j * N3 + k] * a[j * N3 + k];
+            s -= a[j * dim + k] * a[j * dim + k];
         }
         if (!(s > 0.0)) {
             return 0;
         }
-        a[j * N3 + j] = sqrt(s);
-        for (i = j + 1; i < N3; ++i) {
-            double t = a[i * N3 + j];
+        a[j * dim + j] = sqrt(s);
+        for (i = j + 1; i < dim; ++i) {
+            double t = a[i * dim + j];
             for (k = 0; k < j; ++k) {
-                t -= a[i * N3 + k] * a[j * N3 + k];
+                t -= a[i * dim + k] * a[j * dim + k];
             }
-            a[i * N3 + j] = t / a[j * N3 + j];
+            a[i * dim + j] = t / a[j * dim + j];
         }
     }
-    for (i = 0; i < N3; ++i) {
+    for (i = 0; i < dim; ++i) {
         double t = b[i];
         for (k = 0; k < i; ++k) {
-            t -= a[i * N3 + k] * b[k];
+            t -= a[i * dim + k] * b[k];
         }
-        b[i] = t / a[i * N3 + i];
+        b[i] = t / a[i * dim + i];
     }
-    for (i = N3 - 1; i >= 0; --i) {
+    for (i = dim - 1; i >= 0; --i) {
         double t = b[i];
-        for (k = i + 1; k < N3; ++k) {
-            t -= a[k * N3 + i] * b[k];
+        for (k = i + 1; k < dim; ++k) {
+            t -= a[k * dim + i] * b[k];
         }
-        b[i] = t / a[i * N3 + i];
+        b[i] = t / a[i * dim + i];
     }
     return 1;
 }
 
-/* Solve J x = b in place by Gaussian elimination with partial pivoting (J is destroyed).
- * Returns 0 if J is singular. */
-static int double_pendulum_lu_solve(double *jm, double *b)
+/* Solve J x = b in place (size dim) by Gaussian elimination with partial pivoting (J is
+ * destroyed). Returns 0 if J is singular. */
+static int double_pendulum_lu_solve(long dim, double *jm, double *b)
 {
     long i, j, k;
-    for (k = 0; k < N3; ++k) {
+    for (k = 0; k < dim; ++k) {
         long piv = k;
-        double best = fabs(jm[k * N3 + k]);
-        for (i = k + 1; i < N3; ++i) {
-            if (fabs(jm[i * N3 + k]) > best) {
-                best = fabs(jm[i * N3 + k]);
+        double best = fabs(jm[k * dim + k]);
+        for (i = k + 1; i < dim; ++i) {
+            if (fabs(jm[i * dim + k]) > best) {
+                best = fabs(jm[i * dim + k]);
                 piv = i;
             }
         }
@@ -480,31 +480,31 @@ static int double_pendulum_lu_solve(double *jm, double *b)
         }
         if (piv != k) {
             double t;
-            for (j = 0; j < N3; ++j) {
-                t = jm[k * N3 + j];
-                jm[k * N3 + j] = jm[piv * N3 + j];
-                jm[piv * N3 + j] = t;
+            for (j = 0; j < dim; ++j) {
+                t = jm[k * dim + j];
+                jm[k * dim + j] = jm[piv * dim + j];
+                jm[piv * dim + j] = t;
             }
             t = b[k];
             b[k] = b[piv];
             b[piv] = t;
         }
-        for (i = k + 1; i < N3; ++i) {
-            const double l = jm[i * N3 + k] / jm[k * N3 + k];
+        for (i = k + 1; i < dim; ++i) {
+            const double l = jm[i * dim + k] / jm[k * dim + k];
             if (l != 0.0) {
-                for (j = k + 1; j < N3; ++j) {
-                    jm[i * N3 + j] -= l * jm[k * N3 + j];
+                for (j = k + 1; j < dim; ++j) {
+                    jm[i * dim + j] -= l * jm[k * dim + j];
                 }
                 b[i] -= l * b[k];
             }
         }
     }
-    for (i = N3 - 1; i >= 0; --i) {
+    for (i = dim - 1; i >= 0; --i) {
         double t = b[i];
-        for (j = i + 1; j < N3; ++j) {
-            t -= jm[i * N3 + j] * b[j];
+        for (j = i + 1; j < dim; ++j) {
+            t -= jm[i * dim + j] * b[j];
         }
-        b[i] = t / jm[i * N3 + i];
+        b[i] = t / jm[i * dim + i];
     }
     return 1;
 }
@@ -616,7 +616,7 @@ int double_pendulum_rhs(const double *p, const double *q, const double *w, doubl
         }
     }
     double_pendulum_build_a(md, mp, q, a);
-    if (!double_pendulum_cholesky_solve(a, dw)) {
+    if (!double_pendulum_cholesky_solve(N3, a, dw)) {
         return DOUBLE_PENDULUM_ERR_SINGULAR;
     }
     return DOUBLE_PENDULUM_OK;
@@ -688,7 +688,7 @@ static int double_pendulum_vi_advance(const double *p, const double_pendulum_opt
         for (e = 0; e < N3; ++e) {
             r[e] = -r[e];
         }
-        if (!double_pendulum_lu_solve(jm, r)) {
+        if (!double_pendulum_lu_solve(N3, jm, r)) {
             return DOUBLE_PENDULUM_ERR_SINGULAR;
         }
         for (e = 0; e < N3; ++e) {
@@ -727,7 +727,7 @@ static int double_pendulum_vi_advance(const double *p, const double_pendulum_opt
         double_pendulum_k_a_body(md[i], qn + 3 * i, &md[i]);
     }
     double_pendulum_build_a(md, mp, qn, jm);
-    if (!double_pendulum_cholesky_solve(jm, wn)) {
+    if (!double_pendulum_cholesky_solve(N3, jm, wn)) {
         return DOUBLE_PENDULUM_ERR_SINGULAR;
     }
     return DOUBLE_PENDULUM_OK;
@@ -749,6 +749,142 @@ int double_pendulum_vi_step(const double *p, const double_pendulum_options *opt,
         status = DOUBLE_PENDULUM_ERR_NONFINITE;
     }
     return status;
+}
+
+/* ---- RATTLE: Cartesian positions with |x_i| = 1 enforced by multipliers ---------------------- */
+
+/* One RATTLE step for coupled M. x, v: positions and velocities (v_i = qdot_i); g holds dV/dq
+ * at x; gn receives it at xn. The position multipliers (s_k = h^2 lambda_k / 2) solve
+ * |x_i+|^2 = 1 by Newton's method; the velocity multipliers a linear SPD system.
+ * work: W = M^-1 and a scratch matrix (n*n each), y, gw, u (N3 each), s, r (n each). */
+static int double_pendulum_rattle_advance(const double *p, const double_pendulum_options *opt, double h,
+        const double *x, const double *v, const double *g, double *xn, double *vn, double *gn,
+        double *work, int *iters)
+{
+    const long nb = 2;
+    double md[2], mp[1];
+    double *wi = work, *jm = work + nb * nb, *y = work + 2 * nb * nb, *gw = y + N3, *u = gw + N3;
+    double *sv = u + N3, *r = sv + nb;
+    long i, k, c;
+    int it, converged = 0;
+    *iters = 0;
+    double_pendulum_masses(p, md, mp);
+    /* W = M^-1, column by column from the Cholesky factor of M */
+    for (k = 0; k < nb; ++k) {
+        for (i = 0; i < nb * nb; ++i) {
+            jm[i] = 0.0;
+        }
+        for (i = 0; i < nb; ++i) {
+            jm[i * nb + i] = md[i];
+        }
+        for (i = 0; i < 1; ++i) {
+            jm[double_pendulum_pair_i[i] * nb + double_pendulum_pair_j[i]] = mp[i];
+            jm[double_pendulum_pair_j[i] * nb + double_pendulum_pair_i[i]] = mp[i];
+        }
+        for (i = 0; i < nb; ++i) {
+            r[i] = i == k ? 1.0 : 0.0;
+        }
+        if (!double_pendulum_cholesky_solve(nb, jm, r)) {
+            return DOUBLE_PENDULUM_ERR_SINGULAR;
+        }
+        for (i = 0; i < nb; ++i) {
+            wi[i * nb + k] = r[i];
+        }
+    }
+    for (i = 0; i < nb; ++i) {
+        for (c = 0; c < 3; ++c) {
+            double acc = 0.0;
+            for (k = 0; k < nb; ++k) {
+                acc += wi[i * nb + k] * g[3 * k + c];
+            }
+            gw[3 * i + c] = acc;
+            y[3 * i + c] = x[3 * i + c] + h * v[3 * i + c] - 0.5 * h * h * acc;
+        }
+        sv[i] = 0.0;
+    }
+    for (it = 1; it <= opt->newton_maxiter && !converged; ++it) {
+        double step = 0.0, size = 1.0;
+        for (i = 0; i < nb; ++i) {
+            for (c = 0; c < 3; ++c) {
+                double acc = y[3 * i + c];
+                for (k = 0; k < nb; ++k) {
+                    acc -= wi[i * nb + k] * sv[k] * x[3 * k + c];
+                }
+                xn[3 * i + c] = acc;
+            }
+        }
+        for (i = 0; i < nb; ++i) {
+            const double *a = xn + 3 * i;
+            r[i] = -(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] - 1.0);
+            for (k = 0; k < nb; ++k) {
+                const double *b = x + 3 * k;
+                jm[i * nb + k] = -2.0 * wi[i * nb + k] * (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
+            }
+        }
+        if (!double_pendulum_lu_solve(nb, jm, r)) {
+            return DOUBLE_PENDULUM_ERR_SINGULAR;
+        }
+        for (i = 0; i < nb; ++i) {
+            double moved = 0.0; /* size of the position correction, (W delta)_i */
+            for (k = 0; k < nb; ++k) {
+                moved += wi[i * nb + k] * r[k];
+            }
+            sv[i] += r[i];
+            step = fmax(step, fabs(moved));
+        }
+        *iters = it;
+        if (!isfinite(step)) {
+            return DOUBLE_PENDULUM_ERR_NONFINITE;
+        }
+        converged = step <= opt->newton_tol * size;
+    }
+    if (!converged) {
+        return DOUBLE_PENDULUM_ERR_NEWTON;
+    }
+    for (i = 0; i < nb; ++i) {
+        for (c = 0; c < 3; ++c) {
+            double acc = y[3 * i + c], corr = 0.0;
+            for (k = 0; k < nb; ++k) {
+                acc -= wi[i * nb + k] * sv[k] * x[3 * k + c];
+                corr += wi[i * nb + k] * sv[k] * x[3 * k + c];
+            }
+            xn[3 * i + c] = acc;
+            /* v+1/2, then u = v+1/2 - h/2 W g+ below */
+            u[3 * i + c] = v[3 * i + c] - 0.5 * h * gw[3 * i + c] - corr / h;
+        }
+    }
+    double_pendulum_gradient(p, xn, gn);
+    for (i = 0; i < nb; ++i) {
+        for (c = 0; c < 3; ++c) {
+            double acc = 0.0;
+            for (k = 0; k < nb; ++k) {
+                acc += wi[i * nb + k] * gn[3 * k + c];
+            }
+            u[3 * i + c] -= 0.5 * h * acc;
+        }
+    }
+    /* velocity multipliers: sum_k W_ik (xn_i . xn_k) kappa_k = xn_i . u_i */
+    for (i = 0; i < nb; ++i) {
+        const double *a = xn + 3 * i;
+        r[i] = a[0] * u[3 * i] + a[1] * u[3 * i + 1] + a[2] * u[3 * i + 2];
+        for (k = 0; k < nb; ++k) {
+            const double *b = xn + 3 * k;
+            jm[i * nb + k] = wi[i * nb + k] * (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
+        }
+    }
+    if (!double_pendulum_cholesky_solve(nb, jm, r)) {
+        return DOUBLE_PENDULUM_ERR_SINGULAR;
+    }
+    for (i = 0; i < nb; ++i) {
+        for (c = 0; c < 3; ++c) {
+            double acc = u[3 * i + c];
+            for (k = 0; k < nb; ++k) {
+                acc -= wi[i * nb + k] * r[k] * xn[3 * k + c];
+            }
+            vn[3 * i + c] = acc;
+        }
+    }
+    return DOUBLE_PENDULUM_OK;
 }
 
 /* ---- Runge-Kutta methods on y = (q, omega) ------------------------------------------------ */
@@ -1052,6 +1188,89 @@ static int double_pendulum_rk45(const double *p, const double_pendulum_options *
 
 /* ---- driver ----------------------------------------------------------------------------------- */
 
+/* Yoshida's triple jump: the symmetric 2nd-order VI composed into a 4th-order method. */
+static const double double_pendulum_yoshida[3] = { 1.3512071919596578, -1.7024143839193155, 1.3512071919596578 };
+
+/* VI, its 4th-order composition, or RATTLE, from sample 0 already in q, w. One gradient per
+ * substep (the gradient at the new state is reused by the next step).
+ * work: g, gn (N3 each), per-step buffers (4 * N3), then the step's own workspace. */
+static int double_pendulum_integrate_geometric(const double *p, const double_pendulum_options *opt,
+        int method, double h, long nsteps, double *q, double *w, double *energy, double *work,
+        double_pendulum_stats *stats)
+{
+    double *g = work, *gn = work + N3, *a = work + 2 * N3, *b = work + 3 * N3;
+    double *va = work + 4 * N3, *vb = work + 5 * N3, *rest = work + 6 * N3, *tmp;
+    long k, e;
+    int status = DOUBLE_PENDULUM_OK;
+    double_pendulum_gradient(p, q, g);
+    stats->gradient_evals += 1;
+    if (method == DOUBLE_PENDULUM_METHOD_RATTLE) {
+        for (e = 0; e < 2; ++e) { /* v = omega x q */
+            const double *x = q + 3 * e, *o = w + 3 * e;
+            va[3 * e] = o[1] * x[2] - o[2] * x[1];
+            va[3 * e + 1] = o[2] * x[0] - o[0] * x[2];
+            va[3 * e + 2] = o[0] * x[1] - o[1] * x[0];
+        }
+    }
+    for (k = 0; k < nsteps; ++k) {
+        const double *qk = q + k * N3, *wk = w + k * N3;
+        double *q1 = q + (k + 1) * N3, *w1 = w + (k + 1) * N3;
+        int iters = 0, sub, total = 0;
+        if (method == DOUBLE_PENDULUM_METHOD_VI) {
+            status = double_pendulum_vi_advance(p, opt, h, qk, wk, g, q1, w1, gn, rest, &iters);
+            total = iters;
+            tmp = g;
+            g = gn;
+            gn = tmp;
+        } else if (method == DOUBLE_PENDULUM_METHOD_VI4) {
+            const double *qs = qk, *ws = wk;
+            for (sub = 0; sub < 3 && status == DOUBLE_PENDULUM_OK; ++sub) {
+                double *qd = sub == 2 ? q1 : (sub == 0 ? a : b);
+                double *wd = sub == 2 ? w1 : (sub == 0 ? va : vb);
+                status = double_pendulum_vi_advance(p, opt, double_pendulum_yoshida[sub] * h, qs, ws, g, qd,
+                        wd, gn, rest, &iters);
+                total += iters;
+                qs = qd;
+                ws = wd;
+                tmp = g;
+                g = gn;
+                gn = tmp;
+                stats->gradient_evals += sub < 2 ? 1 : 0;
+            }
+        } else {
+            status = double_pendulum_rattle_advance(p, opt, h, qk, va, g, q1, vb, gn, rest, &iters);
+            total = iters;
+            for (e = 0; e < 2 && status == DOUBLE_PENDULUM_OK; ++e) { /* omega = q x v */
+                const double *x = q1 + 3 * e, *u = vb + 3 * e;
+                w1[3 * e] = x[1] * u[2] - x[2] * u[1];
+                w1[3 * e + 1] = x[2] * u[0] - x[0] * u[2];
+                w1[3 * e + 2] = x[0] * u[1] - x[1] * u[0];
+            }
+            tmp = va;
+            va = vb;
+            vb = tmp;
+            tmp = g;
+            g = gn;
+            gn = tmp;
+        }
+        stats->newton_iters += total;
+        if (total > stats->newton_max) {
+            stats->newton_max = total;
+        }
+        if (status == DOUBLE_PENDULUM_OK && !(double_pendulum_finite(q1, N3) && double_pendulum_finite(w1, N3))) {
+            status = DOUBLE_PENDULUM_ERR_NONFINITE;
+        }
+        if (status != DOUBLE_PENDULUM_OK) {
+            return status;
+        }
+        stats->gradient_evals += 1;
+        stats->steps += 1;
+        energy[k + 1] = double_pendulum_energy(p, q1, w1);
+        stats->fail_step = k + 2;
+    }
+    return status;
+}
+
 int double_pendulum_integrate(const double *p, const double_pendulum_options *opt, int method, double h,
         long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy,
         double *work, double_pendulum_stats *stats)
@@ -1074,34 +1293,10 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
     if (method == DOUBLE_PENDULUM_METHOD_RK45) {
         return double_pendulum_rk45(p, opt, h, nsteps, q, w, energy, work, stats);
     }
-    if (method == DOUBLE_PENDULUM_METHOD_VI) {
-        double *g = work, *gn = work + N3, *tmp;
-        double_pendulum_gradient(p, q, g);
-        stats->gradient_evals += 1;
-        for (k = 0; k < nsteps; ++k) {
-            int iters = 0;
-            status = double_pendulum_vi_advance(p, opt, h, q + k * N3, w + k * N3, g, q + (k + 1) * N3,
-                    w + (k + 1) * N3, gn, work + 2 * N3, &iters);
-            stats->newton_iters += iters;
-            if (iters > stats->newton_max) {
-                stats->newton_max = iters;
-            }
-            if (status == DOUBLE_PENDULUM_OK && !(double_pendulum_finite(q + (k + 1) * N3, N3)
-                    && double_pendulum_finite(w + (k + 1) * N3, N3))) {
-                status = DOUBLE_PENDULUM_ERR_NONFINITE;
-            }
-            if (status != DOUBLE_PENDULUM_OK) {
-                return status;
-            }
-            stats->gradient_evals += 1;
-            stats->steps += 1;
-            energy[k + 1] = double_pendulum_energy(p, q + (k + 1) * N3, w + (k + 1) * N3);
-            stats->fail_step = k + 2;
-            tmp = g;
-            g = gn;
-            gn = tmp;
-        }
-        return status;
+    if (method == DOUBLE_PENDULUM_METHOD_VI || method == DOUBLE_PENDULUM_METHOD_VI4
+            || method == DOUBLE_PENDULUM_METHOD_RATTLE) {
+        return double_pendulum_integrate_geometric(p, opt, method, h, nsteps, q, w, energy, work,
+                stats);
     }
     if (method != DOUBLE_PENDULUM_METHOD_RK2 && method != DOUBLE_PENDULUM_METHOD_RK2_PROJ
             && method != DOUBLE_PENDULUM_METHOD_RK4) {

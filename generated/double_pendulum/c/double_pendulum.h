@@ -45,7 +45,9 @@ enum {
     DOUBLE_PENDULUM_METHOD_RK45 = 1,     /* Dormand-Prince 5(4), adaptive, dense output on the grid */
     DOUBLE_PENDULUM_METHOD_RK2 = 2,      /* explicit midpoint rule */
     DOUBLE_PENDULUM_METHOD_RK2_PROJ = 3, /* explicit midpoint rule, q_i normalized after each step */
-    DOUBLE_PENDULUM_METHOD_RK4 = 4       /* classical Runge-Kutta */
+    DOUBLE_PENDULUM_METHOD_RK4 = 4,      /* classical Runge-Kutta */
+    DOUBLE_PENDULUM_METHOD_VI4 = 5,      /* VI composed by Yoshida's triple jump, 4th order */
+    DOUBLE_PENDULUM_METHOD_RATTLE = 6    /* RATTLE on Cartesian q with |q_i| = 1 constraints */
 };
 
 /* RK45 error control: MATLAB ode45's (max norm, weights max(|y|, atol/rtol)) or Hairer's

@@ -22,7 +22,8 @@ PAIR_I = numpy.array([0], dtype=int)
 PAIR_J = numpy.array([1], dtype=int)
 
 OK, ERR_INFEASIBLE, ERR_NEWTON, ERR_NONFINITE, ERR_ARGUMENT, ERR_STEPSIZE, ERR_SINGULAR = range(7)
-METHOD_VI, METHOD_RK45, METHOD_RK2, METHOD_RK2_PROJ, METHOD_RK4 = range(5)
+METHOD_VI, METHOD_RK45, METHOD_RK2, METHOD_RK2_PROJ, METHOD_RK4, METHOD_VI4, METHOD_RATTLE = range(7)
+YOSHIDA = (1.3512071919596578, -1.7024143839193155, 1.3512071919596578)
 CONTROL_MATLAB, CONTROL_HAIRER = range(2)
 
 
@@ -431,6 +432,48 @@ def vi_step(p, h, q, w, newton_tol=1e-14, newton_maxiter=50):
     return status, qn, wn, iters
 
 
+# ---- RATTLE: Cartesian positions with |x_i| = 1 enforced by multipliers ------------------------
+
+
+def _mass_matrix(md, mp):
+    mm = numpy.diag(md)
+    mm[PAIR_I, PAIR_J] = mp
+    mm[PAIR_J, PAIR_I] = mp
+    return mm
+
+
+def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter):
+    """One RATTLE step, coupled M: Newton on the position multipliers, SPD velocity solve."""
+    md, mp = _masses(p)
+    wi = numpy.linalg.inv(_mass_matrix(md, mp))
+    gw = wi @ g
+    y = x + h * v - 0.5 * h * h * gw
+    s = numpy.zeros(NBODIES)
+    converged, iters = False, 0
+    while not converged and iters < newton_maxiter:
+        xn = y - (wi * s[None, :]) @ x
+        r = -(numpy.sum(xn * xn, axis=1) - 1.0)
+        jm = -2.0 * wi * (xn @ x.T)
+        try:
+            delta = numpy.linalg.solve(jm, r)
+        except numpy.linalg.LinAlgError:
+            return ERR_SINGULAR, None, None, None, iters
+        s = s + delta
+        iters += 1
+        step = float(numpy.max(numpy.abs(wi @ delta)))
+        if not numpy.isfinite(step):
+            return ERR_NONFINITE, None, None, None, iters
+        converged = step <= newton_tol
+    if not converged:
+        return ERR_NEWTON, None, None, None, iters
+    corr = (wi * s[None, :]) @ x
+    xn = y - corr
+    gn = gradient(p, xn)
+    u = v - 0.5 * h * gw - corr / h - 0.5 * h * (wi @ gn)
+    kappa = numpy.linalg.solve(wi * (xn @ xn.T), numpy.sum(xn * u, axis=1))
+    return OK, xn, u - (wi * kappa[None, :]) @ xn, gn, iters
+
+
 # ---- Runge-Kutta methods on y = (q, omega) ----------------------------------------------------
 
 
@@ -586,6 +629,44 @@ def _rk45(p, hout, nsteps, q, w, en, rtol, atol, control, hmax, stats):
 # ---- driver -----------------------------------------------------------------------------------------
 
 
+def _geometric(p, method, h, nsteps, q, w, en, stats, newton_tol, newton_maxiter):
+    """VI, its 4th-order Yoshida composition, or RATTLE (one gradient per substep)."""
+    g = gradient(p, q[0])
+    stats["gradient_evals"] += 1
+    v = numpy.cross(w[0], q[0])
+    for k in range(nsteps):
+        total, status = 0, OK
+        if method == METHOD_VI4:
+            qs, ws = q[k], w[k]
+            for gamma in YOSHIDA:
+                status, qs, ws, g, iters = _vi_advance(p, gamma * h, qs, ws, g, newton_tol,
+                                                       newton_maxiter)
+                total += iters
+                if status != OK:
+                    break
+            qn, wn = qs, ws
+            stats["gradient_evals"] += 2
+        elif method == METHOD_RATTLE:
+            status, qn, v, g, total = _rattle_advance(p, h, q[k], v, g, newton_tol,
+                                                      newton_maxiter)
+            wn = None if status != OK else numpy.cross(qn, v)
+        else:
+            status, qn, wn, g, total = _vi_advance(p, h, q[k], w[k], g, newton_tol,
+                                                   newton_maxiter)
+        stats["newton_iters"] += total
+        stats["newton_max"] = max(stats["newton_max"], total)
+        if status == OK and not (numpy.all(numpy.isfinite(qn)) and numpy.all(numpy.isfinite(wn))):
+            status = ERR_NONFINITE
+        if status != OK:
+            return status, q, w, en, stats
+        q[k + 1], w[k + 1] = qn, wn
+        stats["gradient_evals"] += 1
+        stats["steps"] += 1
+        en[k + 1] = energy(p, qn, wn)
+        stats["fail_step"] = k + 2
+    return OK, q, w, en, stats
+
+
 def integrate(p, method, h, nsteps, q0, w0, rtol=1e-3, atol=1e-6, control=CONTROL_MATLAB,
               hmax=0.0, newton_tol=1e-14, newton_maxiter=50):
     """Integrate nsteps steps of size h (RK45: output spacing h) from (q0, w0).
@@ -607,25 +688,8 @@ def integrate(p, method, h, nsteps, q0, w0, rtol=1e-3, atol=1e-6, control=CONTRO
     stats["fail_step"] = 1
     if method == METHOD_RK45:
         return _rk45(p, h, nsteps, q, w, en, rtol, atol, control, hmax, stats), q, w, en, stats
-    if method == METHOD_VI:
-        g = gradient(p, q[0])
-        stats["gradient_evals"] += 1
-        for k in range(nsteps):
-            status, qn, wn, gn, iters = _vi_advance(p, h, q[k], w[k], g, newton_tol,
-                                                    newton_maxiter)
-            stats["newton_iters"] += iters
-            stats["newton_max"] = max(stats["newton_max"], iters)
-            if status == OK and not (numpy.all(numpy.isfinite(qn))
-                                     and numpy.all(numpy.isfinite(wn))):
-                status = ERR_NONFINITE
-            if status != OK:
-                return status, q, w, en, stats
-            q[k + 1], w[k + 1], g = qn, wn, gn
-            stats["gradient_evals"] += 1
-            stats["steps"] += 1
-            en[k + 1] = energy(p, qn, wn)
-            stats["fail_step"] = k + 2
-        return OK, q, w, en, stats
+    if method in (METHOD_VI, METHOD_VI4, METHOD_RATTLE):
+        return _geometric(p, method, h, nsteps, q, w, en, stats, newton_tol, newton_maxiter)
     if method not in (METHOD_RK2, METHOD_RK2_PROJ, METHOD_RK4):
         return ERR_ARGUMENT, q, w, en, stats
     for k in range(nsteps):
