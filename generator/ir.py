@@ -121,4 +121,5 @@ class Module:
     system_kernels: tuple[Kernel, ...]  # inertia, and potential/gradient of V's general part
     terms: tuple[TermLoop, ...]  # structured terms of V, each applied in a loop
     body_kernels: tuple[Kernel, ...]  # generic per-body / per-pair kernels
+    work_base: int  # doubles used by the step functions; the context follows it
     work_size: int

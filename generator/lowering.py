@@ -109,5 +109,9 @@ def lower_system(system: System) -> Module:
         system_kernels=tuple(lower(k) for k in system_kernels(system)),
         terms=tuple(_term_loop(system, k, t) for k, t in enumerate(system.terms)),
         body_kernels=generic_kernels(coupled),
-        work_size=workspace_size(system.n, coupled),
+        work_base=workspace_size(system.n, coupled),
+        work_size=workspace_size(system.n, coupled)
+        + system.n
+        + len(pairs)
+        + (system.n if coupled else 0),
     )

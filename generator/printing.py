@@ -105,6 +105,7 @@ class PrintedModule:
     parameters: tuple[tuple[str, str], ...]  # (name, value as a round-trip literal)
     pair_i: tuple[int, ...]
     pair_j: tuple[int, ...]
+    work_base: int
     work_size: int
     general: bool  # V has a general (unstructured) part with its own kernels
     uniform_mass: bool  # all M_ii are one expression: the inertia kernel returns it once
@@ -284,6 +285,7 @@ def print_module(module: Module) -> PrintedModule:
         ),
         pair_i=tuple(i for i, _ in module.pairs),
         pair_j=tuple(j for _, j in module.pairs),
+        work_base=module.work_base,
         work_size=module.work_size,
         general=any(k.name == "gradient" for k in module.system_kernels),
         yoshida=_yoshida(),

@@ -517,6 +517,27 @@ static void double_pendulum_masses(const double *p, double *md, double *mp)
     double_pendulum_k_inertia(p, md, mp);
 }
 
+/* Per-call context: parameters, masses (computed once per call) and scratch kept at the tail
+ * of the caller's workspace (after the first DOUBLE_PENDULUM_WORK_BASE doubles). */
+typedef struct {
+    const double *p;
+    double *md;    /* M_ii, one per body */
+    double *mp;    /* coupled entries, one per pair */
+    double *adiag; /* diagonal of A(q+) in the VI velocity solve */
+    double *nb;    /* neighbour-list cells and links */
+} double_pendulum_ctx;
+
+static void double_pendulum_ctx_init(double_pendulum_ctx *cx, const double *p, double *work)
+{
+    double *tail = work + DOUBLE_PENDULUM_WORK_BASE;
+    cx->p = p;
+    cx->md = tail;
+    cx->mp = tail + 2;
+    cx->adiag = cx->mp + 1;
+    cx->nb = cx->adiag + 2;
+    double_pendulum_masses(p, cx->md, cx->mp);
+}
+
 void double_pendulum_default_params(double p[DOUBLE_PENDULUM_NPARAMS])
 {
     p[0] = 1.0; /* m1 */
@@ -536,25 +557,44 @@ void double_pendulum_default_options(double_pendulum_options *opt)
     opt->newton_maxiter = 50;
 }
 
-double double_pendulum_potential(const double *p, const double *q)
+/* V(q); nb: neighbour-list storage for cutoff terms, or NULL (then all pairs are scanned). */
+static double double_pendulum_potential_nb(const double *p, const double *q, double *nb)
 {
     double total = 0.0;
     double_pendulum_k_potential(p, q, &total);
+    (void)nb;
     return total;
+}
+
+double double_pendulum_potential(const double *p, const double *q)
+{
+    return double_pendulum_potential_nb(p, q, NULL);
+}
+
+/* dV/dq; nb as for the potential. */
+static void double_pendulum_gradient_nb(const double *p, const double *q, double *g, double *nb)
+{
+    (void)nb;
+    double_pendulum_k_gradient(p, q, g);
 }
 
 void double_pendulum_gradient(const double *p, const double *q, double *g)
 {
-    double_pendulum_k_gradient(p, q, g);
+    double_pendulum_gradient_nb(p, q, g, NULL);
 }
 
-double double_pendulum_energy(const double *p, const double *q, const double *w)
+static void double_pendulum_gradient_cx(const double_pendulum_ctx *cx, const double *q, double *g)
 {
-    double md[2];
-    double mp[1];
-    double e = double_pendulum_potential(p, q), t;
+    double_pendulum_gradient_nb(cx->p, q, g, cx->nb);
+}
+
+/* Total energy with given masses (mp unused when M is diagonal). */
+static double double_pendulum_energy_md(const double *p, const double *md, const double *mp,
+        const double *q, const double *w, double *nb)
+{
+    double e = double_pendulum_potential_nb(p, q, nb), t;
     int i;
-    double_pendulum_masses(p, md, mp);
+    (void)mp;
     for (i = 0; i < 2; ++i) {
         double_pendulum_k_kin_body(md[i], q + 3 * i, w + 3 * i, &t);
         e += t;
@@ -565,6 +605,18 @@ double double_pendulum_energy(const double *p, const double *q, const double *w)
         e += t;
     }
     return e;
+}
+
+double double_pendulum_energy(const double *p, const double *q, const double *w)
+{
+    double md[2], mp[1];
+    double_pendulum_masses(p, md, mp);
+    return double_pendulum_energy_md(p, md, mp, q, w, NULL);
+}
+
+static double double_pendulum_energy_cx(const double_pendulum_ctx *cx, const double *q, const double *w)
+{
+    return double_pendulum_energy_md(cx->p, cx->md, cx->mp, q, w, cx->nb);
 }
 
 void double_pendulum_angular_momentum(const double *p, const double *q, const double *w, double J[3])
@@ -592,17 +644,16 @@ void double_pendulum_angular_momentum(const double *p, const double *q, const do
 /* ---- continuous vector field ------------------------------------------------------------ */
 
 /* work: g (N3), A (N3 * N3). */
-int double_pendulum_rhs(const double *p, const double *q, const double *w, double *dq, double *dw,
-        double *work)
+static int double_pendulum_rhs_cx(const double_pendulum_ctx *cx, const double *q, const double *w,
+        double *dq, double *dw, double *work)
 {
-    double md[2];
+    const double *md = cx->md;
     double *g = work;
     int i;
-    double mp[1];
+    const double *mp = cx->mp;
     double *a = work + N3;
     int c;
-    double_pendulum_masses(p, md, mp);
-    double_pendulum_gradient(p, q, g);
+    double_pendulum_gradient_cx(cx, q, g);
     for (i = 0; i < 2; ++i) {
         double_pendulum_k_rhs_body(q + 3 * i, w + 3 * i, g + 3 * i, dq + 3 * i, dw + 3 * i);
     }
@@ -622,19 +673,26 @@ int double_pendulum_rhs(const double *p, const double *q, const double *w, doubl
     return DOUBLE_PENDULUM_OK;
 }
 
+int double_pendulum_rhs(const double *p, const double *q, const double *w, double *dq, double *dw,
+        double *work)
+{
+    double_pendulum_ctx cx;
+    double_pendulum_ctx_init(&cx, p, work);
+    return double_pendulum_rhs_cx(&cx, q, w, dq, dw, work);
+}
+
 /* ---- variational integrator ---------------------------------------------------------------- */
 
 /* One implicit step. g holds dV/dq at q on entry; gn receives dV/dq at qn.
  * work: d, f, r (N3 each), J or A (N3 * N3). */
-static int double_pendulum_vi_advance(const double *p, const double_pendulum_options *opt, double h,
+static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const double_pendulum_options *opt, double h,
         const double *q, const double *w, const double *g, double *qn, double *wn, double *gn,
         double *work, int *iters)
 {
-    double md[2], mp[1];
+    const double *md = cx->md, *mp = cx->mp;
     double *d = work, *f = work + N3, *r = work + 2 * N3, *jm = work + 3 * N3;
     int i, k, c, it, converged = 0;
     *iters = 0;
-    double_pendulum_masses(p, md, mp);
     /* known side d, and the uncoupled initial guess f_i = d_i / (2 M_ii) */
     for (i = 0; i < 2; ++i) {
         double_pendulum_k_d_body(h, md[i], q + 3 * i, w + 3 * i, g + 3 * i, d + 3 * i);
@@ -708,7 +766,7 @@ static int double_pendulum_vi_advance(const double *p, const double_pendulum_opt
     for (i = 0; i < 2; ++i) {
         double_pendulum_k_cayley(q + 3 * i, f + 3 * i, qn + 3 * i);
     }
-    double_pendulum_gradient(p, qn, gn);
+    double_pendulum_gradient_cx(cx, qn, gn);
     /* new angular velocities: A(qn) wn = c */
     for (i = 0; i < 2; ++i) {
         double_pendulum_k_c_body(h, md[i], q + 3 * i, f + 3 * i, qn + 3 * i, gn + 3 * i, wn + 3 * i);
@@ -724,9 +782,9 @@ static int double_pendulum_vi_advance(const double *p, const double_pendulum_opt
         }
     }
     for (i = 0; i < 2; ++i) {
-        double_pendulum_k_a_body(md[i], qn + 3 * i, &md[i]);
+        double_pendulum_k_a_body(md[i], qn + 3 * i, &cx->adiag[i]);
     }
-    double_pendulum_build_a(md, mp, qn, jm);
+    double_pendulum_build_a(cx->adiag, mp, qn, jm);
     if (!double_pendulum_cholesky_solve(N3, jm, wn)) {
         return DOUBLE_PENDULUM_ERR_SINGULAR;
     }
@@ -739,11 +797,13 @@ int double_pendulum_vi_step(const double *p, const double_pendulum_options *opt,
 {
     int local, status;
     double *g = work, *gn = work + N3;
+    double_pendulum_ctx cx;
     if (!(h > 0.0)) {
         return DOUBLE_PENDULUM_ERR_ARGUMENT;
     }
-    double_pendulum_gradient(p, q, g);
-    status = double_pendulum_vi_advance(p, opt, h, q, w, g, qn, wn, gn, work + 2 * N3,
+    double_pendulum_ctx_init(&cx, p, work);
+    double_pendulum_gradient_cx(&cx, q, g);
+    status = double_pendulum_vi_advance(&cx, opt, h, q, w, g, qn, wn, gn, work + 2 * N3,
             iters ? iters : &local);
     if (status == DOUBLE_PENDULUM_OK && !(double_pendulum_finite(qn, N3) && double_pendulum_finite(wn, N3))) {
         status = DOUBLE_PENDULUM_ERR_NONFINITE;
@@ -757,18 +817,18 @@ int double_pendulum_vi_step(const double *p, const double_pendulum_options *opt,
  * at x; gn receives it at xn. The position multipliers (s_k = h^2 lambda_k / 2) solve
  * |x_i+|^2 = 1 by Newton's method; the velocity multipliers a linear SPD system.
  * work: W = M^-1 and a scratch matrix (n*n each), y, gw, u (N3 each), s, r (n each). */
-static int double_pendulum_rattle_advance(const double *p, const double_pendulum_options *opt, double h,
+static int double_pendulum_rattle_advance(const double_pendulum_ctx *cx, const double_pendulum_options *opt,
+        double h,
         const double *x, const double *v, const double *g, double *xn, double *vn, double *gn,
         double *work, int *iters)
 {
     const long nb = 2;
-    double md[2], mp[1];
+    const double *md = cx->md, *mp = cx->mp;
     double *wi = work, *jm = work + nb * nb, *y = work + 2 * nb * nb, *gw = y + N3, *u = gw + N3;
     double *sv = u + N3, *r = sv + nb;
     long i, k, c;
     int it, converged = 0;
     *iters = 0;
-    double_pendulum_masses(p, md, mp);
     /* W = M^-1, column by column from the Cholesky factor of M */
     for (k = 0; k < nb; ++k) {
         for (i = 0; i < nb * nb; ++i) {
@@ -853,7 +913,7 @@ static int double_pendulum_rattle_advance(const double *p, const double_pendulum
             u[3 * i + c] = v[3 * i + c] - 0.5 * h * gw[3 * i + c] - corr / h;
         }
     }
-    double_pendulum_gradient(p, xn, gn);
+    double_pendulum_gradient_cx(cx, xn, gn);
     for (i = 0; i < nb; ++i) {
         for (c = 0; c < 3; ++c) {
             double acc = 0.0;
@@ -889,14 +949,14 @@ static int double_pendulum_rattle_advance(const double *p, const double_pendulum
 
 /* ---- Runge-Kutta methods on y = (q, omega) ------------------------------------------------ */
 
-static int double_pendulum_field(const double *p, const double *y, double *dy, double *work)
+static int double_pendulum_field(const double_pendulum_ctx *cx, const double *y, double *dy, double *work)
 {
-    return double_pendulum_rhs(p, y, y + N3, dy, dy + N3, work);
+    return double_pendulum_rhs_cx(cx, y, y + N3, dy, dy + N3, work);
 }
 
 /* work: k1, k2, yt (NS each), then the field's workspace. */
-int double_pendulum_rk_step(const double *p, int method, double h, const double *q, const double *w,
-        double *qn, double *wn, double *work)
+static int double_pendulum_rk_step_cx(const double_pendulum_ctx *cx, int method, double h,
+        const double *q, const double *w, double *qn, double *wn, double *work)
 {
     double *k1 = work, *k2 = work + NS, *yt = work + 2 * NS, *acc = work + 3 * NS;
     double *y0 = work + 4 * NS, *fw = work + 5 * NS;
@@ -906,7 +966,7 @@ int double_pendulum_rk_step(const double *p, int method, double h, const double 
     }
     double_pendulum_copy(y0, q, N3);
     double_pendulum_copy(y0 + N3, w, N3);
-    status = double_pendulum_field(p, y0, k1, fw);
+    status = double_pendulum_field(cx, y0, k1, fw);
     if (status) {
         return status;
     }
@@ -914,7 +974,7 @@ int double_pendulum_rk_step(const double *p, int method, double h, const double 
         for (e = 0; e < NS; ++e) {
             yt[e] = y0[e] + 0.5 * h * k1[e];
         }
-        status = double_pendulum_field(p, yt, k2, fw);
+        status = double_pendulum_field(cx, yt, k2, fw);
         if (status) {
             return status;
         }
@@ -935,7 +995,7 @@ int double_pendulum_rk_step(const double *p, int method, double h, const double 
             acc[e] = k1[e];
             yt[e] = y0[e] + 0.5 * h * k1[e];
         }
-        status = double_pendulum_field(p, yt, k2, fw);
+        status = double_pendulum_field(cx, yt, k2, fw);
         if (status) {
             return status;
         }
@@ -943,7 +1003,7 @@ int double_pendulum_rk_step(const double *p, int method, double h, const double 
             acc[e] += 2.0 * k2[e];
             yt[e] = y0[e] + 0.5 * h * k2[e];
         }
-        status = double_pendulum_field(p, yt, k2, fw);
+        status = double_pendulum_field(cx, yt, k2, fw);
         if (status) {
             return status;
         }
@@ -951,7 +1011,7 @@ int double_pendulum_rk_step(const double *p, int method, double h, const double 
             acc[e] += 2.0 * k2[e];
             yt[e] = y0[e] + h * k2[e];
         }
-        status = double_pendulum_field(p, yt, k2, fw);
+        status = double_pendulum_field(cx, yt, k2, fw);
         if (status) {
             return status;
         }
@@ -964,6 +1024,14 @@ int double_pendulum_rk_step(const double *p, int method, double h, const double 
     double_pendulum_copy(qn, yt, N3);
     double_pendulum_copy(wn, yt + N3, N3);
     return double_pendulum_finite(yt, NS) ? DOUBLE_PENDULUM_OK : DOUBLE_PENDULUM_ERR_NONFINITE;
+}
+
+int double_pendulum_rk_step(const double *p, int method, double h, const double *q, const double *w,
+        double *qn, double *wn, double *work)
+{
+    double_pendulum_ctx cx;
+    double_pendulum_ctx_init(&cx, p, work);
+    return double_pendulum_rk_step_cx(&cx, method, h, q, w, qn, wn, work);
 }
 
 /* Dormand-Prince 5(4) for the autonomous field (the nodes c are not needed): coupling
@@ -1015,7 +1083,8 @@ static double double_pendulum_rk45_error(const double_pendulum_options *opt, dou
 }
 
 /* Initial step: MATLAB's rule, or Hairer's two-evaluation estimate. */
-static double double_pendulum_rk45_h0(const double *p, const double_pendulum_options *opt, double span,
+static double double_pendulum_rk45_h0(const double_pendulum_ctx *cx, const double_pendulum_options *opt,
+        double span,
         double hmax, const double *y, const double *f0, double *yt, double *ft, double *fw,
         long *evals)
 {
@@ -1034,7 +1103,7 @@ static double double_pendulum_rk45_h0(const double *p, const double_pendulum_opt
         for (e = 0; e < NS; ++e) {
             yt[e] = y[e] + h0 * f0[e];
         }
-        if (double_pendulum_field(p, yt, ft, fw)) {
+        if (double_pendulum_field(cx, yt, ft, fw)) {
             return h0;
         }
         *evals += 1;
@@ -1062,7 +1131,7 @@ static double double_pendulum_rk45_h0(const double *p, const double_pendulum_opt
 
 /* Adaptive Dormand-Prince from y over nsteps output intervals of length hout; samples written
  * on the grid by the continuous extension. work: 7 stages, y, yn (NS each), field workspace. */
-static int double_pendulum_rk45(const double *p, const double_pendulum_options *opt, double hout,
+static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pendulum_options *opt, double hout,
         long nsteps, double *q, double *w, double *energy, double *work,
         double_pendulum_stats *stats)
 {
@@ -1080,12 +1149,12 @@ static int double_pendulum_rk45(const double *p, const double_pendulum_options *
     }
     double_pendulum_copy(y, q, N3);
     double_pendulum_copy(y + N3, w, N3);
-    status = double_pendulum_field(p, y, k[0], fw);
+    status = double_pendulum_field(cx, y, k[0], fw);
     stats->gradient_evals += 1;
     if (status) {
         return status;
     }
-    h = double_pendulum_rk45_h0(p, opt, tend, hmax, y, k[0], yn, k[1], fw, &stats->gradient_evals);
+    h = double_pendulum_rk45_h0(cx, opt, tend, hmax, y, k[0], yn, k[1], fw, &stats->gradient_evals);
     while (next <= nsteps) {
         const double hmin = 16.0 * (nextafter(t, INFINITY) - t);
         double err, tn;
@@ -1107,7 +1176,7 @@ static int double_pendulum_rk45(const double *p, const double_pendulum_options *
                     }
                     yn[e] = y[e] + h * acc;
                 }
-                status = double_pendulum_field(p, yn, k[st], fw);
+                status = double_pendulum_field(cx, yn, k[st], fw);
                 stats->gradient_evals += 1;
                 if (status) {
                     return status;
@@ -1162,7 +1231,7 @@ static int double_pendulum_rk45(const double *p, const double_pendulum_options *
                     }
                 }
             }
-            energy[next] = double_pendulum_energy(p, qo, wo);
+            energy[next] = double_pendulum_energy_cx(cx, qo, wo);
             next += 1;
             stats->fail_step = next;
         }
@@ -1194,7 +1263,7 @@ static const double double_pendulum_yoshida[3] = { 1.3512071919596578, -1.702414
 /* VI, its 4th-order composition, or RATTLE, from sample 0 already in q, w. One gradient per
  * substep (the gradient at the new state is reused by the next step).
  * work: g, gn (N3 each), per-step buffers (4 * N3), then the step's own workspace. */
-static int double_pendulum_integrate_geometric(const double *p, const double_pendulum_options *opt,
+static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, const double_pendulum_options *opt,
         int method, double h, long nsteps, double *q, double *w, double *energy, double *work,
         double_pendulum_stats *stats)
 {
@@ -1202,7 +1271,7 @@ static int double_pendulum_integrate_geometric(const double *p, const double_pen
     double *va = work + 4 * N3, *vb = work + 5 * N3, *rest = work + 6 * N3, *tmp;
     long k, e;
     int status = DOUBLE_PENDULUM_OK;
-    double_pendulum_gradient(p, q, g);
+    double_pendulum_gradient_cx(cx, q, g);
     stats->gradient_evals += 1;
     if (method == DOUBLE_PENDULUM_METHOD_RATTLE) {
         for (e = 0; e < 2; ++e) { /* v = omega x q */
@@ -1217,7 +1286,7 @@ static int double_pendulum_integrate_geometric(const double *p, const double_pen
         double *q1 = q + (k + 1) * N3, *w1 = w + (k + 1) * N3;
         int iters = 0, sub, total = 0;
         if (method == DOUBLE_PENDULUM_METHOD_VI) {
-            status = double_pendulum_vi_advance(p, opt, h, qk, wk, g, q1, w1, gn, rest, &iters);
+            status = double_pendulum_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, rest, &iters);
             total = iters;
             tmp = g;
             g = gn;
@@ -1227,7 +1296,7 @@ static int double_pendulum_integrate_geometric(const double *p, const double_pen
             for (sub = 0; sub < 3 && status == DOUBLE_PENDULUM_OK; ++sub) {
                 double *qd = sub == 2 ? q1 : (sub == 0 ? a : b);
                 double *wd = sub == 2 ? w1 : (sub == 0 ? va : vb);
-                status = double_pendulum_vi_advance(p, opt, double_pendulum_yoshida[sub] * h, qs, ws, g, qd,
+                status = double_pendulum_vi_advance(cx, opt, double_pendulum_yoshida[sub] * h, qs, ws, g, qd,
                         wd, gn, rest, &iters);
                 total += iters;
                 qs = qd;
@@ -1238,7 +1307,7 @@ static int double_pendulum_integrate_geometric(const double *p, const double_pen
                 stats->gradient_evals += sub < 2 ? 1 : 0;
             }
         } else {
-            status = double_pendulum_rattle_advance(p, opt, h, qk, va, g, q1, vb, gn, rest, &iters);
+            status = double_pendulum_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, rest, &iters);
             total = iters;
             for (e = 0; e < 2 && status == DOUBLE_PENDULUM_OK; ++e) { /* omega = q x v */
                 const double *x = q1 + 3 * e, *u = vb + 3 * e;
@@ -1265,7 +1334,7 @@ static int double_pendulum_integrate_geometric(const double *p, const double_pen
         }
         stats->gradient_evals += 1;
         stats->steps += 1;
-        energy[k + 1] = double_pendulum_energy(p, q1, w1);
+        energy[k + 1] = double_pendulum_energy_cx(cx, q1, w1);
         stats->fail_step = k + 2;
     }
     return status;
@@ -1277,6 +1346,7 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
 {
     long k;
     int status = DOUBLE_PENDULUM_OK;
+    double_pendulum_ctx ctx, *cx = &ctx;
     stats->steps = stats->rejected = stats->gradient_evals = 0;
     stats->newton_iters = stats->newton_max = 0;
     stats->fail_step = 0;
@@ -1286,16 +1356,17 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
     if (!(double_pendulum_finite(q0, N3) && double_pendulum_finite(w0, N3))) {
         return DOUBLE_PENDULUM_ERR_NONFINITE;
     }
+    double_pendulum_ctx_init(cx, p, work);
     double_pendulum_copy(q, q0, N3);
     double_pendulum_copy(w, w0, N3);
-    energy[0] = double_pendulum_energy(p, q, w);
+    energy[0] = double_pendulum_energy_cx(cx, q, w);
     stats->fail_step = 1;
     if (method == DOUBLE_PENDULUM_METHOD_RK45) {
-        return double_pendulum_rk45(p, opt, h, nsteps, q, w, energy, work, stats);
+        return double_pendulum_rk45(cx, opt, h, nsteps, q, w, energy, work, stats);
     }
     if (method == DOUBLE_PENDULUM_METHOD_VI || method == DOUBLE_PENDULUM_METHOD_VI4
             || method == DOUBLE_PENDULUM_METHOD_RATTLE) {
-        return double_pendulum_integrate_geometric(p, opt, method, h, nsteps, q, w, energy, work,
+        return double_pendulum_integrate_geometric(cx, opt, method, h, nsteps, q, w, energy, work,
                 stats);
     }
     if (method != DOUBLE_PENDULUM_METHOD_RK2 && method != DOUBLE_PENDULUM_METHOD_RK2_PROJ
@@ -1303,14 +1374,14 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
         return DOUBLE_PENDULUM_ERR_ARGUMENT;
     }
     for (k = 0; k < nsteps; ++k) {
-        status = double_pendulum_rk_step(p, method, h, q + k * N3, w + k * N3, q + (k + 1) * N3,
+        status = double_pendulum_rk_step_cx(cx, method, h, q + k * N3, w + k * N3, q + (k + 1) * N3,
                 w + (k + 1) * N3, work);
         if (status != DOUBLE_PENDULUM_OK) {
             return status;
         }
         stats->gradient_evals += method == DOUBLE_PENDULUM_METHOD_RK4 ? 4 : 2;
         stats->steps += 1;
-        energy[k + 1] = double_pendulum_energy(p, q + (k + 1) * N3, w + (k + 1) * N3);
+        energy[k + 1] = double_pendulum_energy_cx(cx, q + (k + 1) * N3, w + (k + 1) * N3);
         stats->fail_step = k + 2;
     }
     return status;

@@ -26,7 +26,8 @@ extern "C" {
 #define DOUBLE_PENDULUM_NSTATE 6
 #define DOUBLE_PENDULUM_NPARAMS 5
 #define DOUBLE_PENDULUM_NPAIRS 1
-#define DOUBLE_PENDULUM_WORK_SIZE 240
+#define DOUBLE_PENDULUM_WORK_BASE 240
+#define DOUBLE_PENDULUM_WORK_SIZE 245
 
 /* Status codes returned by the step and integrate functions. */
 enum {
