@@ -104,6 +104,8 @@ class TermLoop:
     data: tuple[tuple[str, int, tuple[float, ...]], ...]
     value: Kernel
     gradient: Kernel
+    cutoff: float | None = None  # chord distance; pairs farther apart are skipped
+    cells: int = 0  # neighbour-list grid cells per axis over [-1, 1] (0: no list)
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,10 @@ from .system import System, Term
 
 __all__ = ["lower", "lower_system", "workspace_size"]
 
-_expand_pow = create_expand_pow_optimization(4)
+#: Integer powers up to this exponent become products (any base, not only symbols): pow() is a
+#: library call, x*x*x a few cycles; cse has already named repeated bases.
+POW_EXPANSION_LIMIT = 16
+_expand_pow = create_expand_pow_optimization(POW_EXPANSION_LIMIT, base_req=lambda b: True)
 
 
 def _ops(exprs: list[sp.Expr]) -> int:
@@ -81,7 +84,18 @@ def _term_loop(system: System, index: int, term: Term) -> TermLoop:
         data=tuple((d.name, d.width, d.values) for d in term.data),
         value=lower(value),
         gradient=lower(gradient),
+        cutoff=term.cutoff,
+        cells=cell_grid(term.cutoff) if term.cutoff is not None else 0,
     )
+
+
+#: Most neighbour-list cells per axis (bounds the list's memory when the cutoff is tiny).
+MAX_CELLS = 160
+
+
+def cell_grid(cutoff: float) -> int:
+    """Cells per axis of a grid over [-1, 1]^3 whose cells are at least `cutoff` wide."""
+    return max(1, min(int(2.0 / cutoff), MAX_CELLS))
 
 
 @functools.lru_cache(maxsize=2)
@@ -97,6 +111,8 @@ def lower_system(system: System) -> Module:
     """All kernels of one system, lowered, with the structure the templates need."""
     pairs = coupling_pairs(system)
     coupled = bool(pairs)
+    terms = tuple(_term_loop(system, k, t) for k, t in enumerate(system.terms))
+    neighbour = max((t.cells**3 + system.n for t in terms if t.cells), default=0)
     return Module(
         name=system.name,
         spec_hash=system.spec_hash(),
@@ -107,11 +123,12 @@ def lower_system(system: System) -> Module:
         coupled=coupled,
         pairs=pairs,
         system_kernels=tuple(lower(k) for k in system_kernels(system)),
-        terms=tuple(_term_loop(system, k, t) for k, t in enumerate(system.terms)),
+        terms=terms,
         body_kernels=generic_kernels(coupled),
         work_base=workspace_size(system.n, coupled),
         work_size=workspace_size(system.n, coupled)
         + system.n
         + len(pairs)
-        + (system.n if coupled else 0),
+        + (system.n if coupled else 0)
+        + neighbour,
     )

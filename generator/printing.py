@@ -88,6 +88,9 @@ class PrintedTerm:
     py_value_call: str
     py_gradient_call: str
     py_index: tuple[str, ...]  # index arrays of the roles, to scatter gradients
+    cutoff: str = ""  # round-trip literal of the cutoff distance ("" without cutoff)
+    rc2: str = ""  # its square
+    cells: int = 0  # neighbour-list cells per axis
 
 
 @dataclass(frozen=True)
@@ -110,6 +113,7 @@ class PrintedModule:
     general: bool  # V has a general (unstructured) part with its own kernels
     uniform_mass: bool  # all M_ii are one expression: the inertia kernel returns it once
     yoshida: tuple[str, str, str]  # triple-jump coefficients (round-trip literals)
+    neighbour_lists: bool  # some pair term has a cutoff (cell lists are emitted)
     system_kernels: tuple[PrintedKernel, ...]
     body_kernels: tuple[PrintedKernel, ...]
     terms: tuple[PrintedTerm, ...]
@@ -232,7 +236,7 @@ def _print_term(name: str, t: TermLoop) -> PrintedTerm:
         setup.append(f"{up}_I = numpy.arange(NBODIES)")
     elif loop == "chain":
         setup += [f"{up}_I = numpy.arange(NBODIES - 1)", f"{up}_J = {up}_I + 1"]
-    else:
+    elif t.cutoff is None:
         setup.append(f"{up}_I, {up}_J = numpy.triu_indices(NBODIES, 1)")
     c_args, py_args = ["p"], ["p"]
     for role in roles:
@@ -259,6 +263,9 @@ def _print_term(name: str, t: TermLoop) -> PrintedTerm:
         py_value_call=f"_k_t{t.index}_value({', '.join(py_args)})",
         py_gradient_call=f"_k_t{t.index}_gradient({', '.join(py_args)})",
         py_index=tuple(f"{up}_{role.upper()}" for role in roles),
+        cutoff="" if t.cutoff is None else repr(float(t.cutoff)),
+        rc2="" if t.cutoff is None else repr(float(t.cutoff) ** 2),
+        cells=t.cells,
     )
 
 
@@ -289,6 +296,7 @@ def print_module(module: Module) -> PrintedModule:
         work_size=module.work_size,
         general=any(k.name == "gradient" for k in module.system_kernels),
         yoshida=_yoshida(),
+        neighbour_lists=any(t.cutoff is not None for t in module.terms),
         uniform_mass=module.n > 1 and module.system_kernels[0].outputs[0].size == 1,
         system_kernels=tuple(_print_kernel(k, True) for k in module.system_kernels),
         body_kernels=tuple(_print_kernel(k, False) for k in module.body_kernels),

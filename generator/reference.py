@@ -292,31 +292,41 @@ class _TermKernel:
     params: tuple[float, ...]
     value: Callable[..., Any]
     gradient: Callable[..., Any]
+    cutoff: float | None = None
 
-    @property
-    def count(self) -> int:
-        return int(self.index[0].size)
+    def _active(self, qT: Array) -> tuple[Array, ...]:
+        """The members' index arrays; with a cutoff, only the pairs closer than it (a plain
+        vectorized distance test over all pairs)."""
+        if self.cutoff is None:
+            return self.index
+        i, j = self.index
+        d2 = sum((qT[c].take(i) - qT[c].take(j)) ** 2 for c in range(3))
+        keep = d2 < self.cutoff**2
+        return i[keep], j[keep]
 
-    def _args(self, qT: Array) -> list[Any]:
+    def _args(self, qT: Array, index: tuple[Array, ...]) -> list[Any]:
         """Arguments for `value`/`gradient` from qT (3, n): gathered position columns, data,
         parameters."""
-        cols = [qT[c].take(idx) for idx in self.index for c in range(3)]
+        cols = [qT[c].take(idx) for idx in index for c in range(3)]
         return [*cols, *self.data, *self.params]
 
-    def _members(self, x: Any) -> Array:
+    @staticmethod
+    def _members(x: Any, count: int) -> Array:
         """A lambdified result (possibly a constant) as a (count,) float array."""
-        return np.broadcast_to(np.asarray(x, dtype=float), (self.count,))
+        return np.broadcast_to(np.asarray(x, dtype=float), (count,))
 
     def potential(self, qT: Array) -> float:
         """Sum of the term over its members at positions qT (3, n)."""
-        return float(np.sum(self._members(self.value(*self._args(qT)))))
+        index = self._active(qT)
+        return float(np.sum(self._members(self.value(*self._args(qT, index)), index[0].size)))
 
     def add_grad(self, qT: Array, out: Array) -> None:
         """Add the term's gradient at positions qT (3, n) into out (3, n)."""
-        parts = self.gradient(*self._args(qT))
-        for r, idx in enumerate(self.index):
+        index = self._active(qT)
+        parts = self.gradient(*self._args(qT, index))
+        for r, idx in enumerate(index):
             for c in range(3):
-                weights = self._members(parts[3 * r + c])
+                weights = self._members(parts[3 * r + c], idx.size)
                 out[c] += np.bincount(idx, weights=weights, minlength=self.n)
 
 
@@ -347,6 +357,7 @@ def _compile_term(term: Term, n: int, ps: list[sp.Symbol], values: Sequence[floa
         params=tuple(float(v) for v in values),
         value=value,
         gradient=gradient,
+        cutoff=term.cutoff,
     )
 
 
@@ -455,6 +466,8 @@ def continuous_rhs(problem: ReferenceProblem, q: Array, w: Array) -> tuple[Array
     g = np.asarray(problem.grad(q), dtype=float)
     ww = np.sum(w * w, axis=1)
     b = _cross(q, (_off_diagonal(M) * ww[None, :]) @ q) - _cross(q, g)
+    if problem.is_diagonal:  # A = diag(M_ii) I: the solve is a division
+        return _cross(w, q), b / np.diag(M)[:, None]
     wdot = np.linalg.solve(inertia_operator(M, q), b.ravel()).reshape(q.shape)
     return _cross(w, q), wdot
 

@@ -33,6 +33,11 @@ one-body and pair terms, each a sum of one expression over its members::
     k = [10, 20, 30, 40]
     r = [[0.1, 0, 0], [0, -0.1, 0], [-0.1, 0, 0], [0, 0.1, 0]]
 
+    [[potential.pair]]       # over all pairs, optionally only those closer than a cutoff
+    V = "4*eps*((sigma**2/dot(qi - qj, qi - qj))**6 - (sigma**2/dot(qi - qj, qi - qj))**3)"
+    pairs = "all"
+    cutoff = 0.1             # chord distance |qi - qj|; cell lists make the cost O(n)
+
 A term expression sees its own vectors (`q`, or `qi` and `qj`), its data, the parameters and
 everything above except the global `q1..qn`. A datum is a list with one entry per member, all
 numbers (a scalar, symbol `name`) or all 3-vectors (usable wherever a vector is: `dot(r, qi)`,
@@ -758,7 +763,8 @@ def _term(
     where = f"{origin}: {label}"
     if not isinstance(entry, Mapping):
         raise SpecError(f"{where}: expected a table (V, {kind.select_key}, data), got {entry!r}")
-    _check_keys(entry, ("V", kind.select_key, "data"), where)
+    allowed = ("V", kind.select_key, "data") + (("cutoff",) if kind.kind == "pair" else ())
+    _check_keys(entry, allowed, where)
     for key in ("V", kind.select_key):
         if key not in entry and not (key == kind.select_key and kind.default):
             raise SpecError(f"{where}: missing required key {key!r}")
@@ -774,7 +780,15 @@ def _term(
     _check_symbols(kind, data, params, where)
     local = {**{role: 3 for role in kind.roles}, **{d.name: d.width for d in data}}
     expr = _term_expression(entry["V"], kind, n, local, params, f"{where} V")
-    return Term(kind.kind, expr, select, members, data, label)
+    cutoff = None
+    if entry.get("cutoff") is not None:
+        cutoff = _number(entry["cutoff"], f"{where} cutoff", params)
+        if not cutoff > 0.0 or select != "all":
+            raise SpecError(
+                f"{where} cutoff: must be a positive distance, on a term over all pairs "
+                f"(got {entry['cutoff']!r} with pairs = {select!r})"
+            )
+    return Term(kind.kind, expr, select, members, data, label, cutoff)
 
 
 def _selection(

@@ -160,6 +160,7 @@ class Term:
     members: tuple[tuple[int, ...], ...] = ()
     data: tuple[TermData, ...] = ()
     label: str = "term"
+    cutoff: float | None = None  # pair terms over all pairs: only pairs with |q_i - q_j| < cutoff
 
     def count(self, n: int) -> int:
         """Number of members for n bodies."""
@@ -219,6 +220,11 @@ def _validate_term(term: Term, n: int, psyms: set[sp.Symbol], where: str) -> Non
                 raise SpecError(f"{at}: member {k + 1} pairs body {mem[0] + 1} with itself")
     elif term.members:
         raise SpecError(f"{at}: members are given but the selection is {term.select!r}")
+    if term.cutoff is not None:
+        if term.kind != "pair" or term.select != "all":
+            raise SpecError(f"{at}: a cutoff applies only to pair terms over all pairs")
+        if not (np.isfinite(term.cutoff) and 0.0 < term.cutoff):
+            raise SpecError(f"{at}: cutoff must be a positive distance, got {term.cutoff!r}")
     count = term.count(n)
     for d in term.data:
         if term.select == "all" and term.kind == "pair":
@@ -407,7 +413,7 @@ class System:
             h.update(f"{key}={sp.srepr(entry)};".encode())
         h.update(sp.srepr(self.potential).encode())
         for t in self.terms:
-            h.update(f"{t.kind};{t.select};{t.members};{t.label}".encode())
+            h.update(f"{t.kind};{t.select};{t.members};{t.label};{t.cutoff!r}".encode())
             h.update(sp.srepr(t.expr).encode())
             for d in t.data:
                 h.update(f"{d.name};{d.width};{d.values}".encode())

@@ -505,7 +505,7 @@ B1 = "[[potential.body]] #1"
         (
             PAIRS_LINE,
             PAIRS_LINE + '\nbodies = "all"',
-            [f"{P1}: unknown key 'bodies' (allowed: V, pairs, data)"],
+            [f"{P1}: unknown key 'bodies' (allowed: V, pairs, data, cutoff)"],
         ),
         ('V = "-m*g*l*q[2]"\n', "", [f"{B1}: missing required key 'V'"]),
         (
