@@ -313,11 +313,20 @@ class System:
         psyms = {sp.Symbol(p, real=True) for p in names}
         subs = {sp.Symbol(p, real=True): v for p, v in zip(names, values)}
 
-        M = sp.ImmutableSparseMatrix(inertia)
+        # SymPy's constructor sorts every entry (13 s for 10^5 bodies): keep a given one as is
+        M = (
+            inertia
+            if isinstance(inertia, sp.ImmutableSparseMatrix)
+            else sp.ImmutableSparseMatrix(inertia)
+        )
         if M.shape != (n, n):
             raise SpecError(f"{where}: [inertia] M: expected a {n}x{n} matrix, got {M.shape}")
         entries = {key: sp.sympify(v) for key, v in M.todok().items()}
+        checked: set[sp.Expr] = set()  # most entries repeat (uniform masses): check each once
         for (r, c), entry in sorted(entries.items()):
+            if entry in checked:
+                continue
+            checked.add(entry)
             extra = entry.free_symbols - psyms
             if extra:
                 bad = ", ".join(sorted(str(s) for s in extra))
@@ -335,7 +344,6 @@ class System:
                     f"{M[lo, hi]} but M[{hi + 1}][{lo + 1}] = {M[hi, lo]}"
                 )
         _check_positive_definite(entries, n, subs, where)
-        M = sp.ImmutableSparseMatrix(n, n, entries)
 
         V = sp.sympify(potential)
         if not isinstance(V, sp.Expr):
@@ -425,11 +433,15 @@ def _check_positive_definite(
 ) -> None:
     """M must be real, finite and positive definite at the parameter values."""
     values: dict[tuple[int, int], float] = {}
+    cache: dict[sp.Expr, float] = {}
     for key, entry in entries.items():
-        try:
-            values[key] = float(sp.sympify(entry.xreplace(subs)).evalf())
-        except (TypeError, ValueError):
-            raise SpecError(f"{where}: [inertia] M is not real at the parameter values") from None
+        if entry not in cache:
+            try:
+                cache[entry] = float(sp.sympify(entry.xreplace(subs)).evalf())
+            except (TypeError, ValueError):
+                msg = f"{where}: [inertia] M is not real at the parameter values"
+                raise SpecError(msg) from None
+        values[key] = cache[entry]
     if not all(np.isfinite(v) for v in values.values()):
         raise SpecError(f"{where}: [inertia] M is not finite at the parameter values")
     if all(r == c for r, c in values):
