@@ -4,11 +4,11 @@ Input: argv. Output: files (emitted code, trajectories) and a short report on st
 in the spec or the run are printed as one clear line with exit status 2 (1 for a failed
 integration, whose partial trajectory is still saved).
 
-Commands: generate, simulate, list, regen. `s2gen COMMAND --help` documents each.
+Commands: generate, simulate, list, regen, reproduce. `s2gen COMMAND --help` documents each.
 
 Example:
     >>> main(["list"])  # doctest: +ELLIPSIS
-    double_pendulum...
+    dipoles...
     0
 """
 
@@ -66,7 +66,29 @@ def _parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("regen", help="rewrite the emitted code kept in generated/")
     r.add_argument("--out", default="generated", help="folder (default generated)")
+
+    _reproduce_parser(sub)
     return p
+
+
+def _reproduce_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    from .paper import EXAMPLES
+
+    rp = sub.add_parser(
+        "reproduce",
+        help="rerun the paper's numerical examples; write results.csv, results.md, figures",
+        description="Rerun the paper's examples with the emitted code, compare with the "
+        "printed values, and write results.csv, results.md and PNG figures to --out.",
+    )
+    rp.add_argument(
+        "examples",
+        nargs="*",
+        metavar="EXAMPLE",
+        help=f"examples to run (default all): {', '.join(EXAMPLES)}",
+    )
+    rp.add_argument("--out", default="out/reproduce", help="folder (default out/reproduce)")
+    rp.add_argument("--quick", action="store_true", help="shortened runs (about a minute)")
+    rp.add_argument("--backend", choices=BACKENDS, default="c", help="default c")
 
 
 def regenerate(out: str | Path) -> list[Path]:
@@ -133,6 +155,20 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _reproduce(args: argparse.Namespace) -> int:
+    from .reproduce import reproduce
+
+    start = time.perf_counter()
+    report = reproduce(args.examples, args.out, quick=args.quick, backend=args.backend)
+    print(f"done in {time.perf_counter() - start:.1f} s; outputs in {report.out}/:")
+    for path in report.files:
+        print(f"  {path}")
+    errors = report.errors + [f for ex in report.examples for f in ex.failures]
+    for line in errors:
+        print(f"error: {line}", file=sys.stderr)
+    return 0 if not errors else 1
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the `s2gen` command."""
     args = _parser().parse_args(argv)
@@ -141,6 +177,8 @@ def main(argv: list[str] | None = None) -> int:
             return _generate(args)
         if args.command == "simulate":
             return _simulate(args)
+        if args.command == "reproduce":
+            return _reproduce(args)
         if args.command == "list":
             for name in builtin_names():
                 s = builtin(name)
