@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -169,8 +170,21 @@ def _reproduce(args: argparse.Namespace) -> int:
     return 0 if not errors else 1
 
 
+def _show_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: object = None,
+    line: str | None = None,
+) -> None:
+    """Warnings as one plain line (the spec's corrections are for users, not tracebacks)."""
+    print(f"warning: {message}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the `s2gen` command."""
+    warnings.showwarning = _show_warning
     args = _parser().parse_args(argv)
     try:
         if args.command == "generate":
