@@ -116,3 +116,17 @@ def compile_shared(sources: dict[str, str], flags: tuple[str, ...] = DEFAULT_FLA
     secs = time.perf_counter() - start
     log.info("built %s (%.3f s)", target.name, secs)
     return BuildResult(target, False, secs)
+
+
+def header_macro(header: str, suffix: str) -> int:
+    """The integer value of the macro `<NAME>_<suffix>` in an emitted header.
+
+    Example:
+        >>> header_macro("#define DP_WORK_SIZE 120\n", "WORK_SIZE")
+        120
+    """
+    for line in header.splitlines():
+        parts = line.split()
+        if len(parts) == 3 and parts[0] == "#define" and parts[1].endswith("_" + suffix):
+            return int(parts[2])
+    raise BuildError(f"macro *_{suffix} missing from the emitted header")

@@ -4,7 +4,7 @@ Input: argv. Output: files (emitted code, trajectories) and a short report on st
 in the spec or the run are printed as one clear line with exit status 2 (1 for a failed
 integration, whose partial trajectory is still saved).
 
-Commands: generate, simulate, list, regen, reproduce. `s2gen COMMAND --help` documents each.
+Commands: generate, simulate, list, regen, reproduce, compare-angles. `s2gen COMMAND --help` documents each.
 
 Example:
     >>> main(["list"])  # doctest: +ELLIPSIS
@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import metrics
+from . import compare_angles, metrics
 from .emit import LANGUAGES, emit, write_files
 from .runtime import BACKENDS, CONTROLS, METHODS, IntegrationError, Options, simulate
 from .system import SpecError, System
@@ -69,6 +69,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default="generated", help="folder (default generated)")
 
     _reproduce_parser(sub)
+    compare_angles.add_parser(sub)
     return p
 
 
@@ -193,6 +194,8 @@ def main(argv: list[str] | None = None) -> int:
             return _simulate(args)
         if args.command == "reproduce":
             return _reproduce(args)
+        if args.command == "compare-angles":
+            return compare_angles.run(args)
         if args.command == "list":
             for name in builtin_names():
                 s = builtin(name)

@@ -5,9 +5,7 @@ Input: `KernelDef`s (SymPy expressions) and a `System`. Output: frozen `Kernel`s
 the order SymPy's canonical cse produces them, so the same input always gives the same names.
 
 Example:
-    >>> import functools
-
-import sympy as sp
+    >>> import sympy as sp
     >>> from s2gen.ir import Argument, KernelDef, Output
     >>> x = sp.Symbol("x", real=True)
     >>> k = lower(KernelDef("k", "doc", (Argument("x", (x,), scalar=True),),

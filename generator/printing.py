@@ -191,7 +191,8 @@ def _py_kernel(kernel: Kernel, system: bool) -> tuple[str, tuple[str, ...]]:
     return params, tuple(lines)
 
 
-def _print_kernel(kernel: Kernel, system: bool) -> PrintedKernel:
+def print_kernel(kernel: Kernel, system: bool) -> PrintedKernel:
+    """Print one lowered kernel for both languages (`system`: positions are the global q)."""
     c_params, c_lines = _c_kernel(kernel, system)
     py_params, py_lines = _py_kernel(kernel, system)
     return PrintedKernel(
@@ -254,8 +255,8 @@ def _print_term(name: str, t: TermLoop) -> PrintedTerm:
         index=t.index,
         loop=loop,
         count=t.count,
-        value=_print_kernel(t.value, False),
-        gradient=_print_kernel(t.gradient, False),
+        value=print_kernel(t.value, False),
+        gradient=print_kernel(t.gradient, False),
         c_tables=tuple(tables),
         c_value_call=f"{name}_k_t{t.index}_value({', '.join(c_args)}, &v)",
         c_gradient_call=f"{name}_k_t{t.index}_gradient({', '.join(c_args + grads)})",
@@ -298,7 +299,7 @@ def print_module(module: Module) -> PrintedModule:
         yoshida=_yoshida(),
         neighbour_lists=any(t.cutoff is not None for t in module.terms),
         uniform_mass=module.n > 1 and module.system_kernels[0].outputs[0].size == 1,
-        system_kernels=tuple(_print_kernel(k, True) for k in module.system_kernels),
-        body_kernels=tuple(_print_kernel(k, False) for k in module.body_kernels),
+        system_kernels=tuple(print_kernel(k, True) for k in module.system_kernels),
+        body_kernels=tuple(print_kernel(k, False) for k in module.body_kernels),
         terms=tuple(_print_term(module.name, t) for t in module.terms if t.count > 0),
     )

@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import functools
 from importlib import resources
+from typing import Any
 
 import jinja2
 
 from .printing import PrintedModule
 
-__all__ = ["TEMPLATES", "environment", "render"]
+__all__ = ["ANGLE_TEMPLATES", "TEMPLATES", "environment", "render", "render_angles"]
 
 #: Files emitted per language: (template, output name pattern).
 TEMPLATES: dict[str, tuple[tuple[str, str], ...]] = {
@@ -49,4 +50,22 @@ def render(module: PrintedModule, lang: str) -> dict[str, str]:
     return {
         pattern.format(name=module.name): env.get_template(template).render(m=module)
         for template, pattern in TEMPLATES[lang]
+    }
+
+
+#: Files of the angle-form comparison module (`angles.py`) per language.
+ANGLE_TEMPLATES: dict[str, tuple[tuple[str, str], ...]] = {
+    "c": (("c/angles.h.jinja", "{name}.h"), ("c/angles.c.jinja", "{name}.c")),
+    "numpy": (("numpy/angles.py.jinja", "{name}.py"),),
+}
+
+
+def render_angles(module: Any, lang: str) -> dict[str, str]:
+    """Render an `angles.PrintedAngles` for one language; keys are file names."""
+    if lang not in ANGLE_TEMPLATES:
+        raise ValueError(f"unknown language {lang!r}; choose one of {sorted(ANGLE_TEMPLATES)}")
+    env = environment()
+    return {
+        pattern.format(name=module.name): env.get_template(template).render(m=module)
+        for template, pattern in ANGLE_TEMPLATES[lang]
     }

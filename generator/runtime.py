@@ -27,7 +27,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from .build import cache_dir, compile_shared
+from .build import cache_dir, compile_shared, header_macro
 from .emit import emit
 from .system import System
 
@@ -122,8 +122,18 @@ class _Opt(ctypes.Structure):
 
 class _Stats(ctypes.Structure):
     _fields_ = [
-        (k, ctypes.c_long)
-        for k in ("steps", "rejected", "gradient_evals", "newton_iters", "newton_max", "fail_step")
+        *(
+            (k, ctypes.c_long)
+            for k in (
+                "steps",
+                "rejected",
+                "gradient_evals",
+                "newton_iters",
+                "newton_max",
+                "fail_step",
+            )
+        ),
+        ("fail_time", ctypes.c_double),
     ]
 
 
@@ -141,7 +151,7 @@ class CBackend:
         self.build = compile_shared(files)
         self.lib = ctypes.CDLL(str(self.build.path))
         pre = system.name
-        self.work = np.zeros(self._int_macro(files[f"{pre}.h"], "WORK_SIZE"))
+        self.work = np.zeros(header_macro(files[f"{pre}.h"], "WORK_SIZE"))
         f = self.lib
         self._integrate = getattr(f, f"{pre}_integrate")
         self._integrate.restype = ctypes.c_int
@@ -171,14 +181,6 @@ class CBackend:
         self._mom = getattr(f, f"{pre}_angular_momentum")
         self._mom.restype = None
         self._mom.argtypes = [_DP, _DP, _DP, _DP]
-
-    @staticmethod
-    def _int_macro(header: str, suffix: str) -> int:
-        for line in header.splitlines():
-            parts = line.split()
-            if len(parts) == 3 and parts[0] == "#define" and parts[1].endswith("_" + suffix):
-                return int(parts[2])
-        raise RuntimeError(f"macro *_{suffix} missing from the emitted header")
 
     def energy(self, q: np.ndarray, w: np.ndarray, params: np.ndarray) -> float:
         return float(self._energy(_c(params), _c(q), _c(w)))

@@ -1056,7 +1056,9 @@ static const double double_pendulum_dp_bi[7][4] = {
     {0, -11.0 / 7, 11.0 / 3, -55.0 / 28},
     {0, 3.0 / 2, -4.0, 5.0 / 2}};
 
-/* Weighted error norm of one trial step (see double_pendulum_options.control). */
+/* Weighted error norm of one trial step; 1 is the acceptance limit. MATLAB: max norm, weights
+ * max(|y|, |y_new|, atol/rtol), err <= rtol; Hairer: RMS norm, weights
+ * atol + rtol max(|y|, |y_new|). */
 static double double_pendulum_rk45_error(const double_pendulum_options *opt, double h, double *const *k,
         const double *y, const double *yn)
 {
@@ -1077,14 +1079,13 @@ static double double_pendulum_rk45_error(const double_pendulum_options *opt, dou
         }
     }
     if (opt->control == DOUBLE_PENDULUM_CONTROL_HAIRER) {
-        return sqrt(acc / NS); /* accept if <= 1 */
+        return sqrt(acc / NS);
     }
-    return acc / opt->rtol; /* MATLAB accepts err <= rtol; scaled so that 1 is the limit */
+    return acc / opt->rtol;
 }
 
 /* Initial step: MATLAB's rule, or Hairer's two-evaluation estimate. */
-static double double_pendulum_rk45_h0(const double_pendulum_ctx *cx, const double_pendulum_options *opt,
-        double span,
+static double double_pendulum_rk45_h0(const double_pendulum_ctx *cx, const double_pendulum_options *opt, double span,
         double hmax, const double *y, const double *f0, double *yt, double *ft, double *fw,
         long *evals)
 {
@@ -1129,13 +1130,13 @@ static double double_pendulum_rk45_h0(const double_pendulum_ctx *cx, const doubl
     }
 }
 
-/* Adaptive Dormand-Prince from y over nsteps output intervals of length hout; samples written
- * on the grid by the continuous extension. work: 7 stages, y, yn (NS each), field workspace. */
-static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pendulum_options *opt, double hout,
-        long nsteps, double *q, double *w, double *energy, double *work,
-        double_pendulum_stats *stats)
+/* Adaptive Dormand-Prince from y0 over nsteps output intervals of length hout; samples on the
+ * grid from the continuous extension. work: 7 stages, y, yn, ys (NS each), field workspace. */
+static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pendulum_options *opt, double hout, long nsteps,
+        const double *y0, double *q, double *w, double *energy, double *work, double_pendulum_stats *stats)
 {
-    double *k[7], *y = work + 7 * NS, *yn = work + 8 * NS, *fw = work + 9 * NS;
+    double *k[7], *y = work + 7 * NS, *yn = work + 8 * NS, *ys = work + 9 * NS;
+    double *fw = work + 10 * NS;
     const double tend = hout * (double)nsteps;
     const double hmax = opt->hmax > 0.0 ? opt->hmax : 0.1 * tend;
     double t = 0.0, h;
@@ -1147,8 +1148,9 @@ static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pend
     for (s = 0; s < 7; ++s) {
         k[s] = work + s * NS;
     }
-    double_pendulum_copy(y, q, N3);
-    double_pendulum_copy(y + N3, w, N3);
+    double_pendulum_copy(y, y0, NS);
+    double_pendulum_copy(yn, y0, NS);
+    stats->fail_time = 0.0;
     status = double_pendulum_field(cx, y, k[0], fw);
     stats->gradient_evals += 1;
     if (status) {
@@ -1206,10 +1208,8 @@ static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pend
         stats->steps += 1;
         /* samples in (t, tn] from the continuous extension */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
-            double *qo = q + next * N3, *wo = w + next * N3;
             if (next == nsteps || hout * (double)next == tn) {
-                double_pendulum_copy(qo, yn, N3);
-                double_pendulum_copy(wo, yn + N3, N3);
+                double_pendulum_copy(ys, yn, NS);
             } else {
                 const double sig = (hout * (double)next - t) / h;
                 double pw[4];
@@ -1224,14 +1224,13 @@ static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pend
                                 + double_pendulum_dp_bi[s][2] * pw[2] + double_pendulum_dp_bi[s][3] * pw[3];
                         acc += b * k[s][e];
                     }
-                    if (e < N3) {
-                        qo[e] = y[e] + h * acc;
-                    } else {
-                        wo[e - N3] = y[e] + h * acc;
-                    }
+                    ys[e] = y[e] + h * acc;
                 }
             }
-            energy[next] = double_pendulum_energy_cx(cx, qo, wo);
+            double_pendulum_copy(q + next * N3, ys, N3);
+            double_pendulum_copy(w + next * N3, ys + N3, N3);
+            energy[next] = double_pendulum_energy_cx(cx, q + next * N3, w + next * N3);
+
             next += 1;
             stats->fail_step = next;
         }
@@ -1246,6 +1245,7 @@ static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pend
             h *= fmin(1.0, err == 0.0 ? 1.0 : 0.9 * pow(err, -1.0 / 5));
         }
         t = tn;
+        stats->fail_time = t;
         double_pendulum_copy(y, yn, NS);
         double_pendulum_copy(k[0], k[6], NS);
         if (!double_pendulum_finite(y, NS)) {
@@ -1348,6 +1348,7 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
     int status = DOUBLE_PENDULUM_OK;
     double_pendulum_ctx ctx, *cx = &ctx;
     stats->steps = stats->rejected = stats->gradient_evals = 0;
+    stats->fail_time = 0.0;
     stats->newton_iters = stats->newton_max = 0;
     stats->fail_step = 0;
     if (!(h > 0.0) || nsteps < 0) {
@@ -1362,7 +1363,10 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
     energy[0] = double_pendulum_energy_cx(cx, q, w);
     stats->fail_step = 1;
     if (method == DOUBLE_PENDULUM_METHOD_RK45) {
-        return double_pendulum_rk45(cx, opt, h, nsteps, q, w, energy, work, stats);
+        double *y0 = work + 8 * NS; /* the driver's first copy of y0 lands here */
+        double_pendulum_copy(y0, q0, N3);
+        double_pendulum_copy(y0 + N3, w0, N3);
+        return double_pendulum_rk45(cx, opt, h, nsteps, y0, q, w, energy, work, stats);
     }
     if (method == DOUBLE_PENDULUM_METHOD_VI || method == DOUBLE_PENDULUM_METHOD_VI4
             || method == DOUBLE_PENDULUM_METHOD_RATTLE) {

@@ -71,6 +71,7 @@ typedef struct {
     long newton_iters;    /* Newton iterations, total */
     long newton_max;      /* Newton iterations, largest in one step */
     long fail_step;       /* on failure: first sample index not computed (samples before it are valid) */
+    double fail_time;     /* RK45: time of the last accepted step (where a failure happened) */
 } double_pendulum_stats;
 
 /* Spec's parameter values, and default options. */
