@@ -4,7 +4,7 @@ Input: argv. Output: files (emitted code, trajectories) and a short report on st
 in the spec or the run are printed as one clear line with exit status 2 (1 for a failed
 integration, whose partial trajectory is still saved).
 
-Commands: generate, simulate, list, regen, reproduce, compare-angles. `s2gen COMMAND --help` documents each.
+Commands: generate, simulate, list, regen, reproduce, compare-angles, bench. `s2gen COMMAND --help` documents each.
 
 Example:
     >>> main(["list"])  # doctest: +ELLIPSIS
@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import compare_angles, metrics
+from . import bench, compare_angles, metrics
 from .emit import LANGUAGES, emit, write_files
 from .runtime import BACKENDS, CONTROLS, METHODS, IntegrationError, Options, simulate
 from .system import SpecError, System
@@ -70,6 +70,7 @@ def _parser() -> argparse.ArgumentParser:
 
     _reproduce_parser(sub)
     compare_angles.add_parser(sub)
+    bench.add_parser(sub)
     return p
 
 
@@ -196,6 +197,8 @@ def main(argv: list[str] | None = None) -> int:
             return _reproduce(args)
         if args.command == "compare-angles":
             return compare_angles.run(args)
+        if args.command == "bench":
+            return bench.run(args)
         if args.command == "list":
             for name in builtin_names():
                 s = builtin(name)

@@ -1,0 +1,139 @@
+"""The benchmark command's correctness (not its numbers): files, fitted orders, peers.
+
+The quick bench on the double pendulum runs once per session (about 15 s); the long-time,
+stability and scaling modes are exercised by the slow tests (``pytest -m slow``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import itertools
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from s2gen import bench, peers
+
+EXPECTED_ORDERS = {"vi": (2.0, 0.1), "rattle": (2.0, 0.1), "vi4": (4.0, 0.2), "rk4": (4.0, 0.2)}
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory: pytest.TempPathFactory) -> bench.BenchReport:
+    out = tmp_path_factory.mktemp("bench")
+    return bench.bench(["double_pendulum"], out, quick=True, log=lambda line: None)
+
+
+def _rows(report: bench.BenchReport) -> list[bench.WPRow]:
+    return report.examples[0].rows
+
+
+def test_quick_bench_writes_csv_markdown_and_plots(quick: bench.BenchReport) -> None:
+    names = {p.name for p in quick.files}
+    assert {"bench.csv", "per_step.csv", "bench.md", "wp_double_pendulum.png"} <= names
+    for path in quick.files:
+        assert path.exists() and path.stat().st_size > 0
+    with (quick.out / "bench.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == len(_rows(quick))
+    methods = {r["method"] for r in rows}
+    assert (
+        set(bench.FIXED) | {"rk45-hairer", "rk45-matlab", "scipy-RK45", "scipy-DOP853"} <= methods
+    )
+    text = (quick.out / "bench.md").read_text()
+    assert "Winners per accuracy" in text and "Where the VI loses and where it wins" in text
+    assert "NumPy / C" in text and "s2gen bench double_pendulum --quick" in text
+
+
+def test_markdown_numbers_come_from_the_rows(quick: bench.BenchReport) -> None:
+    """Every finding quotes a run of this report: its method, setting and wall time."""
+    ex = quick.examples[0]
+    lines = bench.findings(ex, "state_err")
+    assert lines
+    for target in bench._targets(ex, "state_err"):
+        best = bench.cheapest(ex.rows, "state_err", target)
+        assert best is not None
+        assert any(f"{best.method} ({best.setting})" in line for line in lines)
+
+
+@pytest.mark.parametrize("method", sorted(EXPECTED_ORDERS))
+def test_fitted_orders_of_fixed_step_methods(quick: bench.BenchReport, method: str) -> None:
+    orders = bench.fitted_orders(_rows(quick), quick.examples[0].reference.accuracy)
+    expected, tol = EXPECTED_ORDERS[method]
+    assert abs(orders[method] - expected) <= tol, orders
+
+
+@pytest.mark.parametrize("method", ["scipy-RK45", "scipy-DOP853"])
+def test_scipy_error_decreases_with_tolerance(quick: bench.BenchReport, method: str) -> None:
+    runs = sorted((r for r in _rows(quick) if r.method == method), key=lambda r: -r.rtol)
+    errors = [r.state_err for r in runs]
+    assert len(errors) >= 3 and all(r.status == "ok" for r in runs)
+    assert all(b < a for a, b in itertools.pairwise(errors)), errors
+
+
+def test_reference_is_converged(quick: bench.BenchReport) -> None:
+    assert quick.examples[0].reference.accuracy < 1e-10
+
+
+def test_pydy_peer_maps_angles_back_and_converges(quick: bench.BenchReport) -> None:
+    assert peers.pydy_available() is None, "PyDy is a test dependency (pyproject test extra)"
+    runs = [r for r in _rows(quick) if r.method.startswith("pydy-") and r.method.endswith("lsoda")]
+    errors = [r.state_err for r in sorted(runs, key=lambda r: -r.rtol)]
+    assert errors[-1] < 1e-6 and errors[-1] < errors[0]
+    q0 = np.array([[0.6, 0.0, 0.8], [0.0, 0.48, 0.6 * 1.0 + 0.28]])
+    q0 /= np.linalg.norm(q0, axis=1)[:, None]
+    w0 = np.cross(q0, np.array([[0.3, -1.0, 0.2], [1.0, 0.5, 0.0]]))
+    q, w = peers.state_from_angles(peers.angles_from_state(q0, w0))
+    assert np.allclose(q, q0, atol=1e-14) and np.allclose(w, w0, atol=1e-13)
+
+
+def test_crossover_cases() -> None:
+    t = [1.0, 10.0, 100.0]
+    vi = bench.LongSeries("x", "vi", "vi", 0.1, 0.0, t, [3e-7] * 3)
+    below = bench.LongSeries("x", "rk", "rk45", 0.0, 0.0, t, [1e-10, 1e-9, 1e-8])
+    above = bench.LongSeries("x", "rk", "rk45", 0.0, 0.0, t, [1e-6, 1e-5, 1e-4])
+    assert bench.crossover(above, vi) == (1.0, "before the first window")
+    when, kind = bench.crossover(below, vi)
+    assert kind == "extrapolated" and when == pytest.approx(100.0 * 30.0)
+    assert below.slope() == pytest.approx(1.0)
+
+
+def test_windows_cover_the_run() -> None:
+    w = bench._windows(10**6)
+    assert sum(w) == 10**6 and w[0] == 64 and max(w) == 2**17
+
+
+def test_parser_and_unknown_example(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    p = argparse.ArgumentParser()
+    bench.add_parser(p.add_subparsers(dest="command"))
+    args = p.parse_args(["bench", "no_such_system", "--out", str(tmp_path), "--quick"])
+    assert bench.run(args) == 2
+    assert "unknown example" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_long_time_vi_energy_stays_bounded(tmp_path: Path) -> None:
+    series, notes = bench.long_time("double_pendulum", 200000, log=lambda line: None)
+    by_label = {s.method: s for s in series[:6]}
+    assert abs(by_label["vi"].slope()) < 0.2
+    assert by_label["vi"].status == "ok" and max(by_label["vi"].unit) < 1e-12
+    assert len(notes) >= 4
+
+
+@pytest.mark.slow
+def test_stability_and_scaling_quick(tmp_path: Path) -> None:
+    report = bench.bench(
+        [],
+        tmp_path,
+        quick=True,
+        sweeps=False,
+        stability_envelope=True,
+        scale=True,
+        log=lambda line: None,
+    )
+    assert (tmp_path / "stability.png").exists() and (tmp_path / "scaling.csv").exists()
+    for case in report.stability_cases:
+        for method in bench.FIXED:
+            rows = [r for r in report.stability if r.case == case.label and r.method == method]
+            assert bench.largest_stable(rows) is not None, (case.label, method)
