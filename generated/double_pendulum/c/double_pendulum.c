@@ -666,8 +666,10 @@ static int double_pendulum_rhs_cx(const double_pendulum_ctx *cx, const double *q
             dw[3 * j0 + c] += bj[c];
         }
     }
+    /* A is SPD on the sphere; off it (RK stages drift from |q| = 1) it stays symmetric but may
+     * be indefinite, so the field uses pivoted elimination rather than Cholesky */
     double_pendulum_build_a(md, mp, q, a);
-    if (!double_pendulum_cholesky_solve(N3, a, dw)) {
+    if (!double_pendulum_lu_solve(N3, a, dw)) {
         return DOUBLE_PENDULUM_ERR_SINGULAR;
     }
     return DOUBLE_PENDULUM_OK;
