@@ -672,8 +672,16 @@ def integrate(p, method, h, nsteps, q0, w0, rtol=1e-3, atol=1e-6, control=CONTRO
     """Integrate nsteps steps of size h (RK45: output spacing h) from (q0, w0).
 
     Returns (status, q, w, energy, stats); q and w have shape (nsteps+1, 2, 3). On failure
-    the samples before stats["fail_step"] are valid.
+    the samples before stats["fail_step"] are valid. Floating-point warnings are silenced: a
+    non-finite or infeasible state is reported by the status code instead.
     """
+    with numpy.errstate(all="ignore"):
+        return _integrate(p, method, h, nsteps, q0, w0, rtol, atol, control, hmax, newton_tol,
+                          newton_maxiter)
+
+
+def _integrate(p, method, h, nsteps, q0, w0, rtol, atol, control, hmax, newton_tol,
+               newton_maxiter):
     stats = {"steps": 0, "rejected": 0, "gradient_evals": 0, "newton_iters": 0,
              "newton_max": 0, "fail_step": 0}
     q = numpy.full((nsteps + 1, NBODIES, 3), numpy.nan)

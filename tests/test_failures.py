@@ -1,0 +1,58 @@
+"""Failures are reported, not hidden: the emitted code returns a status code with the step,
+and the Python side raises a clear error that keeps the trajectory computed so far."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from s2gen.cli import main
+from s2gen.runtime import IntegrationError, Options, simulate
+from s2gen.systems import builtin
+
+
+def _check_partial(exc: IntegrationError, n: int) -> None:
+    part = exc.partial
+    assert len(part.t) == exc.step >= 1
+    assert part.q.shape == (exc.step, n, 3)
+    assert np.all(np.isfinite(part.q)) and np.all(np.isfinite(part.energy))
+    assert f"step {exc.step}" in str(exc)
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_explicit_step_infeasible(backend: str) -> None:
+    s = builtin("three_bodies")
+    with pytest.raises(IntegrationError, match="infeasible") as info:
+        simulate(s, "vi", backend, h=0.9, T=90.0)
+    assert info.value.status == 1
+    _check_partial(info.value, 3)
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_newton_not_converged(backend: str) -> None:
+    s = builtin("double_pendulum")
+    with pytest.raises(IntegrationError, match="Newton") as info:
+        simulate(s, "vi", backend, h=0.01, T=1.0, options=Options(newton_maxiter=2))
+    assert info.value.status == 2
+    assert info.value.step == 1 and len(info.value.partial.t) == 1
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_non_finite_state(backend: str) -> None:
+    """Two bodies of the cotangent potential placed on top of each other: infinite force."""
+    s = builtin("three_bodies")
+    q0 = s.q0.copy()
+    q0[1] = q0[0]
+    with pytest.raises(IntegrationError) as info:
+        simulate(s, "rk4", backend, h=0.01, T=1.0, q0=q0, omega0=np.zeros_like(q0))
+    assert info.value.status == 3
+    assert info.value.step == 1
+
+
+def test_cli_failed_run_exits_1_and_keeps_partial(tmp_path, capsys) -> None:
+    out = tmp_path / "traj.npz"
+    code = main(["simulate", "three_bodies", "--h", "0.9", "--T", "90", "--out", str(out)])
+    assert code == 1
+    assert "infeasible" in capsys.readouterr().err
+    saved = np.load(out)
+    assert saved["q"].shape[0] == saved["t"].shape[0] >= 1
