@@ -190,7 +190,7 @@ def markdown(result: Comparison, figures: Sequence[Path]) -> str:
             "integrators' kernels, so its module time, C size and gcc time cover more than the "
             "vector field. Operations are SymPy `count_ops` of the vector-field kernels; per call, "
             "the S² per-body and per-pair kernels count once per body and per coupled pair. "
-            "Linear solve: S² Cholesky of the 3n × 3n matrix A(q) (coupled M only), angle form LU "
+            "Linear solve: S² LU (partial pivoting) of the 3n × 3n matrix A(q) (coupled M only), angle form LU "
             "of the 2n × 2n M(θ, φ). Times per evaluation: the forms timed side by side, best of "
             f"{s.repeats} loops of about 20 ms, at a state away from the poles."
         ),
