@@ -475,21 +475,48 @@ def molecular(
         raise ValueError(f"sense must be 'same' or 'opposite', got {sense!r}")
     rates = (rate, rate if sense == "same" else -rate)
     omega0 = vortex_velocities(v, vortex_axes(separation_deg), rates, _deg(width_deg))
+    return lennard_jones_system(
+        "molecular",
+        v,
+        omega0,
+        sig,
+        RunSettings(h=0.005, T=5.0, method="vi"),
+        f"{_ORIGIN}.molecular(subdivisions={subdivisions}, sigma={sigma!r}, "
+        f"rate={rate}, width_deg={width_deg}, separation_deg={separation_deg}, sense={sense!r})",
+    )
+
+
+def lennard_jones_system(
+    name: str,
+    q0: np.ndarray,
+    omega0: np.ndarray,
+    sigma: float,
+    run: RunSettings,
+    origin: str,
+    cutoff: float | None = None,
+) -> System:
+    """Unit masses on the sphere under 4 eps ((sigma/r)^12 - (sigma/r)^6) over all pairs
+    (eps = 0.01, r the chord |q_i - q_j|), optionally only pairs closer than `cutoff`.
+
+    Example:
+        >>> v, _ = icosphere(1)
+        >>> lennard_jones_system("lj", v, 0 * v, 0.5, RunSettings(), "doc").n
+        42
+    """
     m, eps, sg = _sym("m"), _sym("eps"), _sym("sigma")
     d = _vec("qi") - _vec("qj")
     s6 = (sg**2 / d.dot(d)) ** 3
-    lj = Term("pair", 4 * eps * (s6**2 - s6), label="Lennard-Jones")
-    n = len(v)
+    lj = Term("pair", 4 * eps * (s6**2 - s6), label="Lennard-Jones", cutoff=cutoff)
+    n = len(q0)
     return System.create(
-        name="molecular",
+        name=name,
         n=n,
-        parameters={"m": 1.0, "eps": 0.01, "sigma": sig},
-        inertia=m * sp.eye(n),
+        parameters={"m": 1.0, "eps": 0.01, "sigma": sigma},
+        inertia=sp.ImmutableSparseMatrix(n, n, {(i, i): m for i in range(n)}),
         potential=sp.Integer(0),
-        q0=v,
+        q0=q0,
         omega0=omega0,
-        run=RunSettings(h=0.005, T=5.0, method="vi"),
-        origin=f"{_ORIGIN}.molecular(subdivisions={subdivisions}, sigma={sigma!r}, "
-        f"rate={rate}, width_deg={width_deg}, separation_deg={separation_deg}, sense={sense!r})",
+        run=run,
+        origin=origin,
         terms=[lj],
     )

@@ -12,7 +12,6 @@ Example:
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import math
 import os
 import shutil
@@ -56,15 +55,14 @@ def md_system(n: int, cutoff: float | None = None) -> System:
         >>> md_system(100).n
         100
     """
-    import sympy as sp
-
     from ..paper_systems import (
         lennard_jones_sigma,
+        lennard_jones_system,
         nearest_neighbour_distance,
         vortex_axes,
         vortex_velocities,
     )
-    from ..system import RunSettings, Term, local_vector
+    from ..system import RunSettings
 
     k = np.arange(n) + 0.5
     z = 1 - 2 * k / n
@@ -73,23 +71,14 @@ def md_system(n: int, cutoff: float | None = None) -> System:
     pts = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
     sig = lennard_jones_sigma(nearest_neighbour_distance(pts))
     w = vortex_velocities(pts, vortex_axes(30.0), (1.0, 1.0), math.radians(15.0))
-    m, eps, sg = (sp.Symbol(s, real=True) for s in ("m", "eps", "sigma"))
-    d = sp.Matrix(local_vector("qi")) - sp.Matrix(local_vector("qj"))
-    s6 = (sg**2 / d.dot(d)) ** 3
-    term = Term("pair", 4 * eps * (s6**2 - s6), label="Lennard-Jones")
-    if cutoff is not None:
-        term = dataclasses.replace(term, cutoff=cutoff * sig)
-    return System.create(
-        name="md_fibonacci",
-        n=n,
-        parameters={"m": 1.0, "eps": 0.01, "sigma": sig},
-        inertia=m * sp.eye(n),
-        potential=sp.Integer(0),
-        q0=pts,
-        omega0=w,
-        run=RunSettings(h=0.005, T=1.0, method="vi"),
-        origin=f"s2gen.bench.md_system(n={n}, cutoff={cutoff})",
-        terms=[term],
+    return lennard_jones_system(
+        "md_fibonacci",
+        pts,
+        w,
+        sig,
+        RunSettings(h=0.005, T=1.0, method="vi"),
+        f"s2gen.bench.md_system(n={n}, cutoff={cutoff})",
+        cutoff=None if cutoff is None else cutoff * sig,
     )
 
 
