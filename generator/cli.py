@@ -22,11 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import bench, compare_angles, metrics
-from .emit import LANGUAGES, emit, write_files
-from .runtime import BACKENDS, CONTROLS, METHODS, IntegrationError, Options, simulate
-from .system import SpecError, System
-from .systems import builtin, builtin_names, resolve
+from s2gen import metrics
+from s2gen.emit import LANGUAGES, emit, write_files
+from s2gen.experiments import bench, compare_angles
+from s2gen.runtime import BACKENDS, CONTROLS, METHODS, IntegrationError, Options, simulate
+from s2gen.system import SpecError, System
+from s2gen.systems import builtin, builtin_names, resolve
 
 __all__ = ["GENERATED_SYSTEMS", "main", "regenerate"]
 
@@ -75,7 +76,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _reproduce_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    from .paper import EXAMPLES
+    from s2gen.experiments.paper import EXAMPLES
 
     rp = sub.add_parser(
         "reproduce",
@@ -159,7 +160,7 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def _reproduce(args: argparse.Namespace) -> int:
-    from .reproduce import reproduce
+    from s2gen.experiments.reproduce import reproduce
 
     start = time.perf_counter()
     report = reproduce(args.examples, args.out, quick=args.quick, backend=args.backend)

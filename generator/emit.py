@@ -14,10 +14,10 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
-from .lowering import lower_system
-from .printing import PrintedModule, print_module
-from .render import render
-from .system import System
+from s2gen.passes import lower_system
+from s2gen.printing import PrintedModule, print_module
+from s2gen.render import render
+from s2gen.system import System
 
 __all__ = ["LANGUAGES", "emit", "printed", "write_files"]
 

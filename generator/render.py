@@ -17,7 +17,7 @@ from typing import Any
 
 import jinja2
 
-from .printing import PrintedModule
+from s2gen.printing import PrintedModule
 
 __all__ = ["ANGLE_TEMPLATES", "TEMPLATES", "environment", "render", "render_angles"]
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from s2gen import bench, peers
+from s2gen.experiments import bench, peers
 
 EXPECTED_ORDERS = {"vi": (2.0, 0.1), "rattle": (2.0, 0.1), "vi4": (4.0, 0.2), "rk4": (4.0, 0.2)}
 

@@ -10,9 +10,9 @@ import sympy as sp
 
 from s2gen.build import STRICT_FLAGS, compile_shared, compiler
 from s2gen.cli import GENERATED_SYSTEMS, regenerate
-from s2gen.continuous import system_matrix_blocks
 from s2gen.emit import emit
-from s2gen.geometry import cayley_apply, cayley_apply_tangent, dot, hat, vec
+from s2gen.equations.continuous import system_matrix_blocks
+from s2gen.equations.geometry import cayley_apply, cayley_apply_tangent, dot, hat, vec
 from s2gen.runtime import get_backend
 
 REPO = Path(__file__).resolve().parent.parent

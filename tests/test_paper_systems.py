@@ -1,4 +1,4 @@
-"""The paper's example systems (`paper_systems`) against facts derived independently of them.
+"""The paper's example systems (`s2gen.systems.paper`) against facts derived independently of them.
 
 Each check recomputes a quantity from the paper's formulas (or from first principles) with
 plain NumPy and compares it with what the built-in system gives through the reference backend:
@@ -17,13 +17,13 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from s2gen import paper_systems as ps
+from s2gen.experiments.paper import EXAMPLES
 from s2gen.metrics import summary
-from s2gen.paper import EXAMPLES
 from s2gen.reference import ReferenceProblem, problem_from_system
 from s2gen.runtime import METHODS, simulate
 from s2gen.system import System, local_vector
 from s2gen.systems import builtin, builtin_names, resolve
+from s2gen.systems import paper as ps
 
 SPECS = Path(__file__).parent / "specs"
 NAMES = ("three_bodies", "four_pendula", "elastic_rod", "dipoles", "molecular")

@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from s2gen import reproduce as rp
 from s2gen.cli import main
-from s2gen.paper import EXAMPLES, Example, PaperRun
-from s2gen.plots import face_kinetic_energy
+from s2gen.experiments import reproduce as rp
+from s2gen.experiments.paper import EXAMPLES, Example, PaperRun
+from s2gen.experiments.plots import face_kinetic_energy
 from s2gen.runtime import simulate
 from s2gen.systems import builtin
 

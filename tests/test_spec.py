@@ -98,12 +98,12 @@ def test_example_loads_exactly_without_warnings() -> None:
     np.testing.assert_allclose(s.q0, [[r3 / 2, 0, 0.5], [0, 0, 1]], rtol=0, atol=1e-15)
     np.testing.assert_allclose(s.omega0, [[-r3 / 4, 0, 0.75], [0, 1, 0]], rtol=0, atol=1e-15)
     assert s.run == RunSettings(h=0.01, T=100.0, method="vi")
-    assert s.origin == "s2gen.examples/double_pendulum.toml"
+    assert s.origin == "s2gen.systems.examples/double_pendulum.toml"
     assert not s.is_diagonal
 
 
 def test_example_round_trip_through_file_and_resolve() -> None:
-    with as_file(files("s2gen.examples") / "double_pendulum.toml") as path:
+    with as_file(files("s2gen.systems.examples") / "double_pendulum.toml") as path:
         from_file = load_spec(path)
         resolved = resolve(str(path))
     assert from_file.origin == str(path)

@@ -1,0 +1,177 @@
+"""How a long run is carried out: in windows that double in length, keeping window maxima.
+
+Input: a `LongSetup` (system, state, conserved momentum components), a method with its step
+or tolerance, and the window ends. Output: a `LongSeries` per run with the window maxima of
+|E − E0|, | |q_i| − 1 |, |q_i · ω_i| and |L − L0| (conserved components), the steps, gradient
+evaluations and wall time. Fixed-step methods and RK45 run on the emitted C; DOP853 is
+scipy's `solve_ivp` on the emitted C right-hand side. Progress lines go to `log`.
+
+Example:
+    >>> _windows(1000)
+    [64, 128, 256, 512, 40]
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from s2gen.experiments import peers
+from s2gen.runtime import IntegrationError, Options, Trajectory, get_backend, simulate
+from s2gen.system import System
+
+from .common import Log, _why
+from .model import LongSeries, LongSetup
+
+
+@dataclass
+class _Tracker:
+    """Accumulates one long run's windows; q, w is the state to continue from."""
+
+    series: LongSeries
+    system: System
+    params: np.ndarray
+    conserved: tuple[int, ...]
+    q: np.ndarray
+    w: np.ndarray
+    e0: float = math.nan
+    l0: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    t: float = 0.0
+
+    def start(self) -> None:
+        be = get_backend(self.system, "c")
+        self.e0 = be.energy(self.q, self.w, self.params)
+        self.l0 = be.angular_momentum(self.q, self.w, self.params)
+
+    def window(self, t_end: float, q: np.ndarray, w: np.ndarray, energy: np.ndarray) -> None:
+        """Record the maxima over one window's samples (q, w: (k, n, 3)); continue from the last."""
+        be = get_backend(self.system, "c")
+        s = self.series
+        s.t.append(t_end)
+        s.dE.append(float(np.max(np.abs(energy - self.e0))))
+        s.unit.append(float(np.max(np.abs(np.linalg.norm(q, axis=-1) - 1.0))))
+        s.qw.append(float(np.max(np.abs(np.einsum("...c,...c->...", q, w)))))
+        picks = np.unique(np.linspace(0, len(q) - 1, min(len(q), 9)).astype(int))
+        dl = [be.angular_momentum(q[i], w[i], self.params) - self.l0 for i in picks]
+        comps = list(self.conserved)
+        s.dL.append(float(np.max(np.abs(np.asarray(dl)[:, comps]))) if comps else math.nan)
+        self.q, self.w, self.t = q[-1].copy(), w[-1].copy(), t_end
+
+    def run(self, method: str, h: float, T: float, options: Options | None = None) -> Trajectory:
+        """One window on the emitted C from the current state (raises `IntegrationError`)."""
+        return simulate(
+            self.system,
+            method,
+            "c",
+            h=h,
+            T=T,
+            options=options,
+            params=self.params,
+            q0=self.q,
+            omega0=self.w,
+        )
+
+    def add(self, t_end: float, out: Trajectory) -> None:
+        """Count a window run by `run` (wall time, gradient evaluations) and record it."""
+        self.series.wall += out.wall_time
+        self.series.evals += int(out.stats.get("gradient_evals", 0))
+        self.window(t_end, out.q, out.omega, out.energy)
+
+
+def _windows(total_steps: int, first: int = 64, largest: int = 2**17) -> list[int]:
+    """Chunk lengths doubling from `first` up to `largest`, summing to total_steps."""
+    out, size, done = [], first, 0
+    while done < total_steps:
+        n = min(size, total_steps - done)
+        out.append(n)
+        done += n
+        size = min(2 * size, largest)
+    return out
+
+
+class _Progress:
+    def __init__(self, label: str, total: float, log: Log, every: float = 3.0) -> None:
+        self.label, self.total, self.log, self.every = label, total, log, every
+        self.start = self.last = time.perf_counter()
+
+    def __call__(self, t: float) -> None:
+        now = time.perf_counter()
+        if now - self.last >= self.every:
+            self.last = now
+            frac = 100 * t / self.total
+            self.log(
+                f"      ... {self.label}: t = {t:.6g} / {self.total:.6g} ({frac:.0f} %), "
+                f"{now - self.start:.0f} s"
+            )
+
+
+def _long_fixed(tr: _Tracker, h: float, total_steps: int, log: Log) -> LongSeries:
+    s = tr.series
+    prog = _Progress(s.label, total_steps * h, log)
+    done = 0
+    for n in _windows(total_steps):
+        try:
+            out = tr.run(s.method, h, n * h)
+        except IntegrationError as exc:
+            s.status = f"{_why(exc)} in the window from step {done}"
+            break
+        done += n
+        s.steps = done
+        tr.add(done * h, out)
+        prog(done * h)
+    return s
+
+
+def _long_rk45(tr: _Tracker, ends: Sequence[float], log: Log) -> LongSeries:
+    s = tr.series
+    prog = _Progress(s.label, ends[-1], log)
+    opts = Options(rtol=s.rtol, atol=s.rtol, control="hairer")
+    for t_end in ends:
+        span = t_end - tr.t
+        try:
+            out = tr.run("rk45", span / 32, span, opts)
+        except IntegrationError as exc:
+            s.status = f"{_why(exc)} in the window ending at t = {t_end:g}"
+            break
+        s.steps += int(out.stats.get("steps", 0))
+        tr.add(t_end, out)
+        prog(t_end)
+    return s
+
+
+def _long_dop853(tr: _Tracker, ends: Sequence[float], log: Log) -> LongSeries:
+    from scipy.integrate import solve_ivp
+
+    s = tr.series
+    n = tr.system.n
+    f = peers.c_field(tr.system, tr.params)
+    be = get_backend(tr.system, "c")
+    prog = _Progress(s.label, ends[-1], log)
+    for t_end in ends:
+        y0 = np.concatenate([tr.q.ravel(), tr.w.ravel()])
+        t_eval = np.linspace(tr.t, t_end, 33)
+        start = time.perf_counter()
+        sol = solve_ivp(f, (tr.t, t_end), y0, "DOP853", t_eval, rtol=s.rtol, atol=s.rtol)
+        s.wall += time.perf_counter() - start
+        if not sol.success or not np.all(np.isfinite(sol.y)):
+            s.status = f"failed ({sol.message}) in the window ending at t = {t_end:g}"
+            break
+        s.evals += int(sol.nfev)
+        y = sol.y.T
+        q, w = y[:, : 3 * n].reshape(-1, n, 3), y[:, 3 * n :].reshape(-1, n, 3)
+        energy = np.array([be.energy(q[i], w[i], tr.params) for i in range(len(q))])
+        tr.window(t_end, q, w, energy)
+        prog(t_end)
+    return s
+
+
+def _tracker(setup: LongSetup, label: str, method: str, h: float, rtol: float) -> _Tracker:
+    series = LongSeries(setup.name, label, method, h, rtol)
+    p = np.array(setup.system.parameter_values, dtype=float)
+    tr = _Tracker(series, setup.system, p, setup.conserved, setup.q0.copy(), setup.w0.copy())
+    tr.start()
+    return tr

@@ -1,0 +1,167 @@
+"""Scaling with n: generation time (derive + emit + gcc) and time per step against size.
+
+Input: `quick`. Output: one `ScaleRow` per system size: elastic rods (coupled M, n = 5 … 80)
+and Lennard-Jones particles on a Fibonacci sphere (`md_system`: all pairs, and with a
+cutoff, up to n = 10⁵), generated in a fresh build cache with SymPy's caches cleared.
+
+Example:
+    >>> md_system(50, cutoff=2.5).n
+    50
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import numpy as np
+
+from s2gen.runtime import simulate
+from s2gen.system import System
+
+from .common import Log, _best_wall, _print
+from .model import ScaleRow
+
+
+@contextlib.contextmanager
+def _fresh_cache() -> Iterator[Path]:
+    """A private, empty build cache ($S2GEN_CACHE) so gcc really runs; removed afterwards."""
+    old = os.environ.get("S2GEN_CACHE")
+    tmp = tempfile.mkdtemp(prefix="s2gen-bench-cache-")
+    os.environ["S2GEN_CACHE"] = tmp
+    try:
+        yield Path(tmp)
+    finally:
+        if old is None:
+            os.environ.pop("S2GEN_CACHE", None)
+        else:
+            os.environ["S2GEN_CACHE"] = old
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def md_system(n: int, cutoff: float | None = None) -> System:
+    """n Lennard-Jones particles on a Fibonacci lattice of the unit sphere (diagonal M).
+
+    sigma puts the force zero at the mean nearest-neighbour distance; `cutoff` (in units of
+    sigma) restricts the all-pairs term to |q_i - q_j| < cutoff sigma (neighbour lists);
+    velocities are the paper's two vortices.
+
+    Example:
+        >>> md_system(100).n
+        100
+    """
+    from s2gen.system import RunSettings
+    from s2gen.systems.paper import (
+        lennard_jones_sigma,
+        lennard_jones_system,
+        nearest_neighbour_distance,
+        vortex_axes,
+        vortex_velocities,
+    )
+
+    k = np.arange(n) + 0.5
+    z = 1 - 2 * k / n
+    phi = math.pi * (1 + math.sqrt(5)) * k
+    r = np.sqrt(1 - z**2)
+    pts = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+    sig = lennard_jones_sigma(nearest_neighbour_distance(pts))
+    w = vortex_velocities(pts, vortex_axes(30.0), (1.0, 1.0), math.radians(15.0))
+    return lennard_jones_system(
+        "md_fibonacci",
+        pts,
+        w,
+        sig,
+        RunSettings(h=0.005, T=1.0, method="vi"),
+        f"s2gen.bench.md_system(n={n}, cutoff={cutoff})",
+        cutoff=None if cutoff is None else cutoff * sig,
+    )
+
+
+def _per_step(system: System, method: str, budget: float = 0.3) -> float:
+    """Best-of-3 microseconds per step, with a step count aimed at `budget` seconds."""
+    h = system.run.h or 1e-3
+    probe = simulate(system, method, "c", h=h, T=2 * h)
+    per = max(probe.wall_time / 2, 1e-8)
+    n = int(min(max(budget / per, 2), 200000))
+    tr = _best_wall(lambda: simulate(system, method, "c", h=h, T=n * h), 3)
+    return tr.wall_time / n * 1e6
+
+
+def _clear_sympy_caches() -> None:
+    """Forget every derivation s2gen caches (printed modules, generic kernels), so a
+    generation time includes the whole SymPy derivation."""
+    from sympy.core.cache import clear_cache
+
+    from s2gen import emit, passes
+
+    clear_cache()
+    emit._printed_cached.cache_clear()
+    generic = getattr(passes, "generic_kernels", None)
+    if generic is not None and hasattr(generic, "cache_clear"):
+        generic.cache_clear()
+
+
+def _scale_one(family: str, n: int, make: Callable[[], System], log: Log) -> ScaleRow:
+    from s2gen.build import compile_shared
+    from s2gen.emit import emit
+
+    t0 = time.perf_counter()
+    system = make()
+    t1 = time.perf_counter()
+    _clear_sympy_caches()
+    try:
+        files = emit(system, "c")
+        t2 = time.perf_counter()
+        compile_shared(files)
+        t3 = time.perf_counter()
+        vi = _per_step(system, "vi")
+        rk4 = _per_step(system, "rk4")
+        status = "ok"
+    except Exception as exc:  # noqa: BLE001 - report the size that broke, keep going
+        log(f"    {family} n = {n}: {type(exc).__name__}: {str(exc)[:200]}")
+        nan = math.nan
+        return ScaleRow(family, n, t1 - t0, nan, nan, 0, nan, nan, f"failed: {type(exc).__name__}")
+    size = sum(len(v) for k, v in files.items() if k.endswith(".c"))
+    row = ScaleRow(family, n, t1 - t0, t2 - t1, t3 - t2, size, vi, rk4, status)
+    log(
+        f"    {family:14s} n = {n:>6d}: create {row.create_s:6.2f} s, derive+emit "
+        f"{row.emit_s:6.2f} s, gcc {row.gcc_s:6.2f} s; per step vi {vi:.3g} us, rk4 {rk4:.3g} us"
+    )
+    return row
+
+
+def scaling(quick: bool = False, log: Log = _print) -> list[ScaleRow]:
+    """Generation (derive + emit + gcc, fresh caches) and per-step time against n.
+
+    Rod: coupled M, n = 5 ... 80. Molecular dynamics: diagonal M, one all-pairs
+    Lennard-Jones term, and its cutoff (neighbour-list) variant up to
+    n = 10^5. All-pairs sizes stop once a VI step takes longer than 0.5 s.
+
+    Example:
+        >>> rows = scaling(quick=True)  # doctest: +SKIP
+        >>> rows[0].family, rows[0].n  # doctest: +SKIP
+        ('rod', 5)
+    """
+    from s2gen.systems.paper import elastic_rod
+
+    rows: list[ScaleRow] = []
+    log("scaling: generation and per-step time against n (fresh build cache)")
+    with _fresh_cache():
+        for n in (5, 10, 20) if quick else (5, 10, 20, 40, 80):
+            rows.append(_scale_one("rod", n, lambda n=n: elastic_rod(n), log))  # type: ignore[misc]
+        for n in (100, 300) if quick else (100, 300, 1000, 3000, 10000):
+            row = _scale_one("md all-pairs", n, lambda n=n: md_system(n), log)  # type: ignore[misc]
+            rows.append(row)
+            if not row.vi_us < 5e5:
+                break
+        sizes = (100, 1000) if quick else (100, 1000, 10000, 100000)
+        for n in sizes:
+            make = lambda n=n: md_system(n, cutoff=2.5)  # type: ignore[misc]
+            rows.append(_scale_one("md cutoff 2.5σ", n, make, log))
+    return rows

@@ -1,0 +1,122 @@
+"""Derivation cost of one form: derive, lower and emit it, timed, in a fresh subprocess.
+
+Input: a `System` and a form of `FORMS` (and a time budget). Output: a dict with the
+derivation + cse time of the vector field ("seconds") and of the whole emitted module
+("module_seconds"), its operation counts before and after cse, the flops of its linear solve
+and the emitted C files; None when the budget runs out (a blow-up is reported, not waited
+for), {"error": ...} when the derivation fails.
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> _derive(builtin("double_pendulum"), "s2")["ops"] > 0  # doctest: +SKIP
+    True
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import time
+from typing import Any
+
+from s2gen.equations.angles import derive_angles, lower_angles, print_angles
+from s2gen.equations.continuous import continuous_kernels
+from s2gen.equations.structure import coupling_pairs, system_kernels, term_kernels
+from s2gen.ir import Kernel, Module
+from s2gen.passes import lower, lower_system
+from s2gen.printing import print_module
+from s2gen.render import render, render_angles
+from s2gen.system import System
+
+
+def _rhs_ops_s2(module: Module) -> tuple[int, int, int]:
+    """(ops before cse, after cse, after cse as evaluated per call) of the S^2 vector field."""
+    named = {k.name: k for k in module.system_kernels + module.body_kernels}
+    uses: list[tuple[Kernel, int]] = [(named["inertia"], 1)]
+    if "gradient" in named:
+        uses.append((named["gradient"], 1))
+    uses += [(t.gradient, t.count) for t in module.terms]
+    npairs = len(module.pairs)
+    if module.coupled:
+        uses += [(named["rhs_body"], module.n), (named["rhs_pair"], npairs)]
+        uses.append((named["a_pair"], npairs))
+    else:
+        uses.append((named["rhs_diag"], module.n))
+    before = sum(k.ops_before for k, _ in uses)
+    return before, sum(k.ops_after for k, _ in uses), sum(k.ops_after * c for k, c in uses)
+
+
+def _s2_field_seconds(system: System) -> float:
+    """Derivation + cse time of the S^2 vector field alone (continuous and system kernels)."""
+    start = time.perf_counter()
+    coupled = bool(coupling_pairs(system))
+    defs = continuous_kernels(coupled) + system_kernels(system)
+    defs += [k for i, t in enumerate(system.terms) for k in term_kernels(system, i, t)]
+    for k in defs:
+        lower(k)
+    return time.perf_counter() - start
+
+
+def _derive(system: System, form: str) -> dict[str, Any]:
+    """Derive, lower and emit one form in this process; timings, op counts and C files.
+
+    "seconds" is the vector field's derivation + cse; "module_seconds" that of every kernel
+    of the emitted module (for S^2 also the variational integrators' generic kernels).
+    """
+    if form == "s2":
+        field = _s2_field_seconds(system)
+        start = time.perf_counter()
+        module = lower_system(system)
+        whole = time.perf_counter() - start
+        files = render(print_module(module), "c")
+        before, after, evaluated = _rhs_ops_s2(module)
+        dim = 3 * system.n if module.coupled else 0
+        solve = 2 * dim**3 // 3  # LU with partial pivoting, as the angle form
+    else:
+        start = time.perf_counter()
+        angles = lower_angles(derive_angles(system, simplify=form == "angles-simplified"))
+        field = whole = time.perf_counter() - start
+        files = render_angles(print_angles(angles), "c")
+        before = angles.system_kernels[0].ops_before
+        after = evaluated = angles.system_kernels[0].ops_after
+        solve = 2 * (2 * system.n) ** 3 // 3
+    return {
+        "seconds": field,
+        "module_seconds": whole,
+        "ops_before": before,
+        "ops": after,
+        "ops_evaluated": evaluated,
+        "solve_flops": solve,
+        "files": files,
+    }
+
+
+def _derive_job(system: System, form: str, conn: Any) -> None:
+    """Subprocess entry: derive one form and send the result (or the error) back."""
+    try:
+        conn.send(_derive(system, form))
+    except Exception as exc:  # noqa: BLE001 - any failure is reported to the parent
+        conn.send({"error": f"{type(exc).__name__}: {exc}"})
+    conn.close()
+
+
+def derive_with_budget(system: System, form: str, budget: float) -> dict[str, Any] | None:
+    """`_derive` in a fresh subprocess (cold caches); None if it takes longer than `budget` s.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> derive_with_budget(builtin("double_pendulum"), "angles", 60)["ops"]  # doctest: +SKIP
+        386
+    """
+    ctx = multiprocessing.get_context("spawn")
+    parent, child = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_derive_job, args=(system, form, child), daemon=True)
+    proc.start()
+    child.close()
+    result: dict[str, Any] | None = None
+    if parent.poll(budget):
+        result = parent.recv()
+    proc.join(timeout=None if result is not None else 0)
+    if proc.is_alive():
+        proc.terminate()
+        proc.join()
+    return result
