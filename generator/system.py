@@ -30,6 +30,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
+from s2gen.symbols import local_vector, q_symbol, q_symbols
+
 __all__ = [
     "UNIT_LENGTH_TOLERANCE",
     "RunSettings",
@@ -38,10 +40,6 @@ __all__ = [
     "System",
     "Term",
     "TermData",
-    "local_vector",
-    "q_symbol",
-    "q_symbols",
-    "q_vector",
 ]
 
 #: A q_i further than this from unit length is an error; closer ones are normalized (warning).
@@ -97,21 +95,6 @@ class SpecWarning(UserWarning):
     """A system specification was accepted after a small correction (e.g. normalization)."""
 
 
-def q_symbol(i: int, c: int) -> sp.Symbol:
-    """Component c (0, 1, 2) of body i's unit vector (i is 1-based)."""
-    return sp.Symbol(f"q{i}_{c}", real=True)
-
-
-def q_vector(i: int) -> sp.Matrix:
-    """Body i's unit vector as a 3x1 SymPy column (i is 1-based)."""
-    return sp.Matrix([q_symbol(i, c) for c in range(3)])
-
-
-def q_symbols(n: int) -> list[sp.Symbol]:
-    """All 3n position symbols in storage order (body-major, then component)."""
-    return [q_symbol(i, c) for i in range(1, n + 1) for c in range(3)]
-
-
 @dataclass(frozen=True)
 class RunSettings:
     """Default run settings of a spec's [run] table (all optional)."""
@@ -121,12 +104,6 @@ class RunSettings:
     method: str | None = None
     rtol: float | None = None
     atol: float | None = None
-
-
-def local_vector(role: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
-    """Symbols of a term's own vectors: role "q" (one-body terms), "qi"/"qj" (pair terms), or
-    a vector data name; named role_0, role_1, role_2."""
-    return tuple(sp.Symbol(f"{role}_{c}", real=True) for c in range(3))  # type: ignore[return-value]
 
 
 @dataclass(frozen=True)

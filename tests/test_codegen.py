@@ -12,8 +12,9 @@ from s2gen.build import STRICT_FLAGS, compile_shared, compiler
 from s2gen.cli import GENERATED_SYSTEMS, regenerate
 from s2gen.emit import emit
 from s2gen.equations.continuous import system_matrix_blocks
-from s2gen.equations.geometry import cayley_apply, cayley_apply_tangent, dot, hat, vec
+from s2gen.equations.geometry import cayley_apply, cayley_apply_tangent, dot, hat
 from s2gen.runtime import get_backend
+from s2gen.symbols import vector
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -84,7 +85,7 @@ def test_completed_diagonal_block_and_paper_blocks() -> None:
     """A_ii = M_ii I after completion on |q| = 1; A_ij = -M_ij hat(q_i) hat(q_j) (eq. ELwm)."""
     Aii, Aij, b = system_matrix_blocks()
     m, mij = sp.Symbol("m", positive=True), sp.Symbol("mij", real=True)
-    qi, qj, wj, gi = vec("qi"), vec("qj"), vec("wj"), vec("gi")
+    qi, qj, wj, gi = vector("qi"), vector("qj"), vector("wj"), vector("gi")
     assert Aii == m * sp.eye(3)
     assert (Aij + mij * hat(qi) * hat(qj)).applyfunc(sp.expand) == sp.zeros(3, 3)
     expected_b = mij * dot(wj, wj) * qi.cross(qj) - qi.cross(gi)
@@ -96,13 +97,13 @@ def test_cayley_identities() -> None:
     # q on the unit sphere by a rational parametrization; f = a x q is orthogonal to it
     u, v = sp.symbols("u v", real=True)
     q = sp.Matrix([2 * u, 2 * v, 1 - u**2 - v**2]) / (1 + u**2 + v**2)
-    f_t = vec("a").cross(q)
+    f_t = vector("a").cross(q)
     lhs = q.cross(cayley_apply_tangent(f_t, q))
     rhs = 2 * f_t / (1 + dot(f_t, f_t))
     assert (lhs - rhs).applyfunc(sp.simplify) == sp.zeros(3, 1)
     full = cayley_apply(f_t, q) - cayley_apply_tangent(f_t, q)
     assert full.applyfunc(sp.simplify) == sp.zeros(3, 1)
-    f, q = vec("f"), vec("q")
+    f, q = vector("f"), vector("q")
     # and the full Cayley map keeps length for any f (numerically)
     rng = np.random.default_rng(1)
     fn, qn = rng.normal(size=3), rng.normal(size=3)

@@ -8,7 +8,8 @@ import pytest
 import sympy as sp
 
 from s2gen.runtime import get_backend, simulate
-from s2gen.system import SpecError, System, Term, local_vector
+from s2gen.symbols import local_vector
+from s2gen.system import SpecError, System, Term
 
 
 def fibonacci_sphere(n: int) -> np.ndarray:

@@ -21,7 +21,8 @@ from s2gen.experiments.paper import EXAMPLES
 from s2gen.metrics import summary
 from s2gen.reference import ReferenceProblem, problem_from_system
 from s2gen.runtime import METHODS, simulate
-from s2gen.system import System, local_vector
+from s2gen.symbols import local_vector
+from s2gen.system import System
 from s2gen.systems import builtin, builtin_names, resolve
 from s2gen.systems import paper as ps
 

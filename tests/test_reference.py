@@ -27,7 +27,8 @@ from s2gen.reference import (
     vi_residual,
     vi_step,
 )
-from s2gen.system import System, q_symbol, q_vector
+from s2gen.symbols import q_symbol, q_vector
+from s2gen.system import System
 
 E3 = np.array([0.0, 0.0, 1.0])
 

@@ -18,7 +18,8 @@ import pytest
 import sympy as sp
 
 from s2gen.reference import integrate, problem_from_system
-from s2gen.system import SpecError, System, Term, TermData, local_vector, q_symbol, q_symbols
+from s2gen.symbols import local_vector, q_symbol, q_symbols
+from s2gen.system import SpecError, System, Term, TermData
 
 QV = sp.Matrix(local_vector("q"))
 QI = sp.Matrix(local_vector("qi"))

@@ -13,7 +13,8 @@ import pytest
 import sympy as sp
 
 from s2gen.spec import define_system, load_spec, load_spec_text, parse_expression
-from s2gen.system import RunSettings, SpecError, SpecWarning, System, q_symbol
+from s2gen.symbols import q_symbol
+from s2gen.system import RunSettings, SpecError, SpecWarning, System
 from s2gen.systems import builtin, builtin_names, resolve
 
 BASE = """\

@@ -12,7 +12,8 @@ import pytest
 import sympy as sp
 
 from s2gen.spec import define_system, load_spec, load_spec_text, parse_expression
-from s2gen.system import SpecError, System, Term, TermData, local_vector, q_symbol, q_vector
+from s2gen.symbols import local_vector, q_symbol, q_vector
+from s2gen.system import SpecError, System, Term, TermData
 
 SPECS = Path(__file__).parent / "specs"
 PARAMS = {"m": 0.1, "l": 0.1, "g": 9.81}

@@ -50,7 +50,8 @@ from s2gen.passes import lower
 from s2gen.printing import PrintedKernel, print_kernel
 from s2gen.render import render_angles
 from s2gen.runtime import CONTROLS, Options
-from s2gen.system import SpecError, System, q_symbol
+from s2gen.symbols import q_symbol
+from s2gen.system import SpecError, System
 
 __all__ = [
     "ANGLE_METHODS",

@@ -23,8 +23,9 @@ from __future__ import annotations
 
 import sympy as sp
 
-from s2gen.equations.geometry import dot, vec
+from s2gen.equations.geometry import dot
 from s2gen.ir import Argument, KernelDef, Output
+from s2gen.symbols import vector
 
 __all__ = ["continuous_kernels", "el_residual", "system_matrix_blocks"]
 
@@ -68,7 +69,7 @@ def system_matrix_blocks() -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
     Returns the completed diagonal block (M_ii I after the identity -hat(q)^2 + q q^T = I on
     |q| = 1), the off-diagonal block dR_i/d omegadot_j, and b_i = -R_i(omegadot = 0).
     """
-    qi, qj, wi, wj, ai, aj, gi = (vec(s) for s in ("qi", "qj", "wi", "wj", "ai", "aj", "gi"))
+    qi, qj, wi, wj, ai, aj, gi = (vector(s) for s in ("qi", "qj", "wi", "wj", "ai", "aj", "gi"))
     R = el_residual(M_II, M_IJ, qi, qj, wi, wj, ai, aj, gi)
     Aii_raw = R.jacobian(ai)
     Aij = R.jacobian(aj)
@@ -82,12 +83,12 @@ def system_matrix_blocks() -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
 
 def continuous_kernels(coupled: bool) -> list[KernelDef]:
     """Per-body (and, if `coupled`, per-pair) kernels of energy, momenta and the vector field."""
-    q, w, g = vec("q"), vec("w"), vec("g")
-    qi, wi, qj, wj = vec("qi"), vec("wi"), vec("qj"), vec("wj")
+    q, w, g = vector("q"), vector("w"), vector("g")
+    qi, wi, qj, wj = vector("qi"), vector("wi"), vector("qj"), vector("wj")
     vi, vj = wi.cross(qi), wj.cross(qj)
     v = w.cross(q)
     _, Aij, b = system_matrix_blocks()
-    gi = vec("gi")
+    gi = vector("gi")
     # b splits into a one-body part (M_ij = 0) and a pair part (g_i = 0); M_ii drops out.
     b_body = b.subs({M_IJ: 0}).subs(dict(zip(list(qi) + list(gi), list(q) + list(g))))
     b_pair_i = b.subs({gc: 0 for gc in gi}).applyfunc(lambda e: sp.factor(e))

@@ -33,8 +33,9 @@ from __future__ import annotations
 
 import sympy as sp
 
-from s2gen.equations.geometry import cayley_apply, cayley_displacement, dot, hat, vec
+from s2gen.equations.geometry import cayley_apply, cayley_displacement, dot, hat
 from s2gen.ir import Argument, KernelDef, Output
+from s2gen.symbols import vector
 
 __all__ = ["explicit_kernels", "legendre_pair", "newton_kernels"]
 
@@ -66,8 +67,8 @@ def legendre_pair() -> dict[str, sp.Matrix]:
     Returns the tangent (cross-product) forms of -D_{q_i} L_d and D_{q_i+} L_d, and the
     momenta q_i x sum_j M_ij qdot_j at both ends, in symbols qi, qj, qni, qnj, wi, wj, gi, gni...
     """
-    qi, qj, qni, qnj = vec("qi"), vec("qj"), vec("qni"), vec("qnj")
-    gi, gj, gni, gnj = vec("gi"), vec("gj"), vec("gni"), vec("gnj")
+    qi, qj, qni, qnj = vector("qi"), vector("qj"), vector("qni"), vector("qnj")
+    gi, gj, gni, gnj = vector("gi"), vector("gj"), vector("gni"), vector("gnj")
     di, dj = qni - qi, qnj - qj
     kinetic = (M_II * dot(di, di) + 2 * M_IJ * dot(di, dj) + M_JJ * dot(dj, dj)) / (2 * H)
     # V enters through its gradient: V(q) ~ g.q to first order is all D L_d ever sees.
@@ -79,13 +80,13 @@ def legendre_pair() -> dict[str, sp.Matrix]:
 
 def explicit_kernels() -> list[KernelDef]:
     """Closed-form VI step for a body whose row of M is diagonal (paper's qikpexp/wikpexp)."""
-    q, w, g, qn, gn = vec("q"), vec("w"), vec("g"), vec("qn"), vec("gn")
+    q, w, g, qn, gn = vector("q"), vector("w"), vector("g"), vector("qn"), vector("gn")
     lp = legendre_pair()
-    qi, gi = vec("qi"), vec("gi")
+    qi, gi = vector("qi"), vector("gi")
     # d_i = h q_i x p_i - h (q_i x -D_{q_i} L_d)|_{q+ = q}; the second term (M_ij = 0) is the
     # gradient part, h^2/2 q_i x g_i.
     d_grad = (
-        -(H * lp["minus_D1"]).subs({M_IJ: 0}).subs({**{c: c2 for c, c2 in zip(vec("qni"), qi)}})
+        -(H * lp["minus_D1"]).subs({M_IJ: 0}).subs({**{c: c2 for c, c2 in zip(vector("qni"), qi)}})
     )
     d_grad = _tidy(d_grad.subs(dict(zip(list(qi) + list(gi), list(q) + list(g)))))
     a = H * w + d_grad / M_II
@@ -112,12 +113,19 @@ def explicit_kernels() -> list[KernelDef]:
 def newton_kernels() -> list[KernelDef]:
     """Kernels of the implicit VI step for coupled M (paper's DELw1 with impf, DELw2m)."""
     lp = legendre_pair()
-    qi, qj, qni, qnj = vec("qi"), vec("qj"), vec("qni"), vec("qnj")
-    wi, wj, gi = vec("wi"), vec("wj"), vec("gi")
-    fi, fj = vec("fi"), vec("fj")
-    q, w, g, f, qn, gn = vec("q"), vec("w"), vec("g"), vec("f"), vec("qn"), vec("gn")
+    qi, qj, qni, qnj = vector("qi"), vector("qj"), vector("qni"), vector("qnj")
+    wi, wj, gi = vector("wi"), vector("wj"), vector("gi")
+    fi, fj = vector("fi"), vector("fj")
+    q, w, g, f, qn, gn = (
+        vector("q"),
+        vector("w"),
+        vector("g"),
+        vector("f"),
+        vector("qn"),
+        vector("gn"),
+    )
     to_body = {**dict(zip(qi, q)), **dict(zip(gi, g)), **dict(zip(qni, qn)), **dict(zip(wi, w))}
-    to_body.update({gc: gnc for gc, gnc in zip(vec("gni"), gn)})
+    to_body.update({gc: gnc for gc, gnc in zip(vector("gni"), gn)})
 
     # Known side d_i = h q_i x p_i - h (q_i x -D_{q_i} L_d)|_{q+ = q}: momentum part
     # h q_i x sum_j M_ij (omega_j x q_j), gradient part -h^2/2 q_i x g_i.
@@ -134,7 +142,7 @@ def newton_kernels() -> list[KernelDef]:
     # Displacements F_j q_j - q_j are written from f_j directly (`cayley_displacement`).
     # q x F q = 2 (q.q) f / (1 + f.f) holds for f orthogonal to q at any |q|; keeping the factor
     # (q.q) stops the round-off in |q| from leaking into the momentum step after step.
-    r_body = 2 * M_II * dot(q, q) * f / (1 + dot(f, f)) - vec("d")
+    r_body = 2 * M_II * dot(q, q) * f / (1 + dot(f, f)) - vector("d")
     r_pair_i = M_IJ * qi.cross(cayley_displacement(fj, qj))
     r_pair_j = M_IJ * qj.cross(cayley_displacement(fi, qi))
 
@@ -143,15 +151,15 @@ def newton_kernels() -> list[KernelDef]:
     # in the self term q_i+ x (q_i+ - q_i) = q_i x F_i q_i = 2 f_i/(1 + f_i.f_i), so that the
     # 1/h in front multiplies quantities of size h, never a difference of unit vectors.
     c_all = lp["D2"]
-    disp = {**dict(zip(qni, qi + vec("ui"))), **dict(zip(qnj, qj + vec("uj")))}
+    disp = {**dict(zip(qni, qi + vector("ui"))), **dict(zip(qnj, qj + vector("uj")))}
     c_disp = c_all.subs(disp, simultaneous=True)
-    self_part = c_disp.subs({M_IJ: 0}).subs({gc: 0 for gc in vec("gni")})
-    check = (self_part - M_II / H * (qi + vec("ui")).cross(vec("ui"))).applyfunc(sp.expand)
+    self_part = c_disp.subs({M_IJ: 0}).subs({gc: 0 for gc in vector("gni")})
+    check = (self_part - M_II / H * (qi + vector("ui")).cross(vector("ui"))).applyfunc(sp.expand)
     assert check == sp.zeros(3, 1), "self term of D2 must be M_ii/h q_i+ x (q_i+ - q_i)"
     c_body = M_II / H * 2 * dot(q, q) * f / (1 + dot(f, f)) + _tidy(
         c_all.subs({M_II: 0, M_IJ: 0}).subs(to_body, simultaneous=True)
     )
-    pair_part = c_all.subs({M_II: 0}).subs({gc: 0 for gc in vec("gni")})
+    pair_part = c_all.subs({M_II: 0}).subs({gc: 0 for gc in vector("gni")})
     # pair part is M_ij/h q_i+ x (q_j+ - q_j): keep q_i+, substitute the displacement of j
     c_pair_i = pair_part.subs(dict(zip(qnj, qj + cayley_displacement(fj, qj))), simultaneous=True)
     c_pair_j = c_pair_i.subs(
@@ -183,7 +191,7 @@ def newton_kernels() -> list[KernelDef]:
         KernelDef(
             "res_body",
             "residual 2 M_ii (q.q) f/(1+f.f) - d and its Jacobian block in f (row-major)",
-            (_s(M_II), _a("q", q), _a("f", f), _a("d", vec("d"))),
+            (_s(M_II), _a("q", q), _a("f", f), _a("d", vector("d"))),
             (_o("r", r_body), Output("jac", flat(r_body.jacobian(f)))),
         ),
         KernelDef(

@@ -13,12 +13,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-__all__ = ["cayley_apply", "cayley_apply_tangent", "dot", "hat", "vec"]
-
-
-def vec(prefix: str) -> sp.Matrix:
-    """A 3x1 column of real symbols named prefix0, prefix1, prefix2."""
-    return sp.Matrix([sp.Symbol(f"{prefix}{c}", real=True) for c in range(3)])
+__all__ = ["cayley_apply", "cayley_apply_tangent", "cayley_displacement", "dot", "hat"]
 
 
 def hat(a: sp.Matrix) -> sp.Matrix:

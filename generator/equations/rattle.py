@@ -21,8 +21,9 @@ from __future__ import annotations
 
 import sympy as sp
 
-from s2gen.equations.geometry import dot, vec
+from s2gen.equations.geometry import dot
 from s2gen.ir import Argument, KernelDef, Output
+from s2gen.symbols import vector
 
 __all__ = ["rattle_kernels"]
 
@@ -32,7 +33,7 @@ M_II = sp.Symbol("m", positive=True)
 
 def rattle_kernels() -> list[KernelDef]:
     """Closed-form RATTLE position and velocity updates of one body (diagonal M)."""
-    x, v, g, xn, vh, gn = (vec(s) for s in ("x", "v", "g", "xn", "vh", "gn"))
+    x, v, g, xn, vh, gn = (vector(s) for s in ("x", "v", "g", "xn", "vh", "gn"))
     y = x + H * v - H**2 / (2 * M_II) * g
     xy, xx, c = dot(x, y), dot(x, x), dot(y, y) - 1
     disc = xy**2 - xx * c

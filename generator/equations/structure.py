@@ -7,7 +7,8 @@ parameters. Everything generic (the flow itself) comes from `continuous.py` and 
 
 Example:
     >>> import sympy as sp
-    >>> from s2gen.system import System, q_symbol
+    >>> from s2gen.system import System
+from s2gen.symbols import q_symbol
     >>> m = sp.Symbol("m", real=True)
     >>> s = System.create(name="two", n=2, parameters={"m": 1.0},
     ...                   inertia=sp.diag(m, m), potential=q_symbol(1, 0) * q_symbol(2, 0))
@@ -20,7 +21,8 @@ from __future__ import annotations
 import sympy as sp
 
 from s2gen.ir import Argument, KernelDef, Output
-from s2gen.system import System, Term, local_vector, q_symbols
+from s2gen.symbols import local_vector, q_symbols
+from s2gen.system import System, Term
 
 __all__ = ["coupling_pairs", "has_general_potential", "system_kernels", "term_kernels"]
 

@@ -72,7 +72,8 @@ from typing import Any, TypeAlias
 import numpy as np
 import sympy as sp
 
-from s2gen.system import RunSettings, SpecError, System, Term, TermData, local_vector, q_vector
+from s2gen.symbols import local_vector, q_vector
+from s2gen.system import RunSettings, SpecError, System, Term, TermData
 
 __all__ = [
     "METHODS",

@@ -24,7 +24,8 @@ import numpy as np
 import sympy as sp
 from scipy.spatial import cKDTree
 
-from s2gen.system import RunSettings, System, Term, TermData, local_vector
+from s2gen.symbols import vector
+from s2gen.system import RunSettings, System, Term, TermData
 
 __all__ = [
     "DIPOLE_NUMBERINGS",
@@ -52,10 +53,6 @@ def _sym(name: str) -> sp.Symbol:
     return sp.Symbol(name, real=True)
 
 
-def _vec(role: str) -> sp.Matrix:
-    return sp.Matrix(local_vector(role))
-
-
 def _deg(angle: float) -> float:
     return math.radians(angle)
 
@@ -72,7 +69,7 @@ def three_bodies() -> System:
         ({'m': 1.0, 'gamma': 1.0}, 3)
     """
     m, gamma = _sym("m"), _sym("gamma")
-    c = _vec("qi").dot(_vec("qj"))
+    c = vector("qi").dot(vector("qj"))
     term = Term("pair", -gamma * c / sp.sqrt(1 - c**2), label="cotangent attraction")
     return System.create(
         name="three_bodies",
@@ -102,7 +99,7 @@ def four_pendula() -> System:
         (['gravity', 'midpoint springs'], ((0, 1), (1, 2), (2, 3), (3, 0)))
     """
     m, l, g, kappa = _sym("m"), _sym("l"), _sym("g"), _sym("kappa")
-    q, qi, qj, r = _vec("q"), _vec("qi"), _vec("qj"), _vec("r")
+    q, qi, qj, r = vector("q"), vector("qi"), vector("qj"), vector("r")
     gravity = Term("body", -m * g * l * q[2], label="gravity")
     stretch = sp.sqrt((l * r + l / 2 * (qj - qi)).dot(l * r + l / 2 * (qj - qi))) - l * sp.sqrt(
         r.dot(r)
@@ -174,7 +171,7 @@ def elastic_rod(n: int = 10, inertia: str = "paper") -> System:
     """
     M = rod_inertia(n, inertia)
     m, l, g, kappa = _sym("m"), _sym("l"), _sym("g"), _sym("kappa")
-    q, qi, qj, w, clamp = _vec("q"), _vec("qi"), _vec("qj"), _sym("w"), _vec("clamp")
+    q, qi, qj, w, clamp = vector("q"), vector("qi"), vector("qj"), _sym("w"), vector("clamp")
     # sum_i m_i g (sum_{j<i} l_j q_j + l_i q_i / 2).e3 = m g l/(n+1)^2 sum_j (n - j + 1/2) q_j.e3
     gravity = Term(
         "body",
@@ -256,7 +253,7 @@ def dipoles(plane: str = "xy", numbering: str = "row") -> System:
         (120, [0.3536, 0.3536, -0.866])
     """
     m, l, nu, mu = _sym("m"), _sym("l"), _sym("nu"), _sym("mu")
-    qi, qj, r = _vec("qi"), _vec("qj"), _vec("r")
+    qi, qj, r = vector("qi"), vector("qj"), vector("r")
     dist2 = r.dot(r) * (sp.Rational(6, 5) * l) ** 2
     rr = sp.Rational(6, 5) * l * r  # r_ij in metres
     energy = (
@@ -504,7 +501,7 @@ def lennard_jones_system(
         42
     """
     m, eps, sg = _sym("m"), _sym("eps"), _sym("sigma")
-    d = _vec("qi") - _vec("qj")
+    d = vector("qi") - vector("qj")
     s6 = (sg**2 / d.dot(d)) ** 3
     lj = Term("pair", 4 * eps * (s6**2 - s6), label="Lennard-Jones", cutoff=cutoff)
     n = len(q0)
