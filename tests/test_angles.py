@@ -18,17 +18,17 @@ import pytest
 import sympy as sp
 
 from s2gen.build import STRICT_FLAGS
-from s2gen.equations.angles import (
+from s2gen.equations.angles import derive_angles
+from s2gen.experiments import compare_angles as ca
+from s2gen.runtime import Options, get_backend, simulate
+from s2gen.runtime.angles import (
     AngleIntegrationError,
     PoleError,
     angle_backend,
-    derive_angles,
     emit_angles,
     simulate_angles,
     to_angles,
 )
-from s2gen.experiments import compare_angles as ca
-from s2gen.runtime import Options, get_backend, simulate
 from s2gen.spec import define_system
 from s2gen.system import System
 from s2gen.systems import builtin
@@ -154,7 +154,7 @@ def test_emitted_angle_c_compiles_strictly(name: str, tmp_path: Path) -> None:
 def test_emitted_angle_code_is_reproducible() -> None:
     system = builtin("double_pendulum")
     first = {lang: emit_angles(system, lang) for lang in ("c", "numpy")}
-    from s2gen.equations.angles import _printed
+    from s2gen.runtime.angles import _printed
 
     _printed.cache_clear()
     assert {lang: emit_angles(system, lang) for lang in ("c", "numpy")} == first

@@ -18,13 +18,14 @@ import multiprocessing
 import time
 from typing import Any
 
-from s2gen.equations.angles import derive_angles, lower_angles, print_angles
+from s2gen.equations.angles import derive_angles
 from s2gen.equations.continuous import continuous_kernels
 from s2gen.equations.structure import coupling_pairs, system_kernels, term_kernels
 from s2gen.ir import Kernel, Module
 from s2gen.passes import lower, lower_system
 from s2gen.printing import print_module
 from s2gen.render import render, render_angles
+from s2gen.runtime.angles import lower_angles, print_angles
 from s2gen.system import System
 
 

@@ -22,8 +22,8 @@ from dataclasses import replace
 import numpy as np
 
 from s2gen import metrics
-from s2gen.equations.angles import AngleIntegrationError, PoleError, simulate_angles
 from s2gen.runtime import IntegrationError, get_backend, simulate
+from s2gen.runtime.angles import AngleIntegrationError, PoleError, simulate_angles
 from s2gen.system import System
 
 from .model import ZOOM, Run, Settings

@@ -1,0 +1,92 @@
+"""The NumPy backend: the emitted NumPy module, cached by content hash and imported.
+
+Input: a `System`. Output: a backend object with the same methods as the C backend.
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> NumpyBackend(builtin("double_pendulum")).name
+    'numpy'
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+
+from s2gen.build import cache_dir
+from s2gen.emit import emit
+from s2gen.methods import CONTROLS, method
+from s2gen.runtime.options import Options
+from s2gen.system import System
+
+__all__ = ["NumpyBackend", "import_cached"]
+
+
+def import_cached(fname: str, text: str) -> ModuleType:
+    """Write a generated Python module to the cache folder under its content hash; import it."""
+    digest = hashlib.sha256(text.encode()).hexdigest()[:24]
+    path = cache_dir() / f"{Path(fname).stem}_{digest}.py"
+    if not path.exists() or path.read_text() != text:
+        tmp = path.with_suffix(f".{digest}.tmp")
+        tmp.write_text(text)
+        tmp.replace(path)
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+class NumpyBackend:
+    """The emitted NumPy module, written to the cache folder by content hash and imported."""
+
+    name = "numpy"
+
+    def __init__(self, system: System) -> None:
+        self.system = system
+        ((fname, text),) = emit(system, "numpy").items()
+        self.module = import_cached(fname, text)
+
+    def default_params(self) -> np.ndarray:
+        return np.array(self.system.parameter_values, dtype=float)
+
+    def energy(self, q: np.ndarray, w: np.ndarray, params: np.ndarray) -> float:
+        return float(self.module.energy(params, q, w))
+
+    def gradient(self, q: np.ndarray, params: np.ndarray) -> np.ndarray:
+        return np.asarray(self.module.gradient(params, q))
+
+    def rhs(self, q: np.ndarray, w: np.ndarray, params: np.ndarray) -> tuple[np.ndarray, ...]:
+        return tuple(np.asarray(a) for a in self.module.rhs(params, q, w))
+
+    def angular_momentum(self, q: np.ndarray, w: np.ndarray, params: np.ndarray) -> np.ndarray:
+        return np.asarray(self.module.angular_momentum(params, q, w))
+
+    def integrate(
+        self,
+        method_name: str,
+        h: float,
+        nsteps: int,
+        q0: np.ndarray,
+        w0: np.ndarray,
+        params: np.ndarray,
+        options: Options,
+    ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
+        return self.module.integrate(  # type: ignore[no-any-return]
+            params,
+            method(method_name).code,
+            h,
+            nsteps,
+            q0,
+            w0,
+            rtol=options.rtol,
+            atol=options.atol,
+            control=CONTROLS.index(options.control),
+            hmax=options.hmax,
+            newton_tol=options.newton_tol,
+            newton_maxiter=options.newton_maxiter,
+        )
