@@ -26,6 +26,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from s2gen.version import __version__
+
 __all__ = [
     "DEFAULT_FLAGS",
     "STRICT_FLAGS",
@@ -39,7 +41,7 @@ __all__ = [
 
 log = logging.getLogger("s2gen.build")
 
-GENERATOR_VERSION = "0.1.0"
+GENERATOR_VERSION = __version__
 #: Flags of the cached shared library. -std=c99 (ISO mode) keeps gcc from contracting a*b+c
 #: into fused multiply-adds, so results match NumPy's operation order closely.
 DEFAULT_FLAGS: tuple[str, ...] = ("-std=c99", "-O2", "-fPIC", "-shared")

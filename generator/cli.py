@@ -1,10 +1,14 @@
-"""Command line: parse arguments, call the pipeline, report.
+"""Command line: parse arguments, call the public API, report.
 
 Input: argv. Output: files (emitted code, trajectories) and a short report on stdout; errors
 in the spec or the run are printed as one clear line with exit status 2 (1 for a failed
 integration, whose partial trajectory is still saved).
 
-Commands: generate, simulate, list, regen, reproduce, compare-angles, bench. `s2gen COMMAND --help` documents each.
+Only the standard library and the method table are imported up front; each subcommand imports
+what it needs (SymPy, NumPy, an experiment) when it runs, so `s2gen --help` stays fast.
+
+Commands: generate, simulate, list, regen, reproduce, compare-angles, bench. `s2gen COMMAND
+--help` documents each.
 
 Example:
     >>> main(["list"])  # doctest: +ELLIPSIS
@@ -19,15 +23,9 @@ import sys
 import time
 import warnings
 from pathlib import Path
+from typing import Any
 
-import numpy as np
-
-from s2gen import metrics
-from s2gen.emit import LANGUAGES, emit, write_files
-from s2gen.experiments import bench, compare_angles
-from s2gen.runtime import BACKENDS, CONTROLS, METHODS, IntegrationError, Options, simulate
-from s2gen.system import SpecError, System
-from s2gen.systems import builtin, builtin_names, resolve
+from s2gen.methods import BACKENDS, CONTROLS, LANGUAGES, NAMES
 
 __all__ = ["GENERATED_SYSTEMS", "main", "regenerate"]
 
@@ -36,11 +34,16 @@ GENERATED_SYSTEMS = ("double_pendulum",)
 
 
 def _parser() -> argparse.ArgumentParser:
+    from s2gen.experiments.bench.command import add_parser as add_bench
+    from s2gen.experiments.compare_angles.command import add_parser as add_compare
+    from s2gen.experiments.reproduce.command import add_parser as add_reproduce
+
     p = argparse.ArgumentParser(
         prog="s2gen",
         description="Equations, variational integrators and C/NumPy code for mechanics on "
         "(S^2)^n. SPEC is a TOML file or the name of a built-in system (s2gen list).",
     )
+    p.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = p.add_subparsers(dest="command", required=True)
 
     g = sub.add_parser("generate", help="write the emitted C or NumPy code of a system")
@@ -50,7 +53,7 @@ def _parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("simulate", help="integrate a system and save the trajectory (.npz)")
     s.add_argument("spec", metavar="SPEC")
-    s.add_argument("--method", choices=METHODS, help="integrator (default: spec's [run], or vi)")
+    s.add_argument("--method", choices=NAMES, help="integrator (default: spec's [run], or vi)")
     s.add_argument("--backend", choices=BACKENDS, default="c", help="default c")
     s.add_argument("--h", type=float, help="step size (RK45: output spacing); default [run] h")
     s.add_argument("--T", type=float, help="final time; default [run] T")
@@ -69,34 +72,23 @@ def _parser() -> argparse.ArgumentParser:
     r = sub.add_parser("regen", help="rewrite the emitted code kept in generated/")
     r.add_argument("--out", default="generated", help="folder (default generated)")
 
-    _reproduce_parser(sub)
-    compare_angles.add_parser(sub)
-    bench.add_parser(sub)
+    add_reproduce(sub)
+    add_compare(sub)
+    add_bench(sub)
     return p
 
 
-def _reproduce_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    from s2gen.experiments.paper import EXAMPLES
+def _version() -> str:
+    from s2gen.version import __version__
 
-    rp = sub.add_parser(
-        "reproduce",
-        help="rerun the paper's numerical examples; write results.csv, results.md, figures",
-        description="Rerun the paper's examples with the emitted code, compare with the "
-        "printed values, and write results.csv, results.md and PNG figures to --out.",
-    )
-    rp.add_argument(
-        "examples",
-        nargs="*",
-        metavar="EXAMPLE",
-        help=f"examples to run (default all): {', '.join(EXAMPLES)}",
-    )
-    rp.add_argument("--out", default="out/reproduce", help="folder (default out/reproduce)")
-    rp.add_argument("--quick", action="store_true", help="shortened runs (about a minute)")
-    rp.add_argument("--backend", choices=BACKENDS, default="c", help="default c")
+    return __version__
 
 
 def regenerate(out: str | Path) -> list[Path]:
     """Write the C and NumPy code of `GENERATED_SYSTEMS` under out/<system>/<lang>/."""
+    from s2gen.emit import emit, write_files
+    from s2gen.systems import builtin
+
     paths: list[Path] = []
     for name in GENERATED_SYSTEMS:
         system = builtin(name)
@@ -106,6 +98,9 @@ def regenerate(out: str | Path) -> list[Path]:
 
 
 def _generate(args: argparse.Namespace) -> int:
+    from s2gen.emit import emit, write_files
+    from s2gen.systems import resolve
+
     system = resolve(args.spec)
     start = time.perf_counter()
     paths = write_files(emit(system, args.lang), args.out)
@@ -115,23 +110,22 @@ def _generate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _report(
-    system: System,
-    tr_method: str,
-    backend: str,
-    q: np.ndarray,
-    energy: np.ndarray,
-    steps: int,
-    wall: float,
-) -> None:
-    m = metrics.summary(q, energy)
-    print(f"{system.name}: {tr_method} on {backend}, {steps} steps in {wall:.3f} s")
+def _report(name: str, method: str, backend: str, tr: Any) -> None:
+    from s2gen import metrics
+
+    m = metrics.summary(tr.q, tr.energy)
+    print(f"{name}: {method} on {backend}, {len(tr.t) - 1} steps in {tr.wall_time:.3f} s")
     print(f"  |E - E0|          mean {m['mean_dE']:.4e}   max {m['max_dE']:.4e}")
     print(f"  | |q| - 1 |       mean {m['mean_norm']:.4e}   max {m['max_norm']:.4e}")
     print(f"  | q.q - 1 |       mean {m['mean_dot']:.4e}   max {m['max_dot']:.4e}")
 
 
 def _simulate(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from s2gen.runtime import IntegrationError, Options, simulate
+    from s2gen.systems import resolve
+
     system = resolve(args.spec)
     method = args.method or system.run.method or "vi"
     opts = Options(
@@ -154,23 +148,54 @@ def _simulate(args: argparse.Namespace) -> int:
         print(f"error: {exc}\n  partial trajectory saved to {out}", file=sys.stderr)
         return 1
     np.savez(out, t=tr.t, q=tr.q, omega=tr.omega, energy=tr.energy)
-    _report(system, method, args.backend, tr.q, tr.energy, len(tr.t) - 1, tr.wall_time)
+    _report(system.name, method, args.backend, tr)
     print(f"  saved {out} (t, q, omega, energy; {len(tr.t)} samples)")
     return 0
 
 
-def _reproduce(args: argparse.Namespace) -> int:
-    from s2gen.experiments.reproduce import reproduce
+def _list(args: argparse.Namespace) -> int:
+    from s2gen.systems import builtin, builtin_names
 
-    start = time.perf_counter()
-    report = reproduce(args.examples, args.out, quick=args.quick, backend=args.backend)
-    print(f"done in {time.perf_counter() - start:.1f} s; outputs in {report.out}/:")
-    for path in report.files:
-        print(f"  {path}")
-    errors = report.errors + [f for ex in report.examples for f in ex.failures]
-    for line in errors:
-        print(f"error: {line}", file=sys.stderr)
-    return 0 if not errors else 1
+    for name in builtin_names():
+        s = builtin(name)
+        kind = "coupled" if not s.is_diagonal else "diagonal"
+        print(f"{name}  (n = {s.n}, {kind} inertia)")
+    return 0
+
+
+def _regen(args: argparse.Namespace) -> int:
+    paths = regenerate(args.out)
+    print(f"rewrote {len(paths)} files under {args.out}/")
+    return 0
+
+
+def _reproduce(args: argparse.Namespace) -> int:
+    from s2gen.experiments.reproduce.command import run
+
+    return run(args)
+
+
+def _compare_angles(args: argparse.Namespace) -> int:
+    from s2gen.experiments.compare_angles.driver import run
+
+    return run(args)
+
+
+def _bench(args: argparse.Namespace) -> int:
+    from s2gen.experiments.bench.driver import run
+
+    return run(args)
+
+
+_COMMANDS = {
+    "generate": _generate,
+    "simulate": _simulate,
+    "list": _list,
+    "regen": _regen,
+    "reproduce": _reproduce,
+    "compare-angles": _compare_angles,
+    "bench": _bench,
+}
 
 
 def _show_warning(
@@ -190,26 +215,8 @@ def main(argv: list[str] | None = None) -> int:
     warnings.showwarning = _show_warning
     args = _parser().parse_args(argv)
     try:
-        if args.command == "generate":
-            return _generate(args)
-        if args.command == "simulate":
-            return _simulate(args)
-        if args.command == "reproduce":
-            return _reproduce(args)
-        if args.command == "compare-angles":
-            return compare_angles.run(args)
-        if args.command == "bench":
-            return bench.run(args)
-        if args.command == "list":
-            for name in builtin_names():
-                s = builtin(name)
-                kind = "coupled" if not s.is_diagonal else "diagonal"
-                print(f"{name}  (n = {s.n}, {kind} inertia)")
-            return 0
-        paths = regenerate(args.out)
-        print(f"rewrote {len(paths)} files under {args.out}/")
-        return 0
-    except (SpecError, ValueError) as exc:
+        return _COMMANDS[args.command](args)
+    except ValueError as exc:  # SpecError is a ValueError: bad input, one line, status 2
         print(f"error: {exc}", file=sys.stderr)
         return 2
 

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 __all__ = [
     "BACKENDS",
     "CONTROLS",
+    "LANGUAGES",
     "METHODS",
     "NAMES",
     "Family",
@@ -39,6 +40,8 @@ __all__ = [
 BACKENDS = ("c", "numpy", "reference")
 #: RK45 error controls, in the order of the emitted CONTROL enum.
 CONTROLS = ("matlab", "hairer")
+#: Languages the generator emits.
+LANGUAGES = ("c", "numpy")
 
 
 class Family(enum.Enum):

@@ -389,6 +389,14 @@ class System:
 
     def spec_hash(self) -> str:
         """A short content hash of the specification (goes into emitted preambles)."""
+        return self.spec_digest()[:16]
+
+    def spec_digest(self) -> str:
+        """The sha256 (hex) of everything in the spec that the emitted code depends on
+        (computed once per System and kept on it)."""
+        cached = self.__dict__.get("_spec_digest")
+        if cached is not None:
+            return str(cached)
         h = hashlib.sha256()
         h.update(self.name.encode())
         h.update(str(self.n).encode())
@@ -402,7 +410,8 @@ class System:
             h.update(sp.srepr(t.expr).encode())
             for d in t.data:
                 h.update(f"{d.name};{d.width};{d.values}".encode())
-        return h.hexdigest()[:16]
+        object.__setattr__(self, "_spec_digest", h.hexdigest())  # frozen: set once, by hand
+        return h.hexdigest()
 
 
 def _check_positive_definite(

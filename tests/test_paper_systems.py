@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from s2gen.experiments.paper import EXAMPLES
+from s2gen.experiments.reproduce.paper import EXAMPLES
 from s2gen.metrics import summary
 from s2gen.reference import ReferenceProblem, problem_from_system
 from s2gen.runtime import METHODS, simulate

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from s2gen.cli import main
-from s2gen.experiments import reproduce as rp
-from s2gen.experiments.paper import EXAMPLES, Example, PaperRun
-from s2gen.experiments.plots import face_kinetic_energy
+from s2gen.experiments.reproduce import runner as rp
+from s2gen.experiments.reproduce.figures import face_kinetic_energy
+from s2gen.experiments.reproduce.paper import EXAMPLES, Example, PaperRun
 from s2gen.runtime import simulate
 from s2gen.systems import builtin
 

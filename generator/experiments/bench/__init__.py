@@ -38,46 +38,67 @@ Example:
     ['bench.csv', 'bench.md']
 """
 
-from .common import Log, example_system, kinetic_energy
-from .driver import _command as _command
-from .driver import add_parser, bench, run
-from .envelope import _lj_encounter as _lj_encounter
-from .envelope import largest_stable, stability, stability_cases, stability_sweep
-from .figures import write_plots
-from .long_runs import _windows as _windows
-from .long_study import (
-    LONG_STATES,
-    conserved_components,
-    crossover,
-    long_setup,
-    long_time,
-    rotating_triangle,
-)
-from .model import (
-    DEFAULT_EXAMPLES,
-    EVALS_PER_STEP,
-    FIXED,
-    ORDERS,
-    REF_RTOL,
-    SAMPLES,
-    VI_FAMILY,
-    BenchReport,
-    ExampleBench,
-    LongSeries,
-    LongSetup,
-    Reference,
-    ScaleRow,
-    StabilityCase,
-    StabRow,
-    WPRow,
-)
-from .per_step import PER_STEP_METHODS, per_step_times
-from .report import PUBLISHED_N20, write_markdown
-from .report_example import TIE, cheapest, findings
-from .report_example import _targets as _targets
-from .sizes import md_system, scaling
-from .sweeps import HORIZONS, fitted_orders, reference, work_precision
-from .tables import WP_COLUMNS, write_tables
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+#: Where each public name lives; the submodule is imported on first use, so that importing
+#: one part of the package (its command-line parser, say) does not import the rest.
+_WHERE = {
+    "BenchReport": "model",
+    "DEFAULT_EXAMPLES": "command",
+    "EVALS_PER_STEP": "model",
+    "ExampleBench": "model",
+    "FIXED": "model",
+    "HORIZONS": "sweeps",
+    "LONG_STATES": "long_study",
+    "Log": "common",
+    "LongSeries": "model",
+    "LongSetup": "model",
+    "ORDERS": "model",
+    "PER_STEP_METHODS": "per_step",
+    "PUBLISHED_N20": "report",
+    "REF_RTOL": "model",
+    "Reference": "model",
+    "SAMPLES": "model",
+    "ScaleRow": "model",
+    "StabRow": "model",
+    "StabilityCase": "model",
+    "TIE": "report_example",
+    "VI_FAMILY": "model",
+    "WPRow": "model",
+    "WP_COLUMNS": "tables",
+    "command_line": "command",
+    "_lj_encounter": "envelope",
+    "_targets": "report_example",
+    "_windows": "long_runs",
+    "add_parser": "command",
+    "bench": "driver",
+    "cheapest": "report_example",
+    "conserved_components": "long_study",
+    "crossover": "long_study",
+    "example_system": "common",
+    "findings": "report_example",
+    "fitted_orders": "sweeps",
+    "kinetic_energy": "common",
+    "largest_stable": "envelope",
+    "long_setup": "long_study",
+    "long_time": "long_study",
+    "md_system": "sizes",
+    "per_step_times": "per_step",
+    "reference": "sweeps",
+    "rotating_triangle": "long_study",
+    "run": "driver",
+    "scaling": "sizes",
+    "stability": "envelope",
+    "stability_cases": "envelope",
+    "stability_sweep": "envelope",
+    "work_precision": "sweeps",
+    "write_markdown": "report",
+    "write_plots": "figures",
+    "write_tables": "tables",
+}
 
 __all__ = [
     "DEFAULT_EXAMPLES",
@@ -129,3 +150,10 @@ __all__ = [
     "write_plots",
     "write_tables",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{module}"), name)

@@ -1,15 +1,16 @@
 """The `s2gen bench` driver: run the requested measurements, write every file; the CLI.
 
-Input: example names, an output folder and switches (Python: `bench`; command line:
-`add_parser` then `run`). Output: a `BenchReport` whose `files` are the CSV tables, the PNG
-figures and ``bench.md`` written into the folder; `run` prints them and returns an exit code.
+Input: example names, an output folder and switches (Python: `bench`; command line: the
+parser of `command.py`, then `run`). Output: a `BenchReport` whose `files` are the CSV tables,
+the PNG figures and ``bench.md`` written into the folder; `run` prints them and returns an exit
+code.
 
 Example:
-    >>> import argparse
+    >>> from s2gen.experiments.bench.command import add_parser
     >>> p = argparse.ArgumentParser()
     >>> add_parser(p.add_subparsers(dest="command"))
-    >>> _command(p.parse_args(["bench", "three_bodies", "--long", "--steps", "1000"]))
-    's2gen bench three_bodies --out out/bench --long --steps 1000'
+    >>> run(p.parse_args(["bench", "no_such_system"]))  # doctest: +SKIP
+    2
 """
 
 from __future__ import annotations
@@ -19,17 +20,17 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from s2gen.system import SpecError
 
+from .command import DEFAULT_EXAMPLES, command_line
 from .common import Log, _print, example_system
 from .envelope import stability
 from .figures import write_plots
 from .long_study import long_time
-from .model import DEFAULT_EXAMPLES, BenchReport, ExampleBench, Reference
+from .model import BenchReport, ExampleBench, Reference
 from .report import write_markdown
 from .sizes import scaling
 from .sweeps import work_precision
@@ -83,68 +84,12 @@ def bench(
     return report
 
 
-def add_parser(subparsers: Any) -> None:
-    """Register `s2gen bench` on an argparse subparsers object (the CLI calls `run`).
-
-    Example:
-        >>> p = argparse.ArgumentParser()
-        >>> add_parser(p.add_subparsers(dest="command"))
-        >>> p.parse_args(["bench", "--quick"]).quick
-        True
-    """
-    b = subparsers.add_parser(
-        "bench",
-        help="work-precision, long-time, stability and scaling benchmarks against peers",
-        description="Measure every integrator (emitted C) and the outside peers (scipy, PyDy) "
-        "over sweeps of h or tolerance; write bench.csv, bench.md and PNG plots to --out.",
-    )
-    b.add_argument(
-        "examples",
-        nargs="*",
-        metavar="EXAMPLE",
-        help=f"built-in systems (default: {' '.join(DEFAULT_EXAMPLES)})",
-    )
-    b.add_argument("--out", default="out/bench", help="output folder (default out/bench)")
-    b.add_argument("--quick", action="store_true", help="short horizons and sweeps (~a minute)")
-    b.add_argument("--T", type=float, help="horizon of the work-precision sweeps")
-    b.add_argument("--no-sweeps", action="store_true", help="skip the work-precision sweeps")
-    b.add_argument("--long", action="store_true", help="long-time runs (energy drift, crossover)")
-    b.add_argument("--steps", type=int, help="steps of the long runs (default 1e6; quick 1e5)")
-    b.add_argument(
-        "--tight",
-        type=float,
-        default=1e-10,
-        help="tolerance of the long RK45 and DOP853 runs (default 1e-10)",
-    )
-    b.add_argument("--stability", action="store_true", help="stability envelope on hard cases")
-    b.add_argument("--scaling", action="store_true", help="generation and step time against n")
-    b.add_argument(
-        "--pydy-generator",
-        choices=("auto", "cython", "lambdify"),
-        default="auto",
-        help="PyDy code generator (auto: cython if it builds; quick: lambdify)",
-    )
-
-
-def _command(args: argparse.Namespace) -> str:
-    """The `s2gen bench` command line equivalent to parsed arguments."""
-    parts = ["s2gen", "bench", *args.examples, "--out", str(args.out)]
-    flags = ("quick", "no_sweeps", "long", "stability", "scaling")
-    parts += [f"--{f.replace('_', '-')}" for f in flags if getattr(args, f)]
-    for key in ("T", "steps"):
-        if getattr(args, key) is not None:
-            parts += [f"--{key}", str(getattr(args, key))]
-    if args.tight != 1e-10:
-        parts += ["--tight", str(args.tight)]
-    if args.pydy_generator != "auto":
-        parts += ["--pydy-generator", args.pydy_generator]
-    return " ".join(parts)
-
-
 def run(args: argparse.Namespace) -> int:
     """Carry out `s2gen bench` from parsed arguments; 0 on success, 2 on a bad example name."""
     start = time.perf_counter()
-    command = "s2gen " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] else _command(args)
+    command = (
+        "s2gen " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] else command_line(args)
+    )
     try:
         report = bench(
             args.examples,

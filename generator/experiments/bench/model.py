@@ -23,7 +23,6 @@ import numpy as np
 
 from s2gen.system import System
 
-DEFAULT_EXAMPLES = ("double_pendulum", "three_bodies")
 FIXED = ("vi", "vi4", "rattle", "rk4", "rk2", "rk2-proj")
 VI_FAMILY = ("vi", "vi4")
 ORDERS = {"vi": 2.0, "vi4": 4.0, "rattle": 2.0, "rk4": 4.0, "rk2": 2.0, "rk2-proj": 2.0}

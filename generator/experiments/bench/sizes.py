@@ -93,30 +93,16 @@ def _per_step(system: System, method: str, budget: float = 0.3) -> float:
     return tr.wall_time / n * 1e6
 
 
-def _clear_sympy_caches() -> None:
-    """Forget every derivation s2gen caches (printed modules, generic kernels), so a
-    generation time includes the whole SymPy derivation."""
-    from sympy.core.cache import clear_cache
-
-    from s2gen import emit, passes
-
-    clear_cache()
-    emit._printed_cached.cache_clear()
-    generic = getattr(passes, "generic_kernels", None)
-    if generic is not None and hasattr(generic, "cache_clear"):
-        generic.cache_clear()
-
-
 def _scale_one(family: str, n: int, make: Callable[[], System], log: Log) -> ScaleRow:
     from s2gen.build import compile_shared
-    from s2gen.emit import emit
+    from s2gen.emit import clear_caches, emit
 
     t0 = time.perf_counter()
     system = make()
     t1 = time.perf_counter()
-    _clear_sympy_caches()
+    clear_caches()
     try:
-        files = emit(system, "c")
+        files = emit(system, "c", cache=False)
         t2 = time.perf_counter()
         compile_shared(files)
         t3 = time.perf_counter()

@@ -34,16 +34,49 @@ Example:
     'PoleError'
 """
 
-from .chains import chain_system, scaling
-from .cost import RhsTimer, costs, gcc_seconds, generic_angles, generic_state
-from .derive import derive_with_budget
-from .driver import add_parser, compare, run, settings_from_args, write_all
-from .figures import accuracy_figure, pole_error_figure, pole_steps_figure, scaling_figure
-from .model import FORMS, ZOOM, Comparison, Cost, PoleCase, Run, Settings
-from .pole import _passage as _passage
-from .pole import pole_body, pole_study, through_tilt, tilted_state
-from .report import markdown, to_json, write_json
-from .trajectories import accuracy, reference
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+#: Where each public name lives; the submodule is imported on first use, so that importing
+#: one part of the package (its command-line parser, say) does not import the rest.
+_WHERE = {
+    "Comparison": "model",
+    "Cost": "model",
+    "FORMS": "settings",
+    "PoleCase": "model",
+    "RhsTimer": "cost",
+    "Run": "model",
+    "Settings": "settings",
+    "ZOOM": "settings",
+    "_passage": "pole",
+    "accuracy": "trajectories",
+    "accuracy_figure": "figures",
+    "add_parser": "command",
+    "chain_system": "chains",
+    "compare": "driver",
+    "costs": "cost",
+    "derive_with_budget": "derive",
+    "gcc_seconds": "cost",
+    "generic_angles": "cost",
+    "generic_state": "cost",
+    "markdown": "report",
+    "pole_body": "pole",
+    "pole_error_figure": "figures",
+    "pole_steps_figure": "figures",
+    "pole_study": "pole",
+    "reference": "trajectories",
+    "run": "driver",
+    "scaling": "chains",
+    "scaling_figure": "figures",
+    "settings_from_args": "command",
+    "through_tilt": "pole",
+    "tilted_state": "pole",
+    "to_json": "report",
+    "write_all": "driver",
+    "write_json": "report",
+}
 
 __all__ = [
     "FORMS",
@@ -80,3 +113,10 @@ __all__ = [
     "write_all",
     "write_json",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{module}"), name)

@@ -17,7 +17,8 @@ from s2gen.spec import define_system
 from s2gen.system import System
 
 from .cost import _cost_line, costs, generic_state
-from .model import FORMS, Cost, Settings
+from .model import Cost
+from .settings import FORMS, Settings
 
 
 def chain_system(n: int) -> System:

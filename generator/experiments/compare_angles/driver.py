@@ -19,18 +19,18 @@ import argparse
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 from s2gen.system import System
 
 from .chains import scaling
+from .command import settings_from_args
 from .cost import _cost_line, costs
 from .figures import accuracy_figure, pole_error_figure, pole_steps_figure, scaling_figure
-from .model import FORMS, Comparison, Settings
+from .model import Comparison
 from .pole import pole_study
 from .report import markdown, write_json
+from .settings import FORMS, Settings
 from .trajectories import _run_line, accuracy, reference
 
 
@@ -73,54 +73,6 @@ def write_all(result: Comparison, out: Path) -> list[Path]:
     md = out / "compare_angles.md"
     md.write_text(markdown(result, figures))
     return [md, write_json(result, out / "compare_angles.json"), *figures]
-
-
-def add_parser(subparsers: Any) -> None:
-    """Register `compare-angles` on an argparse subparsers object (wired in by cli.py)."""
-    d = Settings()
-    p = subparsers.add_parser(
-        "compare-angles",
-        help="compare the (S^2)^n form with the classical spherical-angle form",
-        description="Generate both forms from the same system and compare derivation time, "
-        "operations, code size, gcc time, time per vector-field evaluation and accuracy; "
-        "study trajectories near a pole and chains of n pendula. Writes compare_angles.md, "
-        "compare_angles.json and PNG figures.",
-    )
-    p.add_argument("spec", metavar="SPEC")
-    p.add_argument("--out", help="output folder (default out/compare_angles/<name>)")
-    p.add_argument("--T", type=float, default=d.T, help=f"final time (default {d.T:g})")
-    p.add_argument("--h", type=float, default=d.h, help=f"RK4 step, RK45 output grid ({d.h:g})")
-    p.add_argument("--rtol", type=float, default=d.rtol, help=f"RK45 rtol (default {d.rtol:g})")
-    p.add_argument("--atol", type=float, default=d.atol, help=f"RK45 atol (default {d.atol:g})")
-    p.add_argument("--control", choices=("matlab", "hairer"), default=d.control)
-    p.add_argument("--budget", type=float, default=d.budget, help="seconds per derivation")
-    p.add_argument("--tilts", type=_floats, default=d.tilts, help="near-pole tilts, e.g. 1e-2,1e-4")
-    p.add_argument("--alpha", type=float, default=d.alpha, help="near-pole back-up angle (rad)")
-    p.add_argument("--chain-max", type=int, default=d.chain_max, help="largest chain (0: none)")
-    p.add_argument("--repeats", type=int, default=d.repeats, help="timing repeats (best of)")
-    p.add_argument("--quick", action="store_true", help="short runs (T 2, chains to 3)")
-
-
-def _floats(text: str) -> tuple[float, ...]:
-    try:
-        return tuple(float(x) for x in text.split(",") if x.strip())
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected comma-separated numbers, got {text!r}"
-        ) from None
-
-
-def settings_from_args(args: argparse.Namespace) -> Settings:
-    """Settings from parsed arguments (`--quick` replaces the defaults it shortens)."""
-    base = Settings.quick() if args.quick else Settings()
-    given = {
-        k: getattr(args, k)
-        for k in ("T", "h", "rtol", "atol", "control", "budget", "alpha", "repeats", "tilts")
-        if getattr(args, k) != getattr(Settings(), k)
-    }
-    if args.chain_max != Settings().chain_max:
-        given["chain_max"] = args.chain_max
-    return replace(base, **given)
 
 
 def run(args: argparse.Namespace) -> int:

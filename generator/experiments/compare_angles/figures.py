@@ -18,7 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from .model import _LABELS, FORMS, ZOOM, Comparison, PoleCase, Run
+from .model import Comparison, PoleCase, Run
+from .settings import _LABELS, FORMS, ZOOM
 
 _FORM_STYLE: dict[str, dict[str, Any]] = {
     "s2": {"color": "tab:red", "linestyle": "-"},

@@ -20,7 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from .model import _LABELS, _REFERENCE_ATOL, _REFERENCE_RTOL, FORMS, Comparison, Cost, PoleCase, Run
+from .model import Comparison, Cost, PoleCase, Run
+from .settings import _LABELS, _REFERENCE_ATOL, _REFERENCE_RTOL, FORMS
 
 
 def to_json(result: Comparison) -> dict[str, Any]:

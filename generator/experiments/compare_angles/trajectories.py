@@ -26,7 +26,8 @@ from s2gen.runtime import IntegrationError, get_backend, simulate
 from s2gen.runtime.angles import AngleIntegrationError, PoleError, simulate_angles
 from s2gen.system import System
 
-from .model import ZOOM, Run, Settings
+from .model import Run
+from .settings import ZOOM, Settings
 
 
 def _energies(system: System, q: np.ndarray, w: np.ndarray) -> np.ndarray:

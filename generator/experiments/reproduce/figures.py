@@ -36,8 +36,9 @@ from matplotlib.colors import LinearSegmentedColormap, Normalize
 from matplotlib.figure import Figure
 
 if TYPE_CHECKING:
-    from s2gen.experiments.reproduce import ExampleResult, RunResult
     from s2gen.system import System
+
+    from .records import ExampleResult, RunResult
 
 __all__ = [
     "STYLES",
