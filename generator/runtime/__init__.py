@@ -36,6 +36,7 @@ __all__ = [
     "Options",
     "Trajectory",
     "get_backend",
+    "run",
     "simulate",
 ]
 
@@ -102,6 +103,22 @@ def simulate(
 ) -> Trajectory:
     """Integrate a system from its (or the given) initial state to T with step h."""
     check_method(method, backend)
+    return run(get_backend(system, backend), method, h, T, options, params, q0, omega0)
+
+
+def run(
+    be: Backend,
+    method: str = "vi",
+    h: float | None = None,
+    T: float | None = None,
+    options: Options | None = None,
+    params: np.ndarray | None = None,
+    q0: np.ndarray | None = None,
+    omega0: np.ndarray | None = None,
+) -> Trajectory:
+    """`simulate` on a given backend object (a `Model` brings its own)."""
+    system, backend = be.system, be.name
+    check_method(method, backend)
     h = h if h is not None else system.run.h
     T = T if T is not None else system.run.T
     if h is None or T is None:
@@ -117,7 +134,6 @@ def simulate(
         raise ValueError(f"{system.origin}: no initial state ([initial] q and omega)")
     p = np.array(system.parameter_values if params is None else params, dtype=float)
     opts = options or Options()
-    be = get_backend(system, backend)
     start = time.perf_counter()
     status, q, w, en, stats = be.integrate(method, h, nsteps, q0, omega0, p, opts)
     wall = time.perf_counter() - start

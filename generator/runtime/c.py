@@ -57,9 +57,11 @@ class CBackend:
 
     name = "c"
 
-    def __init__(self, system: System) -> None:
+    def __init__(self, system: System, files: dict[str, str] | None = None) -> None:
+        """Compile `files` (default: the system's emitted C) and load the library; `files`
+        lets a process that never derived the system (a cluster worker) build it."""
         self.system = system
-        files = emit(system, "c")
+        files = emit(system, "c") if files is None else files
         self.build = compile_shared(files)
         self.lib = ctypes.CDLL(str(self.build.path))
         pre = system.name

@@ -18,7 +18,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from s2gen.runtime import get_backend, simulate
+from s2gen.runtime import get_backend, run
 from s2gen.runtime.options import Options
 from s2gen.runtime.trajectory import Trajectory
 from s2gen.system import System
@@ -29,10 +29,21 @@ __all__ = ["Model"]
 class Model:
     """`system` compiled for `backend` ("c", "numpy" or "reference")."""
 
-    def __init__(self, system: System, backend: str = "c") -> None:
+    def __init__(
+        self, system: System, backend: str = "c", files: dict[str, str] | None = None
+    ) -> None:
+        """`files`: the emitted C to build (backend "c" only), for a process that must not
+        derive the system itself; by default the system's own emitted files."""
         self.system = system
         self.backend_name = backend
-        self._backend = get_backend(system, backend)
+        if files is None:
+            self._backend = get_backend(system, backend)
+        elif backend == "c":
+            from s2gen.runtime.c import CBackend
+
+            self._backend = CBackend(system, files)
+        else:
+            raise ValueError(f"prebuilt files are C sources; backend {backend!r} cannot use them")
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -68,10 +79,9 @@ class Model:
         params: Mapping[str, float] | None = None,
     ) -> Trajectory:
         """Integrate from (q0, omega0) (default: the spec's) to T with step h (see `simulate`)."""
-        return simulate(
-            self.system,
+        return run(
+            self._backend,
             method,
-            self.backend_name,
             h=h,
             T=T,
             options=options,
