@@ -161,38 +161,38 @@ def problem_from_system(
 ) -> ReferenceProblem:
     """Numeric M, V and dV/dq of a `System` (sympy.diff + sympy.lambdify, NumPy module).
 
-        `parameter_values` overrides the spec's values: a sequence in declared order, or a
-        mapping from some parameter names to values.
+    `parameter_values` overrides the spec's values: a sequence in declared order, or a
+    mapping from some parameter names to values.
 
-        The general part `system.potential` is differentiated in the 3n global symbols (skipped
-        when it is 0). Each structured term of `system.terms` is differentiated once in its own
-        local symbols (q, or qi and qj) and evaluated vectorized over all its members, with
-        per-body gradients accumulated by `numpy.bincount`; nothing is expanded per member, so
-        large systems (e.g. all 205,761 pairs of 642 bodies) stay cheap.
+    The general part `system.potential` is differentiated in the 3n global symbols (skipped
+    when it is 0). Each structured term of `system.terms` is differentiated once in its own
+    local symbols (q, or qi and qj) and evaluated vectorized over all its members, with
+    per-body gradients accumulated by `numpy.bincount`; nothing is expanded per member, so
+    large systems (e.g. all 205,761 pairs of 642 bodies) stay cheap.
 
-        Example:
-            >>> import sympy as sp
-            >>> from s2gen.system import System
-    from s2gen.symbols import q_symbol
-            >>> m, g = sp.symbols("m g", real=True)
-            >>> s = System.create(name="p", n=1, parameters={"m": 2.0, "g": 10.0},
-            ...                   inertia=sp.Matrix([[m]]), potential=-m * g * q_symbol(1, 2))
-            >>> problem_from_system(s).grad(np.array([[0.0, 0.0, 1.0]])).tolist()
-            [[0.0, 0.0, -20.0]]
+    Example:
+        >>> import sympy as sp
+        >>> from s2gen.system import System
+        >>> from s2gen.symbols import q_symbol
+        >>> m, g = sp.symbols("m g", real=True)
+        >>> s = System.create(name="p", n=1, parameters={"m": 2.0, "g": 10.0},
+        ...                   inertia=sp.Matrix([[m]]), potential=-m * g * q_symbol(1, 2))
+        >>> problem_from_system(s).grad(np.array([[0.0, 0.0, 1.0]])).tolist()
+        [[0.0, 0.0, -20.0]]
 
-            A pair term (a spring of stiffness k between neighbours, V = k/2 |qi - qj|^2):
+        A pair term (a spring of stiffness k between neighbours, V = k/2 |qi - qj|^2):
 
-            >>> from s2gen.system import Term
-    from s2gen.symbols import local_vector
-            >>> qi, qj = sp.Matrix(local_vector("qi")), sp.Matrix(local_vector("qj"))
-            >>> k = sp.Symbol("k", real=True)
-            >>> spring = Term("pair", k / 2 * (qi - qj).dot(qi - qj), select="chain")
-            >>> s = System.create(name="c", n=3, parameters={"k": 2.0}, inertia=sp.eye(3),
-            ...                   potential=sp.Integer(0), terms=[spring])
-            >>> p = problem_from_system(s)
-            >>> q = np.eye(3)
-            >>> p.potential(q), p.grad(q).tolist()
-            (4.0, [[2.0, -2.0, 0.0], [-2.0, 4.0, -2.0], [0.0, -2.0, 2.0]])
+        >>> from s2gen.system import Term
+        >>> from s2gen.symbols import local_vector
+        >>> qi, qj = sp.Matrix(local_vector("qi")), sp.Matrix(local_vector("qj"))
+        >>> k = sp.Symbol("k", real=True)
+        >>> spring = Term("pair", k / 2 * (qi - qj).dot(qi - qj), select="chain")
+        >>> s = System.create(name="c", n=3, parameters={"k": 2.0}, inertia=sp.eye(3),
+        ...                   potential=sp.Integer(0), terms=[spring])
+        >>> p = problem_from_system(s)
+        >>> q = np.eye(3)
+        >>> p.potential(q), p.grad(q).tolist()
+        (4.0, [[2.0, -2.0, 0.0], [-2.0, 4.0, -2.0], [0.0, -2.0, 2.0]])
     """
     values = _parameter_values(system, parameter_values)
     n = system.n
