@@ -3,7 +3,7 @@
 This package is the project's yardstick. It is written directly from Lee, Leok & McClamroch,
 "Lagrangian mechanics and variational integrators on two-spheres" (sections 2 and 3), and shares
 no code with the rest of the package: it uses only NumPy, SymPy (to differentiate a `System`'s
-potential) and the `System` record itself.
+potential), the `System` record itself and the status codes of `s2gen.methods`.
 
 Modules: `problem` (a `System` in numbers), `geometry` (hat maps, A(q), energy, momentum),
 `field` (the continuous vector field), `vi` (the variational integrator step), `recorder` (the
@@ -29,8 +29,10 @@ Methods (`integrate(..., method=...)`):
 
 Conventions: q and w are (n, 3) arrays, body i in row i-1; g_i = dV/dq_i; qdot_i = w_i x q_i;
 the 3n x 3n matrix A(q) has blocks A_ii = M_ii I and A_ij = -M_ij hat(q_i) hat(q_j).
-Failures raise `ReferenceIntegrationError(step, message)`; ``exc.partial`` holds the trajectory
-up to the last good point t_step.
+Failures raise a `ReferenceIntegrationError(step, message)`, one subclass per cause
+(`InfeasibleStep`, `NewtonFailure`, `NonFiniteState`, `SingularSystem`, `StepSizeUnderflow`);
+``exc.status`` is the `s2gen.methods.Status` of that cause and ``exc.partial`` holds the
+trajectory up to the last good point t_step.
 
 Derivation notes (checked against the discrete Legendre transforms of
 L_d = 1/(2h) sum M_ij (q_i+ - q_i).(q_j+ - q_j) - h/2 V(q) - h/2 V(q+)):
@@ -56,7 +58,14 @@ from collections.abc import Sequence
 import numpy as np
 
 from s2gen.reference.dopri import _rk45_hairer, _rk45_matlab
-from s2gen.reference.errors import ReferenceIntegrationError
+from s2gen.reference.errors import (
+    InfeasibleStep,
+    NewtonFailure,
+    NonFiniteState,
+    ReferenceIntegrationError,
+    SingularSystem,
+    StepSizeUnderflow,
+)
 from s2gen.reference.field import continuous_rhs
 from s2gen.reference.geometry import angular_momentum, energy, hat, inertia_operator
 from s2gen.reference.problem import Array, ReferenceProblem, problem_from_system
@@ -67,9 +76,14 @@ from s2gen.reference.vi import _vi_advance, vi_d, vi_jacobian, vi_residual, vi_s
 __all__ = [
     "CONTROLS",
     "METHODS",
+    "InfeasibleStep",
+    "NewtonFailure",
+    "NonFiniteState",
     "RefTrajectory",
     "ReferenceIntegrationError",
     "ReferenceProblem",
+    "SingularSystem",
+    "StepSizeUnderflow",
     "angular_momentum",
     "continuous_rhs",
     "energy",
@@ -132,8 +146,9 @@ def integrate(
     with tolerances rtol/atol, `control` "matlab" (ode45; hmax defaults to T/10) or "hairer"
     (SciPy's RK45; hmax defaults to infinity). For "vi" with coupled M, Newton stops when
     max|update| <= newton_tol * max(1, max|f|) and fails after newton_maxiter iterations.
-    The initial state is used as given (not normalized). Raises ReferenceIntegrationError
-    (with .step and .partial) on infeasible explicit steps, Newton failure or non-finite states.
+    The initial state is used as given (not normalized). Raises a ReferenceIntegrationError
+    (with .step, .status and .partial): InfeasibleStep, NewtonFailure, NonFiniteState,
+    SingularSystem or StepSizeUnderflow.
 
     Example:
         >>> e3 = np.array([0.0, 0.0, 1.0])

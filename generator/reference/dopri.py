@@ -4,7 +4,8 @@ Input: a `_Recorder` (problem, output grid t_k = k h), the initial flat state y0
 time T, tolerances rtol/atol and the largest step hmax.
 Output: the recorder filled at every grid point (accepted steps advance adaptively, FSAL; grid
 points inside a step come from Shampine's 4th-order interpolant) and its counts of accepted
-and rejected steps and field evaluations. Failures raise `ReferenceIntegrationError`.
+and rejected steps and field evaluations. Failures raise `SingularSystem`, `NonFiniteState`
+or `StepSizeUnderflow`.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from s2gen.reference.errors import NonFiniteState, SingularSystem, StepSizeUnderflow
 from s2gen.reference.problem import Array
 from s2gen.reference.recorder import _Recorder, _vector_field
 
@@ -56,9 +58,9 @@ def _dp_attempt(
         y_new = y + h * (_DP_B @ K[:6])
         K[6] = fun(y_new)
     except np.linalg.LinAlgError as exc:
-        raise rec.fail(f"linear solve failed ({exc})") from exc
+        raise rec.fail(SingularSystem, f"linear solve failed ({exc})") from exc
     if not (np.all(np.isfinite(y_new)) and np.all(np.isfinite(K))):
-        raise rec.fail(f"non-finite state in a Dormand-Prince step of size {h:g}")
+        raise rec.fail(NonFiniteState, f"non-finite state in a Dormand-Prince step of size {h:g}")
     return y_new, K
 
 
@@ -115,7 +117,9 @@ def _matlab_step(
             return t_new, y_new, K, h, absh, err, nofailed, done
         rec.stats["rejected"] += 1
         if absh <= hmin:
-            raise rec.fail(f"step size {absh:g} at t = {t:g} fell below hmin = {hmin:g}")
+            raise rec.fail(
+                StepSizeUnderflow, f"step size {absh:g} at t = {t:g} fell below hmin = {hmin:g}"
+            )
         if nofailed:
             absh = max(hmin, absh * max(0.1, 0.8 * (rtol / err) ** 0.2))
         else:
@@ -191,7 +195,9 @@ def _hairer_step(
     rejected = False
     while True:
         if h_abs < min_step:
-            raise rec.fail(f"step size {h_abs:g} at t = {t:g} fell below {min_step:g}")
+            raise rec.fail(
+                StepSizeUnderflow, f"step size {h_abs:g} at t = {t:g} fell below {min_step:g}"
+            )
         t_new = min(t + h_abs, T)  # clip the last step at T
         h = t_new - t
         y_new, K = _dp_attempt(rec, fun, y, k1, h)

@@ -4,8 +4,8 @@ Input: a `ReferenceProblem`, a method name, the output spacing h and the number 
 Output: `RefTrajectory` (t, q, omega, energy, stats) built by a `_Recorder` from the states
 y_k = (q_k, w_k) (flat vectors of length 6n) recorded on the grid t_k = k h; `_vector_field`
 (the continuous field on flat states, counting evaluations) and `_run_fixed` (advance a
-fixed-step method N times, turning failures into `ReferenceIntegrationError` with the partial
-trajectory).
+fixed-step method N times; failures become `ReferenceIntegrationError`s carrying the partial
+trajectory: a failed linear solve `SingularSystem`, a non-finite state `NonFiniteState`).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from s2gen.reference.errors import ReferenceIntegrationError
+from s2gen.reference.errors import NonFiniteState, ReferenceIntegrationError, SingularSystem
 from s2gen.reference.field import continuous_rhs
 from s2gen.reference.geometry import energy
 from s2gen.reference.problem import Array, ReferenceProblem
@@ -78,9 +78,12 @@ class _Recorder:
         e = np.array([energy(self.problem, q[k], w[k]) for k in range(c)])
         return RefTrajectory(self.t[:c].copy(), q, w, e, dict(self.stats), self.method)
 
-    def fail(self, message: str) -> ReferenceIntegrationError:
-        """An error for the step after the last recorded point, carrying the partial result."""
-        return ReferenceIntegrationError(self.last, message, self.trajectory())
+    def fail(
+        self, kind: type[ReferenceIntegrationError], message: str
+    ) -> ReferenceIntegrationError:
+        """An error of type `kind` for the step after the last recorded point, carrying the
+        partial result."""
+        return kind(self.last, message, self.trajectory())
 
 
 def _state(q: Array, w: Array) -> Array:
@@ -108,8 +111,8 @@ def _run_fixed(rec: _Recorder, advance: Callable[[Array, int], Array], nsteps: i
             exc.partial = rec.trajectory()
             raise
         except np.linalg.LinAlgError as exc:
-            raise rec.fail(f"linear solve failed ({exc})") from exc
+            raise rec.fail(SingularSystem, f"linear solve failed ({exc})") from exc
         if not np.all(np.isfinite(y1)):
-            raise rec.fail("non-finite state")
+            raise rec.fail(NonFiniteState, "non-finite state")
         rec.push(y1)
         rec.stats["steps"] += 1

@@ -5,8 +5,9 @@ tolerance and iteration limit.
 Output: (q_k+1, w_k+1, Newton iterations) from `vi_step` (explicit update, paper eqs. qikpexp
 and wikpexp, when M is diagonal; Newton on the Cayley residual, eqs. imp/impf, then the
 velocity solve, eq. DELw2m, otherwise), and the pieces: the known side d (`vi_d`), the Cayley
-residual and its analytic Jacobian. A failed step raises `ReferenceIntegrationError`;
-`_vi_advance` adapts `vi_step` to the fixed-step driver of `recorder.py`.
+residual and its analytic Jacobian. A failed step raises `InfeasibleStep` or `NewtonFailure`
+(a singular velocity solve raises numpy's LinAlgError, reported by the fixed-step driver of
+`recorder.py` as `SingularSystem`); `_vi_advance` adapts `vi_step` to that driver.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from s2gen.reference.errors import ReferenceIntegrationError
+from s2gen.reference.errors import InfeasibleStep, NewtonFailure
 from s2gen.reference.geometry import _assemble, _cross, _hats, _off_diagonal, inertia_operator
 from s2gen.reference.problem import Array, ReferenceProblem
 from s2gen.reference.recorder import _Recorder, _state
@@ -91,19 +92,26 @@ def vi_jacobian(M: Array, q: Array, f: Array) -> Array:
 def _newton_cayley(
     M: Array, q: Array, d: Array, tol: float, maxiter: int, step: int
 ) -> tuple[Array, int]:
-    """Solve vi_residual(M, q, f, d) = 0 by Newton from f_i = d_i/(2 M_ii)."""
+    """Solve vi_residual(M, q, f, d) = 0 by Newton from f_i = d_i/(2 M_ii).
+
+    Raises `NewtonFailure` when it does not converge in `maxiter` iterations, when an iterate
+    is not finite and when the Jacobian is singular.
+    """
     f = d / (2.0 * np.diag(M)[:, None])
     for it in range(1, maxiter + 1):
         r = vi_residual(M, q, f, d)
-        delta = np.linalg.solve(vi_jacobian(M, q, f), -r.ravel()).reshape(f.shape)
+        try:
+            delta = np.linalg.solve(vi_jacobian(M, q, f), -r.ravel()).reshape(f.shape)
+        except np.linalg.LinAlgError as exc:
+            raise NewtonFailure(
+                step, f"Newton's method: singular Jacobian at iteration {it} ({exc})"
+            ) from exc
         f = f + delta
         if not np.all(np.isfinite(f)):
-            raise ReferenceIntegrationError(step, f"Newton iterate not finite at iteration {it}")
+            raise NewtonFailure(step, f"Newton iterate not finite at iteration {it}")
         if np.max(np.abs(delta)) <= tol * max(1.0, float(np.max(np.abs(f)))):
             return f, it
-    raise ReferenceIntegrationError(
-        step, f"Newton's method did not converge in {maxiter} iterations"
-    )
+    raise NewtonFailure(step, f"Newton's method did not converge in {maxiter} iterations")
 
 
 def _vi_explicit(
@@ -115,7 +123,7 @@ def _vi_explicit(
     aa = np.sum(a * a, axis=1)
     for i in range(problem.n):
         if aa[i] > 1.0:
-            raise ReferenceIntegrationError(
+            raise InfeasibleStep(
                 step,
                 f"explicit VI step infeasible for body {i + 1}: |a|^2 = {aa[i]:.6g} > 1 "
                 f"(step size h = {h:g} too large)",

@@ -374,8 +374,7 @@ class ReferenceBackend:
             if exc.partial is not None:
                 k = len(exc.partial.t)
                 q[:k], w[:k], en[:k] = exc.partial.q, exc.partial.omega, exc.partial.energy
-            text = str(exc).lower()
-            status = 1 if "infeasible" in text else 2 if "newton" in text else 3
+            status = int(exc.status)
             return status, q, w, en, {"fail_step": k}
 
 
