@@ -64,6 +64,15 @@ def _dp_attempt(
     return y_new, K
 
 
+def _initial_slope(rec: _Recorder, fun: Callable[[Array], Array], y0: Array) -> Array:
+    """f(y0), the first stage of the first step; a failed solve is a `SingularSystem` at step 0
+    as in any later stage."""
+    try:
+        return fun(y0)
+    except np.linalg.LinAlgError as exc:
+        raise rec.fail(SingularSystem, f"linear solve failed ({exc})") from exc
+
+
 def _emit_dense(
     rec: _Recorder, t: float, y: Array, t_new: float, y_new: Array, K: Array, h: float
 ) -> None:
@@ -133,7 +142,7 @@ def _rk45_matlab(
     """Dormand-Prince with MATLAB ode45's error norm and step-size logic."""
     fun = _vector_field(rec)
     threshold = atol / rtol
-    t, y, k1 = 0.0, y0, fun(y0)
+    t, y, k1 = 0.0, y0, _initial_slope(rec, fun, y0)
     absh = _matlab_initial_step(k1, y0, T, rtol, threshold, hmax)
     done = False
     while not done:
@@ -218,8 +227,11 @@ def _rk45_hairer(
 ) -> None:
     """Dormand-Prince with Hairer's (SciPy's) RMS error norm and step-size logic."""
     fun = _vector_field(rec)
-    t, y, k1 = 0.0, y0, fun(y0)
-    h_abs = _hairer_initial_step(fun, y0, k1, T, hmax, rtol, atol)
+    t, y, k1 = 0.0, y0, _initial_slope(rec, fun, y0)
+    try:
+        h_abs = _hairer_initial_step(fun, y0, k1, T, hmax, rtol, atol)
+    except np.linalg.LinAlgError as exc:
+        raise rec.fail(SingularSystem, f"linear solve failed ({exc})") from exc
     while t < T:
         t_new, y_new, K, h, h_abs = _hairer_step(rec, fun, t, y, k1, h_abs, T, rtol, atol, hmax)
         rec.stats["steps"] += 1
