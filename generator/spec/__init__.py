@@ -72,7 +72,6 @@ from s2gen.spec.parser import RESERVED_NAMES, parse_expression
 from s2gen.spec.tables import (
     _BODY,
     _PAIR,
-    METHODS,
     _bodies,
     _check_keys,
     _inertia,
@@ -85,7 +84,6 @@ from s2gen.spec.tables import (
 from s2gen.system import RunSettings, SpecError, System
 
 __all__ = [
-    "METHODS",
     "RESERVED_NAMES",
     "define_system",
     "load_spec",

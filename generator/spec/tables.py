@@ -5,8 +5,9 @@ inertia M or its diagonal, the general potential V, [[potential.body]] / [[poten
 term tables with their selections and data, [initial] q and omega, [run]) plus the `origin`
 that names the spec in messages.
 Output: parameter values (dict), the body count, the SymPy inertia matrix and potential,
-`Term`s (with `TermData`), initial vectors as lists of floats and `RunSettings`; or a
-`SpecError` naming the file, the table and key (list indices 1-based) and the offending item.
+`Term`s (with `TermData`), initial vectors as lists of floats and `RunSettings` (a [run]
+method is one of `s2gen.methods.NAMES`); or a `SpecError` naming the file, the table and key
+(list indices 1-based) and the offending item.
 Semantic checks on the whole system (e.g. M positive definite) are `System.create`'s.
 """
 
@@ -22,13 +23,10 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from s2gen.methods import NAMES
 from s2gen.spec.parser import _Q_RESERVED, _ROLES, RESERVED_NAMES, parse_expression
 from s2gen.symbols import local_vector
 from s2gen.system import RunSettings, SpecError, Term, TermData
-
-__all__ = ["METHODS"]
-
-METHODS = ("vi", "rk45", "rk2", "rk2-proj", "rk4")
 
 
 def _bodies(bodies: Any, origin: str) -> int:
@@ -448,10 +446,10 @@ def _run_settings(run: Any, origin: str) -> RunSettings:
         where = f"{origin}: [run] {key}"
         if key != "method":
             settings[key] = _positive(value, where)
-        elif value in METHODS:
+        elif value in NAMES:
             settings[key] = value
         else:
-            raise SpecError(f"{where}: unknown method {value!r} (one of {', '.join(METHODS)})")
+            raise SpecError(f"{where}: unknown method {value!r} (one of {', '.join(NAMES)})")
     return RunSettings(**settings)
 
 
