@@ -14,9 +14,15 @@ import pytest
 import sympy as sp
 from scipy.integrate import solve_ivp
 
+from s2gen.methods import Status
 from s2gen.reference import (
+    InfeasibleStep,
+    NewtonFailure,
+    NonFiniteState,
     ReferenceIntegrationError,
     ReferenceProblem,
+    SingularSystem,
+    StepSizeUnderflow,
     angular_momentum,
     continuous_rhs,
     energy,
@@ -27,8 +33,10 @@ from s2gen.reference import (
     vi_residual,
     vi_step,
 )
+from s2gen.runtime import IntegrationError, Options, simulate
 from s2gen.symbols import q_symbol, q_vector
 from s2gen.system import System
+from s2gen.systems import builtin
 
 E3 = np.array([0.0, 0.0, 1.0])
 
@@ -431,6 +439,106 @@ def test_non_finite_state_raises() -> None:
     with pytest.raises(ReferenceIntegrationError, match="non-finite") as info:
         integrate(nan_below, "rk4", [[0.0, 0, 1]], [[1.0, 0, 0]], 0.1, 40)
     assert info.value.partial is not None and 5 < info.value.partial.t.size < 40
+
+
+# ---------------------------------------------------------------------------------- typed failures
+def test_explicit_step_with_huge_h_is_infeasible() -> None:
+    """Diagonal M, h = 10: |a|^2 = (h^2/2 |q x g| / M)^2 >> 1 at the very first step."""
+    with pytest.raises(InfeasibleStep, match="step 0: explicit VI step infeasible") as info:
+        integrate(pendulum(1.0, 1.0, 9.81), "vi", [[1.0, 0, 0]], [[0, 0, 0.0]], 10.0, 3)
+    exc = info.value
+    assert isinstance(exc, ReferenceIntegrationError) and exc.status is Status.INFEASIBLE
+    assert exc.step == 0 and exc.partial is not None and exc.partial.t.size == 1
+
+
+def test_newton_with_huge_h_on_the_double_pendulum_fails() -> None:
+    """The coupled double pendulum from its built-in spec, h = 10: Newton cannot converge."""
+    system = builtin("double_pendulum")
+    problem = problem_from_system(system)
+    with np.errstate(all="ignore"), pytest.raises(NewtonFailure, match="step 0: Newton") as info:
+        integrate(problem, "vi", system.q0, system.omega0, 10.0, 3)  # iterates overflow
+    exc = info.value
+    assert exc.status is Status.NEWTON and exc.partial is not None and exc.partial.t.size == 1
+
+
+def test_singular_newton_jacobian_is_a_newton_failure() -> None:
+    """M = [[1, 1], [1, 1]] (symmetric, singular) with q1 = q2: the Cayley Jacobian is singular
+    at Newton's first iterate; that is reported as Newton's failure, not as a singular system."""
+    problem = ReferenceProblem(np.ones((2, 2)), lambda q: np.zeros_like(q), lambda q: 0.0)
+    q0, w0 = [[0, 0, 1.0], [0, 0, 1.0]], [[1.0, 0, 0], [0, 1.0, 0]]
+    with pytest.raises(NewtonFailure, match="singular Jacobian at iteration 1") as info:
+        integrate(problem, "vi", q0, w0, 0.1, 3)
+    assert info.value.status is Status.NEWTON and info.value.step == 0
+
+
+@pytest.mark.parametrize(
+    ("method", "control"),
+    [("rk2", "matlab"), ("rk4", "matlab"), ("rk45", "matlab"), ("rk45", "hairer")],
+)
+def test_singular_inertia_operator_in_the_field_is_a_singular_system(
+    method: str, control: str
+) -> None:
+    """The same singular M: A(q) wdot = b has no solution, a SingularSystem at step 0 (for
+    rk45 already in the first field evaluation, before any step)."""
+    problem = ReferenceProblem(np.ones((2, 2)), lambda q: np.zeros_like(q), lambda q: 0.0)
+    q0, w0 = [[0, 0, 1.0], [0, 0, 1.0]], [[1.0, 0, 0], [0, 1.0, 0]]
+    with pytest.raises(SingularSystem, match="step 0: linear solve failed") as info:
+        integrate(problem, method, q0, w0, 0.1, 3, control=control)
+    assert info.value.status is Status.SINGULAR
+    assert info.value.partial is not None and info.value.partial.t.size == 1
+
+
+@pytest.mark.parametrize("method", ["rk4", "rk45"])
+def test_non_finite_gradient_is_a_non_finite_state(method: str) -> None:
+    nan_below = ReferenceProblem(
+        np.array([[1.0]]),
+        lambda q: np.full_like(q, np.nan) if q[0, 2] < 0 else np.zeros_like(q),
+        lambda q: 0.0,
+    )
+    with pytest.raises(NonFiniteState, match="non-finite") as info:
+        integrate(nan_below, method, [[0.0, 0, 1]], [[1.0, 0, 0]], 0.1, 40)
+    exc = info.value
+    assert exc.status is Status.NONFINITE
+    assert exc.partial is not None and 5 < exc.partial.t.size < 40
+
+
+@pytest.mark.parametrize("control", ["matlab", "hairer"])
+def test_rk45_step_size_underflows_at_a_force_wall(control: str) -> None:
+    """A force of 1e30 switched on below the equator: crossing it at t = pi/2 (great circle at
+    unit speed from the north pole), the field jumps by 1e30, so no step above the minimum step
+    size (about 16 eps(t)) meets the default tolerances. (A tight rtol alone does not underflow:
+    with atol = 1e-6 the control is absolute; with atol tiny as well, the run creeps near t = 0,
+    where the minimum step is subnormal, instead of failing.)"""
+    wall = 1e30
+    problem = ReferenceProblem(
+        np.array([[1.0]]),
+        lambda q: np.where(q[:, 2:3] < 0.0, -wall, 0.0) * E3[None, :],
+        lambda q: wall * max(0.0, -float(q[0, 2])),
+    )
+    with pytest.raises(StepSizeUnderflow, match="fell below") as info:
+        integrate(problem, "rk45", [[0.0, 0, 1.0]], [[1.0, 0, 0]], 0.5, 4, control=control)
+    exc = info.value
+    assert exc.status is Status.STEPSIZE and exc.step == 3  # the step from t = 1.5 to 2
+    assert exc.partial is not None
+    np.testing.assert_allclose(exc.partial.t, [0.0, 0.5, 1.0, 1.5])
+    assert np.all(np.isfinite(exc.partial.q)) and np.all(exc.partial.q[:, 0, 2] > 0.0)
+
+
+@pytest.mark.parametrize(
+    ("name", "h", "options", "status"),
+    [
+        ("three_bodies", 0.9, Options(), Status.INFEASIBLE),
+        ("double_pendulum", 0.01, Options(newton_maxiter=2), Status.NEWTON),
+    ],
+)
+def test_reference_backend_reports_the_status_of_the_error(
+    name: str, h: float, options: Options, status: Status
+) -> None:
+    """simulate(backend="reference") takes the status from the error's type, as the emitted
+    backends report theirs (tests/test_failures.py)."""
+    with pytest.raises(IntegrationError) as info:
+        simulate(builtin(name), "vi", "reference", h=h, T=90 * h, options=options)
+    assert info.value.status == int(status)
 
 
 def test_bad_arguments_are_rejected() -> None:

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from s2gen.methods import NAMES
 from s2gen.spec import define_system, load_spec, load_spec_text, parse_expression
 from s2gen.symbols import q_symbol
 from s2gen.system import RunSettings, SpecError, SpecWarning, System
@@ -363,6 +364,19 @@ def test_spec_errors_name_key_and_item(
     tmp_path: Path, old: str, new: str, fragments: list[str]
 ) -> None:
     spec_error(tmp_path, edit(old, new), *fragments)
+
+
+@pytest.mark.parametrize("method", ["rattle", "vi4"])
+def test_run_method_may_be_any_method_of_the_table(method: str) -> None:
+    """[run] method is checked against s2gen.methods.NAMES, the one table of methods."""
+    s = load_spec_text(edit('method = "vi"', f'method = "{method}"'), origin="spec.toml")
+    assert s.run == RunSettings(h=0.01, T=100.0, method=method)
+
+
+def test_unknown_run_method_lists_the_methods_of_the_table(tmp_path: Path) -> None:
+    message = spec_error(tmp_path, edit('method = "vi"', 'method = "euler"'), "unknown method")
+    assert f"(one of {', '.join(NAMES)})" in message
+    assert all(name in message for name in ("vi", "vi4", "rattle", "rk45", "rk2-proj"))
 
 
 def test_run_must_be_a_table(tmp_path: Path) -> None:

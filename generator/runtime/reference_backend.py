@@ -15,7 +15,6 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.methods import Status
 from s2gen.runtime.options import Options
 from s2gen.system import System
 
@@ -96,5 +95,5 @@ class ReferenceBackend:
             if exc.partial is not None:
                 k = len(exc.partial.t)
                 q[:k], w[:k], en[:k] = exc.partial.q, exc.partial.omega, exc.partial.energy
-            status = int(getattr(exc, "status", Status.NONFINITE))
+            status = int(exc.status)
             return status, q, w, en, {"fail_step": k}
