@@ -129,6 +129,6 @@ def header_macro(header: str, suffix: str) -> int:
     """
     for line in header.splitlines():
         parts = line.split()
-        if len(parts) == 3 and parts[0] == "#define" and parts[1].endswith("_" + suffix):
+        if len(parts) >= 3 and parts[0] == "#define" and parts[1].endswith("_" + suffix):
             return int(parts[2])
     raise BuildError(f"macro *_{suffix} missing from the emitted header")

@@ -27,10 +27,7 @@ from typing import Any
 
 from s2gen.methods import BACKENDS, CONTROLS, LANGUAGES, NAMES
 
-__all__ = ["GENERATED_SYSTEMS", "main", "regenerate"]
-
-#: Built-in systems whose emitted code is kept in the repository's generated/ folder.
-GENERATED_SYSTEMS = ("double_pendulum",)
+__all__ = ["main"]
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -82,19 +79,6 @@ def _version() -> str:
     from s2gen.version import __version__
 
     return __version__
-
-
-def regenerate(out: str | Path) -> list[Path]:
-    """Write the C and NumPy code of `GENERATED_SYSTEMS` under out/<system>/<lang>/."""
-    from s2gen.emit import emit, write_files
-    from s2gen.systems import builtin
-
-    paths: list[Path] = []
-    for name in GENERATED_SYSTEMS:
-        system = builtin(name)
-        for lang in LANGUAGES:
-            paths += write_files(emit(system, lang), Path(out) / name / lang)
-    return paths
 
 
 def _generate(args: argparse.Namespace) -> int:
@@ -164,6 +148,8 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _regen(args: argparse.Namespace) -> int:
+    from s2gen.emit import regenerate
+
     paths = regenerate(args.out)
     print(f"rewrote {len(paths)} files under {args.out}/")
     return 0

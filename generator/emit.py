@@ -34,7 +34,17 @@ from s2gen.version import fingerprint
 if TYPE_CHECKING:
     from s2gen.printing import PrintedModule
 
-__all__ = ["LANGUAGES", "clear_caches", "emit", "emit_key", "printed", "write_files"]
+__all__ = [
+    "GENERATED",
+    "LANGUAGES",
+    "clear_caches",
+    "emit",
+    "emit_angles",
+    "emit_key",
+    "printed",
+    "regenerate",
+    "write_files",
+]
 
 log = logging.getLogger("s2gen.emit")
 
@@ -49,6 +59,15 @@ def _printed_cached(system: System) -> PrintedModule:
     return print_module(lower_system(system))
 
 
+@functools.lru_cache(maxsize=16)
+def _printed_angles(system: System, simplify: bool) -> PrintedModule:
+    from s2gen.equations.angles import derive_angles
+    from s2gen.passes import lower_angles
+    from s2gen.printing import print_module
+
+    return print_module(lower_angles(derive_angles(system, simplify)))
+
+
 def printed(system: System) -> PrintedModule:
     """The printed module of a system (derived once per distinct system, then cached)."""
     return _printed_cached(system)
@@ -59,35 +78,84 @@ def clear_caches() -> None:
     so that the next `emit(..., cache=False)` measures a derivation from scratch."""
     from sympy.core.cache import clear_cache
 
-    from s2gen.passes import generic_kernels
+    from s2gen.passes import clear_caches as clear_lowered
 
     clear_cache()
     _printed_cached.cache_clear()
-    generic_kernels.cache_clear()
+    _printed_angles.cache_clear()
+    clear_lowered()
 
 
-def emit_key(system: System, lang: str) -> str:
-    """The cache key of a system's emitted files in one language."""
-    text = f"{system.spec_digest()}\0{lang}\0{fingerprint()}"
+def emit_key(system: System, lang: str, form: str = "sphere") -> str:
+    """The cache key of a system's emitted files in one language and form."""
+    text = f"{system.spec_digest()}\0{lang}\0{form}\0{fingerprint()}"
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def emit(system: System, lang: str, cache: bool = True) -> dict[str, str]:
-    """All files of one language for a system; with `cache`, read from and written to the
-    disk cache of emitted files."""
+def _emit(system: System, lang: str, form: str, cache: bool) -> dict[str, str]:
     if lang not in LANGUAGES:
         raise ValueError(f"unknown language {lang!r}; choose one of {', '.join(LANGUAGES)}")
-    folder = cache_dir() / "emitted" / emit_key(system, lang)
+    folder = cache_dir() / "emitted" / emit_key(system, lang, form)
     files = _read_cached(folder) if cache else None
     if files is not None:
-        log.info("reused emitted %s (%s)", system.name, lang)
+        log.info("reused emitted %s (%s, %s)", system.name, form, lang)
         return files
     from s2gen.render import render
 
-    files = render(printed(system), lang)
+    if form == "sphere":
+        module = printed(system)
+    else:
+        module = _printed_angles(system, form == "angles-simplified")
+    files = render(module, lang)
     if cache:
         _write_cached(folder, files)
     return files
+
+
+def emit(system: System, lang: str, cache: bool = True) -> dict[str, str]:
+    """All files of one language for a system's (S^2)^n module; with `cache`, read from and
+    written to the disk cache of emitted files."""
+    return _emit(system, lang, "sphere", cache)
+
+
+def emit_angles(
+    system: System, lang: str, simplify: bool = False, cache: bool = True
+) -> dict[str, str]:
+    """All files of one language for a system's angle-form module (file stem
+    ``<system>_angles``), derived with `sympy.simplify` on every entry when `simplify`.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> sorted(emit_angles(builtin("double_pendulum"), "c"))
+        ['double_pendulum_angles.c', 'double_pendulum_angles.h']
+    """
+    return _emit(system, lang, "angles-simplified" if simplify else "angles", cache)
+
+
+#: Modules kept in the repository's generated/ folder, one of each kind (folder, spec, form):
+#: coupled inertia, diagonal inertia with term loops, a cutoff term, and an angle-form module.
+#: Specs are built-in names or paths relative to the repository.
+GENERATED = (
+    ("double_pendulum", "double_pendulum", "sphere"),
+    ("four_pendula", "four_pendula", "sphere"),
+    ("lj_cutoff", "tests/specs/lj_cutoff.toml", "sphere"),
+    ("double_pendulum_angles", "double_pendulum", "angles"),
+)
+
+
+def regenerate(out: str | Path, root: str | Path = ".") -> list[Path]:
+    """Write the C and NumPy code of `GENERATED` under out/<folder>/<lang>/ (specs that are
+    paths are read relative to `root`)."""
+    from s2gen.systems import resolve
+
+    paths: list[Path] = []
+    for folder, spec, form in GENERATED:
+        path = Path(root) / spec
+        system = resolve(str(path) if path.suffix == ".toml" else spec)
+        for lang in LANGUAGES:
+            files = emit(system, lang) if form == "sphere" else emit_angles(system, lang)
+            paths += write_files(files, Path(out) / folder / lang)
+    return paths
 
 
 def _sha(text: str) -> str:

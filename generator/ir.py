@@ -1,15 +1,24 @@
 """Frozen, typed intermediate representation between the equations and the printers.
 
-Two levels:
-- `KernelDef` is what the equation stages (`continuous.py`, `discrete.py`, `model.py`) produce:
-  named inputs (each a tuple of SymPy symbols, a scalar or an array slot per symbol) and named
-  outputs (tuples of SymPy expressions in those symbols).
-- `Kernel` is what `lowering.py` makes of it: common subexpressions eliminated into named
-  temporaries (deterministic names), small integer powers expanded, operation counts attached.
+Kernels:
+- `KernelDef` is what the equation stages (`s2gen.equations`) produce: named inputs (each a
+  tuple of SymPy symbols, a scalar or an array slot per symbol) and named outputs (tuples of
+  SymPy expressions in those symbols).
+- `Kernel` is what the lowering passes (`s2gen.passes`) make of it: common subexpressions
+  eliminated into named temporaries (deterministic names), small integer powers expanded,
+  operation counts attached.
 
-A `Module` gathers the kernels of one system with the structural facts the templates lay out
-(body count, coupling pairs, parameter names, workspace size). The printers turn a `Module` into
-text records (`printing.PrintedModule`); templates never see SymPy objects.
+Structure:
+- `Loop` is a loop over the members of a structured term or over the coupled pairs of M
+  (`LoopKind` says how members are enumerated; list kinds read member tables).
+- `Call` is one call site of a kernel, its arguments resolved in Python from the kernel's own
+  signature (`s2gen.passes.calls`), for each language.
+- `Layout` is the workspace of one function: named buffers with sizes and offsets
+  (`s2gen.passes.workspace`).
+- `Module` gathers one emitted module: its kind, kernels, loops, calls, layouts, the partial
+  templates that lay it out (chosen in Python: the algorithm variants) and the passes that ran.
+
+Templates never see SymPy objects: `s2gen.printing` turns a `Module` into text records.
 
 Example:
     >>> import sympy as sp
@@ -22,11 +31,27 @@ Example:
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass
 
 import sympy as sp
 
-__all__ = ["Argument", "Assignment", "Kernel", "KernelDef", "Module", "Output"]
+__all__ = [
+    "Argument",
+    "Assignment",
+    "Buffer",
+    "Call",
+    "Kernel",
+    "KernelDef",
+    "Layout",
+    "Loop",
+    "LoopKind",
+    "Module",
+    "ModuleKind",
+    "Output",
+    "PassRecord",
+    "TermLoop",
+]
 
 
 @dataclass(frozen=True)
@@ -57,12 +82,17 @@ class Output:
 
 @dataclass(frozen=True)
 class KernelDef:
-    """A kernel before lowering: inputs and output expressions, with a one-line doc."""
+    """A kernel before lowering: inputs and output expressions, with a one-line doc.
+
+    `system` kernels index the global positions (q of all bodies: `q[3*i + c]` in C, `q[i, c]`
+    in NumPy); the others take one body's or one pair's vectors (and vectorize in NumPy).
+    """
 
     name: str
     doc: str
     inputs: tuple[Argument, ...]
     outputs: tuple[Output, ...]
+    system: bool = False
 
 
 @dataclass(frozen=True)
@@ -85,43 +115,162 @@ class Kernel:
     assignments: tuple[Assignment, ...]
     ops_before: int
     ops_after: int
+    system: bool = False
+
+    @property
+    def temporaries(self) -> int:
+        return sum(1 for a in self.assignments if a.temp is not None)
+
+
+class ModuleKind(enum.Enum):
+    """The kinds of emitted module: the (S^2)^n equations and integrators, or the classical
+    spherical-angle form of the same system (for comparison)."""
+
+    SPHERE = "sphere"
+    ANGLES = "angles"
+
+
+class LoopKind(enum.Enum):
+    """How a loop enumerates its members: every body, listed bodies, the chain (i, i+1), listed
+    pairs, every pair i < j (optionally only those within a cutoff), or the coupled pairs of M."""
+
+    BODIES = "bodies"
+    BODY_LIST = "body list"
+    CHAIN = "chain"
+    PAIR_LIST = "pair list"
+    ALL_PAIRS = "all pairs"
+    CUTOFF_PAIRS = "pairs within a cutoff"
+    COUPLING = "coupled pairs of M"
+
+    @property
+    def pairs(self) -> bool:
+        """True when a member is a pair of bodies."""
+        return self not in (LoopKind.BODIES, LoopKind.BODY_LIST)
+
+    @property
+    def listed(self) -> bool:
+        """True when members are read from index tables."""
+        return self in (LoopKind.BODY_LIST, LoopKind.PAIR_LIST, LoopKind.COUPLING)
+
+
+@dataclass(frozen=True)
+class Loop:
+    """A loop over `count` members of one kind; list kinds read `members` (0-based bodies)."""
+
+    kind: LoopKind
+    count: int
+    members: tuple[tuple[int, ...], ...] = ()
+    cutoff: float | None = None  # CUTOFF_PAIRS: chord distance; pairs farther apart are skipped
+    cells: int = 0  # CUTOFF_PAIRS: neighbour-list grid cells per axis over [-1, 1]
 
 
 @dataclass(frozen=True)
 class TermLoop:
-    """One structured potential term: its kernels and the members they are applied to.
+    """One structured potential term: its loop, kernels and per-member data tables.
 
-    `select` is "all" (every body / every pair i < j, generated by the loop itself), "chain"
-    (pairs (m, m+1)) or "list" (`members`, 0-based). `data` holds (name, width, values) tables,
-    one entry (width values) per member.
+    `data` holds (name, width, values) tables, one entry (width values) per member.
     """
 
     index: int
-    kind: str
-    select: str
-    count: int
-    members: tuple[tuple[int, ...], ...]
+    loop: Loop
     data: tuple[tuple[str, int, tuple[float, ...]], ...]
-    value: Kernel
-    gradient: Kernel
-    cutoff: float | None = None  # chord distance; pairs farther apart are skipped
-    cells: int = 0  # neighbour-list grid cells per axis over [-1, 1] (0: no list)
+    value: str  # kernel names
+    gradient: str
+
+
+@dataclass(frozen=True)
+class Call:
+    """One call site of a kernel: the arguments in the kernel's parameter order, per language.
+
+    C takes inputs then outputs (pointers); NumPy takes the inputs and returns the outputs.
+    """
+
+    site: str
+    kernel: str
+    c_args: tuple[str, ...]
+    py_args: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Buffer:
+    """A named part of a workspace: `size` doubles at `offset`."""
+
+    name: str
+    size: int
+    offset: int
+
+
+@dataclass(frozen=True)
+class Layout:
+    """The workspace of one function: its buffers in order and its total size (doubles)."""
+
+    name: str
+    buffers: tuple[Buffer, ...]
+
+    @property
+    def size(self) -> int:
+        return max((b.offset + b.size for b in self.buffers), default=0)
+
+    def offset(self, name: str) -> int:
+        """The offset of buffer `name` (KeyError if absent)."""
+        for b in self.buffers:
+            if b.name == name:
+                return b.offset
+        raise KeyError(f"layout {self.name} has no buffer {name!r}")
+
+
+@dataclass(frozen=True)
+class PassRecord:
+    """A lowering pass that ran, with the total operations of all kernels after it."""
+
+    name: str
+    ops: int
 
 
 @dataclass(frozen=True)
 class Module:
-    """Everything the templates of one system need, still language-neutral."""
+    """Everything the printers need for one emitted module, still language-neutral.
 
+    `kernels` are `KernelDef`s before the lowering passes and `Kernel`s after; `parts` names the
+    partial templates (algorithm variants included) in the order they are laid out; `facts`
+    are the few other values the templates show (flags and sizes, decided in Python).
+    """
+
+    kind: ModuleKind
     name: str
     spec_hash: str
     origin: str
     n: int
     parameter_names: tuple[str, ...]
     parameter_values: tuple[float, ...]
-    coupled: bool
-    pairs: tuple[tuple[int, int], ...]  # 0-based (i, j), i < j, M_ij not identically zero
-    system_kernels: tuple[Kernel, ...]  # inertia, and potential/gradient of V's general part
-    terms: tuple[TermLoop, ...]  # structured terms of V, each applied in a loop
-    body_kernels: tuple[Kernel, ...]  # generic per-body / per-pair kernels
-    work_base: int  # doubles used by the step functions; the context follows it
-    work_size: int
+    kernels: tuple[KernelDef | Kernel, ...]
+    parts: tuple[str, ...]
+    c_only: tuple[str, ...] = ()  # parts the NumPy module does by library calls instead
+    pairs: tuple[tuple[int, int], ...] = ()  # 0-based (i, j), i < j, M_ij not identically zero
+    terms: tuple[TermLoop, ...] = ()
+    coupling: Loop | None = None
+    calls: tuple[Call, ...] = ()
+    layouts: tuple[Layout, ...] = ()
+    work_base: int = 0  # doubles used by the functions; the per-call context follows
+    work_size: int = 0
+    facts: tuple[tuple[str, bool | int | float | str], ...] = ()
+    field_calls: tuple[tuple[str, int], ...] = ()  # (kernel, calls) per vector-field evaluation
+    passes: tuple[PassRecord, ...] = ()
+
+    def kernel(self, name: str) -> KernelDef | Kernel:
+        """The kernel called `name` (KeyError if absent)."""
+        for k in self.kernels:
+            if k.name == name:
+                return k
+        raise KeyError(f"module {self.name} has no kernel {name!r}")
+
+    def fact(self, name: str) -> bool | int | float | str:
+        """The value of fact `name` (KeyError if absent)."""
+        return dict(self.facts)[name]
+
+    def layout(self, name: str) -> Layout:
+        """The workspace layout of function `name` (KeyError if absent)."""
+        for lay in self.layouts:
+            if lay.name == name:
+                return lay
+        raise KeyError(f"module {self.name} has no layout {name!r}")

@@ -1,11 +1,13 @@
 """Render printed modules into files with one strict jinja2 environment.
 
-Input: a `PrintedModule` (strings, numbers, tuples only). Output: {relative path: text}. The
-templates in `templates/c/` and `templates/numpy/` only lay text out; every decision arrives as
-a value. Output is byte-reproducible: no dates, hosts or versions, only the spec hash.
+Input: a `PrintedModule` (strings, numbers, tuples, small dicts). Output: {file name: text}.
+Each kind of module has one top-level template per file; they lay out the partial templates
+Python chose (`m.c_parts`, `m.py_parts`: the algorithm variants, in order). Templates only lay
+text out; every decision arrives as a value. Output is byte-reproducible: no dates, hosts or
+versions, only the spec hash.
 
 Example:
-    >>> sorted(TEMPLATES)
+    >>> sorted(TEMPLATES["sphere"])
     ['c', 'numpy']
 """
 
@@ -13,18 +15,23 @@ from __future__ import annotations
 
 import functools
 from importlib import resources
-from typing import Any
 
 import jinja2
 
 from s2gen.printing import PrintedModule
 
-__all__ = ["ANGLE_TEMPLATES", "TEMPLATES", "environment", "render", "render_angles"]
+__all__ = ["TEMPLATES", "environment", "render"]
 
-#: Files emitted per language: (template, output name pattern).
-TEMPLATES: dict[str, tuple[tuple[str, str], ...]] = {
-    "c": (("c/system.h.jinja", "{name}.h"), ("c/system.c.jinja", "{name}.c")),
-    "numpy": (("numpy/system.py.jinja", "{name}.py"),),
+#: Files emitted per module kind and language: (template, output name pattern).
+TEMPLATES: dict[str, dict[str, tuple[tuple[str, str], ...]]] = {
+    "sphere": {
+        "c": (("c/sphere.h.jinja", "{name}.h"), ("c/module.c.jinja", "{name}.c")),
+        "numpy": (("numpy/module.py.jinja", "{name}.py"),),
+    },
+    "angles": {
+        "c": (("c/angles.h.jinja", "{name}.h"), ("c/module.c.jinja", "{name}.c")),
+        "numpy": (("numpy/module.py.jinja", "{name}.py"),),
+    },
 }
 
 
@@ -44,28 +51,11 @@ def environment() -> jinja2.Environment:
 
 def render(module: PrintedModule, lang: str) -> dict[str, str]:
     """Render every file of one language; keys are file names, values their text."""
-    if lang not in TEMPLATES:
-        raise ValueError(f"unknown language {lang!r}; choose one of {sorted(TEMPLATES)}")
+    files = TEMPLATES[module.kind]
+    if lang not in files:
+        raise ValueError(f"unknown language {lang!r}; choose one of {sorted(files)}")
     env = environment()
     return {
         pattern.format(name=module.name): env.get_template(template).render(m=module)
-        for template, pattern in TEMPLATES[lang]
-    }
-
-
-#: Files of the angle-form comparison module (`angles.py`) per language.
-ANGLE_TEMPLATES: dict[str, tuple[tuple[str, str], ...]] = {
-    "c": (("c/angles.h.jinja", "{name}.h"), ("c/angles.c.jinja", "{name}.c")),
-    "numpy": (("numpy/angles.py.jinja", "{name}.py"),),
-}
-
-
-def render_angles(module: Any, lang: str) -> dict[str, str]:
-    """Render an `angles.PrintedAngles` for one language; keys are file names."""
-    if lang not in ANGLE_TEMPLATES:
-        raise ValueError(f"unknown language {lang!r}; choose one of {sorted(ANGLE_TEMPLATES)}")
-    env = environment()
-    return {
-        pattern.format(name=module.name): env.get_template(template).render(m=module)
-        for template, pattern in ANGLE_TEMPLATES[lang]
+        for template, pattern in files[lang]
     }

@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
+import difflib
 import subprocess
 from pathlib import Path
 
 import numpy as np
+import pytest
 import sympy as sp
 
 from s2gen.build import STRICT_FLAGS, compile_shared, compiler
-from s2gen.cli import GENERATED_SYSTEMS, regenerate
-from s2gen.emit import emit
+from s2gen.emit import GENERATED, clear_caches, emit, regenerate
 from s2gen.equations.continuous import system_matrix_blocks
 from s2gen.equations.geometry import cayley_apply, cayley_apply_tangent, dot, hat
 from s2gen.runtime import get_backend
@@ -20,24 +21,32 @@ REPO = Path(__file__).resolve().parent.parent
 
 
 def test_generated_folder_is_reproducible(tmp_path: Path) -> None:
-    """generated/ must equal a fresh regeneration byte for byte (`s2gen regen` rewrites it)."""
-    regenerate(tmp_path)
+    """generated/ must equal a fresh regeneration byte for byte (`s2gen regen` rewrites it):
+    one module of each kind (coupled, diagonal with term loops, cutoff, angle form). Every
+    cache is cleared first; a mismatch shows a unified diff."""
+    clear_caches()
+    regenerate(tmp_path, root=REPO)
     fresh = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p.is_file())
     kept = sorted(
         p.relative_to(REPO / "generated") for p in (REPO / "generated").rglob("*") if p.is_file()
     )
     assert fresh == kept
     for rel in fresh:
-        assert (tmp_path / rel).read_bytes() == (REPO / "generated" / rel).read_bytes(), rel
-    assert {p.parts[0] for p in fresh} == set(GENERATED_SYSTEMS)
+        new, old = (tmp_path / rel).read_text(), (REPO / "generated" / rel).read_text()
+        if new != old:
+            diff = difflib.unified_diff(
+                old.splitlines(), new.splitlines(), f"generated/{rel}", "regenerated", lineterm=""
+            )
+            pytest.fail(
+                f"generated/{rel} differs (run s2gen regen):\n" + "\n".join(list(diff)[:80])
+            )
+    assert {p.parts[0] for p in fresh} == {folder for folder, _, _ in GENERATED}
 
 
 def test_emission_is_deterministic(system) -> None:
     """Two emissions of the same system give identical text (no dates, no set order), with
     every cache cleared in between (in-process derivations and the disk cache of emitted
     files)."""
-    from s2gen.emit import clear_caches
-
     clear_caches()
     first = emit(system, "c", cache=False)
     clear_caches()

@@ -169,9 +169,14 @@ def angle_kernels(eq: AngleEquations) -> tuple[list[KernelDef], list[KernelDef]]
         f"mass matrix M(x) (row-major {dim} x {dim}) and force F(x, xd) of M xdd = F",
         (p, x, xd),
         (Output("m", tuple(eq.mass)), Output("f", eq.force)),
+        system=True,
     )
     energy = KernelDef(
-        "energy", "total energy T + V in angles", (p, x, xd), (Output("e", (eq.energy,), True),)
+        "energy",
+        "total energy T + V in angles",
+        (p, x, xd),
+        (Output("e", (eq.energy,), True),),
+        system=True,
     )
     th, ph, thd, phd = sp.symbols("theta phi thetad phid", real=True)
     q = sphere_point(th, ph)

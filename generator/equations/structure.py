@@ -55,6 +55,7 @@ def system_kernels(system: System) -> list[KernelDef]:
             "diagonal of M and its coupled off-diagonal entries (pair order of the header)",
             (p,),
             tuple(outputs),
+            system=True,
         )
     ]
     if has_general_potential(system):
@@ -67,8 +68,15 @@ def system_kernels(system: System) -> list[KernelDef]:
                 "potential energy V(q) (general part)",
                 (p, q),
                 (Output("v", (V,), scalar=True),),
+                system=True,
             ),
-            KernelDef("gradient", "dV/dq, body-major (3 per body)", (p, q), (Output("g", grad),)),
+            KernelDef(
+                "gradient",
+                "dV/dq, body-major (3 per body)",
+                (p, q),
+                (Output("g", grad),),
+                system=True,
+            ),
         ]
     return kernels
 
@@ -77,7 +85,8 @@ def term_kernels(system: System, index: int, term: Term) -> tuple[KernelDef, Ker
     """Value and gradient kernels of one term, in its local positions, data and parameters."""
     p = Argument("p", system.parameter_symbols)
     positions = [Argument(role, local_vector(role)) for role in term.roles()]
-    data = [Argument(d.name, d.symbols(), scalar=d.width == 1) for d in term.data]
+    # data arguments are prefixed so that no datum name can clash with p, q, v, g, ...
+    data = [Argument(f"d_{d.name}", d.symbols(), scalar=d.width == 1) for d in term.data]
     inputs = (p, *positions, *data)
     where = f"{term.label}: {'sum over bodies' if term.kind == 'body' else 'sum over pairs'}"
     grads = tuple(

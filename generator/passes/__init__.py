@@ -1,132 +1,91 @@
-"""Equations to IR: common-subexpression elimination, power expansion, op counts.
+"""Lowering: an ordered list of named passes, each a function from `Module` to `Module`.
 
-Input: `KernelDef`s (SymPy expressions) and a `System`. Output: frozen `Kernel`s and the
-`Module` that gathers them with the system's structure. Temporaries are named x0, x1, ... in
-the order SymPy's canonical cse produces them, so the same input always gives the same names.
+Input: the unlowered `Module` of a system (`s2gen.equations.assemble`). Output: the lowered
+`Module` the printers read. The passes, in order (`PIPELINE`):
+
+- `cse`: common subexpressions of each kernel, deterministic temporaries (`passes/cse.py`);
+- `powers`: small integer powers as products (`passes/powers.py`);
+- `opcount`: operation counts of each kernel (`passes/opcount.py`);
+- `calls`: every kernel call site resolved from the kernel's signature (`passes/calls.py`);
+- `workspace`: the caller's workspace laid out per function (`passes/workspace.py`).
+
+Each run records the passes and the total operations after each; the emitted files list them.
 
 Example:
-    >>> import sympy as sp
-    >>> from s2gen.ir import Argument, KernelDef, Output
-    >>> x = sp.Symbol("x", real=True)
-    >>> k = lower(KernelDef("k", "doc", (Argument("x", (x,), scalar=True),),
-    ...                     (Output("y", (sp.sin(x) ** 2 + sp.sin(x),), scalar=True),)))
-    >>> [str(a.temp) for a in k.assignments if a.temp is not None]
-    ['x0']
+    >>> from s2gen.systems import builtin
+    >>> [p.name for p in lower_system(builtin("double_pendulum")).passes]
+    ['cse', 'powers', 'opcount', 'calls', 'workspace']
 """
 
 from __future__ import annotations
 
-import functools
+from collections.abc import Callable
+from dataclasses import replace
 
-import sympy as sp
-from sympy.codegen.rewriting import create_expand_pow_optimization
+from s2gen.equations.angles import AngleEquations
+from s2gen.equations.assemble import angle_module, sphere_module
+from s2gen.ir import Kernel, KernelDef, Module, ModuleKind, PassRecord
+from s2gen.passes import opcount as _opcount
+from s2gen.passes import powers as _powers
+from s2gen.passes.calls import calls_pass
+from s2gen.passes.cse import cse_pass, lower_kernel
+from s2gen.passes.opcount import module_ops, opcount_pass
+from s2gen.passes.powers import powers_pass
+from s2gen.passes.workspace import workspace_pass
+from s2gen.system import System
 
-from s2gen.equations.continuous import continuous_kernels
-from s2gen.equations.discrete import explicit_kernels, newton_kernels
-from s2gen.equations.rattle import rattle_kernels
-from s2gen.equations.structure import coupling_pairs, system_kernels, term_kernels
-from s2gen.ir import Assignment, Kernel, KernelDef, Module, TermLoop
-from s2gen.system import System, Term
+__all__ = ["PIPELINE", "clear_caches", "lower", "lower_angles", "lower_module", "lower_system"]
 
-__all__ = ["lower", "lower_system", "workspace_size"]
+Pass = Callable[[Module], Module]
 
-#: Integer powers up to this exponent become products (any base, not only symbols): pow() is a
-#: library call, x*x*x a few cycles; cse has already named repeated bases.
-POW_EXPANSION_LIMIT = 16
-_expand_pow = create_expand_pow_optimization(POW_EXPANSION_LIMIT, base_req=lambda b: True)
-
-
-def _ops(exprs: list[sp.Expr]) -> int:
-    return int(sum(sp.count_ops(e) for e in exprs))
-
-
-def lower(kdef: KernelDef) -> Kernel:
-    """Eliminate common subexpressions of all outputs of one kernel together."""
-    flat = [e for out in kdef.outputs for e in out.exprs]
-    slots = [(out.name, k) for out in kdef.outputs for k in range(out.size)]
-    temps, reduced = sp.cse(
-        [sp.sympify(e) for e in flat],
-        symbols=sp.numbered_symbols("x", real=True),
-        order="canonical",
-    )
-    assignments = [Assignment(t, None, _expand_pow(e)) for t, e in temps]
-    assignments += [Assignment(None, slot, _expand_pow(e)) for slot, e in zip(slots, reduced)]
-    return Kernel(
-        name=kdef.name,
-        doc=kdef.doc,
-        inputs=kdef.inputs,
-        outputs=kdef.outputs,
-        assignments=tuple(assignments),
-        ops_before=_ops(flat),
-        ops_after=_ops([a.expr for a in assignments]),
-    )
+#: The lowering passes, in the order they run.
+PIPELINE: tuple[tuple[str, Pass], ...] = (
+    ("cse", cse_pass),
+    ("powers", powers_pass),
+    ("opcount", opcount_pass),
+    ("calls", calls_pass),
+    ("workspace", workspace_pass),
+)
 
 
-def workspace_size(n: int, coupled: bool) -> int:
-    """Doubles of caller-provided workspace the emitted driver needs (see the C header)."""
-    m = 3 * n
-    flow = 12 * m  # q, w, g, gn, qn, wn, f, d, r, ... one vector of 3n each
-    rk = 10 * 2 * m  # RK45: 7 stages, y, ynew, err (state is 6n)
-    dense = (m * m + 2 * m) if coupled else 0  # one 3n x 3n matrix, rhs and scratch
-    return flow + rk + dense
-
-
-def _term_loop(system: System, index: int, term: Term) -> TermLoop:
-    value, gradient = term_kernels(system, index, term)
-    return TermLoop(
-        index=index,
-        kind=term.kind,
-        select=term.select,
-        count=term.count(system.n),
-        members=term.members,
-        data=tuple((d.name, d.width, d.values) for d in term.data),
-        value=lower(value),
-        gradient=lower(gradient),
-        cutoff=term.cutoff,
-        cells=cell_grid(term.cutoff) if term.cutoff is not None else 0,
-    )
-
-
-#: Most neighbour-list cells per axis (bounds the list's memory when the cutoff is tiny).
-MAX_CELLS = 160
-
-
-def cell_grid(cutoff: float) -> int:
-    """Cells per axis of a grid over [-1, 1]^3 whose cells are at least `cutoff` wide."""
-    return max(1, min(int(2.0 / cutoff), MAX_CELLS))
-
-
-@functools.lru_cache(maxsize=2)
-def generic_kernels(coupled: bool) -> tuple[Kernel, ...]:
-    """The system-independent kernels (derived and lowered once per process)."""
-    defs = continuous_kernels(coupled) + (
-        newton_kernels() if coupled else explicit_kernels() + rattle_kernels()
-    )
-    return tuple(lower(k) for k in defs)
+def lower_module(module: Module, pipeline: tuple[tuple[str, Pass], ...] = PIPELINE) -> Module:
+    """Run the passes in order, recording each one and the operations after it."""
+    records = list(module.passes)
+    for name, run in pipeline:
+        module = run(module)
+        records.append(PassRecord(name, module_ops(module)))
+    return replace(module, passes=tuple(records))
 
 
 def lower_system(system: System) -> Module:
-    """All kernels of one system, lowered, with the structure the templates need."""
-    pairs = coupling_pairs(system)
-    coupled = bool(pairs)
-    terms = tuple(_term_loop(system, k, t) for k, t in enumerate(system.terms))
-    neighbour = max((t.cells**3 + system.n for t in terms if t.cells), default=0)
-    return Module(
-        name=system.name,
-        spec_hash=system.spec_hash(),
-        origin=system.origin,
-        n=system.n,
-        parameter_names=system.parameter_names,
-        parameter_values=system.parameter_values,
-        coupled=coupled,
-        pairs=pairs,
-        system_kernels=tuple(lower(k) for k in system_kernels(system)),
-        terms=terms,
-        body_kernels=generic_kernels(coupled),
-        work_base=workspace_size(system.n, coupled),
-        work_size=workspace_size(system.n, coupled)
-        + system.n
-        + len(pairs)
-        + (system.n if coupled else 0)
-        + neighbour,
-    )
+    """The lowered (S^2)^n module of a system."""
+    return lower_module(sphere_module(system))
+
+
+def lower_angles(eq: AngleEquations) -> Module:
+    """The lowered angle-form module of a system."""
+    return lower_module(angle_module(eq))
+
+
+def lower(kdef: KernelDef) -> Kernel:
+    """One kernel through the kernel passes (cse, powers, opcount), outside any module.
+
+    Example:
+        >>> import sympy as sp
+        >>> from s2gen.ir import Argument, Output
+        >>> x = sp.Symbol("x", real=True)
+        >>> lower(KernelDef("k", "doc", (Argument("x", (x,), True),),
+        ...                 (Output("y", (x**3,), True),))).assignments[0].expr
+        x*x*x
+    """
+    module = Module(ModuleKind.SPHERE, "kernel", "", "", 0, (), (), (kdef,), ())
+    kernel = opcount_pass(powers_pass(cse_pass(module))).kernels[0]
+    assert isinstance(kernel, Kernel)
+    return kernel
+
+
+def clear_caches() -> None:
+    """Forget every kernel lowered in this process."""
+    lower_kernel.cache_clear()
+    _powers.clear_cache()
+    _opcount.kernel_ops.cache_clear()

@@ -1,56 +1,40 @@
-"""C99 and NumPy printers: lowered kernels become text records for the templates.
+"""Print a lowered `Module` for every language: the text records the templates lay out.
 
-Input: a `Module` (IR). Output: a `PrintedModule` of plain strings, numbers and tuples, the only
-thing the templates see. Symbols are mapped to array slots by overriding the printers'
-`_print_Symbol` (no string replacement): array input `q` with symbols (q0, q1, q2) prints as
-`q[0]`, `q[1]`, `q[2]` in C and `q[..., 0]` ... in NumPy (so per-body kernels vectorize over
-bodies); the system kernels index positions as `q[3*i + c]` in C and `q[i, c]` in NumPy.
+Input: a lowered `Module` (IR). Output: a `PrintedModule` of plain strings, numbers, tuples and
+small dicts (call sites by name, workspace offsets by layout and buffer), the only thing the
+templates see. The C and NumPy printers live in `printing/c.py` and `printing/numpy.py`;
+declarations come from `s2gen.interface`, enums from `s2gen.methods`.
 
 Example:
-    >>> import sympy as sp
-    >>> x = sp.Symbol("x", real=True)
-    >>> CPrinter({x: "q[0]"}).doprint(sp.sqrt(x) + sp.pi)
-    'sqrt(q[0]) + 3.14159265358979323846'
+    >>> from s2gen.systems import builtin
+    >>> from s2gen.passes import lower_system
+    >>> pm = print_module(lower_system(builtin("double_pendulum")))
+    >>> pm.call["kin_body"]["c"]
+    'double_pendulum_k_kin_body(md[i], q + 3 * i, w + 3 * i, &t)'
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
-import sympy as sp
-from sympy.printing.c import C99CodePrinter
-from sympy.printing.numpy import NumPyPrinter
+from s2gen.interface import interface
+from s2gen.ir import Kernel, LoopKind, Module, ModuleKind, PassRecord, TermLoop
+from s2gen.methods import METHODS, Status, method
+from s2gen.passes.workspace import CONTEXT
+from s2gen.printing.c import (
+    c_call,
+    c_decl,
+    c_field_decl,
+    c_kernel,
+    c_loop,
+    c_term_tables,
+    nullable_note,
+    rows,
+)
+from s2gen.printing.numpy import py_call, py_kernel, py_term_setup
 
-from s2gen.ir import Argument, Kernel, Module, TermLoop
-
-__all__ = ["CPrinter", "PrintedKernel", "PrintedModule", "PyPrinter", "print_module"]
-
-
-class CPrinter(C99CodePrinter):
-    """C99 printer with symbols mapped to argument slots; pi as a literal (M_PI is POSIX)."""
-
-    def __init__(self, names: dict[sp.Symbol, str]) -> None:
-        super().__init__()
-        self._names = names
-
-    def _print_Symbol(self, expr: sp.Symbol) -> str:
-        name = self._names.get(expr)
-        return name if name is not None else super()._print_Symbol(expr)
-
-    def _print_Pi(self, expr: sp.Expr) -> str:
-        return "3.14159265358979323846"
-
-
-class PyPrinter(NumPyPrinter):
-    """NumPy printer with symbols mapped to argument slots (`numpy.` qualified calls)."""
-
-    def __init__(self, names: dict[sp.Symbol, str]) -> None:
-        super().__init__({"fully_qualified_modules": True})
-        self._names = names
-
-    def _print_Symbol(self, expr: sp.Symbol) -> str:
-        name = self._names.get(expr)
-        return name if name is not None else super()._print_Symbol(expr)
+__all__ = ["PrintedKernel", "PrintedModule", "PrintedTerm", "print_module"]
 
 
 @dataclass(frozen=True)
@@ -70,131 +54,92 @@ class PrintedKernel:
 
 @dataclass(frozen=True)
 class PrintedTerm:
-    """A structured term as text: kernels, member/data tables, and the calls a loop makes.
+    """A structured term as text: its loop, the calls it makes and how gradients accumulate.
 
-    `loop` is one of "bodies", "body_list", "all_pairs", "chain", "pair_list". C tables are
-    (type, name, length, rows of literals); NumPy setup lines define index and data arrays.
+    C: `c_open`/`c_close` bracket a member loop (m the member, i and j its bodies), or
+    `c_*_part` name the cell-list partials of a cutoff term. NumPy: `py_setup` defines index and
+    data arrays, `py_index` names the index arrays used to scatter gradients.
     """
 
     index: int
-    loop: str
+    doc: str
     count: int
-    value: PrintedKernel
-    gradient: PrintedKernel
-    c_tables: tuple[tuple[str, str, int, tuple[str, ...]], ...]
+    c_open: tuple[str, ...]
+    c_close: tuple[str, ...]
+    c_value_part: str
+    c_gradient_part: str
     c_value_call: str
     c_gradient_call: str
+    c_gradient_locals: str
+    c_gradient_accumulate: tuple[str, ...]
     py_setup: tuple[str, ...]
+    py_value_part: str
+    py_gradient_part: str
     py_value_call: str
     py_gradient_call: str
-    py_index: tuple[str, ...]  # index arrays of the roles, to scatter gradients
-    cutoff: str = ""  # round-trip literal of the cutoff distance ("" without cutoff)
-    rc2: str = ""  # its square
-    cells: int = 0  # neighbour-list cells per axis
+    py_gradient_accumulate: tuple[str, ...]
+    py_index: tuple[str, ...]
+    cutoff: str  # round-trip literal of the cutoff distance ("" without cutoff)
+    rc2: str  # its square
+    cells: int  # neighbour-list cells per axis
 
 
 @dataclass(frozen=True)
 class PrintedModule:
-    """Everything the templates lay out for one system (strings, numbers, tuples)."""
+    """Everything the templates lay out for one module."""
 
+    kind: str
     name: str
     upper: str
     spec_hash: str
     origin: str
     n: int
     n3: int
+    nx: int
+    ns: int
     npairs: int
+    npairs_or_one: int
     coupled: bool
+    general: bool
+    uniform_mass: bool
+    neighbour_lists: bool
     parameters: tuple[tuple[str, str], ...]  # (name, value as a round-trip literal)
     pair_i: tuple[int, ...]
     pair_j: tuple[int, ...]
+    kernels: tuple[PrintedKernel, ...]
+    terms: tuple[PrintedTerm, ...]
+    call: dict[str, dict[str, str]]  # site -> {"c": ..., "py": ...}
+    work: dict[str, dict[str, Any]]  # layout -> {buffer: offset, "doc": ..., "size": ...}
+    context: tuple[dict[str, Any], ...]  # the per-call context buffers (name, offset, doc)
     work_base: int
     work_size: int
-    general: bool  # V has a general (unstructured) part with its own kernels
-    uniform_mass: bool  # all M_ii are one expression: the inertia kernel returns it once
-    yoshida: tuple[str, str, str]  # triple-jump coefficients (round-trip literals)
-    neighbour_lists: bool  # some pair term has a cutoff (cell lists are emitted)
-    system_kernels: tuple[PrintedKernel, ...]
-    body_kernels: tuple[PrintedKernel, ...]
-    terms: tuple[PrintedTerm, ...]
+    c_parts: tuple[str, ...]
+    py_parts: tuple[str, ...]
+    parts: tuple[str, ...]
+    c_macros: tuple[tuple[str, str, str], ...]
+    h_macros: tuple[tuple[str, str, str], ...]
+    c_tables: tuple[tuple[str, str, int, tuple[str, ...]], ...]
+    options: tuple[dict[str, str], ...]
+    stats: tuple[dict[str, str], ...]
+    functions: tuple[dict[str, Any], ...]
+    statuses: tuple[tuple[str, int, str], ...]
+    methods: tuple[tuple[str, int, str], ...]
+    passes: tuple[PassRecord, ...]
+    yoshida: tuple[str, ...]
+    evals: str  # the statistics counter of vector-field / gradient evaluations
+    state_doc: str
+    py_doc_title: str
+    py_doc_state: str
+    system: str
+    derivation: str
+    pole_tol: str
+    min_pivot_ratio: str
 
 
-def _system_names(arg: Argument, c: bool) -> dict[sp.Symbol, str]:
-    """Slots of a system kernel's argument: positions are (n, 3) in NumPy, flat in C."""
-    if arg.name == "q" and not c:
-        return {s: f"q[{k // 3}, {k % 3}]" for k, s in enumerate(arg.symbols)}
-    return {s: f"{arg.name}[{k}]" for k, s in enumerate(arg.symbols)}
-
-
-def _names(kernel: Kernel, system: bool, c: bool) -> dict[sp.Symbol, str]:
-    names: dict[sp.Symbol, str] = {}
-    for arg in kernel.inputs:
-        if arg.scalar:
-            names[arg.symbols[0]] = arg.name
-        elif system:
-            names.update(_system_names(arg, c))
-        elif c:
-            names.update({s: f"{arg.name}[{k}]" for k, s in enumerate(arg.symbols)})
-        else:
-            names.update({s: f"{arg.name}[..., {k}]" for k, s in enumerate(arg.symbols)})
-    return names
-
-
-def _used(kernel: Kernel) -> set[sp.Symbol]:
-    used: set[sp.Symbol] = set()
-    for a in kernel.assignments:
-        used |= a.expr.free_symbols
-    return used
-
-
-def _c_kernel(kernel: Kernel, system: bool) -> tuple[str, tuple[str, ...]]:
-    pr = CPrinter(_names(kernel, system, c=True))
-    params = [
-        f"const double {a.name}" if a.scalar else f"const double *restrict {a.name}"
-        for a in kernel.inputs
-    ] + [f"double *restrict {o.name}" for o in kernel.outputs]
-    used = _used(kernel)
-    lines = [f"(void){a.name};" for a in kernel.inputs if not set(a.symbols) & used]
-    for a in kernel.assignments:
-        rhs = pr.doprint(a.expr)
-        if a.temp is not None:
-            lines.append(f"const double {a.temp} = {rhs};")
-        else:
-            assert a.output is not None
-            lines.append(f"{a.output[0]}[{a.output[1]}] = {rhs};")
-    return ", ".join(params), tuple(lines)
-
-
-def _py_kernel(kernel: Kernel, system: bool) -> tuple[str, tuple[str, ...]]:
-    pr = PyPrinter(_names(kernel, system, c=False))
-    params = ", ".join(a.name for a in kernel.inputs)
-    slots: dict[tuple[str, int], str] = {}
-    lines = []
-    for a in kernel.assignments:
-        rhs = pr.doprint(a.expr)
-        if a.temp is not None:
-            lines.append(f"{a.temp} = {rhs}")
-        else:
-            assert a.output is not None
-            slots[a.output] = rhs
-    results = []
-    for out in kernel.outputs:
-        comps = [slots[(out.name, k)] for k in range(out.size)]
-        if out.scalar:
-            lines.append(f"{out.name} = {comps[0]}")
-        elif system:
-            lines.append(f"{out.name} = numpy.array([{', '.join(comps)}], dtype=float)")
-        else:
-            lines.append(f"{out.name} = _stack({', '.join(comps)})")
-        results.append(out.name)
-    lines.append(f"return {', '.join(results)}")
-    return params, tuple(lines)
-
-
-def print_kernel(kernel: Kernel, system: bool) -> PrintedKernel:
-    """Print one lowered kernel for both languages (`system`: positions are the global q)."""
-    c_params, c_lines = _c_kernel(kernel, system)
-    py_params, py_lines = _py_kernel(kernel, system)
+def print_kernel(kernel: Kernel, restrict: str) -> PrintedKernel:
+    """One lowered kernel as text for both languages."""
+    c_params, c_lines = c_kernel(kernel, restrict)
+    py_params, py_lines = py_kernel(kernel)
     return PrintedKernel(
         name=kernel.name,
         doc=kernel.doc,
@@ -204,102 +149,252 @@ def print_kernel(kernel: Kernel, system: bool) -> PrintedKernel:
         py_lines=py_lines,
         ops_before=kernel.ops_before,
         ops_after=kernel.ops_after,
-        temporaries=sum(1 for a in kernel.assignments if a.temp is not None),
+        temporaries=kernel.temporaries,
     )
 
 
-def _rows(values: list[str], per_row: int = 6) -> tuple[str, ...]:
-    return tuple(", ".join(values[k : k + per_row]) for k in range(0, len(values), per_row))
-
-
-_LOOPS = {
-    ("body", "all"): "bodies",
-    ("body", "list"): "body_list",
-    ("pair", "all"): "all_pairs",
-    ("pair", "chain"): "chain",
-    ("pair", "list"): "pair_list",
+_TERM_DOC = {
+    LoopKind.BODIES: "sum over bodies (all)",
+    LoopKind.BODY_LIST: "sum over bodies (list)",
+    LoopKind.CHAIN: "sum over pairs (chain)",
+    LoopKind.PAIR_LIST: "sum over pairs (list)",
+    LoopKind.ALL_PAIRS: "sum over pairs (all)",
+    LoopKind.CUTOFF_PAIRS: "sum over pairs within the cutoff",
 }
 
 
-def _print_term(name: str, t: TermLoop) -> PrintedTerm:
-    """Tables and call strings of one term loop (loop variables: m member, i and j bodies)."""
-    pre, up = f"{name}_t{t.index}", f"T{t.index}"
-    loop = _LOOPS[(t.kind, t.select)]
-    tables: list[tuple[str, str, int, tuple[str, ...]]] = []
-    setup: list[str] = []
-    roles = ("i",) if t.kind == "body" else ("i", "j")
-    if t.select == "list":
-        for r, role in enumerate(roles):
-            idx = [str(mem[r]) for mem in t.members]
-            tables.append(("int", f"{pre}_{role}", t.count, _rows(idx, 16)))
-            setup.append(f"{up}_{role.upper()} = numpy.array([{', '.join(idx)}], dtype=int)")
-    elif loop == "bodies":
-        setup.append(f"{up}_I = numpy.arange(NBODIES)")
-    elif loop == "chain":
-        setup += [f"{up}_I = numpy.arange(NBODIES - 1)", f"{up}_J = {up}_I + 1"]
-    elif t.cutoff is None:
-        setup.append(f"{up}_I, {up}_J = numpy.triu_indices(NBODIES, 1)")
-    c_args, py_args = ["p"], ["p"]
-    for role in roles:
-        c_args.append(f"q + 3 * {role}")
-        py_args.append(f"q[{up}_{role.upper()}]")
-    for dname, width, values in t.data:
-        lits = [repr(float(v)) for v in values]
-        tables.append(("double", f"{pre}_{dname}", len(values), _rows(lits)))
-        arr = f"numpy.array([{', '.join(lits)}])"
-        setup.append(f"{up}_{dname.upper()} = {arr}" + ("" if width == 1 else ".reshape(-1, 3)"))
-        c_args.append(f"{pre}_{dname}[m]" if width == 1 else f"{pre}_{dname} + 3 * m")
-        py_args.append(f"{up}_{dname.upper()}")
-    grads = ["gb"] if t.kind == "body" else ["gi", "gj"]
+def _print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTerm:
+    kind = t.loop.kind
+    cutoff = kind is LoopKind.CUTOFF_PAIRS
+    c_open, c_close = ((), ()) if cutoff else c_loop(module.name, t, module.n)
+    if kind.pairs:
+        locals_, acc = (
+            "double gi[3], gj[3];",
+            [
+                f"g[3 * {i}{s}] += g{i}[{c}];"
+                for i in "ij"
+                for c, s in enumerate(("", " + 1", " + 2"))
+            ],
+        )
+    else:
+        locals_, acc = (
+            "double gb[3];",
+            [f"g[3 * i{s}] += gb[{c}];" for c, s in enumerate(("", " + 1", " + 2"))],
+        )
+    setup, index = py_term_setup(t)
+    value, gradient = calls[f"t{t.index}_value"], calls[f"t{t.index}_gradient"]
+    py_acc: tuple[str, ...]
+    if kind.pairs:
+        py_acc = (
+            f"gi, gj = {gradient['py']}",
+            f"numpy.add.at(g, {index[0]}, gi)",
+            f"numpy.add.at(g, {index[1]}, gj)",
+        )
+    else:
+        py_acc = (f"numpy.add.at(g, {index[0]}, {gradient['py']})",)
+    suffix = "_cutoff" if cutoff else ""
+    label = module.kernel(t.value).doc.split(":")[0]
     return PrintedTerm(
         index=t.index,
-        loop=loop,
-        count=t.count,
-        value=print_kernel(t.value, False),
-        gradient=print_kernel(t.gradient, False),
-        c_tables=tuple(tables),
-        c_value_call=f"{name}_k_t{t.index}_value({', '.join(c_args)}, &v)",
-        c_gradient_call=f"{name}_k_t{t.index}_gradient({', '.join(c_args + grads)})",
-        py_setup=tuple(setup),
-        py_value_call=f"_k_t{t.index}_value({', '.join(py_args)})",
-        py_gradient_call=f"_k_t{t.index}_gradient({', '.join(py_args)})",
-        py_index=tuple(f"{up}_{role.upper()}" for role in roles),
-        cutoff="" if t.cutoff is None else repr(float(t.cutoff)),
-        rc2="" if t.cutoff is None else repr(float(t.cutoff) ** 2),
-        cells=t.cells,
+        doc=f"term {t.index}, {label}: {_TERM_DOC[kind]}",
+        count=t.loop.count,
+        c_open=c_open,
+        c_close=c_close,
+        c_value_part=f"c/_term_value{suffix}.jinja",
+        c_gradient_part=f"c/_term_gradient{suffix}.jinja",
+        c_value_call=value["c"],
+        c_gradient_call=gradient["c"],
+        c_gradient_locals=locals_,
+        c_gradient_accumulate=tuple(acc),
+        py_setup=setup,
+        py_value_part=f"numpy/_term_value{suffix}.jinja",
+        py_gradient_part=f"numpy/_term_gradient{suffix}.jinja",
+        py_value_call=value["py"],
+        py_gradient_call=gradient["py"],
+        py_gradient_accumulate=py_acc,
+        py_index=index,
+        cutoff="" if t.loop.cutoff is None else repr(float(t.loop.cutoff)),
+        rc2="" if t.loop.cutoff is None else repr(float(t.loop.cutoff) ** 2),
+        cells=t.loop.cells,
     )
 
 
-def _yoshida() -> tuple[str, str, str]:
-    """Yoshida's triple jump: g1 = 1/(2 - 2^(1/3)), g2 = 1 - 2 g1 (so the steps add up to h)."""
-    g1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
-    g2 = 1.0 - 2.0 * g1
-    return repr(g1), repr(g2), repr(g1)
+def _doc(buffers: list[tuple[str, int]]) -> str:
+    return ", ".join(f"{name} ({size})" for name, size in buffers if size) or "none"
+
+
+def _work(module: Module) -> dict[str, dict[str, Any]]:
+    work: dict[str, dict[str, Any]] = {}
+    for lay in module.layouts:
+        entry: dict[str, Any] = {b.name: b.offset for b in lay.buffers}
+        entry["doc"] = _doc([(b.name, b.size) for b in lay.buffers])
+        entry["size"] = lay.size
+        work[lay.name] = entry
+    return work
+
+
+_CONTEXT_DOC = {
+    "md": "M_ii, one per body",
+    "mp": "coupled entries, one per pair",
+    "adiag": "diagonal of A(q+) in the VI velocity solve",
+    "nb": "neighbour-list cells and links",
+}
+
+
+def _functions(module: Module, prefix: str) -> tuple[dict[str, Any], ...]:
+    out = []
+    for f in interface(module.kind).functions:
+        doc = f.doc + (" " + nullable_note(f.params) if nullable_note(f.params) else "")
+        out.append({"c_decl": c_decl(prefix, f), "doc_lines": _wrap(doc)})
+    return tuple(out)
+
+
+def _wrap(text: str, width: int = 92) -> tuple[str, ...]:
+    lines: list[str] = []
+    for word in text.split():
+        if lines and len(lines[-1]) + 1 + len(word) <= width:
+            lines[-1] += " " + word
+        else:
+            lines.append(word)
+    return tuple(lines)
+
+
+def _fields(module: Module, which: str, prefix: str) -> tuple[dict[str, str], ...]:
+    api = interface(module.kind)
+    fields = api.options if which == "options" else api.stats
+    upper = prefix.upper()
+    return tuple(
+        {
+            "name": f.name,
+            "c_decl": c_field_decl(prefix, f),
+            "c_default": f"{upper}_{f.default}" if f.default.startswith("CONTROL_") else f.default,
+            "py_default": f.default,
+            "doc": f.doc.replace("CONTROL_", f"{upper}_CONTROL_"),
+        }
+        for f in fields
+    )
+
+
+def _enums(module: Module) -> tuple[tuple[tuple[str, int, str], ...], ...]:
+    sphere = module.kind is ModuleKind.SPHERE
+    names = {m.name for m in METHODS} if sphere else {"rk45", "rk4"}
+    statuses = [s for s in Status if sphere or s not in (Status.INFEASIBLE, Status.NEWTON)]
+    if sphere:
+        statuses = [s for s in statuses if s is not Status.POLE]
+    meths = tuple(
+        (m.c_name, m.code, f"{m.summary}, order {m.order}") for m in METHODS if m.name in names
+    )
+    return tuple((s.c_name, int(s), s.message) for s in statuses), meths
 
 
 def print_module(module: Module) -> PrintedModule:
-    """Print every kernel of a module for both languages."""
+    """Print every part of a lowered module for both languages."""
+    name, upper = module.name, module.name.upper()
+    sphere = module.kind is ModuleKind.SPHERE
+    restrict = f"{upper}_RESTRICT"
+    calls = {c.site: {"c": c_call(name, c), "py": py_call(c)} for c in module.calls}
+    kernels = tuple(print_kernel(k, restrict) for k in module.kernels if isinstance(k, Kernel))
+    terms = tuple(_print_term(module, t, calls) for t in module.terms)
+    tables: list[tuple[str, str, int, tuple[str, ...]]] = []
+    if module.coupling is not None:
+        for r, role in enumerate(("i", "j")):
+            idx = [str(p[r]) for p in module.pairs]
+            tables.append(("int", f"{name}_pair_{role}", len(idx), rows(idx, 16)))
+    for t in module.terms:
+        tables += c_term_tables(name, t)
+    facts = dict(module.facts)
+    n, npairs = module.n, len(module.pairs)
+    statuses, meths = _enums(module)
+    context = module.layout(CONTEXT)
+    c_macros: tuple[tuple[str, str, str], ...]
+    h_macros: tuple[tuple[str, str, str], ...]
+    if sphere:
+        c_macros = (
+            ("N3", str(3 * n), "doubles in q (or w): 3 per body"),
+            ("NS", str(6 * n), "doubles in the state y = (q, w)"),
+        )
+        h_macros = (
+            ("NBODIES", str(n), "bodies"),
+            ("NSTATE", str(3 * n), "doubles in q (and in w): 3 per body, body-major"),
+            ("NPARAMS", str(len(module.parameter_names)), "parameters in p"),
+            ("NPAIRS", str(npairs), "coupled pairs of M (off-diagonal entries not zero)"),
+            ("WORK_BASE", str(module.work_base), "workspace doubles before the per-call context"),
+            ("WORK_SIZE", str(module.work_size), "workspace doubles every `work` must hold"),
+        )
+    else:
+        c_macros = (("NS", str(4 * n), "doubles in the state y = (x, xd)"),)
+        h_macros = (
+            ("NBODIES", str(n), "bodies"),
+            ("NX", str(2 * n), "angles (and rates): theta_i, phi_i per body"),
+            ("NPARAMS", str(len(module.parameter_names)), "parameters in p"),
+            ("WORK_SIZE", str(module.work_size), "workspace doubles every `work` must hold"),
+            ("POLE_TOL", str(facts["pole_tol"]), "sin theta below this is at a pole"),
+            ("MIN_PIVOT_RATIO", str(facts["min_pivot_ratio"]), "M(x) singular below this"),
+        )
     return PrintedModule(
-        name=module.name,
-        upper=module.name.upper(),
+        kind=module.kind.value,
+        name=name,
+        upper=upper,
         spec_hash=module.spec_hash,
         origin=module.origin,
-        n=module.n,
-        n3=3 * module.n,
-        npairs=len(module.pairs),
-        coupled=module.coupled,
+        n=n,
+        n3=3 * n,
+        nx=2 * n,
+        ns=6 * n if sphere else 4 * n,
+        npairs=npairs,
+        npairs_or_one=max(npairs, 1),
+        coupled=bool(facts.get("coupled", False)),
+        general=bool(facts.get("general", False)),
+        uniform_mass=bool(facts.get("uniform_mass", False)),
+        neighbour_lists=bool(facts.get("neighbour_lists", False)),
         parameters=tuple(
             (p, repr(float(v))) for p, v in zip(module.parameter_names, module.parameter_values)
         ),
         pair_i=tuple(i for i, _ in module.pairs),
         pair_j=tuple(j for _, j in module.pairs),
+        kernels=kernels,
+        terms=terms,
+        call=calls,
+        work=_work(module),
+        context=tuple(
+            {"name": b.name, "offset": b.offset, "doc": _CONTEXT_DOC.get(b.name, b.name)}
+            for b in context.buffers
+        ),
         work_base=module.work_base,
         work_size=module.work_size,
-        general=any(k.name == "gradient" for k in module.system_kernels),
-        yoshida=_yoshida(),
-        neighbour_lists=any(t.cutoff is not None for t in module.terms),
-        uniform_mass=module.n > 1 and module.system_kernels[0].outputs[0].size == 1,
-        system_kernels=tuple(print_kernel(k, True) for k in module.system_kernels),
-        body_kernels=tuple(print_kernel(k, False) for k in module.body_kernels),
-        terms=tuple(_print_term(module.name, t) for t in module.terms if t.count > 0),
+        c_parts=tuple(f"c/_{p}.jinja" for p in module.parts),
+        py_parts=tuple(f"numpy/_{p}.jinja" for p in module.parts if p not in module.c_only),
+        parts=module.parts,
+        c_macros=c_macros,
+        h_macros=h_macros,
+        c_tables=tuple(tables),
+        options=_fields(module, "options", name),
+        stats=_fields(module, "stats", name),
+        functions=_functions(module, name),
+        statuses=statuses,
+        methods=meths,
+        passes=module.passes,
+        yoshida=tuple(repr(g) for g in method("vi4").substeps),
+        evals="gradient_evals" if sphere else "rhs_evals",
+        state_doc="(q, omega)" if sphere else "(x, xd)",
+        py_doc_title=(
+            f'Equations of motion and integrators for the system "{name}" on (S^2)^{n} (NumPy).'
+            if sphere
+            else f'The classical spherical-angle form of the system "{facts.get("system", name)}" '
+            f"({n} bodies), NumPy."
+        ),
+        py_doc_state=(
+            f"States are arrays q, w of shape ({n}, 3)."
+            if sphere
+            else f"Body i has the angles (theta_i, phi_i) and q_i = (sin theta_i cos phi_i, "
+            f"sin theta_i sin phi_i, cos theta_i); SymPy derived M(x) xdd = F(x, xd) from "
+            f"L = 1/2 sum_ij M_ij qdot_i . qdot_j - V(q) ({facts.get('derivation', '')}). States "
+            f"x = (theta_1, phi_1, ...) and xd are arrays of {2 * n}. Where sin theta_i = 0 "
+            "phi_i is arbitrary and M(x) singular: to_angles returns ERR_POLE when sin theta_i < "
+            "POLE_TOL, rhs returns ERR_SINGULAR when min |pivot| <= MIN_PIVOT_RATIO max |pivot|."
+        ),
+        system=str(facts.get("system", name)),
+        derivation=str(facts.get("derivation", "")),
+        pole_tol=str(facts.get("pole_tol", "")),
+        min_pivot_ratio=str(facts.get("min_pivot_ratio", "")),
     )

@@ -28,20 +28,11 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.build import compile_shared
-from s2gen.equations.angles import (
-    ANGLE_METHODS,
-    MIN_PIVOT_RATIO,
-    POLE_TOL,
-    AngleEquations,
-    angle_kernels,
-    derive_angles,
-)
-from s2gen.ir import Kernel
+from s2gen.emit import emit_angles
+from s2gen.equations.angles import ANGLE_METHODS
+from s2gen.ir import ModuleKind
 from s2gen.methods import CONTROLS, Status
-from s2gen.passes import lower
-from s2gen.printing import PrintedKernel, print_kernel
-from s2gen.render import render_angles
+from s2gen.runtime.c import CLibrary, contiguous
 from s2gen.runtime.numpy_module import import_cached
 from s2gen.runtime.options import Options
 from s2gen.system import System
@@ -49,15 +40,11 @@ from s2gen.system import System
 __all__ = [
     "AngleC",
     "AngleIntegrationError",
-    "AngleModule",
     "AngleNumpy",
     "AngleTrajectory",
     "PoleError",
-    "PrintedAngles",
     "angle_backend",
     "emit_angles",
-    "lower_angles",
-    "print_angles",
     "simulate_angles",
     "to_angles",
 ]
@@ -70,109 +57,6 @@ def _why(status: int) -> str:
             "the angle-form mass matrix M(x) is singular or ill-conditioned (a body is near a pole)"
         )
     return Status(status).message if status in Status._value2member_map_ else f"status {status}"
-
-
-# ------------------------------------------------------------------------------------------ IR
-@dataclass(frozen=True)
-class AngleModule:
-    """Lowered kernels of the angle form of one system, with what the templates need."""
-
-    name: str  # file stem and C prefix: <system>_angles
-    system: str
-    spec_hash: str
-    origin: str
-    n: int
-    parameter_names: tuple[str, ...]
-    parameter_values: tuple[float, ...]
-    simplified: bool
-    system_kernels: tuple[Kernel, ...]
-    body_kernels: tuple[Kernel, ...]
-
-
-def lower_angles(eq: AngleEquations) -> AngleModule:
-    """Lower the angle kernels (cse, pow expansion, op counts)."""
-    sk, bk = angle_kernels(eq)
-    s = eq.system
-    return AngleModule(
-        name=f"{s.name}_angles",
-        system=s.name,
-        spec_hash=s.spec_hash(),
-        origin=s.origin,
-        n=s.n,
-        parameter_names=s.parameter_names,
-        parameter_values=s.parameter_values,
-        simplified=eq.simplified,
-        system_kernels=tuple(lower(k) for k in sk),
-        body_kernels=tuple(lower(k) for k in bk),
-    )
-
-
-@dataclass(frozen=True)
-class PrintedAngles:
-    """The angle module as text records (strings and numbers only) for the templates."""
-
-    name: str
-    upper: str
-    system: str
-    spec_hash: str
-    origin: str
-    n: int
-    n3: int
-    nx: int
-    ns: int
-    parameters: tuple[tuple[str, str], ...]
-    derivation: str
-    pole_tol: str
-    min_pivot_ratio: str
-    work_size: int
-    system_kernels: tuple[PrintedKernel, ...]
-    body_kernels: tuple[PrintedKernel, ...]
-
-
-def work_size(n: int) -> int:
-    """Workspace doubles: 10 RK45 vectors of 4n (stages, y, y_new, sample) and M(x)."""
-    return 10 * 4 * n + (2 * n) ** 2
-
-
-def print_angles(module: AngleModule) -> PrintedAngles:
-    """Print the kernels for C and NumPy (the S^2 printers) and gather the template values."""
-    how = "sympy.simplify on every entry" if module.simplified else "no simplification"
-    return PrintedAngles(
-        name=module.name,
-        upper=module.name.upper(),
-        system=module.system,
-        spec_hash=module.spec_hash,
-        origin=module.origin,
-        n=module.n,
-        n3=3 * module.n,
-        nx=2 * module.n,
-        ns=4 * module.n,
-        parameters=tuple(
-            (p, repr(float(v))) for p, v in zip(module.parameter_names, module.parameter_values)
-        ),
-        derivation=how,
-        pole_tol=repr(POLE_TOL),
-        min_pivot_ratio=repr(MIN_PIVOT_RATIO),
-        work_size=work_size(module.n),
-        system_kernels=tuple(print_kernel(k, True) for k in module.system_kernels),
-        body_kernels=tuple(print_kernel(k, False) for k in module.body_kernels),
-    )
-
-
-@functools.lru_cache(maxsize=16)
-def _printed(system: System, simplify: bool) -> PrintedAngles:
-    return print_angles(lower_angles(derive_angles(system, simplify)))
-
-
-def emit_angles(system: System, lang: str, simplify: bool = False) -> dict[str, str]:
-    """The emitted angle module of one language: {file name: text} (derived once, cached).
-
-    Example:
-        >>> from s2gen.systems import builtin
-        >>> sorted(emit_angles(builtin("double_pendulum"), "c"))
-        ['double_pendulum_angles.c', 'double_pendulum_angles.h']
-    """
-    return render_angles(_printed(system, simplify), lang)
 
 
 # -------------------------------------------------------------------------------------- runtime
@@ -220,31 +104,6 @@ class AngleIntegrationError(RuntimeError):
         self.status, self.body, self.time, self.partial = status, body, time, partial
 
 
-class _Opt(ctypes.Structure):
-    _fields_ = [
-        ("rtol", ctypes.c_double),
-        ("atol", ctypes.c_double),
-        ("hmax", ctypes.c_double),
-        ("control", ctypes.c_int),
-    ]
-
-
-_LONGS = ("steps", "rejected", "rhs_evals", "fail_step", "fail_body")
-_DOUBLES = ("fail_time", "fail_sin")
-
-
-class _Stats(ctypes.Structure):
-    _fields_ = [(k, ctypes.c_long) for k in _LONGS] + [(k, ctypes.c_double) for k in _DOUBLES]
-
-
-_DP = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
-_LP = np.ctypeslib.ndpointer(dtype=np.int_, flags="C_CONTIGUOUS")
-
-
-def _c(a: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=np.float64)
-
-
 class AngleC:
     """The emitted C angle module, compiled (cached by content) and loaded with ctypes."""
 
@@ -253,33 +112,16 @@ class AngleC:
     def __init__(self, system: System, simplify: bool = False) -> None:
         self.system = system
         self.files = emit_angles(system, "c", simplify)
-        self.build = compile_shared(self.files)
-        lib = ctypes.CDLL(str(self.build.path))
-        pre = f"{system.name}_angles"
-        self.work = np.zeros(work_size(system.n))
-        self._integrate = self._fn(lib, f"{pre}_integrate", ctypes.c_int)
-        self._integrate.argtypes = [_DP, ctypes.POINTER(_Opt), ctypes.c_int, ctypes.c_double]
-        self._integrate.argtypes += [ctypes.c_long, _DP, _DP, _DP, _DP, _DP, _LP, _DP]
-        self._integrate.argtypes += [ctypes.POINTER(_Stats)]
-        self._rhs = self._fn(lib, f"{pre}_rhs", ctypes.c_int, [_DP] * 5)
-        self._energy = self._fn(lib, f"{pre}_energy", ctypes.c_double, [_DP] * 3)
-        self._to_sphere = self._fn(lib, f"{pre}_to_sphere", None, [ctypes.c_long] + [_DP] * 4)
-        self._to_angles = self._fn(lib, f"{pre}_to_angles", ctypes.c_int)
-        self._to_angles.argtypes = [_DP] * 4 + [ctypes.POINTER(ctypes.c_int)]
-
-    @staticmethod
-    def _fn(lib: ctypes.CDLL, name: str, res: Any, args: list[Any] | None = None) -> Any:
-        f = getattr(lib, name)
-        f.restype = res
-        if args is not None:
-            f.argtypes = args
-        return f
+        self.library = CLibrary(self.files, ModuleKind.ANGLES, f"{system.name}_angles")
+        self.build = self.library.build
+        self.work = self.library.work
+        self._fn = self.library.fn
 
     def to_angles(self, q: np.ndarray, w: np.ndarray) -> tuple[int, int, np.ndarray, np.ndarray]:
         """(status, body (0-based), x, xd) of one (q, omega) state."""
         nx = 2 * self.system.n
         x, xd, body = np.zeros(nx), np.zeros(nx), ctypes.c_int(-1)
-        status = self._to_angles(_c(q), _c(w), x, xd, ctypes.byref(body))
+        status = self._fn["to_angles"](contiguous(q), contiguous(w), x, xd, ctypes.byref(body))
         return int(status), int(body.value), x, xd
 
     def to_sphere(self, x: np.ndarray, xd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -287,17 +129,18 @@ class AngleC:
         lead = x.shape[:-1]
         count = int(np.prod(lead, dtype=int))
         q, w = np.zeros(count * 3 * self.system.n), np.zeros(count * 3 * self.system.n)
-        self._to_sphere(count, _c(x), _c(xd), q, w)
+        self._fn["to_sphere"](count, contiguous(x), contiguous(xd), q, w)
         shape = (*lead, self.system.n, 3)
         return q.reshape(shape), w.reshape(shape)
 
     def rhs(self, x: np.ndarray, xd: np.ndarray, params: np.ndarray) -> tuple[int, np.ndarray]:
         """(status, xdd) at one state."""
         xdd = np.zeros(x.size)
-        return int(self._rhs(_c(params), _c(x), _c(xd), xdd, self.work)), xdd
+        status = self._fn["rhs"](contiguous(params), contiguous(x), contiguous(xd), xdd, self.work)
+        return int(status), xdd
 
     def energy(self, x: np.ndarray, xd: np.ndarray, params: np.ndarray) -> float:
-        return float(self._energy(_c(params), _c(x), _c(xd)))
+        return float(self._fn["energy"](contiguous(params), contiguous(x), contiguous(xd)))
 
     def integrate(
         self,
@@ -314,16 +157,16 @@ class AngleC:
         xd = np.full((nsteps + 1, nx), np.nan)
         en = np.full(nsteps + 1, np.nan)
         counts = np.zeros((nsteps + 1, 2), dtype=np.int_)
-        opt = _Opt(options.rtol, options.atol, options.hmax, CONTROLS.index(options.control))
-        st = _Stats()
-        status = self._integrate(
-            _c(params),
-            ctypes.byref(opt),
+        lib = self.library
+        st = lib.Stats()
+        status = self._fn["integrate"](
+            contiguous(params),
+            ctypes.byref(lib.options(options)),
             ANGLE_METHODS[method],
             h,
             nsteps,
-            _c(x0),
-            _c(xd0),
+            contiguous(x0),
+            contiguous(xd0),
             x,
             xd,
             en,
@@ -331,7 +174,7 @@ class AngleC:
             self.work,
             ctypes.byref(st),
         )
-        stats = {k: float(getattr(st, k)) for k in _LONGS + _DOUBLES}
+        stats = {k: float(v) for k, v in lib.stats(st).items()}
         return int(status), x, xd, en, counts, stats
 
 

@@ -1,8 +1,12 @@
 """The C backend: emitted C compiled (cached by content) and called through ctypes.
 
-Input: a `System`. Output: a backend object whose `integrate` returns
-(status, q, omega, energy, stats) and whose `energy`, `gradient`, `rhs` and
+Input: a `System` (or prebuilt emitted files). Output: a backend object whose `integrate`
+returns (status, q, omega, energy, stats) and whose `energy`, `gradient`, `rhs` and
 `angular_momentum` evaluate single states with given parameters.
+
+The ctypes prototypes and the options and statistics structs are built from the interface
+records of `s2gen.interface`, the same records the headers are rendered from (`CLibrary`), so
+the mirror of the C API cannot drift from it; the angle-form runtime uses the same loader.
 
 Example:
     >>> from s2gen.systems import builtin
@@ -20,40 +24,85 @@ import numpy as np
 
 from s2gen.build import compile_shared, header_macro
 from s2gen.emit import emit
+from s2gen.interface import Field, Interface, Kind, interface
+from s2gen.ir import ModuleKind
 from s2gen.methods import CONTROLS, Status, method
 from s2gen.runtime.options import Options
 from s2gen.system import System
 
-__all__ = ["CBackend"]
-
-
-class _Opt(ctypes.Structure):
-    _fields_ = [
-        ("rtol", ctypes.c_double),
-        ("atol", ctypes.c_double),
-        ("hmax", ctypes.c_double),
-        ("control", ctypes.c_int),
-        ("newton_tol", ctypes.c_double),
-        ("newton_maxiter", ctypes.c_int),
-    ]
-
-
-_STAT_FIELDS = ("steps", "rejected", "gradient_evals", "newton_iters", "newton_max", "fail_step")
-
-
-class _Stats(ctypes.Structure):
-    _fields_ = [*((k, ctypes.c_long) for k in _STAT_FIELDS), ("fail_time", ctypes.c_double)]
-
+__all__ = ["CBackend", "CLibrary", "contiguous"]
 
 _DP = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+_LP = np.ctypeslib.ndpointer(dtype=np.int_, flags="C_CONTIGUOUS")
+_SCALARS = {Kind.DOUBLE: ctypes.c_double, Kind.INT: ctypes.c_int, Kind.LONG: ctypes.c_long}
 
 
-def _c(a: np.ndarray) -> np.ndarray:
+def contiguous(a: np.ndarray) -> np.ndarray:
+    """`a` as a C-contiguous float64 array (what the emitted functions take)."""
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
+def _struct(name: str, fields: tuple[Field, ...]) -> type[ctypes.Structure]:
+    return type(
+        name, (ctypes.Structure,), {"_fields_": [(f.name, _SCALARS[f.kind]) for f in fields]}
+    )
+
+
+class CLibrary:
+    """An emitted C module compiled and loaded, its functions declared from the interface."""
+
+    def __init__(self, files: dict[str, str], kind: ModuleKind, prefix: str) -> None:
+        self.api: Interface = interface(kind)
+        self.build = compile_shared(files)
+        self.lib = ctypes.CDLL(str(self.build.path))
+        self.work = np.zeros(max(1, header_macro(files[f"{prefix}.h"], "WORK_SIZE")))
+        self.Options = _struct("Options", self.api.options)
+        self.Stats = _struct("Stats", self.api.stats)
+        self.fn: dict[str, Any] = {}
+        types = {
+            Kind.CONST_ARRAY: _DP,
+            Kind.ARRAY: _DP,
+            Kind.VECTOR3: _DP,
+            Kind.LONG_ARRAY: _LP,
+            Kind.INT_OUT: ctypes.POINTER(ctypes.c_int),
+            Kind.OPTIONS: ctypes.POINTER(self.Options),
+            Kind.OPTIONS_OUT: ctypes.POINTER(self.Options),
+            Kind.STATS: ctypes.POINTER(self.Stats),
+            **_SCALARS,
+        }
+        for f in self.api.functions:
+            func = getattr(self.lib, f"{prefix}_{f.name}")
+            func.restype = None if f.returns is Kind.VOID else _SCALARS[f.returns]
+            func.argtypes = [types[p.kind] for p in f.params]
+            self.fn[f.name] = func
+
+    def options(self, options: Options) -> Any:
+        """The emitted options struct filled from `options` (fields it lacks keep defaults)."""
+        opt = self.Options()
+        self.fn["default_options"](ctypes.byref(opt))
+        values = {
+            "rtol": options.rtol,
+            "atol": options.atol,
+            "hmax": options.hmax,
+            "control": CONTROLS.index(options.control),
+            "newton_tol": options.newton_tol,
+            "newton_maxiter": options.newton_maxiter,
+        }
+        for f in self.api.options:
+            if f.name in values:
+                setattr(opt, f.name, values[f.name])
+        return opt
+
+    def stats(self, st: Any) -> dict[str, Any]:
+        """The statistics struct as a dict (ints and floats)."""
+        return {
+            f.name: (float if f.kind is Kind.DOUBLE else int)(getattr(st, f.name))
+            for f in self.api.stats
+        }
+
+
 class CBackend:
-    """The emitted C, compiled (cached) and loaded with declared argument types."""
+    """The emitted C of a system, compiled (cached) and loaded."""
 
     name = "c"
 
@@ -62,53 +111,37 @@ class CBackend:
         lets a process that never derived the system (a cluster worker) build it."""
         self.system = system
         files = emit(system, "c") if files is None else files
-        self.build = compile_shared(files)
-        self.lib = ctypes.CDLL(str(self.build.path))
-        pre = system.name
-        self.work = np.zeros(header_macro(files[f"{pre}.h"], "WORK_SIZE"))
-        self._integrate = self._fn(f"{pre}_integrate", ctypes.c_int)
-        self._integrate.argtypes = [
-            _DP,
-            ctypes.POINTER(_Opt),
-            ctypes.c_int,
-            ctypes.c_double,
-            ctypes.c_long,
-            *[_DP] * 6,
-            ctypes.POINTER(_Stats),
-        ]
-        self._energy = self._fn(f"{pre}_energy", ctypes.c_double, [_DP] * 3)
-        self._gradient = self._fn(f"{pre}_gradient", None, [_DP] * 3)
-        self._rhs = self._fn(f"{pre}_rhs", ctypes.c_int, [_DP] * 6)
-        self._mom = self._fn(f"{pre}_angular_momentum", None, [_DP] * 4)
-
-    def _fn(self, name: str, res: object, args: list[object] | None = None) -> Any:
-        f = getattr(self.lib, name)
-        f.restype = res
-        if args is not None:
-            f.argtypes = args
-        return f
+        self.library = CLibrary(files, ModuleKind.SPHERE, system.name)
+        self.build = self.library.build
+        self.work = self.library.work
+        self._fn = self.library.fn
 
     def default_params(self) -> np.ndarray:
         return np.array(self.system.parameter_values, dtype=float)
 
     def energy(self, q: np.ndarray, w: np.ndarray, params: np.ndarray) -> float:
-        return float(self._energy(_c(params), _c(q), _c(w)))
+        return float(self._fn["energy"](contiguous(params), contiguous(q), contiguous(w)))
+
+    def potential(self, q: np.ndarray, params: np.ndarray) -> float:
+        return float(self._fn["potential"](contiguous(params), contiguous(q)))
 
     def gradient(self, q: np.ndarray, params: np.ndarray) -> np.ndarray:
         g = np.zeros(np.size(q))
-        self._gradient(_c(params), _c(q), g)
+        self._fn["gradient"](contiguous(params), contiguous(q), g)
         return g.reshape(np.shape(q))
 
     def rhs(self, q: np.ndarray, w: np.ndarray, params: np.ndarray) -> tuple[np.ndarray, ...]:
         dq, dw = np.zeros(np.size(q)), np.zeros(np.size(q))
-        status = self._rhs(_c(params), _c(q), _c(w), dq, dw, self.work)
+        status = self._fn["rhs"](
+            contiguous(params), contiguous(q), contiguous(w), dq, dw, self.work
+        )
         if status:
             raise RuntimeError(Status(status).message)
         return dq.reshape(np.shape(q)), dw.reshape(np.shape(q))
 
     def angular_momentum(self, q: np.ndarray, w: np.ndarray, params: np.ndarray) -> np.ndarray:
         out = np.zeros(3)
-        self._mom(_c(params), _c(q), _c(w), out)
+        self._fn["angular_momentum"](contiguous(params), contiguous(q), contiguous(w), out)
         return out
 
     def integrate(
@@ -120,32 +153,25 @@ class CBackend:
         w0: np.ndarray,
         params: np.ndarray,
         options: Options,
-    ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
+    ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         n = self.system.n
         q = np.full((nsteps + 1, n, 3), np.nan)
         w = np.full((nsteps + 1, n, 3), np.nan)
         en = np.full(nsteps + 1, np.nan)
-        opt = _Opt(
-            options.rtol,
-            options.atol,
-            options.hmax,
-            CONTROLS.index(options.control),
-            options.newton_tol,
-            options.newton_maxiter,
-        )
-        stats = _Stats()
-        status = self._integrate(
-            _c(params),
-            ctypes.byref(opt),
+        lib = self.library
+        stats = lib.Stats()
+        status = self._fn["integrate"](
+            contiguous(params),
+            ctypes.byref(lib.options(options)),
             method(method_name).code,
             h,
             nsteps,
-            _c(q0),
-            _c(w0),
+            contiguous(q0),
+            contiguous(w0),
             q,
             w,
             en,
             self.work,
             ctypes.byref(stats),
         )
-        return status, q, w, en, {k: int(getattr(stats, k)) for k in _STAT_FIELDS}
+        return status, q, w, en, lib.stats(stats)

@@ -22,28 +22,19 @@ from s2gen.equations.angles import derive_angles
 from s2gen.equations.continuous import continuous_kernels
 from s2gen.equations.structure import coupling_pairs, system_kernels, term_kernels
 from s2gen.ir import Kernel, Module
-from s2gen.passes import lower, lower_system
+from s2gen.passes import lower, lower_angles, lower_system
 from s2gen.printing import print_module
-from s2gen.render import render, render_angles
-from s2gen.runtime.angles import lower_angles, print_angles
+from s2gen.render import render
 from s2gen.system import System
 
 
-def _rhs_ops_s2(module: Module) -> tuple[int, int, int]:
-    """(ops before cse, after cse, after cse as evaluated per call) of the S^2 vector field."""
-    named = {k.name: k for k in module.system_kernels + module.body_kernels}
-    uses: list[tuple[Kernel, int]] = [(named["inertia"], 1)]
-    if "gradient" in named:
-        uses.append((named["gradient"], 1))
-    uses += [(t.gradient, t.count) for t in module.terms]
-    npairs = len(module.pairs)
-    if module.coupled:
-        uses += [(named["rhs_body"], module.n), (named["rhs_pair"], npairs)]
-        uses.append((named["a_pair"], npairs))
-    else:
-        uses.append((named["rhs_diag"], module.n))
-    before = sum(k.ops_before for k, _ in uses)
-    return before, sum(k.ops_after for k, _ in uses), sum(k.ops_after * c for k, c in uses)
+def _field_ops(module: Module) -> tuple[int, int, int]:
+    """(ops before cse, after cse, after cse as evaluated per call) of a module's vector field
+    (the kernels and call counts the module records in `field_calls`)."""
+    uses = [(module.kernel(name), count) for name, count in module.field_calls]
+    kernels = [(k, c) for k, c in uses if isinstance(k, Kernel)]
+    before = sum(k.ops_before for k, _ in kernels)
+    return before, sum(k.ops_after for k, _ in kernels), sum(k.ops_after * c for k, c in kernels)
 
 
 def _s2_field_seconds(system: System) -> float:
@@ -69,16 +60,15 @@ def _derive(system: System, form: str) -> dict[str, Any]:
         module = lower_system(system)
         whole = time.perf_counter() - start
         files = render(print_module(module), "c")
-        before, after, evaluated = _rhs_ops_s2(module)
-        dim = 3 * system.n if module.coupled else 0
+        before, after, evaluated = _field_ops(module)
+        dim = 3 * system.n if module.coupling is not None else 0
         solve = 2 * dim**3 // 3  # LU with partial pivoting, as the angle form
     else:
         start = time.perf_counter()
         angles = lower_angles(derive_angles(system, simplify=form == "angles-simplified"))
         field = whole = time.perf_counter() - start
-        files = render_angles(print_angles(angles), "c")
-        before = angles.system_kernels[0].ops_before
-        after = evaluated = angles.system_kernels[0].ops_after
+        files = render(print_module(angles), "c")
+        before, after, evaluated = _field_ops(angles)
         solve = 2 * (2 * system.n) ** 3 // 3
     return {
         "seconds": field,

@@ -1,0 +1,172 @@
+"""What a scene needs: the unlowered `Module` of a system, or of its angle form.
+
+Input: a `System` (or its `AngleEquations`). Output: a `Module` (see `s2gen.ir`) holding the
+kernel definitions the system needs and the decisions that shape its code: whether M couples
+bodies (then Newton's method and linear solves, else the explicit updates), which structured
+terms are looped over how, and the partial templates (algorithm variants) that lay the module
+out, in order. Nothing absent is emitted: a diagonal M gets no pair kernels, no solves and no
+Newton code; a potential without cutoff terms gets no neighbour lists.
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> m = sphere_module(builtin("double_pendulum"))
+    >>> "vi_newton" in m.parts, m.pairs
+    (True, ((0, 1),))
+"""
+
+from __future__ import annotations
+
+from s2gen.equations.angles import MIN_PIVOT_RATIO, POLE_TOL, AngleEquations, angle_kernels
+from s2gen.equations.continuous import continuous_kernels
+from s2gen.equations.discrete import explicit_kernels, newton_kernels
+from s2gen.equations.rattle import rattle_kernels
+from s2gen.equations.structure import (
+    coupling_pairs,
+    has_general_potential,
+    system_kernels,
+    term_kernels,
+)
+from s2gen.ir import KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
+from s2gen.system import System, Term
+
+__all__ = ["MAX_CELLS", "angle_module", "cell_grid", "generic_kernel_defs", "sphere_module"]
+
+#: Most neighbour-list cells per axis (bounds the list's memory when the cutoff is tiny).
+MAX_CELLS = 160
+
+
+def cell_grid(cutoff: float) -> int:
+    """Cells per axis of a grid over [-1, 1]^3 whose cells are at least `cutoff` wide.
+
+    Example:
+        >>> cell_grid(0.5), cell_grid(1e-6)
+        (4, 160)
+    """
+    return max(1, min(int(2.0 / cutoff), MAX_CELLS))
+
+
+def generic_kernel_defs(coupled: bool) -> tuple[KernelDef, ...]:
+    """The system-independent kernels: the continuous field, energy and momenta, and the
+    discrete flows (Newton's residual for coupled M, the explicit updates and RATTLE's closed
+    form for diagonal M)."""
+    defs = continuous_kernels(coupled) + (
+        newton_kernels() if coupled else explicit_kernels() + rattle_kernels()
+    )
+    return tuple(defs)
+
+
+def _term_loop(index: int, term: Term, n: int) -> TermLoop:
+    if term.cutoff is not None:
+        loop = Loop(LoopKind.CUTOFF_PAIRS, term.count(n), (), term.cutoff, cell_grid(term.cutoff))
+    elif term.select == "list":
+        kind = LoopKind.BODY_LIST if term.kind == "body" else LoopKind.PAIR_LIST
+        loop = Loop(kind, term.count(n), term.members)
+    elif term.kind == "body":
+        loop = Loop(LoopKind.BODIES, term.count(n))
+    elif term.select == "chain":
+        loop = Loop(LoopKind.CHAIN, term.count(n))
+    else:
+        loop = Loop(LoopKind.ALL_PAIRS, term.count(n))
+    return TermLoop(
+        index=index,
+        loop=loop,
+        data=tuple((d.name, d.width, d.values) for d in term.data),
+        value=f"t{index}_value",
+        gradient=f"t{index}_gradient",
+    )
+
+
+def sphere_module(system: System) -> Module:
+    """The unlowered (S^2)^n module of a system."""
+    pairs = coupling_pairs(system)
+    coupled = bool(pairs)
+    terms = [(k, t) for k, t in enumerate(system.terms) if t.count(system.n) > 0]
+    kernels: list[KernelDef] = list(system_kernels(system))
+    for k, t in terms:
+        kernels += term_kernels(system, k, t)
+    kernels += generic_kernel_defs(coupled)
+    loops = tuple(_term_loop(k, t, system.n) for k, t in terms)
+    cutoff = any(t.loop.kind is LoopKind.CUTOFF_PAIRS for t in loops)
+    uniform = system.n > 1 and kernels[0].outputs[0].size == 1
+    general = has_general_potential(system)
+    field = [("inertia", 1), *((("gradient", 1),) if general else ())]
+    field += [(t.gradient, t.loop.count) for t in loops]
+    if coupled:
+        field += [("rhs_body", system.n), ("rhs_pair", len(pairs)), ("a_pair", len(pairs))]
+    else:
+        field.append(("rhs_diag", system.n))
+    parts = (
+        *(("tables",) if coupled or loops else ()),
+        *(("neighbours",) if cutoff else ()),
+        "kernels",
+        "helpers",
+        *(("inertia_operator", "cholesky", "lu") if coupled else ()),
+        "context",
+        "potential",
+        "energy",
+        "field_coupled" if coupled else "field_diagonal",
+        "field",
+        "vi_newton" if coupled else "vi_explicit",
+        "vi_step",
+        "rattle_newton" if coupled else "rattle_closed",
+        "rk",
+        "rk_step",
+        "driver",
+    )
+    return Module(
+        kind=ModuleKind.SPHERE,
+        name=system.name,
+        spec_hash=system.spec_hash(),
+        origin=system.origin,
+        n=system.n,
+        parameter_names=system.parameter_names,
+        parameter_values=system.parameter_values,
+        kernels=tuple(kernels),
+        parts=parts,
+        c_only=("cholesky", "lu"),  # NumPy solves with numpy.linalg
+        pairs=pairs,
+        terms=loops,
+        coupling=Loop(LoopKind.COUPLING, len(pairs), pairs) if coupled else None,
+        facts=(
+            ("coupled", coupled),
+            ("general", general),
+            ("uniform_mass", uniform),
+            ("neighbour_lists", cutoff),
+        ),
+        field_calls=tuple(field),
+    )
+
+
+def angle_module(eq: AngleEquations) -> Module:
+    """The unlowered angle-form module of a system (file stem ``<system>_angles``)."""
+    system_defs, body_defs = angle_kernels(eq)
+    s = eq.system
+    how = "sympy.simplify on every entry" if eq.simplified else "no simplification"
+    return Module(
+        kind=ModuleKind.ANGLES,
+        name=f"{s.name}_angles",
+        spec_hash=s.spec_hash(),
+        origin=s.origin,
+        n=s.n,
+        parameter_names=s.parameter_names,
+        parameter_values=s.parameter_values,
+        kernels=(*system_defs, *body_defs),
+        parts=(
+            "kernels",
+            "helpers",
+            "lu",
+            "angles_context",
+            "angles_convert",
+            "angles_field",
+            "rk",
+            "angles_driver",
+        ),
+        facts=(
+            ("system", s.name),
+            ("derivation", how),
+            ("simplified", eq.simplified),
+            ("pole_tol", repr(POLE_TOL)),
+            ("min_pivot_ratio", repr(MIN_PIVOT_RATIO)),
+        ),
+        field_calls=(("dynamics", 1),),
+    )

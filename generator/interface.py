@@ -1,0 +1,320 @@
+"""The public interface of the emitted modules, as records: functions, structs and constants.
+
+Input: a module kind. Output: `Interface` records (each C function with its parameters and
+documentation, the options and statistics structs with their fields and defaults). The
+headers are rendered from them and the ctypes runtime builds its prototypes and structs from
+the same records, so the C declarations and their Python mirror cannot disagree.
+
+Parameter kinds (`Kind`) say what crosses the boundary: a double array, a scalar, a pointer to
+a struct, a long array. `nullable` parameters may be NULL (the header says what NULL means).
+
+Example:
+    >>> api = interface(ModuleKind.SPHERE)
+    >>> [p.name for p in api.function("integrate").params][:3]
+    ['p', 'opt', 'method']
+    >>> api.options[0].name, api.options[0].default
+    ('rtol', '1e-3')
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+from s2gen.ir import ModuleKind
+
+__all__ = ["Field", "Function", "Interface", "Kind", "Param", "interface"]
+
+
+class Kind(enum.Enum):
+    """What a parameter or field is, for C declarations and the ctypes mirror."""
+
+    DOUBLE = "double"
+    INT = "int"
+    LONG = "long"
+    CONST_ARRAY = "const double *"  # input array of doubles
+    ARRAY = "double *"  # output (or scratch) array of doubles
+    LONG_ARRAY = "long *"
+    INT_OUT = "int *"
+    OPTIONS = "const options *"
+    OPTIONS_OUT = "options *"
+    STATS = "stats *"
+    VECTOR3 = "double J[3]"
+    VOID = "void"
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter of an emitted function."""
+
+    name: str
+    kind: Kind
+    nullable: bool = False
+
+
+@dataclass(frozen=True)
+class Function:
+    """One public function: `NAME_<name>`, its return kind, parameters and header comment."""
+
+    name: str
+    returns: Kind
+    params: tuple[Param, ...]
+    doc: str
+
+
+@dataclass(frozen=True)
+class Field:
+    """One field of the options or statistics struct: kind, default (C literal), comment."""
+
+    name: str
+    kind: Kind
+    default: str
+    doc: str
+
+
+@dataclass(frozen=True)
+class Interface:
+    """The functions and structs one kind of module exports."""
+
+    functions: tuple[Function, ...]
+    options: tuple[Field, ...]
+    stats: tuple[Field, ...]
+
+    def function(self, name: str) -> Function:
+        """The function called `name` (KeyError if absent)."""
+        for f in self.functions:
+            if f.name == name:
+                return f
+        raise KeyError(name)
+
+
+def _p(name: str, kind: Kind, nullable: bool = False) -> Param:
+    return Param(name, kind, nullable)
+
+
+_D, _CA, _A = Kind.DOUBLE, Kind.CONST_ARRAY, Kind.ARRAY
+
+_OPTIONS_RK45 = (
+    Field("rtol", Kind.DOUBLE, "1e-3", "RK45 relative tolerance (default 1e-3)"),
+    Field("atol", Kind.DOUBLE, "1e-6", "RK45 absolute tolerance (default 1e-6)"),
+    Field("hmax", Kind.DOUBLE, "0.0", "RK45 largest step; <= 0 means 0.1 * (final time)"),
+    Field("control", Kind.INT, "CONTROL_MATLAB", "CONTROL_MATLAB (default) or CONTROL_HAIRER"),
+)
+
+_SPHERE = Interface(
+    functions=(
+        Function("default_params", Kind.VOID, (_p("p", _A),), "The spec's parameter values."),
+        Function(
+            "default_options", Kind.VOID, (_p("opt", Kind.OPTIONS_OUT),), "The default options."
+        ),
+        Function(
+            "potential",
+            Kind.DOUBLE,
+            (_p("p", _CA), _p("q", _CA)),
+            "Potential energy V(q).",
+        ),
+        Function(
+            "gradient",
+            Kind.VOID,
+            (_p("p", _CA), _p("q", _CA), _p("g", _A)),
+            "Gradient g = dV/dq (NSTATE values).",
+        ),
+        Function(
+            "energy",
+            Kind.DOUBLE,
+            (_p("p", _CA), _p("q", _CA), _p("w", _CA)),
+            "Total energy, kinetic plus potential.",
+        ),
+        Function(
+            "angular_momentum",
+            Kind.VOID,
+            (_p("p", _CA), _p("q", _CA), _p("w", _CA), _p("J", Kind.VECTOR3)),
+            "Angular momentum J = sum_i q_i x sum_j M_ij (omega_j x q_j).",
+        ),
+        Function(
+            "rhs",
+            Kind.INT,
+            (_p("p", _CA), _p("q", _CA), _p("w", _CA), _p("dq", _A), _p("dw", _A), _p("work", _A)),
+            "Continuous equations: qdot_i = omega_i x q_i and omegadot from A(q) omegadot = b.",
+        ),
+        Function(
+            "vi_step",
+            Kind.INT,
+            (
+                _p("p", _CA),
+                _p("opt", Kind.OPTIONS, True),
+                _p("h", _D),
+                _p("q", _CA),
+                _p("w", _CA),
+                _p("qn", _A),
+                _p("wn", _A),
+                _p("work", _A),
+                _p("iters", Kind.INT_OUT, True),
+            ),
+            "One variational-integrator step (q, w) -> (qn, wn); iters receives the Newton "
+            "iterations (0 for the explicit update).",
+        ),
+        Function(
+            "rk_step",
+            Kind.INT,
+            (
+                _p("p", _CA),
+                _p("method", Kind.INT),
+                _p("h", _D),
+                _p("q", _CA),
+                _p("w", _CA),
+                _p("qn", _A),
+                _p("wn", _A),
+                _p("work", _A),
+            ),
+            "One fixed step of RK2, RK2 with projection or RK4 (method as in the enum).",
+        ),
+        Function(
+            "integrate",
+            Kind.INT,
+            (
+                _p("p", _CA),
+                _p("opt", Kind.OPTIONS, True),
+                _p("method", Kind.INT),
+                _p("h", _D),
+                _p("nsteps", Kind.LONG),
+                _p("q0", _CA),
+                _p("w0", _CA),
+                _p("q", _A),
+                _p("w", _A),
+                _p("energy", _A, True),
+                _p("work", _A),
+                _p("stats", Kind.STATS, True),
+            ),
+            "Integrate nsteps steps of size h (RK45: output spacing h, adaptive steps inside) "
+            "from (q0, w0).",
+        ),
+    ),
+    options=(
+        *_OPTIONS_RK45,
+        Field(
+            "newton_tol",
+            Kind.DOUBLE,
+            "1e-14",
+            "Newton stops when max|delta f| <= tol * max(1, max|f|) (1e-14)",
+        ),
+        Field("newton_maxiter", Kind.INT, "50", "Newton iteration limit per step (50)"),
+    ),
+    stats=(
+        Field("steps", Kind.LONG, "0", "accepted steps"),
+        Field("rejected", Kind.LONG, "0", "RK45 rejected steps"),
+        Field("gradient_evals", Kind.LONG, "0", "evaluations of dV/dq"),
+        Field("newton_iters", Kind.LONG, "0", "Newton iterations, total"),
+        Field("newton_max", Kind.LONG, "0", "Newton iterations, largest in one step"),
+        Field(
+            "fail_step",
+            Kind.LONG,
+            "0",
+            "on failure: first sample index not computed (samples before it are valid)",
+        ),
+        Field(
+            "fail_time",
+            Kind.DOUBLE,
+            "0.0",
+            "RK45: time of the last accepted step (where a failure happened)",
+        ),
+    ),
+)
+
+_ANGLES = Interface(
+    functions=(
+        Function("default_params", Kind.VOID, (_p("p", _A),), "The spec's parameter values."),
+        Function(
+            "default_options", Kind.VOID, (_p("opt", Kind.OPTIONS_OUT),), "The default options."
+        ),
+        Function(
+            "to_angles",
+            Kind.INT,
+            (_p("q", _CA), _p("w", _CA), _p("x", _A), _p("xd", _A), _p("body", Kind.INT_OUT, True)),
+            "Angles and rates of a state given as q, w (NBODIES 3-vectors each, body-major), "
+            "theta in [0, pi]. Returns ERR_POLE (and the 0-based body in *body, if body is not "
+            "NULL) when some sin theta_i < POLE_TOL.",
+        ),
+        Function(
+            "to_sphere",
+            Kind.VOID,
+            (_p("count", Kind.LONG), _p("x", _CA), _p("xd", _CA), _p("q", _A), _p("w", _A)),
+            "q and omega = q x qdot of `count` angle states (x, xd: count * NX doubles each; "
+            "q, w: count * 3 * NBODIES).",
+        ),
+        Function(
+            "energy",
+            Kind.DOUBLE,
+            (_p("p", _CA), _p("x", _CA), _p("xd", _CA)),
+            "Total energy T + V in angles.",
+        ),
+        Function(
+            "rhs",
+            Kind.INT,
+            (_p("p", _CA), _p("x", _CA), _p("xd", _CA), _p("xdd", _A), _p("work", _A)),
+            "Accelerations xdd from M(x) xdd = F(x, xd) (LU with partial pivoting).",
+        ),
+        Function(
+            "rk4_step",
+            Kind.INT,
+            (
+                _p("p", _CA),
+                _p("h", _D),
+                _p("x", _CA),
+                _p("xd", _CA),
+                _p("xn", _A),
+                _p("xdn", _A),
+                _p("work", _A),
+            ),
+            "One classical Runge-Kutta step of size h. If a field evaluation fails, xn and "
+            "xdn receive the stage state where it failed.",
+        ),
+        Function(
+            "integrate",
+            Kind.INT,
+            (
+                _p("p", _CA),
+                _p("opt", Kind.OPTIONS, True),
+                _p("method", Kind.INT),
+                _p("h", _D),
+                _p("nsteps", Kind.LONG),
+                _p("x0", _CA),
+                _p("xd0", _CA),
+                _p("x", _A),
+                _p("xd", _A),
+                _p("energy", _A, True),
+                _p("counts", Kind.LONG_ARRAY, True),
+                _p("work", _A),
+                _p("stats", Kind.STATS, True),
+            ),
+            "Integrate nsteps steps of size h (RK45: output spacing h, adaptive steps inside) "
+            "from (x0, xd0).",
+        ),
+    ),
+    options=_OPTIONS_RK45,
+    stats=(
+        Field("steps", Kind.LONG, "0", "accepted steps"),
+        Field("rejected", Kind.LONG, "0", "RK45 rejected steps"),
+        Field("rhs_evals", Kind.LONG, "0", "evaluations of the vector field"),
+        Field("fail_step", Kind.LONG, "0", "on failure: first sample index not computed"),
+        Field(
+            "fail_body",
+            Kind.LONG,
+            "-1",
+            "on failure: the body (0-based) with the smallest |sin theta| in the state where "
+            "the field failed (else in the last accepted state)",
+        ),
+        Field(
+            "fail_time",
+            Kind.DOUBLE,
+            "0.0",
+            "on failure: time of the last accepted state (start of the failed step)",
+        ),
+        Field("fail_sin", Kind.DOUBLE, "0.0", "on failure: that body's |sin theta|"),
+    ),
+)
+
+
+def interface(kind: ModuleKind) -> Interface:
+    """The interface of one kind of module."""
+    return _SPHERE if kind is ModuleKind.SPHERE else _ANGLES

@@ -1,0 +1,113 @@
+"""Pass `workspace`: the caller's workspace laid out, function by function.
+
+Input: a `Module`. Output: the same module with one `Layout` per function that takes scratch
+memory (named buffers, sizes and offsets; a buffer that hands memory on to a callee has the
+callee's size), `work_base` (the most any entry point uses) and `work_size` (plus the per-call
+context kept after `work_base`). Templates read every offset from these records; the header's
+WORK_SIZE is `work_size`.
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> from s2gen.passes import lower_system
+    >>> m = lower_system(builtin("double_pendulum"))
+    >>> m.layout("field").buffers
+    (Buffer(name='g', size=6, offset=0), Buffer(name='a', size=36, offset=6))
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from s2gen.ir import Buffer, Layout, LoopKind, Module, ModuleKind
+
+__all__ = ["CONTEXT", "layout", "workspace_pass"]
+
+
+def layout(name: str, *buffers: tuple[str, int]) -> Layout:
+    """Buffers placed one after the other in the given order."""
+    placed, offset = [], 0
+    for bname, size in buffers:
+        placed.append(Buffer(bname, size, offset))
+        offset += size
+    return Layout(name, tuple(placed))
+
+
+def _sphere(module: Module) -> tuple[list[Layout], int]:
+    n, m3 = module.n, 3 * module.n
+    ns = 2 * m3
+    coupled = module.coupling is not None
+    field = layout("field", ("g", m3), ("a", m3 * m3 if coupled else 0))
+    rk_fixed = layout("rk_fixed", ("k1", ns), ("k2", ns), ("acc", ns), ("field", field.size))
+    rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("rk", rk_fixed.size))
+    rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
+    if coupled:
+        vi = layout("vi_advance", ("d", m3), ("f", m3), ("r", m3), ("jm", m3 * m3))
+        rattle = layout(
+            "rattle_advance",
+            ("wi", n * n),
+            ("jm", n * n),
+            ("y", m3),
+            ("gw", m3),
+            ("u", m3),
+            ("sv", n),
+            ("r", n),
+        )
+    else:
+        vi = layout("vi_advance")
+        rattle = layout("rattle_advance", ("vh", m3))
+    step = max(vi.size, rattle.size)
+    geometric = layout(
+        "geometric",
+        *((b, m3) for b in ("g", "gn", "a", "b", "va", "vb")),
+        ("step", step),
+    )
+    vi_step = layout("vi_step", ("g", m3), ("gn", m3), ("step", vi.size))
+    run = max(geometric.size, rk45.size, rk_step.size)
+    integrate = layout("integrate", ("run", run), ("y0", ns))
+    layouts = [field, rk_fixed, rk_step, rk45, vi, rattle, geometric, vi_step, integrate]
+    return layouts, max(lay.size for lay in layouts)
+
+
+def _angles(module: Module) -> tuple[list[Layout], int]:
+    nx = 2 * module.n
+    ns = 2 * nx
+    field = layout("field", ("m", nx * nx))
+    rk_fixed = layout("rk_fixed", ("k1", ns), ("k2", ns), ("acc", ns), ("field", field.size))
+    rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("fail", ns), ("rk", rk_fixed.size))
+    rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
+    integrate = layout("integrate", ("run", max(rk45.size, rk_step.size)), ("y0", ns), ("fail", ns))
+    layouts = [field, rk_fixed, rk_step, rk45, integrate]
+    return layouts, max(lay.size for lay in layouts)
+
+
+#: Name of the layout of the per-call context kept at the tail of the workspace.
+CONTEXT = "context"
+
+
+def _context(module: Module) -> Layout:
+    """Per-call context after `work_base`: masses, coupled entries, A's diagonal in the VI,
+    neighbour-list cells (the largest grid of the cutoff terms)."""
+    if module.kind is not ModuleKind.SPHERE:
+        return layout(CONTEXT)
+    n = module.n
+    cells = [t.loop.cells**3 + n for t in module.terms if t.loop.kind is LoopKind.CUTOFF_PAIRS]
+    coupled = module.coupling is not None
+    return layout(
+        CONTEXT,
+        ("md", n),
+        ("mp", len(module.pairs)),
+        ("adiag", n if coupled else 0),
+        ("nb", max(cells, default=0)),
+    )
+
+
+def workspace_pass(module: Module) -> Module:
+    """Lay out the workspace of every function of the module."""
+    layouts, base = _sphere(module) if module.kind is ModuleKind.SPHERE else _angles(module)
+    context = _context(module)
+    return replace(
+        module,
+        layouts=(*layouts, context),
+        work_base=base,
+        work_size=base + context.size,
+    )

@@ -1,0 +1,171 @@
+"""The C99 printer: lowered kernels, loops, calls and declarations as C text.
+
+Input: IR records (`Kernel`, `TermLoop`, `Call`, interface records). Output: strings and
+tuples of lines for the templates. Symbols are mapped to argument slots by overriding the
+printer's `_print_Symbol` (no string replacement): an array input `q` with symbols
+(q_0, q_1, q_2) prints as `q[0]`, `q[1]`, `q[2]`; a system kernel's positions as `q[3*i + c]`.
+
+Example:
+    >>> import sympy as sp
+    >>> x = sp.Symbol("x", real=True)
+    >>> CPrinter({x: "q[0]"}).doprint(sp.sqrt(x) + sp.pi)
+    'sqrt(q[0]) + 3.14159265358979323846'
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+from sympy.printing.c import C99CodePrinter
+
+from s2gen.interface import Field, Function, Kind, Param
+from s2gen.ir import Call, Kernel, LoopKind, TermLoop
+
+__all__ = [
+    "CPrinter",
+    "c_call",
+    "c_decl",
+    "c_field_decl",
+    "c_kernel",
+    "c_loop",
+    "c_term_tables",
+    "rows",
+]
+
+
+class CPrinter(C99CodePrinter):
+    """C99 printer with symbols mapped to argument slots; pi as a literal (M_PI is POSIX)."""
+
+    def __init__(self, names: dict[sp.Symbol, str]) -> None:
+        super().__init__()
+        self._names = names
+
+    def _print_Symbol(self, expr: sp.Symbol) -> str:
+        name = self._names.get(expr)
+        return name if name is not None else super()._print_Symbol(expr)
+
+    def _print_Pi(self, expr: sp.Expr) -> str:
+        return "3.14159265358979323846"
+
+
+def slot_names(kernel: Kernel) -> dict[sp.Symbol, str]:
+    """C slots of a kernel's input symbols: scalars by name, arrays indexed (flat)."""
+    names: dict[sp.Symbol, str] = {}
+    for arg in kernel.inputs:
+        if arg.scalar:
+            names[arg.symbols[0]] = arg.name
+        else:
+            names.update({s: f"{arg.name}[{k}]" for k, s in enumerate(arg.symbols)})
+    return names
+
+
+def c_kernel(kernel: Kernel, restrict: str) -> tuple[str, tuple[str, ...]]:
+    """(parameter list, body lines) of a kernel; `restrict` is the module's restrict macro."""
+    pr = CPrinter(slot_names(kernel))
+    params = [
+        f"const double {a.name}" if a.scalar else f"const double *{restrict} {a.name}"
+        for a in kernel.inputs
+    ] + [f"double *{restrict} {o.name}" for o in kernel.outputs]
+    used: set[sp.Basic] = set()
+    for a in kernel.assignments:
+        used |= a.expr.free_symbols
+    lines = [f"(void){a.name};" for a in kernel.inputs if not set(a.symbols) & used]
+    for a in kernel.assignments:
+        rhs = pr.doprint(a.expr)
+        if a.temp is not None:
+            lines.append(f"const double {a.temp} = {rhs};")
+        else:
+            assert a.output is not None
+            lines.append(f"{a.output[0]}[{a.output[1]}] = {rhs};")
+    return ", ".join(params), tuple(lines)
+
+
+def c_call(prefix: str, call: Call) -> str:
+    """The C call expression of a call site (no semicolon)."""
+    return f"{prefix}_k_{call.kernel}({', '.join(call.c_args)})"
+
+
+def rows(values: list[str], per_row: int = 6) -> tuple[str, ...]:
+    """Literals grouped into rows of a C initializer."""
+    return tuple(", ".join(values[k : k + per_row]) for k in range(0, len(values), per_row))
+
+
+def c_term_tables(prefix: str, t: TermLoop) -> list[tuple[str, str, int, tuple[str, ...]]]:
+    """The static tables of one term loop: member body indices (list kinds) and data."""
+    pre = f"{prefix}_t{t.index}"
+    tables: list[tuple[str, str, int, tuple[str, ...]]] = []
+    if t.loop.kind.listed:
+        for r, role in enumerate(("i", "j")[: len(t.loop.members[0]) if t.loop.members else 1]):
+            idx = [str(mem[r]) for mem in t.loop.members]
+            tables.append(("int", f"{pre}_{role}", t.loop.count, rows(idx, 16)))
+    for dname, _, values in t.data:
+        lits = [repr(float(v)) for v in values]
+        tables.append(("double", f"{pre}_{dname}", len(values), rows(lits)))
+    return tables
+
+
+def c_loop(prefix: str, t: TermLoop, n: int) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(opening lines, closing lines) of a term's member loop; inside, m is the member and
+    i (and j) its bodies."""
+    pre, count = f"{prefix}_t{t.index}", t.loop.count
+    kind = t.loop.kind
+    decl = "long m, pi = 0, pj = 1;" if kind is LoopKind.ALL_PAIRS else "long m;"
+    head = ["    {", f"        {decl}", f"        for (m = 0; m < {count}; ++m) {{"]
+    if kind is LoopKind.BODIES:
+        head.append("            const long i = m;")
+    elif kind is LoopKind.BODY_LIST:
+        head.append(f"            const long i = {pre}_i[m];")
+    elif kind is LoopKind.CHAIN:
+        head.append("            const long i = m, j = m + 1;")
+    elif kind is LoopKind.PAIR_LIST:
+        head.append(f"            const long i = {pre}_i[m], j = {pre}_j[m];")
+    elif kind is LoopKind.ALL_PAIRS:
+        head += [
+            "            /* every pair i < j, in row order; m counts pairs */",
+            "            const long i = pi, j = pj;",
+            f"            if (++pj == {n}) {{",
+            "                ++pi;",
+            "                pj = pi + 1;",
+            "            }",
+        ]
+    else:
+        raise ValueError(f"{kind} is not a member loop")
+    return tuple(head), ("        }", "    }")
+
+
+_C_TYPES = {
+    Kind.DOUBLE: "double {}",
+    Kind.INT: "int {}",
+    Kind.LONG: "long {}",
+    Kind.CONST_ARRAY: "const double *{}",
+    Kind.ARRAY: "double *{}",
+    Kind.LONG_ARRAY: "long *{}",
+    Kind.INT_OUT: "int *{}",
+    Kind.OPTIONS: "const {prefix}_options *{}",
+    Kind.OPTIONS_OUT: "{prefix}_options *{}",
+    Kind.STATS: "{prefix}_stats *{}",
+    Kind.VECTOR3: "double {}[3]",
+}
+
+
+def _typed(kind: Kind, name: str, prefix: str) -> str:
+    return _C_TYPES[kind].replace("{prefix}", prefix).format(name)
+
+
+def c_decl(prefix: str, f: Function) -> str:
+    """The C prototype of a public function (no semicolon)."""
+    ret = "void" if f.returns is Kind.VOID else _typed(f.returns, "", prefix).strip()
+    params = ", ".join(_typed(p.kind, p.name, prefix) for p in f.params)
+    return f"{ret} {prefix}_{f.name}({params})"
+
+
+def c_field_decl(prefix: str, f: Field) -> str:
+    """A struct field's C declaration (no semicolon)."""
+    return _typed(f.kind, f.name, prefix)
+
+
+def nullable_note(params: tuple[Param, ...]) -> str:
+    """'x and y may be NULL' for a function's nullable parameters ('' if none)."""
+    names = [p.name for p in params if p.nullable]
+    if not names:
+        return ""
+    return f"{' and '.join(names) if len(names) < 3 else ', '.join(names)} may be NULL."

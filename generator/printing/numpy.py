@@ -1,0 +1,102 @@
+"""The NumPy printer: lowered kernels and term set-up as Python text.
+
+Input: IR records (`Kernel`, `TermLoop`, `Call`). Output: strings and tuples of lines for the
+templates. Per-body and per-pair kernels take arrays of shape (..., 3) and work on all members
+at once: an array input `q` prints as `q[..., 0]` ...; a system kernel's positions as `q[i, c]`.
+
+Example:
+    >>> import sympy as sp
+    >>> x = sp.Symbol("x", real=True)
+    >>> PyPrinter({x: "q[..., 0]"}).doprint(sp.sqrt(x))
+    'numpy.sqrt(q[..., 0])'
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+from sympy.printing.numpy import NumPyPrinter
+
+from s2gen.ir import Call, Kernel, LoopKind, TermLoop
+
+__all__ = ["PyPrinter", "py_call", "py_kernel", "py_term_setup"]
+
+
+class PyPrinter(NumPyPrinter):
+    """NumPy printer with symbols mapped to argument slots (`numpy.` qualified calls)."""
+
+    def __init__(self, names: dict[sp.Symbol, str]) -> None:
+        super().__init__({"fully_qualified_modules": True})
+        self._names = names
+
+    def _print_Symbol(self, expr: sp.Symbol) -> str:
+        name = self._names.get(expr)
+        return name if name is not None else super()._print_Symbol(expr)
+
+
+def _slots(kernel: Kernel) -> dict[sp.Symbol, str]:
+    names: dict[sp.Symbol, str] = {}
+    for arg in kernel.inputs:
+        if arg.scalar:
+            names[arg.symbols[0]] = arg.name
+        elif kernel.system and arg.name == "q":
+            names.update({s: f"q[{k // 3}, {k % 3}]" for k, s in enumerate(arg.symbols)})
+        elif kernel.system:
+            names.update({s: f"{arg.name}[{k}]" for k, s in enumerate(arg.symbols)})
+        else:
+            names.update({s: f"{arg.name}[..., {k}]" for k, s in enumerate(arg.symbols)})
+    return names
+
+
+def py_kernel(kernel: Kernel) -> tuple[str, tuple[str, ...]]:
+    """(parameter list, body lines) of a kernel as a Python function."""
+    pr = PyPrinter(_slots(kernel))
+    params = ", ".join(a.name for a in kernel.inputs)
+    slots: dict[tuple[str, int], str] = {}
+    lines = []
+    for a in kernel.assignments:
+        rhs = pr.doprint(a.expr)
+        if a.temp is not None:
+            lines.append(f"{a.temp} = {rhs}")
+        else:
+            assert a.output is not None
+            slots[a.output] = rhs
+    results = []
+    for out in kernel.outputs:
+        comps = [slots[(out.name, k)] for k in range(out.size)]
+        if out.scalar:
+            lines.append(f"{out.name} = {comps[0]}")
+        elif kernel.system:
+            lines.append(f"{out.name} = numpy.array([{', '.join(comps)}], dtype=float)")
+        else:
+            lines.append(f"{out.name} = _stack({', '.join(comps)})")
+        results.append(out.name)
+    lines.append(f"return {', '.join(results)}")
+    return params, tuple(lines)
+
+
+def py_call(call: Call) -> str:
+    """The Python call expression of a call site."""
+    return f"_k_{call.kernel}({', '.join(call.py_args)})"
+
+
+def py_term_setup(t: TermLoop) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(module-level set-up lines, index array names) of a term: member index arrays (none for
+    cutoff terms, whose pairs are found at each call) and data arrays."""
+    up = f"T{t.index}"
+    kind = t.loop.kind
+    setup: list[str] = []
+    roles = ("I", "J") if kind.pairs else ("I",)
+    if kind.listed:
+        for r, role in enumerate(roles):
+            idx = ", ".join(str(mem[r]) for mem in t.loop.members)
+            setup.append(f"{up}_{role} = numpy.array([{idx}], dtype=int)")
+    elif kind is LoopKind.BODIES:
+        setup.append(f"{up}_I = numpy.arange(NBODIES)")
+    elif kind is LoopKind.CHAIN:
+        setup += [f"{up}_I = numpy.arange(NBODIES - 1)", f"{up}_J = {up}_I + 1"]
+    elif kind is LoopKind.ALL_PAIRS:
+        setup.append(f"{up}_I, {up}_J = numpy.triu_indices(NBODIES, 1)")
+    for dname, width, values in t.data:
+        arr = f"numpy.array([{', '.join(repr(float(v)) for v in values)}])"
+        setup.append(f"{up}_{dname.upper()} = {arr}" + ("" if width == 1 else ".reshape(-1, 3)"))
+    return tuple(setup), tuple(f"{up}_{role}" for role in roles)
