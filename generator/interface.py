@@ -152,7 +152,7 @@ _SPHERE = Interface(
                 _p("iters", Kind.INT_OUT, True),
             ),
             "One variational-integrator step (q, w) -> (qn, wn); iters receives the Newton "
-            "iterations (0 for the explicit update).",
+            "iterations (0 for the explicit update). opt NULL means the defaults.",
         ),
         Function(
             "rk_step",
@@ -187,11 +187,25 @@ _SPHERE = Interface(
                 _p("stats", Kind.STATS, True),
             ),
             "Integrate nsteps steps of size h (RK45: output spacing h, adaptive steps inside) "
-            "from (q0, w0).",
+            "from (q0, w0) with `method` (METHOD_*). The trajectory keeps every opt->every-th "
+            "sample, the initial state first: q and w hold (nsteps / every + 1) * NSTATE "
+            "doubles, energy (nsteps / every + 1) doubles (not evaluated at all when energy is "
+            "NULL). opt NULL means the defaults of default_options(); stats may be NULL. "
+            "Returns OK or a status code: ERR_ARGUMENT for h <= 0, nsteps < 0, an every that "
+            "does not divide nsteps, an unknown method, or a q0_i that is not a unit vector "
+            "(stats->fail_body names it); on a failed step the samples before "
+            "stats->fail_step are valid.",
         ),
     ),
     options=(
         *_OPTIONS_RK45,
+        Field(
+            "every",
+            Kind.LONG,
+            "1",
+            "output stride: integrate() stores every `every`-th sample (default 1; nsteps must "
+            "be a multiple of it)",
+        ),
         Field(
             "newton_tol",
             Kind.DOUBLE,
@@ -199,6 +213,13 @@ _SPHERE = Interface(
             "Newton stops when max|delta f| <= tol * max(1, max|f|) (1e-14)",
         ),
         Field("newton_maxiter", Kind.INT, "50", "Newton iteration limit per step (50)"),
+        Field(
+            "unit_tol",
+            Kind.DOUBLE,
+            "1e-12",
+            "integrate() refuses (ERR_ARGUMENT, stats->fail_body) a q0_i with | |q0_i| - 1 | "
+            "above this (default 1e-12; <= 0: no check)",
+        ),
     ),
     stats=(
         Field("steps", Kind.LONG, "0", "accepted steps"),
@@ -217,6 +238,12 @@ _SPHERE = Interface(
             Kind.DOUBLE,
             "0.0",
             "RK45: time of the last accepted step (where a failure happened)",
+        ),
+        Field(
+            "fail_body",
+            Kind.LONG,
+            "-1",
+            "ERR_ARGUMENT: the body (0-based) whose q0 is not a unit vector (else -1)",
         ),
     ),
 )

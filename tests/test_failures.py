@@ -16,7 +16,8 @@ def _check_partial(exc: IntegrationError, n: int) -> None:
     assert len(part.t) == exc.step >= 1
     assert part.q.shape == (exc.step, n, 3)
     assert np.all(np.isfinite(part.q)) and np.all(np.isfinite(part.energy))
-    assert f"step {exc.step}" in str(exc)
+    assert f"the {exc.step} valid samples are kept" in str(exc)
+    assert f"after t = {part.t[-1]:.6g}" in str(exc)
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])

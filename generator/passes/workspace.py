@@ -56,15 +56,18 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
         vi = layout("vi_advance")
         rattle = layout("rattle_advance", ("vh", m3))
     step = max(vi.size, rattle.size)
+    state = [(b, m3) for b in ("qk", "wk", "q1", "w1")]  # the current and the next state
     geometric = layout(
         "geometric",
         *((b, m3) for b in ("g", "gn", "a", "b", "va", "vb")),
+        *state,
         ("step", step),
     )
+    fixed = layout("fixed", *state, ("step", rk_step.size))
     vi_step = layout("vi_step", ("g", m3), ("gn", m3), ("step", vi.size))
-    run = max(geometric.size, rk45.size, rk_step.size)
+    run = max(geometric.size, rk45.size, fixed.size)
     integrate = layout("integrate", ("run", run), ("y0", ns))
-    layouts = [field, rk_fixed, rk_step, rk45, vi, rattle, geometric, vi_step, integrate]
+    layouts = [field, rk_fixed, rk_step, rk45, vi, rattle, geometric, fixed, vi_step, integrate]
     return layouts, max(lay.size for lay in layouts)
 
 

@@ -33,6 +33,7 @@ from s2gen.printing.c import (
     rows,
 )
 from s2gen.printing.numpy import py_call, py_kernel, py_term_setup
+from s2gen.version import __version__
 
 __all__ = ["PrintedKernel", "PrintedModule", "PrintedTerm", "print_module"]
 
@@ -130,6 +131,7 @@ class PrintedModule:
     state_doc: str
     py_doc_title: str
     py_doc_state: str
+    generator_version: str
     system: str
     derivation: str
     pole_tol: str
@@ -244,7 +246,8 @@ _CONTEXT_DOC = {
 def _functions(module: Module, prefix: str) -> tuple[dict[str, Any], ...]:
     out = []
     for f in interface(module.kind).functions:
-        doc = f.doc + (" " + nullable_note(f.params) if nullable_note(f.params) else "")
+        note = nullable_note(f.params)
+        doc = f.doc + (" " + note if note and "NULL" not in f.doc else "")
         out.append({"c_decl": c_decl(prefix, f), "doc_lines": _wrap(doc)})
     return tuple(out)
 
@@ -393,6 +396,7 @@ def print_module(module: Module) -> PrintedModule:
             "phi_i is arbitrary and M(x) singular: to_angles returns ERR_POLE when sin theta_i < "
             "POLE_TOL, rhs returns ERR_SINGULAR when min |pivot| <= MIN_PIVOT_RATIO max |pivot|."
         ),
+        generator_version=__version__,
         system=str(facts.get("system", name)),
         derivation=str(facts.get("derivation", "")),
         pole_tol=str(facts.get("pole_tol", "")),

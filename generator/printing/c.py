@@ -151,11 +151,18 @@ def _typed(kind: Kind, name: str, prefix: str) -> str:
     return _C_TYPES[kind].replace("{prefix}", prefix).format(name)
 
 
-def c_decl(prefix: str, f: Function) -> str:
-    """The C prototype of a public function (no semicolon)."""
+def c_decl(prefix: str, f: Function, width: int = 100) -> str:
+    """The C prototype of a public function (no semicolon), wrapped at `width` columns."""
     ret = "void" if f.returns is Kind.VOID else _typed(f.returns, "", prefix).strip()
-    params = ", ".join(_typed(p.kind, p.name, prefix) for p in f.params)
-    return f"{ret} {prefix}_{f.name}({params})"
+    line = f"{ret} {prefix}_{f.name}("
+    lines: list[str] = []
+    for k, p in enumerate(f.params):
+        piece = _typed(p.kind, p.name, prefix) + (", " if k + 1 < len(f.params) else ")")
+        if len(line) + len(piece.rstrip()) > width:
+            lines.append(line.rstrip())
+            line = "        "
+        line += piece
+    return "\n".join([*lines, line if f.params else line + "void)"])
 
 
 def c_field_decl(prefix: str, f: Field) -> str:

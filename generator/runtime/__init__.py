@@ -59,7 +59,9 @@ class Backend(Protocol):
         w0: np.ndarray,
         params: np.ndarray,
         options: Options,
-    ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, dict[str, int]]: ...
+        every: int = 1,
+        with_energy: bool = True,
+    ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray | None, dict[str, int]]: ...
 
     def energy(self, q: np.ndarray, w: np.ndarray, params: np.ndarray) -> float: ...
 
@@ -100,10 +102,40 @@ def simulate(
     params: np.ndarray | None = None,
     q0: np.ndarray | None = None,
     omega0: np.ndarray | None = None,
+    every: int = 1,
+    energy: bool = True,
 ) -> Trajectory:
-    """Integrate a system from its (or the given) initial state to T with step h."""
+    """Integrate a system from its (or the given) initial state to T with step h, keeping
+    every `every`-th sample (T/h must be a multiple of it) and, with `energy`, its energy."""
     check_method(method, backend)
-    return run(get_backend(system, backend), method, h, T, options, params, q0, omega0)
+    return run(
+        get_backend(system, backend), method, h, T, options, params, q0, omega0, every, energy
+    )
+
+
+def _initial_state(
+    system: System, q0: np.ndarray | None, omega0: np.ndarray | None, unit_tol: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The initial state (given or the spec's), checked: shapes, finite values, unit q_i."""
+    q = system.q0 if q0 is None else np.asarray(q0, dtype=float)
+    w = system.omega0 if omega0 is None else np.asarray(omega0, dtype=float)
+    if q is None or w is None:
+        raise ValueError(f"{system.origin}: no initial state ([initial] q and omega)")
+    for name, a in (("q0", q), ("omega0", w)):
+        if a.shape != (system.n, 3):
+            raise ValueError(f"{name} must have shape ({system.n}, 3), got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name} contains a non-finite value")
+    if unit_tol > 0.0:
+        off = np.abs(np.linalg.norm(q, axis=1) - 1.0)
+        bad = np.flatnonzero(~(off <= unit_tol))
+        if bad.size:
+            i = int(bad[0])
+            raise ValueError(
+                f"q0 of body {i + 1} has length {np.linalg.norm(q[i]):.17g}, not 1 to within "
+                f"{unit_tol:g} (normalize it, or set Options.unit_tol)"
+            )
+    return q, w
 
 
 def run(
@@ -115,6 +147,8 @@ def run(
     params: np.ndarray | None = None,
     q0: np.ndarray | None = None,
     omega0: np.ndarray | None = None,
+    every: int = 1,
+    energy: bool = True,
 ) -> Trajectory:
     """`simulate` on a given backend object (a `Model` brings its own)."""
     system, backend = be.system, be.name
@@ -128,23 +162,28 @@ def run(
     nsteps = round(T / h)
     if abs(nsteps * h - T) > 1e-9 * T:
         raise ValueError(f"T={T} is not a whole number of steps h={h}")
-    q0 = system.q0 if q0 is None else np.asarray(q0, dtype=float)
-    omega0 = system.omega0 if omega0 is None else np.asarray(omega0, dtype=float)
-    if q0 is None or omega0 is None:
-        raise ValueError(f"{system.origin}: no initial state ([initial] q and omega)")
-    p = np.array(system.parameter_values if params is None else params, dtype=float)
+    if not (isinstance(every, int) and every >= 1 and nsteps % every == 0):
+        raise ValueError(f"every={every!r} must be a positive divisor of the {nsteps} steps")
     opts = options or Options()
+    q0, omega0 = _initial_state(system, q0, omega0, opts.unit_tol)
+    p = np.array(system.parameter_values if params is None else params, dtype=float)
+    if p.shape != (len(system.parameter_names),):
+        raise ValueError(
+            f"{system.name}: expected {len(system.parameter_names)} parameter values "
+            f"({', '.join(system.parameter_names)}), got {p.size}"
+        )
     start = time.perf_counter()
-    status, q, w, en, stats = be.integrate(method, h, nsteps, q0, omega0, p, opts)
+    status, q, w, en, stats = be.integrate(method, h, nsteps, q0, omega0, p, opts, every, energy)
     wall = time.perf_counter() - start
-    t = h * np.arange(nsteps + 1)
+    t = h * every * np.arange(nsteps // every + 1)
     if status != 0:
         k = int(stats.get("fail_step", 0))
-        partial = Trajectory(t[:k], q[:k], w[:k], en[:k], method, backend, h, stats, wall)
+        kept = None if en is None else en[:k]
+        partial = Trajectory(t[:k], q[:k], w[:k], kept, method, backend, h, stats, wall)
         why = Status(status).message if status in Status._value2member_map_ else status
+        last = f"after t = {t[k - 1]:.6g}" if k else "at the initial state"
         raise IntegrationError(
-            f"{method} ({backend}) failed at step {k} (t = {k * h:.6g}): {why}; "
-            f"{k} valid samples kept",
+            f"{method} ({backend}) failed {last}: {why}; the {k} valid samples are kept",
             status,
             k,
             partial,

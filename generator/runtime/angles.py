@@ -32,7 +32,7 @@ from s2gen.emit import emit_angles
 from s2gen.equations.angles import ANGLE_METHODS
 from s2gen.ir import ModuleKind
 from s2gen.methods import CONTROLS, Status
-from s2gen.runtime.c import CLibrary, contiguous
+from s2gen.runtime.c import CLibrary, contiguous, pointer
 from s2gen.runtime.numpy_module import import_cached
 from s2gen.runtime.options import Options
 from s2gen.system import System
@@ -169,8 +169,8 @@ class AngleC:
             contiguous(xd0),
             x,
             xd,
-            en,
-            counts,
+            pointer(en),
+            pointer(counts),
             self.work,
             ctypes.byref(st),
         )

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.build import compile_shared, header_macro
+from s2gen.build import BuildError, compile_shared, header_macro
 from s2gen.emit import emit
 from s2gen.interface import Field, Interface, Kind, interface
 from s2gen.ir import ModuleKind
@@ -30,11 +30,19 @@ from s2gen.methods import CONTROLS, Status, method
 from s2gen.runtime.options import Options
 from s2gen.system import System
 
-__all__ = ["CBackend", "CLibrary", "contiguous"]
+__all__ = ["CBackend", "CLibrary", "contiguous", "pointer"]
 
 _DP = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
 _LP = np.ctypeslib.ndpointer(dtype=np.int_, flags="C_CONTIGUOUS")
 _SCALARS = {Kind.DOUBLE: ctypes.c_double, Kind.INT: ctypes.c_int, Kind.LONG: ctypes.c_long}
+
+
+_ARRAYS = (Kind.ARRAY, Kind.CONST_ARRAY, Kind.LONG_ARRAY)
+
+
+def pointer(a: np.ndarray | None) -> int | None:
+    """The address of a contiguous array for a parameter that may be NULL (None: NULL)."""
+    return None if a is None else int(a.ctypes.data)
 
 
 def contiguous(a: np.ndarray) -> np.ndarray:
@@ -58,6 +66,9 @@ class CLibrary:
         self.work = np.zeros(max(1, header_macro(files[f"{prefix}.h"], "WORK_SIZE")))
         self.Options = _struct("Options", self.api.options)
         self.Stats = _struct("Stats", self.api.stats)
+        self.spec_hash = ctypes.c_char_p(
+            ctypes.addressof(ctypes.c_char.in_dll(self.lib, f"{prefix}_spec_hash"))
+        ).value
         self.fn: dict[str, Any] = {}
         types = {
             Kind.CONST_ARRAY: _DP,
@@ -73,11 +84,15 @@ class CLibrary:
         for f in self.api.functions:
             func = getattr(self.lib, f"{prefix}_{f.name}")
             func.restype = None if f.returns is Kind.VOID else _SCALARS[f.returns]
-            func.argtypes = [types[p.kind] for p in f.params]
+            func.argtypes = [
+                ctypes.c_void_p if p.nullable and p.kind in _ARRAYS else types[p.kind]
+                for p in f.params
+            ]
             self.fn[f.name] = func
 
-    def options(self, options: Options) -> Any:
-        """The emitted options struct filled from `options` (fields it lacks keep defaults)."""
+    def options(self, options: Options, every: int = 1) -> Any:
+        """The emitted options struct filled from `options` and the output stride (fields the
+        module lacks are skipped)."""
         opt = self.Options()
         self.fn["default_options"](ctypes.byref(opt))
         values = {
@@ -87,6 +102,8 @@ class CLibrary:
             "control": CONTROLS.index(options.control),
             "newton_tol": options.newton_tol,
             "newton_maxiter": options.newton_maxiter,
+            "unit_tol": options.unit_tol,
+            "every": every,
         }
         for f in self.api.options:
             if f.name in values:
@@ -112,6 +129,11 @@ class CBackend:
         self.system = system
         files = emit(system, "c") if files is None else files
         self.library = CLibrary(files, ModuleKind.SPHERE, system.name)
+        if self.library.spec_hash != system.spec_hash().encode():
+            raise BuildError(
+                f"{system.name}: the library was built from spec {self.library.spec_hash!r}, "
+                f"not from this system's {system.spec_hash()!r}"
+            )
         self.build = self.library.build
         self.work = self.library.work
         self._fn = self.library.fn
@@ -153,16 +175,18 @@ class CBackend:
         w0: np.ndarray,
         params: np.ndarray,
         options: Options,
-    ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        n = self.system.n
-        q = np.full((nsteps + 1, n, 3), np.nan)
-        w = np.full((nsteps + 1, n, 3), np.nan)
-        en = np.full(nsteps + 1, np.nan)
+        every: int = 1,
+        with_energy: bool = True,
+    ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray | None, dict[str, Any]]:
+        n, samples = self.system.n, nsteps // every + 1
+        q = np.full((samples, n, 3), np.nan)
+        w = np.full((samples, n, 3), np.nan)
+        en = np.full(samples, np.nan) if with_energy else None
         lib = self.library
         stats = lib.Stats()
         status = self._fn["integrate"](
             contiguous(params),
-            ctypes.byref(lib.options(options)),
+            ctypes.byref(lib.options(options, every)),
             method(method_name).code,
             h,
             nsteps,
@@ -170,7 +194,7 @@ class CBackend:
             contiguous(w0),
             q,
             w,
-            en,
+            pointer(en),
             self.work,
             ctypes.byref(stats),
         )

@@ -77,8 +77,11 @@ class Model:
         omega0: np.ndarray | None = None,
         options: Options | None = None,
         params: Mapping[str, float] | None = None,
+        every: int = 1,
+        energy: bool = True,
     ) -> Trajectory:
-        """Integrate from (q0, omega0) (default: the spec's) to T with step h (see `simulate`)."""
+        """Integrate from (q0, omega0) (default: the spec's) to T with step h, keeping every
+        `every`-th sample and, with `energy`, its energy (see `simulate`)."""
         return run(
             self._backend,
             method,
@@ -88,6 +91,8 @@ class Model:
             params=self.params(params),
             q0=q0,
             omega0=omega0,
+            every=every,
+            energy=energy,
         )
 
     def step(

@@ -75,7 +75,9 @@ class NumpyBackend:
         w0: np.ndarray,
         params: np.ndarray,
         options: Options,
-    ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
+        every: int = 1,
+        with_energy: bool = True,
+    ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray | None, dict[str, int]]:
         return self.module.integrate(  # type: ignore[no-any-return]
             params,
             method(method_name).code,
@@ -89,4 +91,7 @@ class NumpyBackend:
             hmax=options.hmax,
             newton_tol=options.newton_tol,
             newton_maxiter=options.newton_maxiter,
+            every=every,
+            unit_tol=options.unit_tol,
+            with_energy=with_energy,
         )

@@ -25,3 +25,4 @@ class Options:
     hmax: float = 0.0
     newton_tol: float = 1e-14
     newton_maxiter: int = 50
+    unit_tol: float = 1e-12  # a q0_i farther than this from unit length is refused (<= 0: none)

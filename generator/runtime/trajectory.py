@@ -22,12 +22,13 @@ __all__ = ["IntegrationError", "Trajectory"]
 
 @dataclass(frozen=True)
 class Trajectory:
-    """Samples on the grid t_k = k h: q and omega (N+1, n, 3), energy (N+1,)."""
+    """Samples on the grid t_k = k h every: q and omega (N+1, n, 3), energy (N+1,) or None when
+    it was not asked for."""
 
     t: np.ndarray
     q: np.ndarray
     omega: np.ndarray
-    energy: np.ndarray
+    energy: np.ndarray | None
     method: str
     backend: str
     h: float

@@ -563,6 +563,17 @@ static void double_pendulum_ctx_init(double_pendulum_ctx *cx, const double *p, d
     double_pendulum_masses(p, cx->md, cx->mp);
 }
 
+const char *const double_pendulum_param_names[] = {
+    "m1",
+    "m2",
+    "l1",
+    "l2",
+    "g",
+    NULL
+};
+const char double_pendulum_spec_hash[] = "22ca6b79c00fa6a8";
+const char double_pendulum_generator_version[] = "0.2.0";
+
 void double_pendulum_default_params(double *p)
 {
     p[0] = 1.0; /* m1 */
@@ -578,8 +589,10 @@ void double_pendulum_default_options(double_pendulum_options *opt)
     opt->atol = 1e-6;
     opt->hmax = 0.0;
     opt->control = DOUBLE_PENDULUM_CONTROL_MATLAB;
+    opt->every = 1;
     opt->newton_tol = 1e-14;
     opt->newton_maxiter = 50;
+    opt->unit_tol = 1e-12;
 }
 /* ---- potential and its gradient ------------------------------------------------------------- */
 
@@ -1091,6 +1104,19 @@ int double_pendulum_rk_step(const double *p, int method, double h, const double 
     double_pendulum_ctx_init(&cx, p, work);
     return double_pendulum_rk_step_cx(&cx, method, h, q, w, qn, wn, work);
 }
+/* ---- driver ----------------------------------------------------------------------------------- */
+
+/* Sample `s` of the trajectory: the state (qs, ws) and, when energy is not NULL, its energy. */
+static void double_pendulum_store(const double_pendulum_ctx *cx, const double *qs, const double *ws,
+        long s, double *q, double *w, double *energy)
+{
+    double_pendulum_copy(q + s * DOUBLE_PENDULUM_N3, qs, DOUBLE_PENDULUM_N3);
+    double_pendulum_copy(w + s * DOUBLE_PENDULUM_N3, ws, DOUBLE_PENDULUM_N3);
+    if (energy) {
+        energy[s] = double_pendulum_energy_cx(cx, qs, ws);
+    }
+}
+
 /* ---- adaptive Runge-Kutta (Dormand-Prince 5(4)) --------------------------------------------- */
 /* Dormand-Prince 5(4) for the autonomous field (the nodes c are not needed): coupling
  * coefficients with the 5th-order weights as last row, error weights (5th minus 4th order)
@@ -1128,6 +1154,9 @@ static double double_pendulum_rk45_error(const double_pendulum_options *opt, dou
             est += double_pendulum_dp_e[s] * k[s][e];
         }
         est *= h;
+        if (!(isfinite(est) && isfinite(yn[e]))) {
+            return NAN; /* fmax would drop a NaN: a non-finite trial step is never accepted */
+        }
         if (opt->control == DOUBLE_PENDULUM_CONTROL_HAIRER) {
             scale = opt->atol + opt->rtol * fmax(fabs(y[e]), fabs(yn[e]));
             acc += (est / scale) * (est / scale);
@@ -1191,7 +1220,7 @@ static double double_pendulum_rk45_h0(const double_pendulum_ctx *cx, const doubl
 /* Adaptive Dormand-Prince from y0 over nsteps output intervals of length hout; samples on the
  * grid from the continuous extension. work: k (84), y (12), yn (12), ys (12), field (42). */
 static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pendulum_options *opt, double hout,
-        long nsteps, const double *y0, double *q, double *w, double *energy, double *work, double_pendulum_stats *stats)
+        long nsteps, const double *y0, long every, double *q, double *w, double *energy, double *work, double_pendulum_stats *stats)
 {
     double *k[7], *y = work + 84, *yn = work + 96;
     double *ys = work + 108, *fw = work + 120;
@@ -1266,6 +1295,10 @@ static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pend
         stats->steps += 1;
         /* samples in (t, tn] from the continuous extension */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            if (!(next % every == 0)) {
+                next += 1;
+                continue;
+            }
             if (next == nsteps || hout * (double)next == tn) {
                 double_pendulum_copy(ys, yn, DOUBLE_PENDULUM_NS);
             } else {
@@ -1285,12 +1318,10 @@ static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pend
                     ys[e] = y[e] + h * acc;
                 }
             }
-            double_pendulum_copy(q + next * DOUBLE_PENDULUM_N3, ys, DOUBLE_PENDULUM_N3);
-            double_pendulum_copy(w + next * DOUBLE_PENDULUM_N3, ys + DOUBLE_PENDULUM_N3, DOUBLE_PENDULUM_N3);
-            energy[next] = double_pendulum_energy_cx(cx, q + next * DOUBLE_PENDULUM_N3, w + next * DOUBLE_PENDULUM_N3);
+            double_pendulum_store(cx, ys, ys + DOUBLE_PENDULUM_N3, next / every, q, w, energy);
+            stats->fail_step = next / every + 1;
 
             next += 1;
-            stats->fail_step = next;
         }
         if (!failed) {
             if (opt->control == DOUBLE_PENDULUM_CONTROL_HAIRER) {
@@ -1313,37 +1344,37 @@ static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pend
     return DOUBLE_PENDULUM_OK;
 }
 
-/* ---- driver ----------------------------------------------------------------------------------- */
-
 /* Step fractions of the symmetric compositions of the VI (Yoshida's triple jump: 4th order). */
 static const double double_pendulum_yoshida[3] = { 1.3512071919596578, -1.7024143839193155, 1.3512071919596578 };
 
-/* VI, its 4th-order composition, or RATTLE, from sample 0 already in q, w. One gradient per
- * substep (the gradient at the new state is reused by the next step).
- * work: g (6), gn (6), a (6), b (6), va (6), vb (6), step (54). */
+/* VI, its 4th-order composition, or RATTLE from (q0, w0); every `every`-th state is stored.
+ * One gradient per substep (the gradient at the new state is reused by the next step).
+ * work: g (6), gn (6), a (6), b (6), va (6), vb (6), qk (6), wk (6), q1 (6), w1 (6), step (54). */
 static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, const double_pendulum_options *opt,
-        int method, double h, long nsteps, double *q, double *w, double *energy, double *work,
-        double_pendulum_stats *stats)
+        int method, double h, long nsteps, long every, const double *q0, const double *w0,
+        double *q, double *w, double *energy, double *work, double_pendulum_stats *stats)
 {
     double *g = work + 0, *gn = work + 6;
     double *a = work + 12, *b = work + 18;
     double *va = work + 24, *vb = work + 30;
-    double *rest = work + 36, *tmp;
+    double *qk = work + 36, *wk = work + 42;
+    double *q1 = work + 48, *w1 = work + 54;
+    double *rest = work + 60, *tmp;
     long k, e;
     int status = DOUBLE_PENDULUM_OK;
-    double_pendulum_gradient_cx(cx, q, g);
+    double_pendulum_copy(qk, q0, DOUBLE_PENDULUM_N3);
+    double_pendulum_copy(wk, w0, DOUBLE_PENDULUM_N3);
+    double_pendulum_gradient_cx(cx, qk, g);
     stats->gradient_evals += 1;
     if (method == DOUBLE_PENDULUM_METHOD_RATTLE) {
         for (e = 0; e < 2; ++e) { /* v = omega x q */
-            const double *x = q + 3 * e, *o = w + 3 * e;
+            const double *x = qk + 3 * e, *o = wk + 3 * e;
             va[3 * e] = o[1] * x[2] - o[2] * x[1];
             va[3 * e + 1] = o[2] * x[0] - o[0] * x[2];
             va[3 * e + 2] = o[0] * x[1] - o[1] * x[0];
         }
     }
     for (k = 0; k < nsteps; ++k) {
-        const double *qk = q + k * DOUBLE_PENDULUM_N3, *wk = w + k * DOUBLE_PENDULUM_N3;
-        double *q1 = q + (k + 1) * DOUBLE_PENDULUM_N3, *w1 = w + (k + 1) * DOUBLE_PENDULUM_N3;
         int iters = 0, sub, total = 0;
         if (method == DOUBLE_PENDULUM_METHOD_VI) {
             status = double_pendulum_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, rest, &iters);
@@ -1386,7 +1417,8 @@ static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, co
         if (total > stats->newton_max) {
             stats->newton_max = total;
         }
-        if (status == DOUBLE_PENDULUM_OK && !(double_pendulum_finite(q1, DOUBLE_PENDULUM_N3) && double_pendulum_finite(w1, DOUBLE_PENDULUM_N3))) {
+        if (status == DOUBLE_PENDULUM_OK
+                && !(double_pendulum_finite(q1, DOUBLE_PENDULUM_N3) && double_pendulum_finite(w1, DOUBLE_PENDULUM_N3))) {
             status = DOUBLE_PENDULUM_ERR_NONFINITE;
         }
         if (status != DOUBLE_PENDULUM_OK) {
@@ -1394,10 +1426,51 @@ static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, co
         }
         stats->gradient_evals += 1;
         stats->steps += 1;
-        energy[k + 1] = double_pendulum_energy_cx(cx, q1, w1);
-        stats->fail_step = k + 2;
+        tmp = qk;
+        qk = q1;
+        q1 = tmp;
+        tmp = wk;
+        wk = w1;
+        w1 = tmp;
+        if ((k + 1) % every == 0) {
+            double_pendulum_store(cx, qk, wk, (k + 1) / every, q, w, energy);
+            stats->fail_step = (k + 1) / every + 1;
+        }
     }
     return status;
+}
+
+/* Fixed-step RK2, RK2 with projection or RK4 from (q0, w0); every `every`-th state is stored.
+ * work: qk (6), wk (6), q1 (6), w1 (6), step (102). */
+static int double_pendulum_integrate_fixed(const double_pendulum_ctx *cx, int method, double h,
+        long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
+        double *energy, double *work, double_pendulum_stats *stats)
+{
+    double *qk = work + 0, *wk = work + 6;
+    double *q1 = work + 12, *w1 = work + 18, *tmp;
+    long k;
+    int status;
+    double_pendulum_copy(qk, q0, DOUBLE_PENDULUM_N3);
+    double_pendulum_copy(wk, w0, DOUBLE_PENDULUM_N3);
+    for (k = 0; k < nsteps; ++k) {
+        status = double_pendulum_rk_step_cx(cx, method, h, qk, wk, q1, w1, work + 24);
+        if (status != DOUBLE_PENDULUM_OK) {
+            return status;
+        }
+        stats->gradient_evals += method == DOUBLE_PENDULUM_METHOD_RK4 ? 4 : 2;
+        stats->steps += 1;
+        tmp = qk;
+        qk = q1;
+        q1 = tmp;
+        tmp = wk;
+        wk = w1;
+        w1 = tmp;
+        if ((k + 1) % every == 0) {
+            double_pendulum_store(cx, qk, wk, (k + 1) / every, q, w, energy);
+            stats->fail_step = (k + 1) / every + 1;
+        }
+    }
+    return DOUBLE_PENDULUM_OK;
 }
 
 /* work: run (162), y0 (12). */
@@ -1405,10 +1478,18 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
         long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy,
         double *work, double_pendulum_stats *stats)
 {
-    long k;
-    int status = DOUBLE_PENDULUM_OK;
+    double_pendulum_options defaults;
+    double_pendulum_stats local;
     double_pendulum_ctx ctx, *cx = &ctx;
     double *run = work + 0;
+    long every, i;
+    if (!opt) {
+        double_pendulum_default_options(&defaults);
+        opt = &defaults;
+    }
+    if (!stats) {
+        stats = &local;
+    }
     stats->steps = 0;
     stats->rejected = 0;
     stats->gradient_evals = 0;
@@ -1416,42 +1497,39 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
     stats->newton_max = 0;
     stats->fail_step = 0;
     stats->fail_time = 0.0;
-    if (!(h > 0.0) || nsteps < 0) {
+    stats->fail_body = -1;
+    every = opt->every;
+    if (!(h > 0.0) || nsteps < 0 || every < 1 || nsteps % every != 0) {
         return DOUBLE_PENDULUM_ERR_ARGUMENT;
     }
     if (!(double_pendulum_finite(q0, DOUBLE_PENDULUM_N3) && double_pendulum_finite(w0, DOUBLE_PENDULUM_N3))) {
         return DOUBLE_PENDULUM_ERR_NONFINITE;
     }
+    for (i = 0; i < 2 && opt->unit_tol > 0.0; ++i) {
+        const double *x = q0 + 3 * i;
+        if (!(fabs(sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) - 1.0) <= opt->unit_tol)) {
+            stats->fail_body = i;
+            return DOUBLE_PENDULUM_ERR_ARGUMENT;
+        }
+    }
     double_pendulum_ctx_init(cx, p, work);
-    double_pendulum_copy(q, q0, DOUBLE_PENDULUM_N3);
-    double_pendulum_copy(w, w0, DOUBLE_PENDULUM_N3);
-    energy[0] = double_pendulum_energy_cx(cx, q, w);
+    double_pendulum_store(cx, q0, w0, 0, q, w, energy);
     stats->fail_step = 1;
     if (method == DOUBLE_PENDULUM_METHOD_RK45) {
         double *y0 = work + 162;
         double_pendulum_copy(y0, q0, DOUBLE_PENDULUM_N3);
         double_pendulum_copy(y0 + DOUBLE_PENDULUM_N3, w0, DOUBLE_PENDULUM_N3);
-        return double_pendulum_rk45(cx, opt, h, nsteps, y0, q, w, energy, run, stats);
+        return double_pendulum_rk45(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
     }
     if (method == DOUBLE_PENDULUM_METHOD_VI || method == DOUBLE_PENDULUM_METHOD_VI4
             || method == DOUBLE_PENDULUM_METHOD_RATTLE) {
-        return double_pendulum_integrate_geometric(cx, opt, method, h, nsteps, q, w, energy, run,
-                stats);
+        return double_pendulum_integrate_geometric(cx, opt, method, h, nsteps, every, q0, w0, q, w,
+                energy, run, stats);
     }
     if (method != DOUBLE_PENDULUM_METHOD_RK2 && method != DOUBLE_PENDULUM_METHOD_RK2_PROJ
             && method != DOUBLE_PENDULUM_METHOD_RK4) {
         return DOUBLE_PENDULUM_ERR_ARGUMENT;
     }
-    for (k = 0; k < nsteps; ++k) {
-        status = double_pendulum_rk_step_cx(cx, method, h, q + k * DOUBLE_PENDULUM_N3, w + k * DOUBLE_PENDULUM_N3,
-                q + (k + 1) * DOUBLE_PENDULUM_N3, w + (k + 1) * DOUBLE_PENDULUM_N3, run);
-        if (status != DOUBLE_PENDULUM_OK) {
-            return status;
-        }
-        stats->gradient_evals += method == DOUBLE_PENDULUM_METHOD_RK4 ? 4 : 2;
-        stats->steps += 1;
-        energy[k + 1] = double_pendulum_energy_cx(cx, q + (k + 1) * DOUBLE_PENDULUM_N3, w + (k + 1) * DOUBLE_PENDULUM_N3);
-        stats->fail_step = k + 2;
-    }
-    return status;
+    return double_pendulum_integrate_fixed(cx, method, h, nsteps, every, q0, w0, q, w, energy, run,
+            stats);
 }

@@ -278,6 +278,17 @@ static long double_pendulum_angles_nearest_pole(const double *x, double *s)
     return best;
 }
 
+const char *const double_pendulum_angles_param_names[] = {
+    "m1",
+    "m2",
+    "l1",
+    "l2",
+    "g",
+    NULL
+};
+const char double_pendulum_angles_spec_hash[] = "22ca6b79c00fa6a8";
+const char double_pendulum_angles_generator_version[] = "0.2.0";
+
 void double_pendulum_angles_default_params(double *p)
 {
     p[0] = 1.0; /* m1 */
@@ -498,6 +509,9 @@ static double double_pendulum_angles_rk45_error(const double_pendulum_angles_opt
             est += double_pendulum_angles_dp_e[s] * k[s][e];
         }
         est *= h;
+        if (!(isfinite(est) && isfinite(yn[e]))) {
+            return NAN; /* fmax would drop a NaN: a non-finite trial step is never accepted */
+        }
         if (opt->control == DOUBLE_PENDULUM_ANGLES_CONTROL_HAIRER) {
             scale = opt->atol + opt->rtol * fmax(fabs(y[e]), fabs(yn[e]));
             acc += (est / scale) * (est / scale);
@@ -636,6 +650,10 @@ static int double_pendulum_angles_rk45(const double_pendulum_angles_ctx *cx, con
         stats->steps += 1;
         /* samples in (t, tn] from the continuous extension */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            if (!(1)) {
+                next += 1;
+                continue;
+            }
             if (next == nsteps || hout * (double)next == tn) {
                 double_pendulum_angles_copy(ys, yn, DOUBLE_PENDULUM_ANGLES_NS);
             } else {
@@ -657,14 +675,16 @@ static int double_pendulum_angles_rk45(const double_pendulum_angles_ctx *cx, con
             }
             double_pendulum_angles_copy(x + next * DOUBLE_PENDULUM_ANGLES_NX, ys, DOUBLE_PENDULUM_ANGLES_NX);
             double_pendulum_angles_copy(xd + next * DOUBLE_PENDULUM_ANGLES_NX, ys + DOUBLE_PENDULUM_ANGLES_NX, DOUBLE_PENDULUM_ANGLES_NX);
-            energy[next] = double_pendulum_angles_energy(cx->p, ys, ys + DOUBLE_PENDULUM_ANGLES_NX);
+            if (energy) {
+                energy[next] = double_pendulum_angles_energy(cx->p, ys, ys + DOUBLE_PENDULUM_ANGLES_NX);
+            }
             if (counts) {
                 counts[2 * next] = stats->steps;
                 counts[2 * next + 1] = stats->rejected;
             }
+            stats->fail_step = next + 1;
 
             next += 1;
-            stats->fail_step = next;
         }
         if (!failed) {
             if (opt->control == DOUBLE_PENDULUM_ANGLES_CONTROL_HAIRER) {
@@ -698,7 +718,16 @@ int double_pendulum_angles_integrate(const double *p, const double_pendulum_angl
     int status = DOUBLE_PENDULUM_ANGLES_OK;
     double_pendulum_angles_ctx ctx, *cx = &ctx;
     double *run = work + 0, *fail = work + 104;
+    double_pendulum_angles_options defaults;
+    double_pendulum_angles_stats local;
     cx->p = p;
+    if (!opt) {
+        double_pendulum_angles_default_options(&defaults);
+        opt = &defaults;
+    }
+    if (!stats) {
+        stats = &local;
+    }
     stats->steps = 0;
     stats->rejected = 0;
     stats->rhs_evals = 0;
@@ -714,7 +743,9 @@ int double_pendulum_angles_integrate(const double *p, const double_pendulum_angl
     }
     double_pendulum_angles_copy(x, x0, DOUBLE_PENDULUM_ANGLES_NX);
     double_pendulum_angles_copy(xd, xd0, DOUBLE_PENDULUM_ANGLES_NX);
-    energy[0] = double_pendulum_angles_energy(p, x, xd);
+    if (energy) {
+        energy[0] = double_pendulum_angles_energy(p, x, xd);
+    }
     if (counts) {
         counts[0] = counts[1] = 0;
     }
@@ -754,7 +785,9 @@ int double_pendulum_angles_integrate(const double *p, const double_pendulum_angl
         double_pendulum_angles_copy(ydn, run + 8 + DOUBLE_PENDULUM_ANGLES_NX, DOUBLE_PENDULUM_ANGLES_NX);
         stats->rhs_evals += 4;
         stats->steps += 1;
-        energy[k + 1] = double_pendulum_angles_energy(p, yn, ydn);
+        if (energy) {
+            energy[k + 1] = double_pendulum_angles_energy(p, yn, ydn);
+        }
         if (counts) {
             counts[2 * (k + 1)] = stats->steps;
             counts[2 * (k + 1) + 1] = 0;

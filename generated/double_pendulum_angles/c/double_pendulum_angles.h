@@ -36,6 +36,7 @@ extern "C" {
 #define DOUBLE_PENDULUM_ANGLES_WORK_SIZE 112 /* workspace doubles every `work` must hold */
 #define DOUBLE_PENDULUM_ANGLES_POLE_TOL 1.1920928955078125e-07 /* sin theta below this is at a pole */
 #define DOUBLE_PENDULUM_ANGLES_MIN_PIVOT_RATIO 1.4210854715202004e-14 /* M(x) singular below this */
+
 /* Status codes returned by the step and integrate functions. */
 enum {
     DOUBLE_PENDULUM_ANGLES_OK = 0, /* success */
@@ -73,6 +74,12 @@ typedef struct {
     double fail_sin; /* on failure: that body's |sin theta| */
 } double_pendulum_angles_stats;
 
+/* What this module is: the parameter names in the order of p (NULL-terminated), the spec's
+ * hash and the version of s2gen that generated it. */
+extern const char *const double_pendulum_angles_param_names[];
+extern const char double_pendulum_angles_spec_hash[];
+extern const char double_pendulum_angles_generator_version[];
+
 /* The spec's parameter values. */
 void double_pendulum_angles_default_params(double *p);
 
@@ -81,26 +88,32 @@ void double_pendulum_angles_default_options(double_pendulum_angles_options *opt)
 
 /* Angles and rates of a state given as q, w (NBODIES 3-vectors each, body-major), theta in [0,
  * pi]. Returns ERR_POLE (and the 0-based body in *body, if body is not NULL) when some sin
- * theta_i < POLE_TOL. body may be NULL. */
-int double_pendulum_angles_to_angles(const double *q, const double *w, double *x, double *xd, int *body);
+ * theta_i < POLE_TOL. */
+int double_pendulum_angles_to_angles(const double *q, const double *w, double *x, double *xd,
+        int *body);
 
 /* q and omega = q x qdot of `count` angle states (x, xd: count * NX doubles each; q, w: count
  * * 3 * NBODIES). */
-void double_pendulum_angles_to_sphere(long count, const double *x, const double *xd, double *q, double *w);
+void double_pendulum_angles_to_sphere(long count, const double *x, const double *xd, double *q,
+        double *w);
 
 /* Total energy T + V in angles. */
 double double_pendulum_angles_energy(const double *p, const double *x, const double *xd);
 
 /* Accelerations xdd from M(x) xdd = F(x, xd) (LU with partial pivoting). */
-int double_pendulum_angles_rhs(const double *p, const double *x, const double *xd, double *xdd, double *work);
+int double_pendulum_angles_rhs(const double *p, const double *x, const double *xd, double *xdd,
+        double *work);
 
 /* One classical Runge-Kutta step of size h. If a field evaluation fails, xn and xdn receive
  * the stage state where it failed. */
-int double_pendulum_angles_rk4_step(const double *p, double h, const double *x, const double *xd, double *xn, double *xdn, double *work);
+int double_pendulum_angles_rk4_step(const double *p, double h, const double *x, const double *xd,
+        double *xn, double *xdn, double *work);
 
 /* Integrate nsteps steps of size h (RK45: output spacing h, adaptive steps inside) from (x0,
  * xd0). opt, energy, counts, stats may be NULL. */
-int double_pendulum_angles_integrate(const double *p, const double_pendulum_angles_options *opt, int method, double h, long nsteps, const double *x0, const double *xd0, double *x, double *xd, double *energy, long *counts, double *work, double_pendulum_angles_stats *stats);
+int double_pendulum_angles_integrate(const double *p, const double_pendulum_angles_options *opt,
+        int method, double h, long nsteps, const double *x0, const double *xd0, double *x,
+        double *xd, double *energy, long *counts, double *work, double_pendulum_angles_stats *stats);
 
 #ifdef __cplusplus
 }

@@ -444,7 +444,6 @@ def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
                 ys = y + h * numpy.tensordot(b, k, axes=1)
             store(nxt, ys)
             nxt += 1
-            stats["fail_step"] = nxt
         if not failed:
             if control == CONTROL_HAIRER:
                 h *= 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 5))
@@ -501,6 +500,7 @@ def integrate(p, method, h, nsteps, x0, xd0, rtol=1e-3, atol=1e-6, control=CONTR
             x[nxt], xd[nxt] = ys[:NX], ys[NX:]
             en[nxt] = energy(p, x[nxt], xd[nxt])
             counts[nxt] = (stats["steps"], stats["rejected"])
+            stats["fail_step"] = nxt + 1
 
         state = [None, None]
         y0 = numpy.concatenate([x[0], xd[0]])

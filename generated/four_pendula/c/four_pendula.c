@@ -253,6 +253,15 @@ static void four_pendula_ctx_init(four_pendula_ctx *cx, const double *p, double 
     four_pendula_masses(p, cx->md, cx->mp);
 }
 
+const char *const four_pendula_param_names[] = {
+    "m",
+    "l",
+    "g",
+    NULL
+};
+const char four_pendula_spec_hash[] = "9fdaef79043e9a4a";
+const char four_pendula_generator_version[] = "0.2.0";
+
 void four_pendula_default_params(double *p)
 {
     p[0] = 0.1; /* m */
@@ -266,8 +275,10 @@ void four_pendula_default_options(four_pendula_options *opt)
     opt->atol = 1e-6;
     opt->hmax = 0.0;
     opt->control = FOUR_PENDULA_CONTROL_MATLAB;
+    opt->every = 1;
     opt->newton_tol = 1e-14;
     opt->newton_maxiter = 50;
+    opt->unit_tol = 1e-12;
 }
 /* ---- potential and its gradient ------------------------------------------------------------- */
 
@@ -604,6 +615,19 @@ int four_pendula_rk_step(const double *p, int method, double h, const double *q,
     four_pendula_ctx_init(&cx, p, work);
     return four_pendula_rk_step_cx(&cx, method, h, q, w, qn, wn, work);
 }
+/* ---- driver ----------------------------------------------------------------------------------- */
+
+/* Sample `s` of the trajectory: the state (qs, ws) and, when energy is not NULL, its energy. */
+static void four_pendula_store(const four_pendula_ctx *cx, const double *qs, const double *ws,
+        long s, double *q, double *w, double *energy)
+{
+    four_pendula_copy(q + s * FOUR_PENDULA_N3, qs, FOUR_PENDULA_N3);
+    four_pendula_copy(w + s * FOUR_PENDULA_N3, ws, FOUR_PENDULA_N3);
+    if (energy) {
+        energy[s] = four_pendula_energy_cx(cx, qs, ws);
+    }
+}
+
 /* ---- adaptive Runge-Kutta (Dormand-Prince 5(4)) --------------------------------------------- */
 /* Dormand-Prince 5(4) for the autonomous field (the nodes c are not needed): coupling
  * coefficients with the 5th-order weights as last row, error weights (5th minus 4th order)
@@ -641,6 +665,9 @@ static double four_pendula_rk45_error(const four_pendula_options *opt, double h,
             est += four_pendula_dp_e[s] * k[s][e];
         }
         est *= h;
+        if (!(isfinite(est) && isfinite(yn[e]))) {
+            return NAN; /* fmax would drop a NaN: a non-finite trial step is never accepted */
+        }
         if (opt->control == FOUR_PENDULA_CONTROL_HAIRER) {
             scale = opt->atol + opt->rtol * fmax(fabs(y[e]), fabs(yn[e]));
             acc += (est / scale) * (est / scale);
@@ -704,7 +731,7 @@ static double four_pendula_rk45_h0(const four_pendula_ctx *cx, const four_pendul
 /* Adaptive Dormand-Prince from y0 over nsteps output intervals of length hout; samples on the
  * grid from the continuous extension. work: k (168), y (24), yn (24), ys (24), field (12). */
 static int four_pendula_rk45(const four_pendula_ctx *cx, const four_pendula_options *opt, double hout,
-        long nsteps, const double *y0, double *q, double *w, double *energy, double *work, four_pendula_stats *stats)
+        long nsteps, const double *y0, long every, double *q, double *w, double *energy, double *work, four_pendula_stats *stats)
 {
     double *k[7], *y = work + 168, *yn = work + 192;
     double *ys = work + 216, *fw = work + 240;
@@ -779,6 +806,10 @@ static int four_pendula_rk45(const four_pendula_ctx *cx, const four_pendula_opti
         stats->steps += 1;
         /* samples in (t, tn] from the continuous extension */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            if (!(next % every == 0)) {
+                next += 1;
+                continue;
+            }
             if (next == nsteps || hout * (double)next == tn) {
                 four_pendula_copy(ys, yn, FOUR_PENDULA_NS);
             } else {
@@ -798,12 +829,10 @@ static int four_pendula_rk45(const four_pendula_ctx *cx, const four_pendula_opti
                     ys[e] = y[e] + h * acc;
                 }
             }
-            four_pendula_copy(q + next * FOUR_PENDULA_N3, ys, FOUR_PENDULA_N3);
-            four_pendula_copy(w + next * FOUR_PENDULA_N3, ys + FOUR_PENDULA_N3, FOUR_PENDULA_N3);
-            energy[next] = four_pendula_energy_cx(cx, q + next * FOUR_PENDULA_N3, w + next * FOUR_PENDULA_N3);
+            four_pendula_store(cx, ys, ys + FOUR_PENDULA_N3, next / every, q, w, energy);
+            stats->fail_step = next / every + 1;
 
             next += 1;
-            stats->fail_step = next;
         }
         if (!failed) {
             if (opt->control == FOUR_PENDULA_CONTROL_HAIRER) {
@@ -826,37 +855,37 @@ static int four_pendula_rk45(const four_pendula_ctx *cx, const four_pendula_opti
     return FOUR_PENDULA_OK;
 }
 
-/* ---- driver ----------------------------------------------------------------------------------- */
-
 /* Step fractions of the symmetric compositions of the VI (Yoshida's triple jump: 4th order). */
 static const double four_pendula_yoshida[3] = { 1.3512071919596578, -1.7024143839193155, 1.3512071919596578 };
 
-/* VI, its 4th-order composition, or RATTLE, from sample 0 already in q, w. One gradient per
- * substep (the gradient at the new state is reused by the next step).
- * work: g (12), gn (12), a (12), b (12), va (12), vb (12), step (12). */
+/* VI, its 4th-order composition, or RATTLE from (q0, w0); every `every`-th state is stored.
+ * One gradient per substep (the gradient at the new state is reused by the next step).
+ * work: g (12), gn (12), a (12), b (12), va (12), vb (12), qk (12), wk (12), q1 (12), w1 (12), step (12). */
 static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const four_pendula_options *opt,
-        int method, double h, long nsteps, double *q, double *w, double *energy, double *work,
-        four_pendula_stats *stats)
+        int method, double h, long nsteps, long every, const double *q0, const double *w0,
+        double *q, double *w, double *energy, double *work, four_pendula_stats *stats)
 {
     double *g = work + 0, *gn = work + 12;
     double *a = work + 24, *b = work + 36;
     double *va = work + 48, *vb = work + 60;
-    double *rest = work + 72, *tmp;
+    double *qk = work + 72, *wk = work + 84;
+    double *q1 = work + 96, *w1 = work + 108;
+    double *rest = work + 120, *tmp;
     long k, e;
     int status = FOUR_PENDULA_OK;
-    four_pendula_gradient_cx(cx, q, g);
+    four_pendula_copy(qk, q0, FOUR_PENDULA_N3);
+    four_pendula_copy(wk, w0, FOUR_PENDULA_N3);
+    four_pendula_gradient_cx(cx, qk, g);
     stats->gradient_evals += 1;
     if (method == FOUR_PENDULA_METHOD_RATTLE) {
         for (e = 0; e < 4; ++e) { /* v = omega x q */
-            const double *x = q + 3 * e, *o = w + 3 * e;
+            const double *x = qk + 3 * e, *o = wk + 3 * e;
             va[3 * e] = o[1] * x[2] - o[2] * x[1];
             va[3 * e + 1] = o[2] * x[0] - o[0] * x[2];
             va[3 * e + 2] = o[0] * x[1] - o[1] * x[0];
         }
     }
     for (k = 0; k < nsteps; ++k) {
-        const double *qk = q + k * FOUR_PENDULA_N3, *wk = w + k * FOUR_PENDULA_N3;
-        double *q1 = q + (k + 1) * FOUR_PENDULA_N3, *w1 = w + (k + 1) * FOUR_PENDULA_N3;
         int iters = 0, sub, total = 0;
         if (method == FOUR_PENDULA_METHOD_VI) {
             status = four_pendula_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, rest, &iters);
@@ -899,7 +928,8 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
         if (total > stats->newton_max) {
             stats->newton_max = total;
         }
-        if (status == FOUR_PENDULA_OK && !(four_pendula_finite(q1, FOUR_PENDULA_N3) && four_pendula_finite(w1, FOUR_PENDULA_N3))) {
+        if (status == FOUR_PENDULA_OK
+                && !(four_pendula_finite(q1, FOUR_PENDULA_N3) && four_pendula_finite(w1, FOUR_PENDULA_N3))) {
             status = FOUR_PENDULA_ERR_NONFINITE;
         }
         if (status != FOUR_PENDULA_OK) {
@@ -907,10 +937,51 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
         }
         stats->gradient_evals += 1;
         stats->steps += 1;
-        energy[k + 1] = four_pendula_energy_cx(cx, q1, w1);
-        stats->fail_step = k + 2;
+        tmp = qk;
+        qk = q1;
+        q1 = tmp;
+        tmp = wk;
+        wk = w1;
+        w1 = tmp;
+        if ((k + 1) % every == 0) {
+            four_pendula_store(cx, qk, wk, (k + 1) / every, q, w, energy);
+            stats->fail_step = (k + 1) / every + 1;
+        }
     }
     return status;
+}
+
+/* Fixed-step RK2, RK2 with projection or RK4 from (q0, w0); every `every`-th state is stored.
+ * work: qk (12), wk (12), q1 (12), w1 (12), step (132). */
+static int four_pendula_integrate_fixed(const four_pendula_ctx *cx, int method, double h,
+        long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
+        double *energy, double *work, four_pendula_stats *stats)
+{
+    double *qk = work + 0, *wk = work + 12;
+    double *q1 = work + 24, *w1 = work + 36, *tmp;
+    long k;
+    int status;
+    four_pendula_copy(qk, q0, FOUR_PENDULA_N3);
+    four_pendula_copy(wk, w0, FOUR_PENDULA_N3);
+    for (k = 0; k < nsteps; ++k) {
+        status = four_pendula_rk_step_cx(cx, method, h, qk, wk, q1, w1, work + 48);
+        if (status != FOUR_PENDULA_OK) {
+            return status;
+        }
+        stats->gradient_evals += method == FOUR_PENDULA_METHOD_RK4 ? 4 : 2;
+        stats->steps += 1;
+        tmp = qk;
+        qk = q1;
+        q1 = tmp;
+        tmp = wk;
+        wk = w1;
+        w1 = tmp;
+        if ((k + 1) % every == 0) {
+            four_pendula_store(cx, qk, wk, (k + 1) / every, q, w, energy);
+            stats->fail_step = (k + 1) / every + 1;
+        }
+    }
+    return FOUR_PENDULA_OK;
 }
 
 /* work: run (252), y0 (24). */
@@ -918,10 +989,18 @@ int four_pendula_integrate(const double *p, const four_pendula_options *opt, int
         long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy,
         double *work, four_pendula_stats *stats)
 {
-    long k;
-    int status = FOUR_PENDULA_OK;
+    four_pendula_options defaults;
+    four_pendula_stats local;
     four_pendula_ctx ctx, *cx = &ctx;
     double *run = work + 0;
+    long every, i;
+    if (!opt) {
+        four_pendula_default_options(&defaults);
+        opt = &defaults;
+    }
+    if (!stats) {
+        stats = &local;
+    }
     stats->steps = 0;
     stats->rejected = 0;
     stats->gradient_evals = 0;
@@ -929,42 +1008,39 @@ int four_pendula_integrate(const double *p, const four_pendula_options *opt, int
     stats->newton_max = 0;
     stats->fail_step = 0;
     stats->fail_time = 0.0;
-    if (!(h > 0.0) || nsteps < 0) {
+    stats->fail_body = -1;
+    every = opt->every;
+    if (!(h > 0.0) || nsteps < 0 || every < 1 || nsteps % every != 0) {
         return FOUR_PENDULA_ERR_ARGUMENT;
     }
     if (!(four_pendula_finite(q0, FOUR_PENDULA_N3) && four_pendula_finite(w0, FOUR_PENDULA_N3))) {
         return FOUR_PENDULA_ERR_NONFINITE;
     }
+    for (i = 0; i < 4 && opt->unit_tol > 0.0; ++i) {
+        const double *x = q0 + 3 * i;
+        if (!(fabs(sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) - 1.0) <= opt->unit_tol)) {
+            stats->fail_body = i;
+            return FOUR_PENDULA_ERR_ARGUMENT;
+        }
+    }
     four_pendula_ctx_init(cx, p, work);
-    four_pendula_copy(q, q0, FOUR_PENDULA_N3);
-    four_pendula_copy(w, w0, FOUR_PENDULA_N3);
-    energy[0] = four_pendula_energy_cx(cx, q, w);
+    four_pendula_store(cx, q0, w0, 0, q, w, energy);
     stats->fail_step = 1;
     if (method == FOUR_PENDULA_METHOD_RK45) {
         double *y0 = work + 252;
         four_pendula_copy(y0, q0, FOUR_PENDULA_N3);
         four_pendula_copy(y0 + FOUR_PENDULA_N3, w0, FOUR_PENDULA_N3);
-        return four_pendula_rk45(cx, opt, h, nsteps, y0, q, w, energy, run, stats);
+        return four_pendula_rk45(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
     }
     if (method == FOUR_PENDULA_METHOD_VI || method == FOUR_PENDULA_METHOD_VI4
             || method == FOUR_PENDULA_METHOD_RATTLE) {
-        return four_pendula_integrate_geometric(cx, opt, method, h, nsteps, q, w, energy, run,
-                stats);
+        return four_pendula_integrate_geometric(cx, opt, method, h, nsteps, every, q0, w0, q, w,
+                energy, run, stats);
     }
     if (method != FOUR_PENDULA_METHOD_RK2 && method != FOUR_PENDULA_METHOD_RK2_PROJ
             && method != FOUR_PENDULA_METHOD_RK4) {
         return FOUR_PENDULA_ERR_ARGUMENT;
     }
-    for (k = 0; k < nsteps; ++k) {
-        status = four_pendula_rk_step_cx(cx, method, h, q + k * FOUR_PENDULA_N3, w + k * FOUR_PENDULA_N3,
-                q + (k + 1) * FOUR_PENDULA_N3, w + (k + 1) * FOUR_PENDULA_N3, run);
-        if (status != FOUR_PENDULA_OK) {
-            return status;
-        }
-        stats->gradient_evals += method == FOUR_PENDULA_METHOD_RK4 ? 4 : 2;
-        stats->steps += 1;
-        energy[k + 1] = four_pendula_energy_cx(cx, q + (k + 1) * FOUR_PENDULA_N3, w + (k + 1) * FOUR_PENDULA_N3);
-        stats->fail_step = k + 2;
-    }
-    return status;
+    return four_pendula_integrate_fixed(cx, method, h, nsteps, every, q0, w0, q, w, energy, run,
+            stats);
 }

@@ -453,7 +453,6 @@ def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
                 ys = y + h * numpy.tensordot(b, k, axes=1)
             store(nxt, ys)
             nxt += 1
-            stats["fail_step"] = nxt
         if not failed:
             if control == CONTROL_HAIRER:
                 h *= 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 5))
@@ -477,15 +476,17 @@ def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
 YOSHIDA = (1.3512071919596578, -1.7024143839193155, 1.3512071919596578)
 
 
-def _geometric(p, method, h, nsteps, q, w, en, stats, newton_tol, newton_maxiter):
-    """VI, its 4th-order Yoshida composition, or RATTLE (one gradient per substep)."""
-    g = gradient(p, q[0])
+def _geometric(p, method, h, nsteps, every, q0, w0, store, stats, newton_tol, newton_maxiter):
+    """VI, its 4th-order Yoshida composition, or RATTLE (one gradient per substep); every
+    `every`-th state is stored."""
+    qk, wk = q0, w0
+    g = gradient(p, qk)
     stats["gradient_evals"] += 1
-    v = numpy.cross(w[0], q[0])
+    v = numpy.cross(wk, qk)
     for k in range(nsteps):
         total, status = 0, OK
         if method == METHOD_VI4:
-            qs, ws = q[k], w[k]
+            qs, ws = qk, wk
             for gamma in YOSHIDA:
                 status, qs, ws, g, iters = _vi_advance(p, gamma * h, qs, ws, g, newton_tol,
                                                        newton_maxiter)
@@ -495,41 +496,57 @@ def _geometric(p, method, h, nsteps, q, w, en, stats, newton_tol, newton_maxiter
             qn, wn = qs, ws
             stats["gradient_evals"] += 2
         elif method == METHOD_RATTLE:
-            status, qn, v, g, total = _rattle_advance(p, h, q[k], v, g, newton_tol,
-                                                      newton_maxiter)
+            status, qn, v, g, total = _rattle_advance(p, h, qk, v, g, newton_tol, newton_maxiter)
             wn = None if status != OK else numpy.cross(qn, v)
         else:
-            status, qn, wn, g, total = _vi_advance(p, h, q[k], w[k], g, newton_tol,
-                                                   newton_maxiter)
+            status, qn, wn, g, total = _vi_advance(p, h, qk, wk, g, newton_tol, newton_maxiter)
         stats["newton_iters"] += total
         stats["newton_max"] = max(stats["newton_max"], total)
         if status == OK and not _finite(qn, wn):
             status = ERR_NONFINITE
         if status != OK:
-            return status, q, w, en, stats
-        q[k + 1], w[k + 1] = qn, wn
+            return status
+        qk, wk = qn, wn
         stats["gradient_evals"] += 1
         stats["steps"] += 1
-        en[k + 1] = energy(p, qn, wn)
-        stats["fail_step"] = k + 2
-    return OK, q, w, en, stats
+        if (k + 1) % every == 0:
+            store((k + 1) // every, qk, wk)
+    return OK
+
+
+def _fixed(p, method, h, nsteps, every, q0, w0, store, stats):
+    """Fixed-step RK2, RK2 with projection or RK4; every `every`-th state is stored."""
+    qk, wk = q0, w0
+    for k in range(nsteps):
+        status, qk, wk = rk_step(p, method, h, qk, wk)
+        if status != OK:
+            return status
+        stats["gradient_evals"] += 4 if method == METHOD_RK4 else 2
+        stats["steps"] += 1
+        if (k + 1) % every == 0:
+            store((k + 1) // every, qk, wk)
+    return OK
 
 
 def integrate(p, method, h, nsteps, q0, w0, rtol=1e-3, atol=1e-6, control=CONTROL_MATLAB,
-              hmax=0.0, newton_tol=1e-14, newton_maxiter=50):
-    """Integrate nsteps steps of size h (RK45: output spacing h) from (q0, w0).
+              hmax=0.0, newton_tol=1e-14, newton_maxiter=50, every=1, unit_tol=1e-12,
+              with_energy=True):
+    """Integrate nsteps steps of size h (RK45: output spacing h) from (q0, w0), storing every
+    `every`-th sample (nsteps must be a multiple of it).
 
-    Returns (status, q, w, energy, stats); q and w have shape (nsteps+1, 4, 3). On failure
-    the samples before stats["fail_step"] are valid. Floating-point warnings are silenced: a
+    Returns (status, q, w, energy, stats); q and w have shape (nsteps // every + 1, 4, 3),
+    energy (nsteps // every + 1,), or None without `with_energy`. On failure the samples before
+    stats["fail_step"] are valid. A q0_i farther than unit_tol from unit length (unit_tol > 0) is
+    refused with ERR_ARGUMENT and stats["fail_body"]. Floating-point warnings are silenced: a
     non-finite or infeasible state is reported by the status code instead.
     """
     with numpy.errstate(all="ignore"):
         return _integrate(p, method, h, nsteps, q0, w0, rtol, atol, control, hmax, newton_tol,
-                          newton_maxiter)
+                          newton_maxiter, every, unit_tol, with_energy)
 
 
 def _integrate(p, method, h, nsteps, q0, w0, rtol, atol, control, hmax, newton_tol,
-               newton_maxiter):
+               newton_maxiter, every, unit_tol, with_energy):
     stats = {
         "steps": 0,
         "rejected": 0,
@@ -538,37 +555,44 @@ def _integrate(p, method, h, nsteps, q0, w0, rtol, atol, control, hmax, newton_t
         "newton_max": 0,
         "fail_step": 0,
         "fail_time": 0.0,
+        "fail_body": -1,
     }
-    q = numpy.full((nsteps + 1, NBODIES, 3), numpy.nan)
-    w = numpy.full((nsteps + 1, NBODIES, 3), numpy.nan)
-    en = numpy.full(nsteps + 1, numpy.nan)
-    if not h > 0.0 or nsteps < 0:
+    valid = h > 0.0 and nsteps >= 0 and every >= 1 and nsteps % every == 0
+    size = nsteps // every + 1 if valid else 1
+    q = numpy.full((size, NBODIES, 3), numpy.nan)
+    w = numpy.full((size, NBODIES, 3), numpy.nan)
+    en = numpy.full(size, numpy.nan) if with_energy else None
+    if not valid:
         return ERR_ARGUMENT, q, w, en, stats
-    q[0], w[0] = q0, w0
-    if not _finite(q[0], w[0]):
+    q0, w0 = numpy.asarray(q0, dtype=float), numpy.asarray(w0, dtype=float)
+    if not _finite(q0, w0):
         return ERR_NONFINITE, q, w, en, stats
-    en[0] = energy(p, q[0], w[0])
-    stats["fail_step"] = 1
+    if unit_tol > 0.0:
+        off = numpy.flatnonzero(~(numpy.abs(numpy.sqrt(numpy.sum(q0 * q0, axis=1)) - 1.0) <= unit_tol))
+        if off.size:
+            stats["fail_body"] = int(off[0])
+            return ERR_ARGUMENT, q, w, en, stats
+
+    def store(s, qs, ws):
+        q[s], w[s] = qs, ws
+        if en is not None:
+            en[s] = energy(p, qs, ws)
+        stats["fail_step"] = s + 1
+
+    store(0, q0, w0)
     if method == METHOD_RK45:
 
-        def store(nxt, ys):
-            q[nxt], w[nxt] = ys[:NBODIES], ys[NBODIES:]
-            en[nxt] = energy(p, q[nxt], w[nxt])
+        def sample(nxt, ys):
+            if nxt % every == 0:
+                store(nxt // every, ys[:NBODIES], ys[NBODIES:])
 
-        y0 = numpy.concatenate([q[0], w[0]])
-        status = _rk45(p, h, nsteps, y0, store, rtol, atol, control, hmax, stats, [None, None])
-        return status, q, w, en, stats
-    if method in (METHOD_VI, METHOD_VI4, METHOD_RATTLE):
-        return _geometric(p, method, h, nsteps, q, w, en, stats, newton_tol, newton_maxiter)
-    if method not in (METHOD_RK2, METHOD_RK2_PROJ, METHOD_RK4):
-        return ERR_ARGUMENT, q, w, en, stats
-    for k in range(nsteps):
-        status, qn, wn = rk_step(p, method, h, q[k], w[k])
-        if status != OK:
-            return status, q, w, en, stats
-        q[k + 1], w[k + 1] = qn, wn
-        stats["gradient_evals"] += 4 if method == METHOD_RK4 else 2
-        stats["steps"] += 1
-        en[k + 1] = energy(p, qn, wn)
-        stats["fail_step"] = k + 2
-    return OK, q, w, en, stats
+        y0 = numpy.concatenate([q0, w0])
+        status = _rk45(p, h, nsteps, y0, sample, rtol, atol, control, hmax, stats, [None, None])
+    elif method in (METHOD_VI, METHOD_VI4, METHOD_RATTLE):
+        status = _geometric(p, method, h, nsteps, every, q0, w0, store, stats, newton_tol,
+                            newton_maxiter)
+    elif method in (METHOD_RK2, METHOD_RK2_PROJ, METHOD_RK4):
+        status = _fixed(p, method, h, nsteps, every, q0, w0, store, stats)
+    else:
+        status = ERR_ARGUMENT
+    return status, q, w, en, stats

@@ -255,6 +255,15 @@ static void lj_cutoff_ctx_init(lj_cutoff_ctx *cx, const double *p, double *work)
     lj_cutoff_masses(p, cx->md, cx->mp);
 }
 
+const char *const lj_cutoff_param_names[] = {
+    "m",
+    "eps",
+    "sigma",
+    NULL
+};
+const char lj_cutoff_spec_hash[] = "3e9145b5bf4491cf";
+const char lj_cutoff_generator_version[] = "0.2.0";
+
 void lj_cutoff_default_params(double *p)
 {
     p[0] = 1.0; /* m */
@@ -268,8 +277,10 @@ void lj_cutoff_default_options(lj_cutoff_options *opt)
     opt->atol = 1e-6;
     opt->hmax = 0.0;
     opt->control = LJ_CUTOFF_CONTROL_MATLAB;
+    opt->every = 1;
     opt->newton_tol = 1e-14;
     opt->newton_maxiter = 50;
+    opt->unit_tol = 1e-12;
 }
 /* ---- potential and its gradient ------------------------------------------------------------- */
 
@@ -653,6 +664,19 @@ int lj_cutoff_rk_step(const double *p, int method, double h, const double *q, co
     lj_cutoff_ctx_init(&cx, p, work);
     return lj_cutoff_rk_step_cx(&cx, method, h, q, w, qn, wn, work);
 }
+/* ---- driver ----------------------------------------------------------------------------------- */
+
+/* Sample `s` of the trajectory: the state (qs, ws) and, when energy is not NULL, its energy. */
+static void lj_cutoff_store(const lj_cutoff_ctx *cx, const double *qs, const double *ws,
+        long s, double *q, double *w, double *energy)
+{
+    lj_cutoff_copy(q + s * LJ_CUTOFF_N3, qs, LJ_CUTOFF_N3);
+    lj_cutoff_copy(w + s * LJ_CUTOFF_N3, ws, LJ_CUTOFF_N3);
+    if (energy) {
+        energy[s] = lj_cutoff_energy_cx(cx, qs, ws);
+    }
+}
+
 /* ---- adaptive Runge-Kutta (Dormand-Prince 5(4)) --------------------------------------------- */
 /* Dormand-Prince 5(4) for the autonomous field (the nodes c are not needed): coupling
  * coefficients with the 5th-order weights as last row, error weights (5th minus 4th order)
@@ -690,6 +714,9 @@ static double lj_cutoff_rk45_error(const lj_cutoff_options *opt, double h, doubl
             est += lj_cutoff_dp_e[s] * k[s][e];
         }
         est *= h;
+        if (!(isfinite(est) && isfinite(yn[e]))) {
+            return NAN; /* fmax would drop a NaN: a non-finite trial step is never accepted */
+        }
         if (opt->control == LJ_CUTOFF_CONTROL_HAIRER) {
             scale = opt->atol + opt->rtol * fmax(fabs(y[e]), fabs(yn[e]));
             acc += (est / scale) * (est / scale);
@@ -753,7 +780,7 @@ static double lj_cutoff_rk45_h0(const lj_cutoff_ctx *cx, const lj_cutoff_options
 /* Adaptive Dormand-Prince from y0 over nsteps output intervals of length hout; samples on the
  * grid from the continuous extension. work: k (336), y (48), yn (48), ys (48), field (24). */
 static int lj_cutoff_rk45(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt, double hout,
-        long nsteps, const double *y0, double *q, double *w, double *energy, double *work, lj_cutoff_stats *stats)
+        long nsteps, const double *y0, long every, double *q, double *w, double *energy, double *work, lj_cutoff_stats *stats)
 {
     double *k[7], *y = work + 336, *yn = work + 384;
     double *ys = work + 432, *fw = work + 480;
@@ -828,6 +855,10 @@ static int lj_cutoff_rk45(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
         stats->steps += 1;
         /* samples in (t, tn] from the continuous extension */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            if (!(next % every == 0)) {
+                next += 1;
+                continue;
+            }
             if (next == nsteps || hout * (double)next == tn) {
                 lj_cutoff_copy(ys, yn, LJ_CUTOFF_NS);
             } else {
@@ -847,12 +878,10 @@ static int lj_cutoff_rk45(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
                     ys[e] = y[e] + h * acc;
                 }
             }
-            lj_cutoff_copy(q + next * LJ_CUTOFF_N3, ys, LJ_CUTOFF_N3);
-            lj_cutoff_copy(w + next * LJ_CUTOFF_N3, ys + LJ_CUTOFF_N3, LJ_CUTOFF_N3);
-            energy[next] = lj_cutoff_energy_cx(cx, q + next * LJ_CUTOFF_N3, w + next * LJ_CUTOFF_N3);
+            lj_cutoff_store(cx, ys, ys + LJ_CUTOFF_N3, next / every, q, w, energy);
+            stats->fail_step = next / every + 1;
 
             next += 1;
-            stats->fail_step = next;
         }
         if (!failed) {
             if (opt->control == LJ_CUTOFF_CONTROL_HAIRER) {
@@ -875,37 +904,37 @@ static int lj_cutoff_rk45(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
     return LJ_CUTOFF_OK;
 }
 
-/* ---- driver ----------------------------------------------------------------------------------- */
-
 /* Step fractions of the symmetric compositions of the VI (Yoshida's triple jump: 4th order). */
 static const double lj_cutoff_yoshida[3] = { 1.3512071919596578, -1.7024143839193155, 1.3512071919596578 };
 
-/* VI, its 4th-order composition, or RATTLE, from sample 0 already in q, w. One gradient per
- * substep (the gradient at the new state is reused by the next step).
- * work: g (24), gn (24), a (24), b (24), va (24), vb (24), step (24). */
+/* VI, its 4th-order composition, or RATTLE from (q0, w0); every `every`-th state is stored.
+ * One gradient per substep (the gradient at the new state is reused by the next step).
+ * work: g (24), gn (24), a (24), b (24), va (24), vb (24), qk (24), wk (24), q1 (24), w1 (24), step (24). */
 static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
-        int method, double h, long nsteps, double *q, double *w, double *energy, double *work,
-        lj_cutoff_stats *stats)
+        int method, double h, long nsteps, long every, const double *q0, const double *w0,
+        double *q, double *w, double *energy, double *work, lj_cutoff_stats *stats)
 {
     double *g = work + 0, *gn = work + 24;
     double *a = work + 48, *b = work + 72;
     double *va = work + 96, *vb = work + 120;
-    double *rest = work + 144, *tmp;
+    double *qk = work + 144, *wk = work + 168;
+    double *q1 = work + 192, *w1 = work + 216;
+    double *rest = work + 240, *tmp;
     long k, e;
     int status = LJ_CUTOFF_OK;
-    lj_cutoff_gradient_cx(cx, q, g);
+    lj_cutoff_copy(qk, q0, LJ_CUTOFF_N3);
+    lj_cutoff_copy(wk, w0, LJ_CUTOFF_N3);
+    lj_cutoff_gradient_cx(cx, qk, g);
     stats->gradient_evals += 1;
     if (method == LJ_CUTOFF_METHOD_RATTLE) {
         for (e = 0; e < 8; ++e) { /* v = omega x q */
-            const double *x = q + 3 * e, *o = w + 3 * e;
+            const double *x = qk + 3 * e, *o = wk + 3 * e;
             va[3 * e] = o[1] * x[2] - o[2] * x[1];
             va[3 * e + 1] = o[2] * x[0] - o[0] * x[2];
             va[3 * e + 2] = o[0] * x[1] - o[1] * x[0];
         }
     }
     for (k = 0; k < nsteps; ++k) {
-        const double *qk = q + k * LJ_CUTOFF_N3, *wk = w + k * LJ_CUTOFF_N3;
-        double *q1 = q + (k + 1) * LJ_CUTOFF_N3, *w1 = w + (k + 1) * LJ_CUTOFF_N3;
         int iters = 0, sub, total = 0;
         if (method == LJ_CUTOFF_METHOD_VI) {
             status = lj_cutoff_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, rest, &iters);
@@ -948,7 +977,8 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
         if (total > stats->newton_max) {
             stats->newton_max = total;
         }
-        if (status == LJ_CUTOFF_OK && !(lj_cutoff_finite(q1, LJ_CUTOFF_N3) && lj_cutoff_finite(w1, LJ_CUTOFF_N3))) {
+        if (status == LJ_CUTOFF_OK
+                && !(lj_cutoff_finite(q1, LJ_CUTOFF_N3) && lj_cutoff_finite(w1, LJ_CUTOFF_N3))) {
             status = LJ_CUTOFF_ERR_NONFINITE;
         }
         if (status != LJ_CUTOFF_OK) {
@@ -956,10 +986,51 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
         }
         stats->gradient_evals += 1;
         stats->steps += 1;
-        energy[k + 1] = lj_cutoff_energy_cx(cx, q1, w1);
-        stats->fail_step = k + 2;
+        tmp = qk;
+        qk = q1;
+        q1 = tmp;
+        tmp = wk;
+        wk = w1;
+        w1 = tmp;
+        if ((k + 1) % every == 0) {
+            lj_cutoff_store(cx, qk, wk, (k + 1) / every, q, w, energy);
+            stats->fail_step = (k + 1) / every + 1;
+        }
     }
     return status;
+}
+
+/* Fixed-step RK2, RK2 with projection or RK4 from (q0, w0); every `every`-th state is stored.
+ * work: qk (24), wk (24), q1 (24), w1 (24), step (264). */
+static int lj_cutoff_integrate_fixed(const lj_cutoff_ctx *cx, int method, double h,
+        long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
+        double *energy, double *work, lj_cutoff_stats *stats)
+{
+    double *qk = work + 0, *wk = work + 24;
+    double *q1 = work + 48, *w1 = work + 72, *tmp;
+    long k;
+    int status;
+    lj_cutoff_copy(qk, q0, LJ_CUTOFF_N3);
+    lj_cutoff_copy(wk, w0, LJ_CUTOFF_N3);
+    for (k = 0; k < nsteps; ++k) {
+        status = lj_cutoff_rk_step_cx(cx, method, h, qk, wk, q1, w1, work + 96);
+        if (status != LJ_CUTOFF_OK) {
+            return status;
+        }
+        stats->gradient_evals += method == LJ_CUTOFF_METHOD_RK4 ? 4 : 2;
+        stats->steps += 1;
+        tmp = qk;
+        qk = q1;
+        q1 = tmp;
+        tmp = wk;
+        wk = w1;
+        w1 = tmp;
+        if ((k + 1) % every == 0) {
+            lj_cutoff_store(cx, qk, wk, (k + 1) / every, q, w, energy);
+            stats->fail_step = (k + 1) / every + 1;
+        }
+    }
+    return LJ_CUTOFF_OK;
 }
 
 /* work: run (504), y0 (48). */
@@ -967,10 +1038,18 @@ int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int metho
         long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy,
         double *work, lj_cutoff_stats *stats)
 {
-    long k;
-    int status = LJ_CUTOFF_OK;
+    lj_cutoff_options defaults;
+    lj_cutoff_stats local;
     lj_cutoff_ctx ctx, *cx = &ctx;
     double *run = work + 0;
+    long every, i;
+    if (!opt) {
+        lj_cutoff_default_options(&defaults);
+        opt = &defaults;
+    }
+    if (!stats) {
+        stats = &local;
+    }
     stats->steps = 0;
     stats->rejected = 0;
     stats->gradient_evals = 0;
@@ -978,42 +1057,39 @@ int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int metho
     stats->newton_max = 0;
     stats->fail_step = 0;
     stats->fail_time = 0.0;
-    if (!(h > 0.0) || nsteps < 0) {
+    stats->fail_body = -1;
+    every = opt->every;
+    if (!(h > 0.0) || nsteps < 0 || every < 1 || nsteps % every != 0) {
         return LJ_CUTOFF_ERR_ARGUMENT;
     }
     if (!(lj_cutoff_finite(q0, LJ_CUTOFF_N3) && lj_cutoff_finite(w0, LJ_CUTOFF_N3))) {
         return LJ_CUTOFF_ERR_NONFINITE;
     }
+    for (i = 0; i < 8 && opt->unit_tol > 0.0; ++i) {
+        const double *x = q0 + 3 * i;
+        if (!(fabs(sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) - 1.0) <= opt->unit_tol)) {
+            stats->fail_body = i;
+            return LJ_CUTOFF_ERR_ARGUMENT;
+        }
+    }
     lj_cutoff_ctx_init(cx, p, work);
-    lj_cutoff_copy(q, q0, LJ_CUTOFF_N3);
-    lj_cutoff_copy(w, w0, LJ_CUTOFF_N3);
-    energy[0] = lj_cutoff_energy_cx(cx, q, w);
+    lj_cutoff_store(cx, q0, w0, 0, q, w, energy);
     stats->fail_step = 1;
     if (method == LJ_CUTOFF_METHOD_RK45) {
         double *y0 = work + 504;
         lj_cutoff_copy(y0, q0, LJ_CUTOFF_N3);
         lj_cutoff_copy(y0 + LJ_CUTOFF_N3, w0, LJ_CUTOFF_N3);
-        return lj_cutoff_rk45(cx, opt, h, nsteps, y0, q, w, energy, run, stats);
+        return lj_cutoff_rk45(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
     }
     if (method == LJ_CUTOFF_METHOD_VI || method == LJ_CUTOFF_METHOD_VI4
             || method == LJ_CUTOFF_METHOD_RATTLE) {
-        return lj_cutoff_integrate_geometric(cx, opt, method, h, nsteps, q, w, energy, run,
-                stats);
+        return lj_cutoff_integrate_geometric(cx, opt, method, h, nsteps, every, q0, w0, q, w,
+                energy, run, stats);
     }
     if (method != LJ_CUTOFF_METHOD_RK2 && method != LJ_CUTOFF_METHOD_RK2_PROJ
             && method != LJ_CUTOFF_METHOD_RK4) {
         return LJ_CUTOFF_ERR_ARGUMENT;
     }
-    for (k = 0; k < nsteps; ++k) {
-        status = lj_cutoff_rk_step_cx(cx, method, h, q + k * LJ_CUTOFF_N3, w + k * LJ_CUTOFF_N3,
-                q + (k + 1) * LJ_CUTOFF_N3, w + (k + 1) * LJ_CUTOFF_N3, run);
-        if (status != LJ_CUTOFF_OK) {
-            return status;
-        }
-        stats->gradient_evals += method == LJ_CUTOFF_METHOD_RK4 ? 4 : 2;
-        stats->steps += 1;
-        energy[k + 1] = lj_cutoff_energy_cx(cx, q + (k + 1) * LJ_CUTOFF_N3, w + (k + 1) * LJ_CUTOFF_N3);
-        stats->fail_step = k + 2;
-    }
-    return status;
+    return lj_cutoff_integrate_fixed(cx, method, h, nsteps, every, q0, w0, q, w, energy, run,
+            stats);
 }

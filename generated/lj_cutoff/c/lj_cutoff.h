@@ -2,16 +2,23 @@
  * spec sha256 3e9145b5bf4491cf
  *
  * Equations of motion and integrators for the system "lj_cutoff" on (S^2)^8.
- * Standalone C99: needs only <math.h>; no heap allocation, no globals, reentrant.
+ * Standalone C99 that also compiles as C++: needs only <math.h> (link with -lm); no heap
+ * allocation, no writable globals, reentrant. Build it with your own flags, for instance
+ *     cc -std=c99 -O2 -c lj_cutoff.c && cc prog.o lj_cutoff.o -lm
+ * Several emitted systems may be linked, or included, into one program: every name is
+ * prefixed by lj_cutoff_ or LJ_CUTOFF_.
  *
- * State layout: q and w are arrays of 24 doubles, body-major (q[3*i + c] is component c
- * of body i's unit vector q_i; w holds the angular velocities omega_i, omega_i . q_i = 0).
+ * Units are those of the spec: time as h and T, lengths and masses as the parameters.
+ * State layout: q and w are arrays of LJ_CUTOFF_NSTATE = 24 doubles, body-major
+ * (q[3*i + c] is component c of body i's unit vector q_i; w holds the angular velocities
+ * omega_i, omega_i . q_i = 0).
  * Parameters: p[LJ_CUTOFF_NPARAMS] in this order (defaults from the spec):
  *   p[0] = m (default 1.0)
  *   p[1] = eps (default 0.01)
  *   p[2] = sigma (default 0.9)
- * Workspace: every function taking `work` needs LJ_CUTOFF_WORK_SIZE doubles from the caller.
- * Trajectory arrays of integrate() hold nsteps + 1 samples (the initial state first).
+ * Workspace: every function taking `work` needs LJ_CUTOFF_WORK_SIZE doubles from the caller
+ * (not shared between concurrent calls). Pointers may not be NULL unless a function's comment
+ * says so.
  */
 #ifndef LJ_CUTOFF_H
 #define LJ_CUTOFF_H
@@ -26,6 +33,7 @@ extern "C" {
 #define LJ_CUTOFF_NPAIRS 0 /* coupled pairs of M (off-diagonal entries not zero) */
 #define LJ_CUTOFF_WORK_BASE 552 /* workspace doubles before the per-call context */
 #define LJ_CUTOFF_WORK_SIZE 569 /* workspace doubles every `work` must hold */
+
 /* Status codes returned by the step and integrate functions. */
 enum {
     LJ_CUTOFF_OK = 0, /* success */
@@ -57,8 +65,10 @@ typedef struct {
     double atol; /* RK45 absolute tolerance (default 1e-6) */
     double hmax; /* RK45 largest step; <= 0 means 0.1 * (final time) */
     int control; /* LJ_CUTOFF_CONTROL_MATLAB (default) or LJ_CUTOFF_CONTROL_HAIRER */
+    long every; /* output stride: integrate() stores every `every`-th sample (default 1; nsteps must be a multiple of it) */
     double newton_tol; /* Newton stops when max|delta f| <= tol * max(1, max|f|) (1e-14) */
     int newton_maxiter; /* Newton iteration limit per step (50) */
+    double unit_tol; /* integrate() refuses (ERR_ARGUMENT, stats->fail_body) a q0_i with | |q0_i| - 1 | above this (default 1e-12; <= 0: no check) */
 } lj_cutoff_options;
 
 typedef struct {
@@ -69,7 +79,14 @@ typedef struct {
     long newton_max; /* Newton iterations, largest in one step */
     long fail_step; /* on failure: first sample index not computed (samples before it are valid) */
     double fail_time; /* RK45: time of the last accepted step (where a failure happened) */
+    long fail_body; /* ERR_ARGUMENT: the body (0-based) whose q0 is not a unit vector (else -1) */
 } lj_cutoff_stats;
+
+/* What this module is: the parameter names in the order of p (NULL-terminated), the spec's
+ * hash and the version of s2gen that generated it. */
+extern const char *const lj_cutoff_param_names[];
+extern const char lj_cutoff_spec_hash[];
+extern const char lj_cutoff_generator_version[];
 
 /* The spec's parameter values. */
 void lj_cutoff_default_params(double *p);
@@ -90,18 +107,29 @@ double lj_cutoff_energy(const double *p, const double *q, const double *w);
 void lj_cutoff_angular_momentum(const double *p, const double *q, const double *w, double J[3]);
 
 /* Continuous equations: qdot_i = omega_i x q_i and omegadot from A(q) omegadot = b. */
-int lj_cutoff_rhs(const double *p, const double *q, const double *w, double *dq, double *dw, double *work);
+int lj_cutoff_rhs(const double *p, const double *q, const double *w, double *dq, double *dw,
+        double *work);
 
 /* One variational-integrator step (q, w) -> (qn, wn); iters receives the Newton iterations (0
- * for the explicit update). opt and iters may be NULL. */
-int lj_cutoff_vi_step(const double *p, const lj_cutoff_options *opt, double h, const double *q, const double *w, double *qn, double *wn, double *work, int *iters);
+ * for the explicit update). opt NULL means the defaults. */
+int lj_cutoff_vi_step(const double *p, const lj_cutoff_options *opt, double h, const double *q,
+        const double *w, double *qn, double *wn, double *work, int *iters);
 
 /* One fixed step of RK2, RK2 with projection or RK4 (method as in the enum). */
-int lj_cutoff_rk_step(const double *p, int method, double h, const double *q, const double *w, double *qn, double *wn, double *work);
+int lj_cutoff_rk_step(const double *p, int method, double h, const double *q, const double *w,
+        double *qn, double *wn, double *work);
 
 /* Integrate nsteps steps of size h (RK45: output spacing h, adaptive steps inside) from (q0,
- * w0). opt, energy, stats may be NULL. */
-int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int method, double h, long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy, double *work, lj_cutoff_stats *stats);
+ * w0) with `method` (METHOD_*). The trajectory keeps every opt->every-th sample, the initial
+ * state first: q and w hold (nsteps / every + 1) * NSTATE doubles, energy (nsteps / every + 1)
+ * doubles (not evaluated at all when energy is NULL). opt NULL means the defaults of
+ * default_options(); stats may be NULL. Returns OK or a status code: ERR_ARGUMENT for h <= 0,
+ * nsteps < 0, an every that does not divide nsteps, an unknown method, or a q0_i that is not a
+ * unit vector (stats->fail_body names it); on a failed step the samples before
+ * stats->fail_step are valid. */
+int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int method, double h,
+        long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy,
+        double *work, lj_cutoff_stats *stats);
 
 #ifdef __cplusplus
 }

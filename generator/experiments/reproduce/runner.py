@@ -27,6 +27,7 @@ import csv
 import math
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -170,13 +171,15 @@ def integrate(system: System, run: PaperRun, backend: str = "c", log: Log = _pri
     parts: list[Trajectory] = []
     start = time.perf_counter()
     done, chunk, last_line = 0, min(total, _FIRST_CHUNK), start
+    # a chunk continues from the last state as it is: RK states are off unit length by design
+    resume = replace(opts, unit_tol=0.0)
     while done < total:
         q0 = parts[-1].q[-1] if parts else None
         w0 = parts[-1].omega[-1] if parts else None
         try:
             tr = simulate(
-                system, run.method, backend, h=run.h, T=chunk * run.h, options=opts, q0=q0,
-                omega0=w0,
+                system, run.method, backend, h=run.h, T=chunk * run.h,
+                options=resume if parts else opts, q0=q0, omega0=w0,
             )  # fmt: skip
         except IntegrationError as exc:
             partial = _join([*parts, exc.partial], run.h)
