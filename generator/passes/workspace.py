@@ -41,7 +41,7 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("rk", rk_fixed.size))
     rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
     if coupled:
-        vi = layout("vi_advance", ("d", m3), ("f", m3), ("r", m3), ("jm", m3 * m3))
+        vi = layout("vi_advance", ("d", m3), ("r", m3), ("jm", m3 * m3))
         rattle = layout(
             "rattle_advance",
             ("wi", n * n),
@@ -49,7 +49,6 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
             ("y", m3),
             ("gw", m3),
             ("u", m3),
-            ("sv", n),
             ("r", n),
         )
     else:
@@ -57,14 +56,18 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
         rattle = layout("rattle_advance", ("vh", m3))
     step = max(vi.size, rattle.size)
     state = [(b, m3) for b in ("qk", "wk", "q1", "w1")]  # the current and the next state
+    # Newton's starting points: each substep's Cayley parameters (VI) or multipliers (RATTLE)
+    # from the previous step
+    starts = [("f", 3 * m3 if coupled else 0), ("s", n if coupled else 0)]
     geometric = layout(
         "geometric",
         *((b, m3) for b in ("g", "gn", "a", "b", "va", "vb")),
         *state,
+        *starts,
         ("step", step),
     )
     fixed = layout("fixed", *state, ("step", rk_step.size))
-    vi_step = layout("vi_step", ("g", m3), ("gn", m3), ("step", vi.size))
+    vi_step = layout("vi_step", ("g", m3), ("gn", m3), ("f", m3), ("step", vi.size))
     run = max(geometric.size, rk45.size, fixed.size)
     integrate = layout("integrate", ("run", run), ("y0", ns))
     layouts = [field, rk_fixed, rk_step, rk45, vi, rattle, geometric, fixed, vi_step, integrate]

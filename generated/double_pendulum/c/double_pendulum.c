@@ -725,18 +725,22 @@ static int double_pendulum_field(const double_pendulum_ctx *cx, const double *y,
 }
 /* ---- variational integrator (coupled M: Newton on the Cayley parameters) -------------------- */
 
-/* One implicit step. g holds dV/dq at q on entry; gn receives dV/dq at qn.
- * work: d (6), f (6), r (6), jm (36). */
+/* One implicit step. g holds dV/dq at q on entry; gn receives dV/dq at qn. f (DOUBLE_PENDULUM_N3
+ * Cayley parameters) holds Newton's starting point on entry when `warm` (the previous step's
+ * solution), else the uncoupled guess d_i / (2 M_ii) is used; it receives the solution.
+ * Newton stops when max|delta f| <= newton_tol max|f|, or <= 1000 newton_tol max|f| once the
+ * update stops shrinking (round-off reached). work: d (6), r (6), jm (36). */
 static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const double_pendulum_options *opt,
         double h, const double *q, const double *w, const double *g, double *qn, double *wn,
-        double *gn, double *work, int *iters)
+        double *gn, double *f, int warm, double *work, int *iters)
 {
     const double *md = cx->md, *mp = cx->mp;
-    double *d = work + 0, *f = work + 6;
-    double *r = work + 12, *jm = work + 18;
+    double *d = work + 0;
+    double *r = work + 6, *jm = work + 12;
+    double previous = INFINITY;
     int i, k, c, it, converged = 0;
     *iters = 0;
-    /* known side d, and the uncoupled initial guess f_i = d_i / (2 M_ii) */
+    /* known side d, and (cold start) the uncoupled initial guess f_i = d_i / (2 M_ii) */
     for (i = 0; i < 2; ++i) {
         double_pendulum_k_d_body(h, md[i], q + 3 * i, w + 3 * i, g + 3 * i, d + 3 * i);
     }
@@ -749,14 +753,14 @@ static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const doubl
             d[3 * j0 + c] += dj[c];
         }
     }
-    for (i = 0; i < 2; ++i) {
+    for (i = 0; i < 2 && !warm; ++i) {
         for (c = 0; c < 3; ++c) {
             f[3 * i + c] = d[3 * i + c] / (2.0 * md[i]);
         }
     }
     /* Newton's method on the Cayley parameters */
     for (it = 1; it <= opt->newton_maxiter && !converged; ++it) {
-        double step = 0.0, size = 1.0;
+        double step = 0.0, size = 1e-300;
         long e;
         int solved;
         for (e = 0; e < (long)DOUBLE_PENDULUM_N3 * DOUBLE_PENDULUM_N3; ++e) {
@@ -803,7 +807,9 @@ static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const doubl
         if (!isfinite(step)) {
             return DOUBLE_PENDULUM_ERR_NONFINITE;
         }
-        converged = step <= opt->newton_tol * size;
+        converged = step <= opt->newton_tol * size
+                || (step <= 1e3 * opt->newton_tol * size && step > 0.5 * previous);
+        previous = step;
     }
     if (!converged) {
         return DOUBLE_PENDULUM_ERR_NEWTON;
@@ -834,7 +840,7 @@ static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const doubl
     }
     return DOUBLE_PENDULUM_OK;
 }
-/* work: g (6), gn (6), step (54). */
+/* work: g (6), gn (6), f (6), step (48). */
 int double_pendulum_vi_step(const double *p, const double_pendulum_options *opt, double h,
         const double *q, const double *w, double *qn, double *wn, double *work, int *iters)
 {
@@ -851,8 +857,8 @@ int double_pendulum_vi_step(const double *p, const double_pendulum_options *opt,
     }
     double_pendulum_ctx_init(&cx, p, work);
     double_pendulum_gradient_cx(&cx, q, g);
-    status = double_pendulum_vi_advance(&cx, opt, h, q, w, g, qn, wn, gn,
-            work + 12, iters ? iters : &local);
+    status = double_pendulum_vi_advance(&cx, opt, h, q, w, g, qn, wn, gn, work + 12, 0,
+            work + 18, iters ? iters : &local);
     if (status == DOUBLE_PENDULUM_OK
             && !(double_pendulum_finite(qn, DOUBLE_PENDULUM_N3) && double_pendulum_finite(wn, DOUBLE_PENDULUM_N3))) {
         status = DOUBLE_PENDULUM_ERR_NONFINITE;
@@ -863,19 +869,20 @@ int double_pendulum_vi_step(const double *p, const double_pendulum_options *opt,
 
 /* One RATTLE step for coupled M. x, v: positions and velocities (v_i = qdot_i); g holds dV/dq
  * at x; gn receives it at xn. The position multipliers (s_k = h^2 lambda_k / 2) solve
- * |x_i+|^2 = 1 by Newton's method; the velocity multipliers a linear SPD system.
- * work: wi (4), jm (4), y (6), gw (6), u (6), sv (2), r (2). */
+ * |x_i+|^2 = 1 by Newton's method, started from sv (n values) when `warm` (the previous step's
+ * multipliers), else from 0, and stopped as the VI's Newton; sv receives the solution. The
+ * velocity multipliers solve a linear SPD system. work: wi (4), jm (4), y (6), gw (6), u (6), r (2). */
 static int double_pendulum_rattle_advance(const double_pendulum_ctx *cx, const double_pendulum_options *opt,
         double h,
         const double *x, const double *v, const double *g, double *xn, double *vn, double *gn,
-        double *work, int *iters)
+        double *sv, int warm, double *work, int *iters)
 {
     const long nb = 2;
     const double *md = cx->md, *mp = cx->mp;
     double *wi = work + 0, *jm = work + 4;
     double *y = work + 8, *gw = work + 14;
-    double *u = work + 20, *sv = work + 26;
-    double *r = work + 28;
+    double *u = work + 20, previous = INFINITY;
+    double *r = work + 26;
     long i, k, c;
     int it, converged = 0;
     *iters = 0;
@@ -910,7 +917,7 @@ static int double_pendulum_rattle_advance(const double_pendulum_ctx *cx, const d
             gw[3 * i + c] = acc;
             y[3 * i + c] = x[3 * i + c] + h * v[3 * i + c] - 0.5 * h * h * acc;
         }
-        sv[i] = 0.0;
+        sv[i] = warm ? sv[i] : 0.0;
     }
     for (it = 1; it <= opt->newton_maxiter && !converged; ++it) {
         double step = 0.0, size = 1.0;
@@ -948,7 +955,9 @@ static int double_pendulum_rattle_advance(const double_pendulum_ctx *cx, const d
         if (!isfinite(step)) {
             return DOUBLE_PENDULUM_ERR_NONFINITE;
         }
-        converged = step <= opt->newton_tol * size;
+        converged = step <= opt->newton_tol * size
+                || (step <= 1e3 * opt->newton_tol * size && step > 0.5 * previous);
+        previous = step;
     }
     if (!converged) {
         return DOUBLE_PENDULUM_ERR_NEWTON;
@@ -1349,7 +1358,7 @@ static const double double_pendulum_yoshida[3] = { 1.3512071919596578, -1.702414
 
 /* VI, its 4th-order composition, or RATTLE from (q0, w0); every `every`-th state is stored.
  * One gradient per substep (the gradient at the new state is reused by the next step).
- * work: g (6), gn (6), a (6), b (6), va (6), vb (6), qk (6), wk (6), q1 (6), w1 (6), step (54). */
+ * work: g (6), gn (6), a (6), b (6), va (6), vb (6), qk (6), wk (6), q1 (6), w1 (6), f (18), s (2), step (48). */
 static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, const double_pendulum_options *opt,
         int method, double h, long nsteps, long every, const double *q0, const double *w0,
         double *q, double *w, double *energy, double *work, double_pendulum_stats *stats)
@@ -1359,7 +1368,8 @@ static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, co
     double *va = work + 24, *vb = work + 30;
     double *qk = work + 36, *wk = work + 42;
     double *q1 = work + 48, *w1 = work + 54;
-    double *rest = work + 60, *tmp;
+    double *fs = work + 60, *ss = work + 78;
+    double *rest = work + 80, *tmp;
     long k, e;
     int status = DOUBLE_PENDULUM_OK;
     double_pendulum_copy(qk, q0, DOUBLE_PENDULUM_N3);
@@ -1377,7 +1387,8 @@ static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, co
     for (k = 0; k < nsteps; ++k) {
         int iters = 0, sub, total = 0;
         if (method == DOUBLE_PENDULUM_METHOD_VI) {
-            status = double_pendulum_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, rest, &iters);
+            status = double_pendulum_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, fs, k > 0, rest,
+                    &iters);
             total = iters;
             tmp = g;
             g = gn;
@@ -1388,7 +1399,7 @@ static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, co
                 double *qd = sub == 2 ? q1 : (sub == 0 ? a : b);
                 double *wd = sub == 2 ? w1 : (sub == 0 ? va : vb);
                 status = double_pendulum_vi_advance(cx, opt, double_pendulum_yoshida[sub] * h, qs, ws, g, qd,
-                        wd, gn, rest, &iters);
+                        wd, gn, fs + sub * DOUBLE_PENDULUM_N3, k > 0, rest, &iters);
                 total += iters;
                 qs = qd;
                 ws = wd;
@@ -1398,7 +1409,8 @@ static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, co
                 stats->gradient_evals += sub < 2 ? 1 : 0;
             }
         } else {
-            status = double_pendulum_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, rest, &iters);
+            status = double_pendulum_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, ss, k > 0, rest,
+                    &iters);
             total = iters;
             for (e = 0; e < 2 && status == DOUBLE_PENDULUM_OK; ++e) { /* omega = q x v */
                 const double *x = q1 + 3 * e, *u = vb + 3 * e;

@@ -415,15 +415,16 @@ def _field(p, y):
 # ---- variational integrator (coupled M: Newton on the Cayley parameters) --------------------
 
 
-def _vi_advance(p, h, q, w, g, newton_tol, newton_maxiter):
-    """Implicit step: Newton on the Cayley parameters, then A(q+) w+ = c."""
+def _vi_advance(p, h, q, w, g, newton_tol, newton_maxiter, start=None):
+    """Implicit step: Newton on the Cayley parameters (from `start`, the previous step's, when
+    given), then A(q+) w+ = c. Returns (status, qn, wn, gn, iterations, f)."""
     md, mp = _masses(p)
     d = _k_d_body(h, md, q, w, g)
     di, dj = _k_d_pair(h, mp, q[PAIR_I], w[PAIR_I], q[PAIR_J], w[PAIR_J])
     numpy.add.at(d, PAIR_I, di)
     numpy.add.at(d, PAIR_J, dj)
-    f = d / (2.0 * md[:, None])
-    converged, iters = False, 0
+    f = d / (2.0 * md[:, None]) if start is None else start
+    converged, iters, previous = False, 0, numpy.inf
     while not converged and iters < newton_maxiter:
         r, jac = _k_res_body(md, q, f, d)
         jm = numpy.zeros((3 * NBODIES, 3 * NBODIES))
@@ -440,14 +441,18 @@ def _vi_advance(p, h, q, w, g, newton_tol, newton_maxiter):
         try:
             delta = numpy.linalg.solve(jm, -r.reshape(-1)).reshape(NBODIES, 3)
         except numpy.linalg.LinAlgError:  # a singular Jacobian: Newton's method failed
-            return ERR_NEWTON, None, None, None, iters
+            return ERR_NEWTON, None, None, None, iters, None
         f = f + delta
         step = float(numpy.max(numpy.abs(delta)))
         if not numpy.isfinite(step):
-            return ERR_NONFINITE, None, None, None, iters
-        converged = step <= newton_tol * max(1.0, float(numpy.max(numpy.abs(f))))
+            return ERR_NONFINITE, None, None, None, iters, None
+        size = max(1e-300, float(numpy.max(numpy.abs(f))))
+        converged = step <= newton_tol * size or (
+            step <= 1e3 * newton_tol * size and step > 0.5 * previous
+        )
+        previous = step
     if not converged:
-        return ERR_NEWTON, None, None, None, iters
+        return ERR_NEWTON, None, None, None, iters, None
     qn = _k_cayley(q, f)
     gn = gradient(p, qn)
     c = _k_c_body(h, md, q, f, qn, gn)
@@ -457,15 +462,16 @@ def _vi_advance(p, h, q, w, g, newton_tol, newton_maxiter):
     try:
         wn = numpy.linalg.solve(_build_a(_k_a_body(md, qn), mp, qn), c.reshape(-1))
     except numpy.linalg.LinAlgError:
-        return ERR_SINGULAR, None, None, None, iters
-    return OK, qn, wn.reshape(NBODIES, 3), gn, iters
+        return ERR_SINGULAR, None, None, None, iters, None
+    return OK, qn, wn.reshape(NBODIES, 3), gn, iters, f
 
 
 def vi_step(p, h, q, w, newton_tol=1e-14, newton_maxiter=50):
     """One variational-integrator step: returns (status, qn, wn, Newton iterations)."""
     if not h > 0.0:
         return ERR_ARGUMENT, None, None, 0
-    status, qn, wn, _, iters = _vi_advance(p, h, q, w, gradient(p, q), newton_tol, newton_maxiter)
+    status, qn, wn, _, iters, _ = _vi_advance(p, h, q, w, gradient(p, q), newton_tol,
+                                              newton_maxiter)
     if status == OK and not _finite(qn, wn):
         status = ERR_NONFINITE
     return status, qn, wn, iters
@@ -481,17 +487,19 @@ def _mass_matrix(md, mp):
     return mm
 
 
-def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter):
-    """One RATTLE step, coupled M: Newton on the position multipliers, SPD velocity solve."""
+def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter, start=None):
+    """One RATTLE step, coupled M: Newton on the position multipliers (from `start`, the
+    previous step's, when given), SPD velocity solve. Returns (status, xn, vn, gn, iterations,
+    multipliers)."""
     md, mp = _masses(p)
     try:
         wi = numpy.linalg.inv(_mass_matrix(md, mp))
     except numpy.linalg.LinAlgError:
-        return ERR_SINGULAR, None, None, None, 0
+        return ERR_SINGULAR, None, None, None, 0, None
     gw = wi @ g
     y = x + h * v - 0.5 * h * h * gw
-    s = numpy.zeros(NBODIES)
-    converged, iters = False, 0
+    s = numpy.zeros(NBODIES) if start is None else start
+    converged, iters, previous = False, 0, numpy.inf
     while not converged and iters < newton_maxiter:
         xn = y - (wi * s[None, :]) @ x
         r = -(numpy.sum(xn * xn, axis=1) - 1.0)
@@ -499,15 +507,16 @@ def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter):
         try:
             delta = numpy.linalg.solve(jm, r)
         except numpy.linalg.LinAlgError:  # a singular Jacobian: Newton's method failed
-            return ERR_NEWTON, None, None, None, iters + 1
+            return ERR_NEWTON, None, None, None, iters + 1, None
         s = s + delta
         iters += 1
         step = float(numpy.max(numpy.abs(wi @ delta)))
         if not numpy.isfinite(step):
-            return ERR_NONFINITE, None, None, None, iters
-        converged = step <= newton_tol
+            return ERR_NONFINITE, None, None, None, iters, None
+        converged = step <= newton_tol or (step <= 1e3 * newton_tol and step > 0.5 * previous)
+        previous = step
     if not converged:
-        return ERR_NEWTON, None, None, None, iters
+        return ERR_NEWTON, None, None, None, iters, None
     corr = (wi * s[None, :]) @ x
     xn = y - corr
     gn = gradient(p, xn)
@@ -515,8 +524,8 @@ def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter):
     try:
         kappa = numpy.linalg.solve(wi * (xn @ xn.T), numpy.sum(xn * u, axis=1))
     except numpy.linalg.LinAlgError:
-        return ERR_SINGULAR, None, None, None, iters
-    return OK, xn, u - (wi * kappa[None, :]) @ xn, gn, iters
+        return ERR_SINGULAR, None, None, None, iters, None
+    return OK, xn, u - (wi * kappa[None, :]) @ xn, gn, iters, s
 
 
 # ---- fixed-step Runge-Kutta on y = (q, omega) --------------------------------------------
@@ -707,23 +716,26 @@ def _geometric(p, method, h, nsteps, every, q0, w0, store, stats, newton_tol, ne
     g = gradient(p, qk)
     stats["gradient_evals"] += 1
     v = numpy.cross(wk, qk)
+    starts = [None] * len(YOSHIDA)  # Newton's starting points: each substep's previous solution
     for k in range(nsteps):
         total, status = 0, OK
         if method == METHOD_VI4:
             qs, ws = qk, wk
-            for gamma in YOSHIDA:
-                status, qs, ws, g, iters = _vi_advance(p, gamma * h, qs, ws, g, newton_tol,
-                                                       newton_maxiter)
+            for sub, gamma in enumerate(YOSHIDA):
+                status, qs, ws, g, iters, starts[sub] = _vi_advance(
+                    p, gamma * h, qs, ws, g, newton_tol, newton_maxiter, starts[sub])
                 total += iters
                 if status != OK:
                     break
             qn, wn = qs, ws
             stats["gradient_evals"] += 2
         elif method == METHOD_RATTLE:
-            status, qn, v, g, total = _rattle_advance(p, h, qk, v, g, newton_tol, newton_maxiter)
+            status, qn, v, g, total, starts[0] = _rattle_advance(
+                p, h, qk, v, g, newton_tol, newton_maxiter, starts[0])
             wn = None if status != OK else numpy.cross(qn, v)
         else:
-            status, qn, wn, g, total = _vi_advance(p, h, qk, wk, g, newton_tol, newton_maxiter)
+            status, qn, wn, g, total, starts[0] = _vi_advance(
+                p, h, qk, wk, g, newton_tol, newton_maxiter, starts[0])
         stats["newton_iters"] += total
         stats["newton_max"] = max(stats["newton_max"], total)
         if status == OK and not _finite(qn, wn):

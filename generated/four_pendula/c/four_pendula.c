@@ -434,14 +434,17 @@ static int four_pendula_field(const four_pendula_ctx *cx, const double *y, doubl
 }
 /* ---- variational integrator (diagonal M: explicit update) ------------------------------------ */
 
-/* One explicit step. g holds dV/dq at q on entry; gn receives dV/dq at qn. */
+/* One explicit step. g holds dV/dq at q on entry; gn receives dV/dq at qn (f, warm: the
+ * implicit step's Newton start, unused here). */
 static int four_pendula_vi_advance(const four_pendula_ctx *cx, const four_pendula_options *opt,
         double h, const double *q, const double *w, const double *g, double *qn, double *wn,
-        double *gn, double *work, int *iters)
+        double *gn, double *f, int warm, double *work, int *iters)
 {
     const double *md = cx->md;
     int i;
     (void)opt;
+    (void)f;
+    (void)warm;
     (void)work;
     *iters = 0;
     for (i = 0; i < 4; ++i) {
@@ -457,7 +460,7 @@ static int four_pendula_vi_advance(const four_pendula_ctx *cx, const four_pendul
     }
     return FOUR_PENDULA_OK;
 }
-/* work: g (12), gn (12). */
+/* work: g (12), gn (12), f (12). */
 int four_pendula_vi_step(const double *p, const four_pendula_options *opt, double h,
         const double *q, const double *w, double *qn, double *wn, double *work, int *iters)
 {
@@ -474,8 +477,8 @@ int four_pendula_vi_step(const double *p, const four_pendula_options *opt, doubl
     }
     four_pendula_ctx_init(&cx, p, work);
     four_pendula_gradient_cx(&cx, q, g);
-    status = four_pendula_vi_advance(&cx, opt, h, q, w, g, qn, wn, gn,
-            work + 24, iters ? iters : &local);
+    status = four_pendula_vi_advance(&cx, opt, h, q, w, g, qn, wn, gn, work + 24, 0,
+            work + 36, iters ? iters : &local);
     if (status == FOUR_PENDULA_OK
             && !(four_pendula_finite(qn, FOUR_PENDULA_N3) && four_pendula_finite(wn, FOUR_PENDULA_N3))) {
         status = FOUR_PENDULA_ERR_NONFINITE;
@@ -489,12 +492,14 @@ int four_pendula_vi_step(const double *p, const four_pendula_options *opt, doubl
 static int four_pendula_rattle_advance(const four_pendula_ctx *cx, const four_pendula_options *opt,
         double h,
         const double *x, const double *v, const double *g, double *xn, double *vn, double *gn,
-        double *work, int *iters)
+        double *sv, int warm, double *work, int *iters)
 {
     const double *md = cx->md;
     double *vh = work + 0;
     int i;
     (void)opt;
+    (void)sv;
+    (void)warm;
     *iters = 0;
     for (i = 0; i < 4; ++i) {
         double disc;
@@ -870,6 +875,7 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
     double *va = work + 48, *vb = work + 60;
     double *qk = work + 72, *wk = work + 84;
     double *q1 = work + 96, *w1 = work + 108;
+    double *fs = work + 120, *ss = work + 120;
     double *rest = work + 120, *tmp;
     long k, e;
     int status = FOUR_PENDULA_OK;
@@ -888,7 +894,8 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
     for (k = 0; k < nsteps; ++k) {
         int iters = 0, sub, total = 0;
         if (method == FOUR_PENDULA_METHOD_VI) {
-            status = four_pendula_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, rest, &iters);
+            status = four_pendula_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, fs, k > 0, rest,
+                    &iters);
             total = iters;
             tmp = g;
             g = gn;
@@ -899,7 +906,7 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
                 double *qd = sub == 2 ? q1 : (sub == 0 ? a : b);
                 double *wd = sub == 2 ? w1 : (sub == 0 ? va : vb);
                 status = four_pendula_vi_advance(cx, opt, four_pendula_yoshida[sub] * h, qs, ws, g, qd,
-                        wd, gn, rest, &iters);
+                        wd, gn, fs + sub * FOUR_PENDULA_N3, k > 0, rest, &iters);
                 total += iters;
                 qs = qd;
                 ws = wd;
@@ -909,7 +916,8 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
                 stats->gradient_evals += sub < 2 ? 1 : 0;
             }
         } else {
-            status = four_pendula_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, rest, &iters);
+            status = four_pendula_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, ss, k > 0, rest,
+                    &iters);
             total = iters;
             for (e = 0; e < 4 && status == FOUR_PENDULA_OK; ++e) { /* omega = q x v */
                 const double *x = q1 + 3 * e, *u = vb + 3 * e;

@@ -261,22 +261,24 @@ def _field(p, y):
 # ---- variational integrator (diagonal M: explicit update) -------------------------------------
 
 
-def _vi_advance(p, h, q, w, g, newton_tol, newton_maxiter):
-    """Explicit step (diagonal inertia): closed-form update of every body at once."""
+def _vi_advance(p, h, q, w, g, newton_tol, newton_maxiter, start=None):
+    """Explicit step (diagonal inertia): closed-form update of every body at once. Returns
+    (status, qn, wn, gn, 0, None)."""
     md, _ = _masses(p)
     qn, s = _k_vi_pos(h, md, q, w, g)
     if not numpy.all(s >= 0.0):
-        return (ERR_INFEASIBLE if numpy.all(numpy.isfinite(s)) else ERR_NONFINITE), None, None, None, 0
+        return (ERR_INFEASIBLE if numpy.all(numpy.isfinite(s)) else ERR_NONFINITE), None, None, None, 0, None
     gn = gradient(p, qn)
     wn = _k_vi_vel(h, md, q, w, g, qn, gn)
-    return OK, qn, wn, gn, 0
+    return OK, qn, wn, gn, 0, None
 
 
 def vi_step(p, h, q, w, newton_tol=1e-14, newton_maxiter=50):
     """One variational-integrator step: returns (status, qn, wn, Newton iterations)."""
     if not h > 0.0:
         return ERR_ARGUMENT, None, None, 0
-    status, qn, wn, _, iters = _vi_advance(p, h, q, w, gradient(p, q), newton_tol, newton_maxiter)
+    status, qn, wn, _, iters, _ = _vi_advance(p, h, q, w, gradient(p, q), newton_tol,
+                                              newton_maxiter)
     if status == OK and not _finite(qn, wn):
         status = ERR_NONFINITE
     return status, qn, wn, iters
@@ -285,14 +287,14 @@ def vi_step(p, h, q, w, newton_tol=1e-14, newton_maxiter=50):
 # ---- RATTLE: Cartesian positions with |x_i| = 1 enforced by multipliers ------------------------
 
 
-def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter):
+def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter, start=None):
     """One RATTLE step, diagonal M: closed-form position and velocity updates of every body."""
     md, _ = _masses(p)
     xn, vh, disc = _k_rattle_pos(h, md, x, v, g)
     if not numpy.all(disc >= 0.0):
-        return (ERR_INFEASIBLE if numpy.all(numpy.isfinite(disc)) else ERR_NONFINITE), None, None, None, 0
+        return (ERR_INFEASIBLE if numpy.all(numpy.isfinite(disc)) else ERR_NONFINITE), None, None, None, 0, None
     gn = gradient(p, xn)
-    return OK, xn, _k_rattle_vel(h, md, xn, vh, gn), gn, 0
+    return OK, xn, _k_rattle_vel(h, md, xn, vh, gn), gn, 0, None
 
 
 # ---- fixed-step Runge-Kutta on y = (q, omega) --------------------------------------------
@@ -483,23 +485,26 @@ def _geometric(p, method, h, nsteps, every, q0, w0, store, stats, newton_tol, ne
     g = gradient(p, qk)
     stats["gradient_evals"] += 1
     v = numpy.cross(wk, qk)
+    starts = [None] * len(YOSHIDA)  # Newton's starting points: each substep's previous solution
     for k in range(nsteps):
         total, status = 0, OK
         if method == METHOD_VI4:
             qs, ws = qk, wk
-            for gamma in YOSHIDA:
-                status, qs, ws, g, iters = _vi_advance(p, gamma * h, qs, ws, g, newton_tol,
-                                                       newton_maxiter)
+            for sub, gamma in enumerate(YOSHIDA):
+                status, qs, ws, g, iters, starts[sub] = _vi_advance(
+                    p, gamma * h, qs, ws, g, newton_tol, newton_maxiter, starts[sub])
                 total += iters
                 if status != OK:
                     break
             qn, wn = qs, ws
             stats["gradient_evals"] += 2
         elif method == METHOD_RATTLE:
-            status, qn, v, g, total = _rattle_advance(p, h, qk, v, g, newton_tol, newton_maxiter)
+            status, qn, v, g, total, starts[0] = _rattle_advance(
+                p, h, qk, v, g, newton_tol, newton_maxiter, starts[0])
             wn = None if status != OK else numpy.cross(qn, v)
         else:
-            status, qn, wn, g, total = _vi_advance(p, h, qk, wk, g, newton_tol, newton_maxiter)
+            status, qn, wn, g, total, starts[0] = _vi_advance(
+                p, h, qk, wk, g, newton_tol, newton_maxiter, starts[0])
         stats["newton_iters"] += total
         stats["newton_max"] = max(stats["newton_max"], total)
         if status == OK and not _finite(qn, wn):

@@ -483,14 +483,17 @@ static int lj_cutoff_field(const lj_cutoff_ctx *cx, const double *y, double *dy,
 }
 /* ---- variational integrator (diagonal M: explicit update) ------------------------------------ */
 
-/* One explicit step. g holds dV/dq at q on entry; gn receives dV/dq at qn. */
+/* One explicit step. g holds dV/dq at q on entry; gn receives dV/dq at qn (f, warm: the
+ * implicit step's Newton start, unused here). */
 static int lj_cutoff_vi_advance(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
         double h, const double *q, const double *w, const double *g, double *qn, double *wn,
-        double *gn, double *work, int *iters)
+        double *gn, double *f, int warm, double *work, int *iters)
 {
     const double *md = cx->md;
     int i;
     (void)opt;
+    (void)f;
+    (void)warm;
     (void)work;
     *iters = 0;
     for (i = 0; i < 8; ++i) {
@@ -506,7 +509,7 @@ static int lj_cutoff_vi_advance(const lj_cutoff_ctx *cx, const lj_cutoff_options
     }
     return LJ_CUTOFF_OK;
 }
-/* work: g (24), gn (24). */
+/* work: g (24), gn (24), f (24). */
 int lj_cutoff_vi_step(const double *p, const lj_cutoff_options *opt, double h,
         const double *q, const double *w, double *qn, double *wn, double *work, int *iters)
 {
@@ -523,8 +526,8 @@ int lj_cutoff_vi_step(const double *p, const lj_cutoff_options *opt, double h,
     }
     lj_cutoff_ctx_init(&cx, p, work);
     lj_cutoff_gradient_cx(&cx, q, g);
-    status = lj_cutoff_vi_advance(&cx, opt, h, q, w, g, qn, wn, gn,
-            work + 48, iters ? iters : &local);
+    status = lj_cutoff_vi_advance(&cx, opt, h, q, w, g, qn, wn, gn, work + 48, 0,
+            work + 72, iters ? iters : &local);
     if (status == LJ_CUTOFF_OK
             && !(lj_cutoff_finite(qn, LJ_CUTOFF_N3) && lj_cutoff_finite(wn, LJ_CUTOFF_N3))) {
         status = LJ_CUTOFF_ERR_NONFINITE;
@@ -538,12 +541,14 @@ int lj_cutoff_vi_step(const double *p, const lj_cutoff_options *opt, double h,
 static int lj_cutoff_rattle_advance(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
         double h,
         const double *x, const double *v, const double *g, double *xn, double *vn, double *gn,
-        double *work, int *iters)
+        double *sv, int warm, double *work, int *iters)
 {
     const double *md = cx->md;
     double *vh = work + 0;
     int i;
     (void)opt;
+    (void)sv;
+    (void)warm;
     *iters = 0;
     for (i = 0; i < 8; ++i) {
         double disc;
@@ -919,6 +924,7 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
     double *va = work + 96, *vb = work + 120;
     double *qk = work + 144, *wk = work + 168;
     double *q1 = work + 192, *w1 = work + 216;
+    double *fs = work + 240, *ss = work + 240;
     double *rest = work + 240, *tmp;
     long k, e;
     int status = LJ_CUTOFF_OK;
@@ -937,7 +943,8 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
     for (k = 0; k < nsteps; ++k) {
         int iters = 0, sub, total = 0;
         if (method == LJ_CUTOFF_METHOD_VI) {
-            status = lj_cutoff_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, rest, &iters);
+            status = lj_cutoff_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, fs, k > 0, rest,
+                    &iters);
             total = iters;
             tmp = g;
             g = gn;
@@ -948,7 +955,7 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
                 double *qd = sub == 2 ? q1 : (sub == 0 ? a : b);
                 double *wd = sub == 2 ? w1 : (sub == 0 ? va : vb);
                 status = lj_cutoff_vi_advance(cx, opt, lj_cutoff_yoshida[sub] * h, qs, ws, g, qd,
-                        wd, gn, rest, &iters);
+                        wd, gn, fs + sub * LJ_CUTOFF_N3, k > 0, rest, &iters);
                 total += iters;
                 qs = qd;
                 ws = wd;
@@ -958,7 +965,8 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
                 stats->gradient_evals += sub < 2 ? 1 : 0;
             }
         } else {
-            status = lj_cutoff_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, rest, &iters);
+            status = lj_cutoff_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, ss, k > 0, rest,
+                    &iters);
             total = iters;
             for (e = 0; e < 8 && status == LJ_CUTOFF_OK; ++e) { /* omega = q x v */
                 const double *x = q1 + 3 * e, *u = vb + 3 * e;
