@@ -61,6 +61,7 @@ class Argument:
     name: str
     symbols: tuple[sp.Symbol, ...]
     scalar: bool = False
+    shared: bool = False  # one array for all members (not vectorized over them in NumPy)
 
     @property
     def size(self) -> int:
@@ -93,6 +94,10 @@ class KernelDef:
     inputs: tuple[Argument, ...]
     outputs: tuple[Output, ...]
     system: bool = False
+    #: (input name, stage) of the inputs that are constant per call: 0 parameters, 1 a member's
+    #: data; the `hoist` pass computes what depends only on them once per call. None: the
+    #: kernel does not take part (the generic kernels of the equations).
+    stages: tuple[tuple[str, int], ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -116,6 +121,7 @@ class Kernel:
     ops_before: int
     ops_after: int
     system: bool = False
+    stages: tuple[tuple[str, int], ...] | None = None
 
     @property
     def temporaries(self) -> int:
@@ -176,6 +182,7 @@ class TermLoop:
     data: tuple[tuple[str, int, tuple[float, ...]], ...]
     value: str  # kernel names
     gradient: str
+    table: int = 0  # slots per member of the term's table (see the `hoist` pass)
 
 
 @dataclass(frozen=True)
@@ -253,6 +260,7 @@ class Module:
     layouts: tuple[Layout, ...] = ()
     work_base: int = 0  # doubles used by the functions; the per-call context follows
     work_size: int = 0
+    constants: int = 0  # context constants (see the `hoist` pass)
     facts: tuple[tuple[str, bool | int | float | str], ...] = ()
     field_calls: tuple[tuple[str, int], ...] = ()  # (kernel, calls) per vector-field evaluation
     passes: tuple[PassRecord, ...] = ()

@@ -3,7 +3,12 @@
 Input: the unlowered `Module` of a system (`s2gen.equations.assemble`). Output: the lowered
 `Module` the printers read. The passes, in order (`PIPELINE`):
 
+- `factor`: common factors pulled out of sums (`passes/factor.py`);
 - `cse`: common subexpressions of each kernel, deterministic temporaries (`passes/cse.py`);
+- `hoist`: what depends only on parameters (and a member's data) computed once per call
+  (`passes/hoist.py`);
+- `strength`: powers of a base share one division, one square root and a chain of squares
+  (`passes/strength.py`);
 - `powers`: small integer powers as products (`passes/powers.py`);
 - `opcount`: operation counts of each kernel (`passes/opcount.py`);
 - `calls`: every kernel call site resolved from the kernel's signature (`passes/calls.py`);
@@ -14,7 +19,7 @@ Each run records the passes and the total operations after each; the emitted fil
 Example:
     >>> from s2gen.systems import builtin
     >>> [p.name for p in lower_system(builtin("double_pendulum")).passes]
-    ['cse', 'powers', 'opcount', 'calls', 'workspace']
+    ['factor', 'cse', 'hoist', 'strength', 'powers', 'opcount', 'calls', 'workspace']
 """
 
 from __future__ import annotations
@@ -25,12 +30,17 @@ from dataclasses import replace
 from s2gen.equations.angles import AngleEquations
 from s2gen.equations.assemble import angle_module, sphere_module
 from s2gen.ir import Kernel, KernelDef, Module, ModuleKind, PassRecord
+from s2gen.passes import factor as _factor
 from s2gen.passes import opcount as _opcount
 from s2gen.passes import powers as _powers
+from s2gen.passes import strength as _strength
 from s2gen.passes.calls import calls_pass
 from s2gen.passes.cse import cse_pass, lower_kernel
+from s2gen.passes.factor import factor_pass
+from s2gen.passes.hoist import hoist_pass
 from s2gen.passes.opcount import module_ops, opcount_pass
 from s2gen.passes.powers import powers_pass
+from s2gen.passes.strength import strength_pass
 from s2gen.passes.workspace import workspace_pass
 from s2gen.system import System
 
@@ -40,7 +50,10 @@ Pass = Callable[[Module], Module]
 
 #: The lowering passes, in the order they run.
 PIPELINE: tuple[tuple[str, Pass], ...] = (
+    ("factor", factor_pass),
     ("cse", cse_pass),
+    ("hoist", hoist_pass),
+    ("strength", strength_pass),
     ("powers", powers_pass),
     ("opcount", opcount_pass),
     ("calls", calls_pass),
@@ -79,13 +92,15 @@ def lower(kdef: KernelDef) -> Kernel:
         x*x*x
     """
     module = Module(ModuleKind.SPHERE, "kernel", "", "", 0, (), (), (kdef,), ())
-    kernel = opcount_pass(powers_pass(cse_pass(module))).kernels[0]
+    kernel = opcount_pass(powers_pass(strength_pass(cse_pass(factor_pass(module))))).kernels[0]
     assert isinstance(kernel, Kernel)
     return kernel
 
 
 def clear_caches() -> None:
     """Forget every kernel lowered in this process."""
+    _factor.clear_cache()
     lower_kernel.cache_clear()
+    _strength.clear_cache()
     _powers.clear_cache()
     _opcount.kernel_ops.cache_clear()

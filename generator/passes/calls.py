@@ -97,9 +97,10 @@ _B, _P, _S = Context.BODY, Context.PAIR, Context.SYSTEM
 
 #: Call sites of the (S^2)^n module; a site whose kernel the module lacks is skipped.
 SPHERE_SITES = (
+    Site("context", "context", _S, {"cc": "cx->cc"}),
     Site("inertia", "inertia", _S, {"mdiag": "md", "mpair": "mp"}),
-    Site("potential", "potential", _S, {"v": "&total"}),
-    Site("gradient", "gradient", _S),
+    Site("potential", "potential", _S, {"v": "&total", "cc": "cx->cc"}),
+    Site("gradient", "gradient", _S, {"cc": "cx->cc"}),
     Site("kin_body", "kin_body", _B),
     Site("kin_pair", "kin_pair", _P),
     Site("mom_body", "mom_body", _B, {"j": "t"}),
@@ -137,17 +138,29 @@ ANGLE_SITES = (
 
 
 def _term_sites(module: Module, t: TermLoop) -> list[Site]:
-    """The value and gradient sites of one term loop (data read at member m)."""
+    """The value, gradient and table sites of one term loop (data read at member m; the
+    member's table row at `tab`, the context constants at cx->cc)."""
     pre, up = f"{module.name}_t{t.index}", f"T{t.index}"
-    c = {"q": "q + 3 * i", "qi": "q + 3 * i", "qj": "q + 3 * j", "v": "&v", "g": "gb"}
-    py = {"q": f"q[{up}_I]", "qi": f"q[{up}_I]", "qj": f"q[{up}_J]"}
+    c = {
+        "q": "q + 3 * i",
+        "qi": "q + 3 * i",
+        "qj": "q + 3 * j",
+        "v": "&v",
+        "g": "gb",
+        "cc": "cx->cc",
+        "tab": "tab",
+    }
+    py = {"q": f"q[{up}_I]", "qi": f"q[{up}_I]", "qj": f"q[{up}_J]", "tab": f"tab{t.index}"}
     for name, width, _ in t.data:
         c[f"d_{name}"] = f"{pre}_{name}[m]" if width == 1 else f"{pre}_{name} + 3 * m"
         py[f"d_{name}"] = f"{up}_{name.upper()}"
-    return [
+    sites = [
         Site(f"t{t.index}_value", t.value, _S, c, py),
         Site(f"t{t.index}_gradient", t.gradient, _S, c, py),
     ]
+    if t.table:
+        sites.append(Site(f"t{t.index}_table", f"t{t.index}_table", _S, {**c, "tab": "row"}, py))
+    return sites
 
 
 def calls_pass(module: Module) -> Module:

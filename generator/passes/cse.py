@@ -50,6 +50,7 @@ def lower_kernel(kdef: KernelDef) -> Kernel:
         ops_before=count_ops(flat),
         ops_after=-1,
         system=kdef.system,
+        stages=kdef.stages,
     )
 
 

@@ -104,6 +104,8 @@ def _context(module: Module) -> Layout:
         ("mp", len(module.pairs)),
         ("adiag", n if coupled else 0),
         ("nb", max(cells, default=0)),
+        ("cc", module.constants),
+        *((f"t{t.index}", t.table * t.loop.count) for t in module.terms if t.table),
     )
 
 

@@ -71,6 +71,7 @@ class PrintedTerm:
     c_gradient_part: str
     c_value_call: str
     c_gradient_call: str
+    c_table_lines: tuple[str, ...]
     c_gradient_locals: str
     c_gradient_accumulate: tuple[str, ...]
     py_setup: tuple[str, ...]
@@ -114,6 +115,11 @@ class PrintedModule:
     context: tuple[dict[str, Any], ...]  # the per-call context buffers (name, offset, doc)
     work_base: int
     work_size: int
+    constants: int
+    constants_or_one: int
+    table_inits: tuple[dict[str, Any], ...]  # per term with a table: index, count, table, call
+    py_tables: tuple[str, ...]  # calls computing the terms' member tables (NumPy)
+    py_table_names: tuple[str, ...]
     c_parts: tuple[str, ...]
     py_parts: tuple[str, ...]
     parts: tuple[str, ...]
@@ -196,6 +202,16 @@ def _print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTe
         py_acc = (f"numpy.add.at(g, {index[0]}, {gradient['py']})",)
     suffix = "_cutoff" if cutoff else ""
     label = module.kernel(t.value).doc.split(":")[0]
+    table_lines: tuple[str, ...] = ()
+    if t.table:
+        k = t.index
+        table_lines = (
+            f"double row[{t.table}];",
+            f"const double *tab = cx->t{k} ? cx->t{k} + {t.table} * m : row;",
+            f"if (!cx->t{k}) {{",
+            f"    {calls[f't{k}_table']['c']};",
+            "}",
+        )
     return PrintedTerm(
         index=t.index,
         doc=f"term {t.index}, {label}: {_TERM_DOC[kind]}",
@@ -206,6 +222,7 @@ def _print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTe
         c_gradient_part=f"c/_term_gradient{suffix}.jinja",
         c_value_call=value["c"],
         c_gradient_call=gradient["c"],
+        c_table_lines=table_lines,
         c_gradient_locals=locals_,
         c_gradient_accumulate=tuple(acc),
         py_setup=setup,
@@ -236,6 +253,7 @@ def _work(module: Module) -> dict[str, dict[str, Any]]:
 
 
 _CONTEXT_DOC = {
+    "cc": "constants of the kernels that depend only on the parameters",
     "md": "M_ii, one per body",
     "mp": "coupled entries, one per pair",
     "adiag": "diagonal of A(q+) in the VI velocity solve",
@@ -321,6 +339,7 @@ def print_module(module: Module) -> PrintedModule:
             ("NSTATE", str(3 * n), "doubles in q (and in w): 3 per body, body-major"),
             ("NPARAMS", str(len(module.parameter_names)), "parameters in p"),
             ("NPAIRS", str(npairs), "coupled pairs of M (off-diagonal entries not zero)"),
+            ("NCONST", str(module.constants), "constants of the kernels (computed once per call)"),
             ("WORK_BASE", str(module.work_base), "workspace doubles before the per-call context"),
             ("WORK_SIZE", str(module.work_size), "workspace doubles every `work` must hold"),
         )
@@ -360,11 +379,29 @@ def print_module(module: Module) -> PrintedModule:
         call=calls,
         work=_work(module),
         context=tuple(
-            {"name": b.name, "offset": b.offset, "doc": _CONTEXT_DOC.get(b.name, b.name)}
+            {
+                "name": b.name,
+                "offset": b.offset,
+                "doc": _CONTEXT_DOC.get(b.name, f"term {b.name[1:]}'s member table"),
+            }
             for b in context.buffers
         ),
         work_base=module.work_base,
         work_size=module.work_size,
+        constants=module.constants,
+        constants_or_one=max(1, module.constants),
+        table_inits=tuple(
+            {
+                "index": t.index,
+                "count": t.loop.count,
+                "table": t.table,
+                "call": calls[f"t{t.index}_table"]["c"],
+            }
+            for t in module.terms
+            if t.table
+        ),
+        py_tables=tuple(calls[f"t{t.index}_table"]["py"] for t in module.terms if t.table),
+        py_table_names=tuple(f"tab{t.index}" for t in module.terms if t.table),
         c_parts=tuple(f"c/_{p}.jinja" for p in module.parts),
         py_parts=tuple(f"numpy/_{p}.jinja" for p in module.parts if p not in module.c_only),
         parts=module.parts,

@@ -2,11 +2,14 @@
  * spec sha256 22ca6b79c00fa6a8
  * See double_pendulum.h for the interface. Parts: tables, kernels, helpers, inertia_operator, cholesky, lu, context, potential, energy, field_coupled, field, vi_newton, vi_step, rattle_newton, rk, rk_step, driver.
  * Lowering passes (total operations of all kernels after each):
- *   cse: 872
- *   powers: 884
- *   opcount: 884
- *   calls: 884
- *   workspace: 884
+ *   factor: 0
+ *   cse: 793
+ *   hoist: 790
+ *   strength: 790
+ *   powers: 804
+ *   opcount: 804
+ *   calls: 804
+ *   workspace: 804
  */
 #include "double_pendulum.h"
 
@@ -32,33 +35,48 @@ static const int double_pendulum_pair_j[1] = {
 };
 
 /* ---- kernels derived by SymPy ------------------------------------------------------------- */
+/* constants of the kernels that depend only on the parameters (once per call)
+ * 11 operations as derived, 8 after cse (2 temporaries). */
+static void double_pendulum_k_context(const double *DOUBLE_PENDULUM_RESTRICT p, double *DOUBLE_PENDULUM_RESTRICT cc)
+{
+    const double x0 = p[2]*(p[0] + p[1]);
+    const double x1 = p[3]*p[1];
+    cc[0] = x0;
+    cc[1] = x1;
+    cc[2] = -p[4];
+    cc[3] = -p[4]*x0;
+    cc[4] = -p[4]*x1;
+}
+
 /* diagonal of M and its coupled off-diagonal entries (pair order of the header)
- * 7 operations as derived, 7 after cse (0 temporaries). */
+ * 7 operations as derived, 7 after cse (2 temporaries). */
 static void double_pendulum_k_inertia(const double *DOUBLE_PENDULUM_RESTRICT p, double *DOUBLE_PENDULUM_RESTRICT mdiag, double *DOUBLE_PENDULUM_RESTRICT mpair)
 {
-    mdiag[0] = (p[0] + p[1])*(p[2]*p[2]);
-    mdiag[1] = p[1]*(p[3]*p[3]);
+    const double pw0 = p[2]*p[2];
+    const double pw1 = p[3]*p[3];
+    mdiag[0] = pw0*(p[0] + p[1]);
+    mdiag[1] = p[1]*pw1;
     mpair[0] = p[2]*p[3]*p[1];
 }
 
 /* potential energy V(q) (general part)
- * 9 operations as derived, 9 after cse (0 temporaries). */
-static void double_pendulum_k_potential(const double *DOUBLE_PENDULUM_RESTRICT p, const double *DOUBLE_PENDULUM_RESTRICT q, double *DOUBLE_PENDULUM_RESTRICT v)
+ * 8 operations as derived, 4 after cse (0 temporaries). */
+static void double_pendulum_k_potential(const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT cc, double *DOUBLE_PENDULUM_RESTRICT v)
 {
-    v[0] = p[4]*p[2]*q[2]*(-p[0] - p[1]) - p[4]*p[3]*p[1]*q[5];
+    v[0] = cc[2]*(cc[0]*q[2] + cc[1]*q[5]);
 }
 
 /* dV/dq, body-major (3 per body)
- * 7 operations as derived, 7 after cse (0 temporaries). */
-static void double_pendulum_k_gradient(const double *DOUBLE_PENDULUM_RESTRICT p, const double *DOUBLE_PENDULUM_RESTRICT q, double *DOUBLE_PENDULUM_RESTRICT g)
+ * 7 operations as derived, 0 after cse (0 temporaries). */
+static void double_pendulum_k_gradient(const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT cc, double *DOUBLE_PENDULUM_RESTRICT g)
 {
     (void)q;
     g[0] = 0;
     g[1] = 0;
-    g[2] = p[4]*p[2]*(-p[0] - p[1]);
+    g[2] = cc[3];
     g[3] = 0;
     g[4] = 0;
-    g[5] = -p[4]*p[3]*p[1];
+    g[5] = cc[4];
 }
 
 /* kinetic energy of one body: 1/2 M_ii |omega x q|^2
@@ -115,14 +133,20 @@ static void double_pendulum_k_rhs_body(const double *DOUBLE_PENDULUM_RESTRICT q,
 }
 
 /* pair terms of b: M_ij |omega_j|^2 q_i x q_j (and i <-> j)
- * 62 operations as derived, 30 after cse (5 temporaries). */
+ * 62 operations as derived, 30 after cse (11 temporaries). */
 static void double_pendulum_k_rhs_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT wi, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT wj, double *DOUBLE_PENDULUM_RESTRICT bi, double *DOUBLE_PENDULUM_RESTRICT bj)
 {
+    const double pw0 = wj[0]*wj[0];
+    const double pw1 = wj[1]*wj[1];
+    const double pw2 = wj[2]*wj[2];
+    const double pw3 = wi[0]*wi[0];
+    const double pw4 = wi[1]*wi[1];
+    const double pw5 = wi[2]*wi[2];
     const double x0 = qi[1]*qj[2] - qi[2]*qj[1];
-    const double x1 = mij*(wj[0]*wj[0] + wj[1]*wj[1] + wj[2]*wj[2]);
+    const double x1 = mij*(pw0 + pw1 + pw2);
     const double x2 = qi[0]*qj[2] - qi[2]*qj[0];
     const double x3 = qi[0]*qj[1] - qi[1]*qj[0];
-    const double x4 = mij*(wi[0]*wi[0] + wi[1]*wi[1] + wi[2]*wi[2]);
+    const double x4 = mij*(pw3 + pw4 + pw5);
     bi[0] = x0*x1;
     bi[1] = -x1*x2;
     bi[2] = x1*x3;
@@ -132,38 +156,37 @@ static void double_pendulum_k_rhs_pair(const double mij, const double *DOUBLE_PE
 }
 
 /* block A_ij = -M_ij hat(q_i) hat(q_j) (row-major); A_ji is its transpose
- * 33 operations as derived, 21 after cse (6 temporaries). */
+ * 30 operations as derived, 24 after cse (6 temporaries). */
 static void double_pendulum_k_a_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT qj, double *DOUBLE_PENDULUM_RESTRICT a)
 {
-    const double x0 = mij*qi[1];
-    const double x1 = qj[1]*x0;
-    const double x2 = mij*qi[2];
-    const double x3 = qj[2]*x2;
-    const double x4 = mij*qi[0];
-    const double x5 = qj[0]*x4;
-    a[0] = x1 + x3;
-    a[1] = -qj[0]*x0;
-    a[2] = -qj[0]*x2;
-    a[3] = -qj[1]*x4;
-    a[4] = x3 + x5;
-    a[5] = -qj[1]*x2;
-    a[6] = -qj[2]*x4;
-    a[7] = -qj[2]*x0;
-    a[8] = x1 + x5;
+    const double x0 = qi[1]*qj[1];
+    const double x1 = qi[2]*qj[2];
+    const double x2 = mij*qj[0];
+    const double x3 = mij*qj[1];
+    const double x4 = qi[0]*qj[0];
+    const double x5 = mij*qj[2];
+    a[0] = mij*(x0 + x1);
+    a[1] = -qi[1]*x2;
+    a[2] = -qi[2]*x2;
+    a[3] = -qi[0]*x3;
+    a[4] = mij*(x1 + x4);
+    a[5] = -qi[2]*x3;
+    a[6] = -qi[0]*x5;
+    a[7] = -qi[1]*x5;
+    a[8] = mij*(x0 + x4);
 }
 
 /* known side d_i, one-body part: h M_ii omega_i - h^2/2 q_i x g_i
- * 54 operations as derived, 40 after cse (5 temporaries). */
+ * 51 operations as derived, 40 after cse (4 temporaries). */
 static void double_pendulum_k_d_body(const double h, const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT w, const double *DOUBLE_PENDULUM_RESTRICT g, double *DOUBLE_PENDULUM_RESTRICT d)
 {
-    const double x0 = (1.0/2.0)*(h*h);
+    const double x0 = (1.0/2.0)*h;
     const double x1 = -q[0]*w[1] + q[1]*w[0];
     const double x2 = q[0]*w[2] - q[2]*w[0];
-    const double x3 = h*m;
-    const double x4 = -q[1]*w[2] + q[2]*w[1];
-    d[0] = x0*(g[1]*q[2] - g[2]*q[1]) + x3*(q[1]*x1 - q[2]*x2);
-    d[1] = h*m*(-q[0]*x1 + q[2]*x4) - x0*(g[0]*q[2] - g[2]*q[0]);
-    d[2] = x0*(g[0]*q[1] - g[1]*q[0]) + x3*(q[0]*x2 - q[1]*x4);
+    const double x3 = -q[1]*w[2] + q[2]*w[1];
+    d[0] = h*(m*(q[1]*x1 - q[2]*x2) + x0*(g[1]*q[2] - g[2]*q[1]));
+    d[1] = h*(m*(-q[0]*x1 + q[2]*x3) - x0*(g[0]*q[2] - g[2]*q[0]));
+    d[2] = h*(m*(q[0]*x2 - q[1]*x3) + x0*(g[0]*q[1] - g[1]*q[0]));
 }
 
 /* known side, pair part: h M_ij q_i x (omega_j x q_j) (and i <-> j)
@@ -190,149 +213,157 @@ static void double_pendulum_k_d_pair(const double h, const double mij, const dou
 }
 
 /* residual 2 M_ii (q.q) f/(1+f.f) - d and its Jacobian block in f (row-major)
- * 252 operations as derived, 53 after cse (12 temporaries). */
+ * 231 operations as derived, 53 after cse (22 temporaries). */
 static void double_pendulum_k_res_body(const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT f, const double *DOUBLE_PENDULUM_RESTRICT d, double *DOUBLE_PENDULUM_RESTRICT r, double *DOUBLE_PENDULUM_RESTRICT jac)
 {
-    const double x0 = q[0]*q[0] + q[1]*q[1] + q[2]*q[2];
-    const double x1 = f[0]*f[0];
-    const double x2 = f[1]*f[1];
-    const double x3 = f[2]*f[2];
+    const double pw0 = q[0]*q[0];
+    const double pw1 = q[1]*q[1];
+    const double pw2 = q[2]*q[2];
+    const double pw3 = f[0]*f[0];
+    const double pw4 = f[1]*f[1];
+    const double pw5 = f[2]*f[2];
+    const double x0 = pw0 + pw1 + pw2;
+    const double x1 = pw3;
+    const double x2 = pw4;
+    const double x3 = pw5;
     const double x4 = x1 + x2 + x3 + 1;
+    const double pw6 = 1.0/x4;
+    const double pw7 = pw6*pw6;
     const double x5 = 1.0/x4;
-    const double x6 = -2*m*x0*x5;
-    const double x7 = 4*m*x0*1.0/(x4*x4);
-    const double x8 = f[0]*x7;
-    const double x9 = -f[1]*x8;
-    const double x10 = -f[2]*x8;
-    const double x11 = -f[1]*f[2]*x7;
+    const double x6 = 2*x5;
+    const double x7 = m*x0;
+    const double x8 = x6*x7;
+    const double x9 = pw7;
+    const double x10 = 4*f[0]*x7*x9;
+    const double x11 = -f[1]*x10;
+    const double x12 = -f[2]*x10;
+    const double x13 = -4*f[1]*f[2]*x7*x9;
     r[0] = -d[0] + 2*f[0]*m*x0*x5;
     r[1] = -d[1] + 2*f[1]*m*x0*x5;
     r[2] = -d[2] + 2*f[2]*m*x0*x5;
-    jac[0] = -x1*x7 - x6;
-    jac[1] = x9;
-    jac[2] = x10;
-    jac[3] = x9;
-    jac[4] = -x2*x7 - x6;
-    jac[5] = x11;
-    jac[6] = x10;
-    jac[7] = x11;
-    jac[8] = -x3*x7 - x6;
+    jac[0] = x8*(-x1*x6 + 1);
+    jac[1] = x11;
+    jac[2] = x12;
+    jac[3] = x11;
+    jac[4] = x8*(-x2*x6 + 1);
+    jac[5] = x13;
+    jac[6] = x12;
+    jac[7] = x13;
+    jac[8] = x8*(-x3*x6 + 1);
 }
 
 /* pair residual M_ij q_i x (F_j q_j - q_j) (and i <-> j), Jacobian blocks d/df_j, d/df_i
- * 1716 operations as derived, 342 after cse (72 temporaries). */
+ * 1260 operations as derived, 292 after cse (64 temporaries). */
 static void double_pendulum_k_res_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT fi, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT fj, double *DOUBLE_PENDULUM_RESTRICT ri, double *DOUBLE_PENDULUM_RESTRICT rj, double *DOUBLE_PENDULUM_RESTRICT jij, double *DOUBLE_PENDULUM_RESTRICT jji)
 {
-    const double x0 = fj[0]*fj[0];
-    const double x1 = fj[1]*fj[1];
-    const double x2 = fj[2]*fj[2];
-    const double x3 = x0 + x1 + x2 + 1;
-    const double x4 = 1.0/x3;
-    const double x5 = 2*qj[0];
-    const double x6 = 2*x0 + 2*x1 + 2*x2;
-    const double x7 = 2*fj[0]*qj[1] - fj[1]*x5 - qj[2]*x6;
-    const double x8 = x4*x7;
-    const double x9 = 2*qj[2];
-    const double x10 = -fj[0]*x9 + 2*fj[2]*qj[0] - qj[1]*x6;
-    const double x11 = qi[2]*x4;
-    const double x12 = 2*qj[1];
-    const double x13 = 2*fj[1]*qj[2] - fj[2]*x12 - qj[0]*x6;
-    const double x14 = qi[0]*x4;
-    const double x15 = qi[1]*x4;
-    const double x16 = fi[0]*fi[0];
-    const double x17 = fi[1]*fi[1];
-    const double x18 = fi[2]*fi[2];
-    const double x19 = x16 + x17 + x18 + 1;
-    const double x20 = 1.0/x19;
-    const double x21 = 2*qi[0];
-    const double x22 = 2*x16 + 2*x17 + 2*x18;
-    const double x23 = 2*fi[0]*qi[1] - fi[1]*x21 - qi[2]*x22;
-    const double x24 = x20*x23;
-    const double x25 = 2*qi[2];
-    const double x26 = -fi[0]*x25 + 2*fi[2]*qi[0] - qi[1]*x22;
-    const double x27 = qj[2]*x20;
-    const double x28 = 2*qi[1];
-    const double x29 = 2*fi[1]*qi[2] - fi[2]*x28 - qi[0]*x22;
-    const double x30 = qj[0]*x20;
-    const double x31 = qj[1]*x20;
-    const double x32 = 4*fj[0];
-    const double x33 = -qj[1]*x32 - x9;
-    const double x34 = -qj[2]*x32 + x12;
-    const double x35 = 1.0/(x3*x3);
-    const double x36 = fj[0]*x35;
-    const double x37 = x28*x7;
-    const double x38 = 4*fj[1];
-    const double x39 = qj[1]*x38;
-    const double x40 = -qj[2]*x38 - x5;
-    const double x41 = fj[1]*x35;
-    const double x42 = 4*fj[2];
-    const double x43 = qj[2]*x42;
-    const double x44 = -qj[1]*x42 + x5;
-    const double x45 = fj[2]*x35;
-    const double x46 = qj[0]*x32;
-    const double x47 = x13*x25;
-    const double x48 = -qj[0]*x38 + x9;
-    const double x49 = x21*x7;
-    const double x50 = -qj[0]*x42 - x12;
-    const double x51 = x10*x21;
-    const double x52 = 4*fi[0];
-    const double x53 = -qi[1]*x52 - x25;
-    const double x54 = -qi[2]*x52 + x28;
-    const double x55 = 1.0/(x19*x19);
-    const double x56 = fi[0]*x55;
-    const double x57 = x12*x23;
-    const double x58 = 4*fi[1];
-    const double x59 = qi[1]*x58;
-    const double x60 = -qi[2]*x58 - x21;
-    const double x61 = fi[1]*x55;
-    const double x62 = 4*fi[2];
-    const double x63 = qi[2]*x62;
-    const double x64 = -qi[1]*x62 + x21;
-    const double x65 = fi[2]*x55;
-    const double x66 = qi[0]*x52;
-    const double x67 = x29*x9;
-    const double x68 = -qi[0]*x58 + x25;
-    const double x69 = x23*x5;
-    const double x70 = -qi[0]*x62 - x28;
-    const double x71 = x26*x5;
-    ri[0] = mij*(qi[1]*x8 - x10*x11);
-    ri[1] = mij*(-qi[0]*x8 + qi[2]*x13*x4);
-    ri[2] = mij*(x10*x14 - x13*x15);
-    rj[0] = mij*(qj[1]*x24 - x26*x27);
-    rj[1] = mij*(-qj[0]*x24 + qj[2]*x20*x29);
-    rj[2] = mij*(x26*x30 - x29*x31);
-    jij[0] = mij*(2*fj[0]*qi[2]*x10*x35 + qi[1]*x34*x4 - x11*x33 - x36*x37);
-    jij[1] = mij*(x10*x25*x41 + x11*x39 + x15*x40 - x37*x41);
-    jij[2] = mij*(2*fj[2]*qi[2]*x10*x35 - x11*x44 - x15*x43 - x37*x45);
-    jij[3] = mij*(2*fj[0]*qi[0]*x35*x7 - x11*x46 - x14*x34 - x36*x47);
-    jij[4] = mij*(x11*x48 - x14*x40 - x41*x47 + x41*x49);
-    jij[5] = mij*(x11*x50 + x14*x43 - x45*x47 + x45*x49);
-    jij[6] = mij*(x13*x28*x36 + x14*x33 + x15*x46 - x36*x51);
-    jij[7] = mij*(2*fj[1]*qi[1]*x13*x35 - x14*x39 - x15*x48 - x41*x51);
-    jij[8] = mij*(2*fj[2]*qi[1]*x13*x35 + qi[0]*x4*x44 - x15*x50 - x45*x51);
-    jji[0] = mij*(2*fi[0]*qj[2]*x26*x55 + qj[1]*x20*x54 - x27*x53 - x56*x57);
-    jji[1] = mij*(x26*x61*x9 + x27*x59 + x31*x60 - x57*x61);
-    jji[2] = mij*(2*fi[2]*qj[2]*x26*x55 - x27*x64 - x31*x63 - x57*x65);
-    jji[3] = mij*(2*fi[0]*qj[0]*x23*x55 - x27*x66 - x30*x54 - x56*x67);
-    jji[4] = mij*(x27*x68 - x30*x60 - x61*x67 + x61*x69);
-    jji[5] = mij*(x27*x70 + x30*x63 - x65*x67 + x65*x69);
-    jji[6] = mij*(x12*x29*x56 + x30*x53 + x31*x66 - x56*x71);
-    jji[7] = mij*(2*fi[1]*qj[1]*x29*x55 - x30*x59 - x31*x68 - x61*x71);
-    jji[8] = mij*(2*fi[2]*qj[1]*x29*x55 + qj[0]*x20*x64 - x31*x70 - x65*x71);
+    const double pw0 = fj[0]*fj[0];
+    const double pw1 = fj[1]*fj[1];
+    const double pw2 = fj[2]*fj[2];
+    const double pw3 = fi[0]*fi[0];
+    const double pw4 = fi[1]*fi[1];
+    const double pw5 = fi[2]*fi[2];
+    const double x0 = fj[1]*qj[0];
+    const double x1 = pw0 + pw1 + pw2;
+    const double x2 = fj[0]*qj[1] - qj[2]*x1 - x0;
+    const double x3 = qi[1]*x2;
+    const double x4 = fj[0]*qj[2];
+    const double x5 = fj[2]*qj[0] - qj[1]*x1 - x4;
+    const double x6 = qi[2]*x5;
+    const double x7 = 1.0/(x1 + 1);
+    const double x8 = 2*mij;
+    const double x9 = x7*x8;
+    const double x10 = qi[0]*x2;
+    const double x11 = fj[2]*qj[1];
+    const double x12 = fj[1]*qj[2] - qj[0]*x1 - x11;
+    const double x13 = qi[0]*x5;
+    const double x14 = qi[1]*x12;
+    const double x15 = fi[1]*qi[0];
+    const double x16 = pw3 + pw4 + pw5;
+    const double x17 = fi[0]*qi[1] - qi[2]*x16 - x15;
+    const double x18 = qj[1]*x17;
+    const double x19 = fi[0]*qi[2];
+    const double x20 = fi[2]*qi[0] - qi[1]*x16 - x19;
+    const double x21 = qj[2]*x20;
+    const double x22 = 1.0/(x16 + 1);
+    const double x23 = x22*x8;
+    const double x24 = qj[0]*x17;
+    const double x25 = fi[2]*qi[1];
+    const double x26 = fi[1]*qi[2] - qi[0]*x16 - x25;
+    const double x27 = qj[0]*x20;
+    const double x28 = qj[1]*x26;
+    const double x29 = qj[1] - 2*x4;
+    const double x30 = 2*fj[0]*qj[1] + qj[2];
+    const double x31 = 2*x7;
+    const double x32 = fj[0]*x31;
+    const double x33 = 2*fj[1]*qj[2] + qj[0];
+    const double x34 = fj[1]*x31;
+    const double x35 = 2*qi[1];
+    const double x36 = fj[2]*qj[2];
+    const double x37 = qj[0] - 2*x11;
+    const double x38 = fj[2]*x31;
+    const double x39 = 2*qi[2];
+    const double x40 = qi[2]*x12;
+    const double x41 = qj[2] - 2*x0;
+    const double x42 = 2*qi[0];
+    const double x43 = 2*fj[2]*qj[0] + qj[1];
+    const double x44 = qi[1] - 2*x19;
+    const double x45 = 2*fi[0]*qi[1] + qi[2];
+    const double x46 = 2*x22;
+    const double x47 = fi[0]*x46;
+    const double x48 = fi[1]*x35;
+    const double x49 = 2*fi[1]*qi[2] + qi[0];
+    const double x50 = fi[1]*x46;
+    const double x51 = fi[2]*x39;
+    const double x52 = qi[0] - 2*x25;
+    const double x53 = fi[2]*x46;
+    const double x54 = fi[0]*x42;
+    const double x55 = qj[2]*x26;
+    const double x56 = qi[2] - 2*x15;
+    const double x57 = 2*fi[2]*qi[0] + qi[1];
+    ri[0] = x9*(x3 - x6);
+    ri[1] = x9*(qi[2]*x12 - x10);
+    ri[2] = x9*(x13 - x14);
+    rj[0] = x23*(x18 - x21);
+    rj[1] = x23*(qj[2]*x26 - x24);
+    rj[2] = x23*(x27 - x28);
+    jij[0] = x9*(qi[1]*x29 + qi[2]*x30 - x3*x32 + x32*x6);
+    jij[1] = x9*(2*fj[1]*qi[2]*qj[1] + 2*fj[1]*qi[2]*x5*x7 - qi[1]*x33 - x3*x34);
+    jij[2] = x9*(2*fj[2]*qi[2]*x5*x7 - qi[2]*x37 - x3*x38 - x35*x36);
+    jij[3] = x9*(2*fj[0]*qi[0]*x2*x7 - fj[0]*qj[0]*x39 - qi[0]*x29 - x32*x40);
+    jij[4] = x9*(qi[0]*x33 + qi[2]*x41 + x10*x34 - x34*x40);
+    jij[5] = x9*(-qi[2]*x43 + x10*x38 + x36*x42 - x38*x40);
+    jij[6] = x9*(2*fj[0]*qi[1]*qj[0] + 2*fj[0]*qi[1]*x12*x7 - qi[0]*x30 - x13*x32);
+    jij[7] = x9*(2*fj[1]*qi[1]*x12*x7 - fj[1]*qj[1]*x42 - qi[1]*x41 - x13*x34);
+    jij[8] = x9*(qi[0]*x37 + qi[1]*x43 - x13*x38 + x14*x38);
+    jji[0] = x23*(qj[1]*x44 + qj[2]*x45 - x18*x47 + x21*x47);
+    jji[1] = x23*(-qj[1]*x49 + qj[2]*x48 - x18*x50 + x21*x50);
+    jji[2] = x23*(2*fi[2]*qj[2]*x20*x22 - qj[1]*x51 - qj[2]*x52 - x18*x53);
+    jji[3] = x23*(2*fi[0]*qj[0]*x17*x22 - qj[0]*x44 - qj[2]*x54 - x47*x55);
+    jji[4] = x23*(qj[0]*x49 + qj[2]*x56 + x24*x50 - x50*x55);
+    jji[5] = x23*(qj[0]*x51 - qj[2]*x57 + x24*x53 - x53*x55);
+    jji[6] = x23*(-qj[0]*x45 + qj[1]*x54 - x27*x47 + x28*x47);
+    jji[7] = x23*(2*fi[1]*qj[1]*x22*x26 - qj[0]*x48 - qj[1]*x56 - x27*x50);
+    jji[8] = x23*(qj[0]*x52 + qj[1]*x57 - x27*x53 + x28*x53);
 }
 
 /* diagonal block of A(q+) for the VI velocity solve: M_ii (q.q) I, the exact completion of -M_ii hat(q)^2 (equal to M_ii I on the sphere)
- * 6 operations as derived, 6 after cse (0 temporaries). */
+ * 6 operations as derived, 6 after cse (3 temporaries). */
 static void double_pendulum_k_a_body(const double m, const double *DOUBLE_PENDULUM_RESTRICT q, double *DOUBLE_PENDULUM_RESTRICT a)
 {
-    a[0] = m*(q[0]*q[0] + q[1]*q[1] + q[2]*q[2]);
+    const double pw0 = q[0]*q[0];
+    const double pw1 = q[1]*q[1];
+    const double pw2 = q[2]*q[2];
+    a[0] = m*(pw0 + pw1 + pw2);
 }
 
 /* q+ = F q with F the Cayley rotation of f (exactly orthogonal for any f)
- * 84 operations as derived, 40 after cse (7 temporaries). */
+ * 84 operations as derived, 40 after cse (10 temporaries). */
 static void double_pendulum_k_cayley(const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT f, double *DOUBLE_PENDULUM_RESTRICT qn)
 {
-    const double x0 = f[0]*f[0] + f[1]*f[1] + f[2]*f[2];
+    const double pw0 = f[0]*f[0];
+    const double pw1 = f[1]*f[1];
+    const double pw2 = f[2]*f[2];
+    const double x0 = pw0 + pw1 + pw2;
     const double x1 = 1.0/(x0 + 1);
     const double x2 = 2*f[1];
     const double x3 = 2*f[2];
@@ -345,46 +376,49 @@ static void double_pendulum_k_cayley(const double *DOUBLE_PENDULUM_RESTRICT q, c
 }
 
 /* velocity right side, one-body part: 2 M_ii/h (q.q) f/(1 + f.f) - h/2 q+ x g+
- * 66 operations as derived, 36 after cse (2 temporaries). */
+ * 66 operations as derived, 36 after cse (8 temporaries). */
 static void double_pendulum_k_c_body(const double h, const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT f, const double *DOUBLE_PENDULUM_RESTRICT qn, const double *DOUBLE_PENDULUM_RESTRICT gn, double *DOUBLE_PENDULUM_RESTRICT c)
 {
+    const double pw0 = f[0]*f[0];
+    const double pw1 = f[1]*f[1];
+    const double pw2 = f[2]*f[2];
+    const double pw3 = q[0]*q[0];
+    const double pw4 = q[1]*q[1];
+    const double pw5 = q[2]*q[2];
     const double x0 = (1.0/2.0)*h;
-    const double x1 = 2*m*1.0/h*1.0/(1 + f[0]*f[0] + f[1]*f[1] + f[2]*f[2])*(q[0]*q[0] + q[1]*q[1] + q[2]*q[2]);
+    const double x1 = 2*m*(pw3 + pw4 + pw5)*1.0/h*1.0/(pw0 + pw1 + pw2 + 1);
     c[0] = f[0]*x1 + x0*(gn[1]*qn[2] - gn[2]*qn[1]);
     c[1] = f[1]*x1 - x0*(gn[0]*qn[2] - gn[2]*qn[0]);
     c[2] = f[2]*x1 + x0*(gn[0]*qn[1] - gn[1]*qn[0]);
 }
 
 /* velocity right side, pair part: M_ij/h q_i+ x (F_j q_j - q_j) (and i <-> j)
- * 306 operations as derived, 102 after cse (20 temporaries). */
+ * 198 operations as derived, 73 after cse (17 temporaries). */
 static void double_pendulum_k_c_pair(const double h, const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT fi, const double *DOUBLE_PENDULUM_RESTRICT qni, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT fj, const double *DOUBLE_PENDULUM_RESTRICT qnj, double *DOUBLE_PENDULUM_RESTRICT ci, double *DOUBLE_PENDULUM_RESTRICT cj)
 {
-    const double x0 = fj[0]*fj[0];
-    const double x1 = fj[1]*fj[1];
-    const double x2 = fj[2]*fj[2];
-    const double x3 = 2*x0 + 2*x1 + 2*x2;
-    const double x4 = 1.0/(x0 + x1 + x2 + 1);
-    const double x5 = 1.0/h;
-    const double x6 = mij*x5;
-    const double x7 = x4*x6;
-    const double x8 = x7*(2*fj[0]*qj[1] - 2*fj[1]*qj[0] - qj[2]*x3);
-    const double x9 = -2*fj[0]*qj[2] + 2*fj[2]*qj[0] - qj[1]*x3;
-    const double x10 = 2*fj[1]*qj[2] - 2*fj[2]*qj[1] - qj[0]*x3;
-    const double x11 = fi[0]*fi[0];
-    const double x12 = fi[1]*fi[1];
-    const double x13 = fi[2]*fi[2];
-    const double x14 = 2*x11 + 2*x12 + 2*x13;
-    const double x15 = 1.0/(x11 + x12 + x13 + 1);
-    const double x16 = x15*x6;
-    const double x17 = x16*(2*fi[0]*qi[1] - 2*fi[1]*qi[0] - qi[2]*x14);
-    const double x18 = -2*fi[0]*qi[2] + 2*fi[2]*qi[0] - qi[1]*x14;
-    const double x19 = 2*fi[1]*qi[2] - 2*fi[2]*qi[1] - qi[0]*x14;
-    ci[0] = qni[1]*x8 - qni[2]*x7*x9;
-    ci[1] = mij*qni[2]*x10*x4*x5 - qni[0]*x8;
-    ci[2] = qni[0]*x7*x9 - qni[1]*x10*x7;
-    cj[0] = qnj[1]*x17 - qnj[2]*x16*x18;
-    cj[1] = mij*qnj[2]*x15*x19*x5 - qnj[0]*x17;
-    cj[2] = qnj[0]*x16*x18 - qnj[1]*x16*x19;
+    const double pw0 = fj[0]*fj[0];
+    const double pw1 = fj[1]*fj[1];
+    const double pw2 = fj[2]*fj[2];
+    const double pw3 = fi[0]*fi[0];
+    const double pw4 = fi[1]*fi[1];
+    const double pw5 = fi[2]*fi[2];
+    const double x0 = pw0 + pw1 + pw2;
+    const double x1 = fj[0]*qj[1] - fj[1]*qj[0] - qj[2]*x0;
+    const double x2 = -fj[0]*qj[2] + fj[2]*qj[0] - qj[1]*x0;
+    const double x3 = 2*mij*1.0/h;
+    const double x4 = x3*1.0/(x0 + 1);
+    const double x5 = fj[1]*qj[2] - fj[2]*qj[1] - qj[0]*x0;
+    const double x6 = pw3 + pw4 + pw5;
+    const double x7 = fi[0]*qi[1] - fi[1]*qi[0] - qi[2]*x6;
+    const double x8 = -fi[0]*qi[2] + fi[2]*qi[0] - qi[1]*x6;
+    const double x9 = x3*1.0/(x6 + 1);
+    const double x10 = fi[1]*qi[2] - fi[2]*qi[1] - qi[0]*x6;
+    ci[0] = x4*(qni[1]*x1 - qni[2]*x2);
+    ci[1] = x4*(-qni[0]*x1 + qni[2]*x5);
+    ci[2] = x4*(qni[0]*x2 - qni[1]*x5);
+    cj[0] = x9*(qnj[1]*x7 - qnj[2]*x8);
+    cj[1] = x9*(-qnj[0]*x7 + qnj[2]*x10);
+    cj[2] = x9*(qnj[0]*x8 - qnj[1]*x10);
 }
 
 /* ---- small helpers ---------------------------------------------------------------------- */
@@ -542,15 +576,32 @@ static void double_pendulum_masses(const double *p, double *md, double *mp)
     double_pendulum_k_inertia(p, md, mp);
 }
 
-/* Per-call context: parameters, masses (computed once per call) and scratch kept at the tail
- * of the caller's workspace (after the first DOUBLE_PENDULUM_WORK_BASE doubles). */
+/* Per-call context: parameters, and what is computed once per call (masses, constants of the
+ * kernels, member tables) or kept between steps (neighbour lists), at the tail of the caller's
+ * workspace (after the first DOUBLE_PENDULUM_WORK_BASE doubles). */
 typedef struct {
     const double *p;
     double *md; /* M_ii, one per body */
     double *mp; /* coupled entries, one per pair */
     double *adiag; /* diagonal of A(q+) in the VI velocity solve */
     double *nb; /* neighbour-list cells and links */
+    double *cc; /* constants of the kernels that depend only on the parameters */
 } double_pendulum_ctx;
+
+/* A context without workspace, for the public functions that take none: the constants of the
+ * kernels in `cc` (DOUBLE_PENDULUM_NCONST doubles, computed here); masses, member tables and
+ * neighbour lists absent (NULL: tables are computed member by member, all pairs scanned). */
+static void double_pendulum_ctx_bare(double_pendulum_ctx *cx, const double *p, double *cc)
+{
+    cx->p = p;
+    cx->md = NULL;
+    cx->mp = NULL;
+    cx->adiag = NULL;
+    cx->nb = NULL;
+    cx->cc = NULL;
+    cx->cc = cc;
+    double_pendulum_k_context(p, cx->cc);
+}
 
 static void double_pendulum_ctx_init(double_pendulum_ctx *cx, const double *p, double *work)
 {
@@ -560,7 +611,9 @@ static void double_pendulum_ctx_init(double_pendulum_ctx *cx, const double *p, d
     cx->mp = tail + 2;
     cx->adiag = tail + 3;
     cx->nb = tail + 5;
+    cx->cc = tail + 5;
     double_pendulum_masses(p, cx->md, cx->mp);
+    double_pendulum_k_context(p, cx->cc);
 }
 
 const char *const double_pendulum_param_names[] = {
@@ -596,11 +649,13 @@ void double_pendulum_default_options(double_pendulum_options *opt)
 }
 /* ---- potential and its gradient ------------------------------------------------------------- */
 
-/* V(q); nb: neighbour-list storage for cutoff terms, or NULL (then all pairs are scanned). */
-static double double_pendulum_potential_nb(const double *p, const double *q, double *nb)
+/* V(q), with the context's constants, member tables and neighbour lists (see _ctx_bare). */
+static double double_pendulum_potential_cx(const double_pendulum_ctx *cx, const double *q)
 {
+    const double *p = cx->p;
+    double *nb = cx->nb;
     double total = 0.0;
-    double_pendulum_k_potential(p, q, &total);
+    double_pendulum_k_potential(q, cx->cc, &total);
     (void)p;
     (void)q;
     (void)nb;
@@ -609,32 +664,36 @@ static double double_pendulum_potential_nb(const double *p, const double *q, dou
 
 double double_pendulum_potential(const double *p, const double *q)
 {
-    return double_pendulum_potential_nb(p, q, NULL);
+    double cc[5];
+    double_pendulum_ctx cx;
+    double_pendulum_ctx_bare(&cx, p, cc);
+    return double_pendulum_potential_cx(&cx, q);
 }
 
-/* dV/dq; nb as for the potential. */
-static void double_pendulum_gradient_nb(const double *p, const double *q, double *g, double *nb)
+/* dV/dq, with the context as for the potential. */
+static void double_pendulum_gradient_cx(const double_pendulum_ctx *cx, const double *q, double *g)
 {
+    const double *p = cx->p;
+    double *nb = cx->nb;
+    (void)p;
     (void)nb;
-    double_pendulum_k_gradient(p, q, g);
+    double_pendulum_k_gradient(q, cx->cc, g);
 }
 
 void double_pendulum_gradient(const double *p, const double *q, double *g)
 {
-    double_pendulum_gradient_nb(p, q, g, NULL);
-}
-
-static void double_pendulum_gradient_cx(const double_pendulum_ctx *cx, const double *q, double *g)
-{
-    double_pendulum_gradient_nb(cx->p, q, g, cx->nb);
+    double cc[5];
+    double_pendulum_ctx cx;
+    double_pendulum_ctx_bare(&cx, p, cc);
+    double_pendulum_gradient_cx(&cx, q, g);
 }
 /* ---- energy and angular momentum ------------------------------------------------------------ */
 
-/* Total energy with given masses (mp unused when M is diagonal). */
-static double double_pendulum_energy_md(const double *p, const double *md, const double *mp,
-        const double *q, const double *w, double *nb)
+/* Total energy, with the context's masses (and constants, tables, neighbour lists). */
+static double double_pendulum_energy_cx(const double_pendulum_ctx *cx, const double *q, const double *w)
 {
-    double e = double_pendulum_potential_nb(p, q, nb), t;
+    const double *md = cx->md, *mp = cx->mp;
+    double e = double_pendulum_potential_cx(cx, q), t;
     int i;
     int k;
     (void)mp;
@@ -652,14 +711,13 @@ static double double_pendulum_energy_md(const double *p, const double *md, const
 
 double double_pendulum_energy(const double *p, const double *q, const double *w)
 {
-    double md[2], mp[1];
+    double md[2], mp[1], cc[5];
+    double_pendulum_ctx cx;
+    double_pendulum_ctx_bare(&cx, p, cc);
+    cx.md = md;
+    cx.mp = mp;
     double_pendulum_masses(p, md, mp);
-    return double_pendulum_energy_md(p, md, mp, q, w, NULL);
-}
-
-static double double_pendulum_energy_cx(const double_pendulum_ctx *cx, const double *q, const double *w)
-{
-    return double_pendulum_energy_md(cx->p, cx->md, cx->mp, q, w, cx->nb);
+    return double_pendulum_energy_cx(&cx, q, w);
 }
 
 void double_pendulum_angular_momentum(const double *p, const double *q, const double *w, double J[3])

@@ -2,11 +2,14 @@
  * spec sha256 22ca6b79c00fa6a8
  * See double_pendulum_angles.h for the interface. Parts: kernels, helpers, lu, angles_context, angles_convert, angles_field, rk, angles_driver.
  * Lowering passes (total operations of all kernels after each):
- *   cse: 481
- *   powers: 481
- *   opcount: 481
- *   calls: 481
- *   workspace: 481
+ *   factor: 0
+ *   cse: 389
+ *   hoist: 389
+ *   strength: 389
+ *   powers: 389
+ *   opcount: 389
+ *   calls: 389
+ *   workspace: 389
  */
 #include "double_pendulum_angles.h"
 
@@ -23,151 +26,157 @@
 #define DOUBLE_PENDULUM_ANGLES_NS 8 /* doubles in the state y = (x, xd) */
 /* ---- kernels derived by SymPy ------------------------------------------------------------- */
 /* mass matrix M(x) (row-major 4 x 4) and force F(x, xd) of M xdd = F
- * 1598 operations as derived, 386 after cse (86 temporaries). */
+ * 1198 operations as derived, 294 after cse (81 temporaries). */
 static void double_pendulum_angles_k_dynamics(const double *DOUBLE_PENDULUM_ANGLES_RESTRICT p, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT x, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT xd, double *DOUBLE_PENDULUM_ANGLES_RESTRICT m, double *DOUBLE_PENDULUM_ANGLES_RESTRICT f)
 {
+    const double pw4 = p[2]*p[2];
+    const double pw9 = p[3]*p[3];
+    const double pw10 = xd[0]*xd[0];
+    const double pw11 = xd[2]*xd[2];
     const double x0 = sin(x[0]);
-    const double x1 = 2*(x0*x0);
+    const double pw0 = x0*x0;
+    const double x1 = pw0;
     const double x2 = sin(x[1]);
-    const double x3 = x2*x2;
+    const double pw1 = x2*x2;
+    const double x3 = pw1;
     const double x4 = cos(x[0]);
-    const double x5 = 2*(x4*x4);
+    const double pw2 = x4*x4;
+    const double x5 = pw2;
     const double x6 = cos(x[1]);
-    const double x7 = x6*x6;
-    const double x8 = p[2]*p[2];
-    const double x9 = p[0] + p[1];
-    const double x10 = (1.0/2.0)*x8*x9;
-    const double x11 = sin(x[2]);
-    const double x12 = x0*x11;
-    const double x13 = x2*x4;
+    const double pw3 = x6*x6;
+    const double x7 = pw3;
+    const double x8 = p[0] + p[1];
+    const double x9 = pw4*x8;
+    const double x10 = sin(x[2]);
+    const double pw5 = x10*x10;
+    const double x11 = x0*x10;
+    const double x12 = sin(x[3]);
+    const double pw6 = x12*x12;
+    const double x13 = x12*x2;
     const double x14 = cos(x[2]);
-    const double x15 = sin(x[3]);
-    const double x16 = x14*x15;
-    const double x17 = x4*x6;
-    const double x18 = cos(x[3]);
-    const double x19 = x14*x18;
-    const double x20 = p[3]*p[1];
-    const double x21 = p[2]*x20;
-    const double x22 = x21*(x12 + x13*x16 + x17*x19);
-    const double x23 = x11*x18;
-    const double x24 = x11*x15;
-    const double x25 = x21*(x13*x23 - x17*x24);
-    const double x26 = x0*x2;
-    const double x27 = x21*(x0*x14*x15*x6 - x19*x26);
-    const double x28 = x21*(x12*x15*x2 + x12*x18*x6);
-    const double x29 = 2*(x11*x11);
-    const double x30 = x15*x15;
-    const double x31 = 2*(x14*x14);
-    const double x32 = x18*x18;
-    const double x33 = p[3]*p[3];
-    const double x34 = (1.0/2.0)*p[1]*x33;
-    const double x35 = xd[3]*x11;
-    const double x36 = x15*x35;
-    const double x37 = xd[2]*x14*x18 - x36;
-    const double x38 = x13*x37;
-    const double x39 = x18*x35;
-    const double x40 = xd[2]*x14;
-    const double x41 = x15*x40;
-    const double x42 = x39 + x41;
-    const double x43 = -x42;
-    const double x44 = xd[3]*x21;
-    const double x45 = xd[3]*x14;
-    const double x46 = x18*x45;
-    const double x47 = xd[2]*x11;
-    const double x48 = x15*x47;
-    const double x49 = x46 - x48;
-    const double x50 = x15*x45;
-    const double x51 = x18*x47;
-    const double x52 = -x50 - x51;
-    const double x53 = xd[2]*x21;
-    const double x54 = xd[1]*x17;
-    const double x55 = xd[0]*x0;
-    const double x56 = x2*x55;
-    const double x57 = x54 - x56;
-    const double x58 = xd[1]*x13;
-    const double x59 = x55*x6;
-    const double x60 = -x58 - x59;
-    const double x61 = xd[1]*x0;
-    const double x62 = x6*x61;
-    const double x63 = xd[0]*x13;
-    const double x64 = x62 + x63;
-    const double x65 = x2*x61;
-    const double x66 = xd[0]*x4*x6 - x65;
-    const double x67 = x21*(-x38 + x4*x42*x6);
-    const double x68 = 2*x17;
-    const double x69 = -x64;
-    const double x70 = x0*x6;
-    const double x71 = x37*x70;
-    const double x72 = x26*x42 + x71;
-    const double x73 = 2*x26;
-    const double x74 = x64*x73;
-    const double x75 = 2*x66;
-    const double x76 = x16*x66;
-    const double x77 = xd[1]*x21;
-    const double x78 = xd[0]*x21;
-    const double x79 = x21*(x14*x18*x64 - x76);
-    const double x80 = 2*x19;
-    const double x81 = x23*x66;
-    const double x82 = x24*x64 + x81;
-    const double x83 = 2*x24;
-    const double x84 = x42*x83;
-    const double x85 = 2*x37;
-    m[0] = x10*(x1 + x3*x5 + x5*x7);
+    const double pw7 = x14*x14;
+    const double x15 = x14*x4;
+    const double x16 = cos(x[3]);
+    const double pw8 = x16*x16;
+    const double x17 = x16*x6;
+    const double x18 = p[3]*p[1];
+    const double x19 = p[2]*x18;
+    const double x20 = x19*(x11 + x13*x15 + x15*x17);
+    const double x21 = -x12*x6 + x16*x2;
+    const double x22 = x10*x19*x21*x4;
+    const double x23 = -x0*x14*x19*x21;
+    const double x24 = x11*x19*(x13 + x17);
+    const double x25 = pw5;
+    const double x26 = pw6;
+    const double x27 = pw7;
+    const double x28 = pw8;
+    const double x29 = p[1]*pw9;
+    const double x30 = xd[3]*x10;
+    const double x31 = xd[2]*x14*x16 - x12*x30;
+    const double x32 = xd[2]*x14;
+    const double x33 = x12*x32 + x16*x30;
+    const double x34 = x2*x31 - x33*x6;
+    const double x35 = x18*x4;
+    const double x36 = -x34*x35;
+    const double x37 = x0*x32;
+    const double x38 = xd[3]*x14;
+    const double x39 = xd[2]*x10;
+    const double x40 = x12*x38 + x16*x39;
+    const double x41 = x4*x6;
+    const double x42 = -x12*x39 + x16*x38;
+    const double x43 = x2*x4;
+    const double x44 = xd[2]*x18;
+    const double x45 = xd[1]*x6;
+    const double x46 = xd[0]*x2;
+    const double x47 = -x0*x46 + x4*x45;
+    const double x48 = xd[1]*x43 + xd[0]*x0*x6;
+    const double x49 = x0*x45 + x4*x46;
+    const double x50 = x0*x2;
+    const double x51 = -xd[1]*x50 + xd[0]*x4*x6;
+    const double x52 = x2*x33;
+    const double x53 = x31*x6;
+    const double x54 = x0*x6;
+    const double x55 = p[2]*x8;
+    const double x56 = x52 + x53;
+    const double x57 = -x31*x49 + x33*x51;
+    const double x58 = x12*x51 - x16*x49;
+    const double x59 = p[2]*x14;
+    const double x60 = -x58;
+    const double x61 = xd[0]*x10;
+    const double x62 = x14*x16;
+    const double x63 = x12*x14;
+    const double x64 = x12*x49;
+    const double x65 = x16*x51;
+    const double x66 = x10*x12;
+    const double x67 = x10*x16;
+    const double x68 = x64 + x65;
+    m[0] = x9*(x1 + x3*x5 + x5*x7);
     m[1] = 0;
-    m[2] = x22;
-    m[3] = x25;
+    m[2] = x20;
+    m[3] = x22;
     m[4] = 0;
-    m[5] = x10*(x1*x3 + x1*x7);
-    m[6] = x27;
-    m[7] = x28;
-    m[8] = x22;
-    m[9] = x27;
-    m[10] = x34*(x29 + x30*x31 + x31*x32);
+    m[5] = x1*x9*(x3 + x7);
+    m[6] = x23;
+    m[7] = x24;
+    m[8] = x20;
+    m[9] = x23;
+    m[10] = x29*(x25 + x26*x27 + x27*x28);
     m[11] = 0;
-    m[12] = x25;
-    m[13] = x28;
+    m[12] = x22;
+    m[13] = x24;
     m[14] = 0;
-    m[15] = x34*(x29*x30 + x29*x32);
-    f[0] = -p[4]*p[2]*x0*x9 + p[2]*p[3]*p[1]*(xd[0]*x4*x47 + x37*x60 + x42*x57) - xd[1]*(x10*(x64*x68 + x68*x69) + x67) - xd[0]*(x10*(2*x13*x57 + 4*x4*x55 + x60*x68 - x70*x75 - x74) + x21*(xd[2]*x11*x4 - x72)) - x44*(x17*x43 + x38) - x53*(x0*x40 + x13*x49 + x17*x52) + (1.0/2.0)*x8*x9*(2*x0*x4*(xd[0]*xd[0]) + x64*(2*x54 - 2*x56) + x66*(-2*x58 - 2*x59));
-    f[1] = p[2]*p[3]*p[1]*(x37*x69 + x42*x66) - xd[1]*(x10*(-x69*x73 - x74) - x21*x72) - xd[0]*(x10*(2*x0*x57*x6 - x13*x75 + 2*x4*x6*x64 - x60*x73) + x67) - x44*(-x26*x43 + x71) - x53*(x0*x49*x6 - x26*x52) + (1.0/2.0)*x8*x9*(x64*(2*xd[0]*x4*x6 - 2*x65) + x66*(-2*x62 - 2*x63));
-    f[2] = -p[4]*x11*x20 + p[2]*p[3]*p[1]*(x40*x55 + x49*x64 + x52*x66) + (1.0/2.0)*p[1]*x33*(2*x11*x14*(xd[2]*xd[2]) + x37*(-2*x50 - 2*x51) + x42*(2*x46 - 2*x48)) - xd[3]*(x34*(x42*x80 + x43*x80) + x79) - xd[2]*(x21*(xd[0]*x0*x14 - x82) + x34*(4*x11*x40 + 2*x16*x49 - x23*x85 + x52*x80 - x84)) - x77*(x19*x69 + x76) - x78*(xd[0]*x11*x4 + x16*x57 + x19*x60);
-    f[3] = p[2]*p[3]*p[1]*(x37*x64 + x43*x66) + (1.0/2.0)*p[1]*x33*(x37*(-2*x39 - 2*x41) + x42*(2*xd[2]*x14*x18 - 2*x36)) - xd[3]*(-x21*x82 + x34*(-x43*x83 - x84)) - xd[2]*(x34*(2*x11*x18*x49 + 2*x14*x18*x42 - x16*x85 - x52*x83) + x79) - x77*(-x24*x69 + x81) - x78*(x11*x18*x57 - x24*x60);
+    m[15] = x25*x29*(x26 + x28);
+    f[0] = p[2]*(-p[4]*x0*x8 + p[2]*x8*(pw10*x0*x4 + x47*x49 - x48*x51) + p[3]*p[1]*(xd[0]*x39*x4 - x31*x48 + x33*x47) - xd[1]*x36 - xd[3]*x34*x35 - xd[0]*(x18*(xd[2]*x10*x4 - x0*x52 - x0*x53) + x55*(2*xd[0]*x0*x4 + x2*x4*x47 - x41*x48 - x49*x50 - x51*x54)) - x44*(x37 - x40*x41 + x42*x43));
+    f[1] = p[2]*(p[3]*p[1]*xd[1]*x0*x56 + p[3]*p[1]*x57 - xd[3]*x0*x18*x56 - xd[0]*(x36 + x55*(x41*x49 - x43*x51 + x47*x54 + x48*x50)) - x0*x44*(x2*x40 + x42*x6));
+    f[2] = x18*(-p[4]*x10 - p[2]*xd[0]*(x4*x61 + x47*x63 - x48*x62) - p[2]*x38*x60 + p[2]*(xd[0]*x37 - x40*x51 + x42*x49) + p[3]*(pw11*x10*x14 - x31*x40 + x33*x42) - xd[1]*x58*x59 - xd[2]*(p[2]*(xd[0]*x0*x14 - x10*x64 - x10*x65) + p[3]*(2*xd[2]*x10*x14 + x12*x14*x42 - x31*x67 - x33*x66 - x40*x62)));
+    f[3] = x18*(-p[2]*xd[1]*x10*x68 + p[2]*xd[3]*x10*x68 - p[2]*x57 - p[2]*x61*(x12*x48 + x16*x47) - xd[2]*(p[3]*(-x31*x63 + x33*x62 + x40*x66 + x42*x67) + x59*x60));
 }
 
 /* total energy T + V in angles
- * 123 operations as derived, 68 after cse (16 temporaries). */
+ * 122 operations as derived, 68 after cse (26 temporaries). */
 static void double_pendulum_angles_k_energy(const double *DOUBLE_PENDULUM_ANGLES_RESTRICT p, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT x, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT xd, double *DOUBLE_PENDULUM_ANGLES_RESTRICT e)
 {
+    const double pw0 = p[3]*p[3];
+    const double pw3 = xd[2]*xd[2];
+    const double pw5 = p[2]*p[2];
+    const double pw8 = xd[0]*xd[0];
     const double x0 = cos(x[2]);
     const double x1 = p[3]*p[1];
     const double x2 = cos(x[0]);
     const double x3 = p[0] + p[1];
     const double x4 = sin(x[2]);
+    const double pw4 = x4*x4;
     const double x5 = cos(x[3]);
     const double x6 = xd[3]*x4;
     const double x7 = sin(x[3]);
     const double x8 = xd[2]*x0*x7 + x5*x6;
+    const double pw1 = x8*x8;
     const double x9 = xd[2]*x0*x5 - x6*x7;
+    const double pw2 = x9*x9;
     const double x10 = sin(x[0]);
+    const double pw9 = x10*x10;
     const double x11 = cos(x[1]);
     const double x12 = xd[1]*x10;
     const double x13 = sin(x[1]);
     const double x14 = xd[0]*x13*x2 + x11*x12;
+    const double pw6 = x14*x14;
     const double x15 = xd[0]*x11*x2 - x12*x13;
-    e[0] = -p[4]*p[2]*x2*x3 - p[4]*x0*x1 + p[2]*x1*(xd[0]*xd[2]*x10*x4 + x14*x8 + x15*x9) + (1.0/2.0)*p[1]*(p[3]*p[3])*((xd[2]*xd[2])*(x4*x4) + x8*x8 + x9*x9) + (1.0/2.0)*x3*(p[2]*p[2])*((xd[0]*xd[0])*(x10*x10) + x14*x14 + x15*x15);
+    const double pw7 = x15*x15;
+    e[0] = -p[4]*p[2]*x2*x3 - p[4]*x0*x1 + p[2]*x1*(xd[0]*xd[2]*x10*x4 + x14*x8 + x15*x9) + (1.0/2.0)*p[1]*pw0*(pw1 + pw2 + pw3*pw4) + (1.0/2.0)*pw5*x3*(pw6 + pw7 + pw8*pw9);
 }
 
 /* one body: q = q(theta, phi), omega = q x qdot
- * 69 operations as derived, 27 after cse (10 temporaries). */
+ * 66 operations as derived, 27 after cse (11 temporaries). */
 static void double_pendulum_angles_k_to_sphere(const double *DOUBLE_PENDULUM_ANGLES_RESTRICT a, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT ad, double *DOUBLE_PENDULUM_ANGLES_RESTRICT q, double *DOUBLE_PENDULUM_ANGLES_RESTRICT w)
 {
     const double x0 = sin(a[0]);
+    const double pw0 = x0*x0;
     const double x1 = cos(a[1]);
     const double x2 = x0*x1;
     const double x3 = sin(a[1]);
     const double x4 = x0*x3;
     const double x5 = cos(a[0]);
-    const double x6 = x0*x0;
+    const double x6 = pw0;
     const double x7 = ad[0]*x3;
     const double x8 = ad[1]*x2 + x5*x7;
     const double x9 = -ad[1]*x4 + ad[0]*x1*x5;
@@ -176,7 +185,7 @@ static void double_pendulum_angles_k_to_sphere(const double *DOUBLE_PENDULUM_ANG
     q[2] = x5;
     w[0] = -x5*x8 - x6*x7;
     w[1] = ad[0]*x1*x6 + x5*x9;
-    w[2] = x0*x1*x8 - x4*x9;
+    w[2] = x0*(x1*x8 - x3*x9);
 }
 
 /* ---- small helpers ---------------------------------------------------------------------- */

@@ -2,11 +2,14 @@
 # spec sha256 22ca6b79c00fa6a8
 # Parts: kernels, helpers, lu, angles_context, angles_convert, angles_field, rk, angles_driver.
 # Lowering passes (total operations of all kernels after each):
-#   cse: 481
-#   powers: 481
-#   opcount: 481
-#   calls: 481
-#   workspace: 481
+#   factor: 0
+#   cse: 389
+#   hoist: 389
+#   strength: 389
+#   powers: 389
+#   opcount: 389
+#   calls: 389
+#   workspace: 389
 """The classical spherical-angle form of the system "double_pendulum" (2 bodies), NumPy.
 
 Same functions as the emitted C (double_pendulum_angles.h). Body i has the angles (theta_i, phi_i) and q_i = (sin theta_i cos phi_i, sin theta_i sin phi_i, cos theta_i); SymPy derived M(x) xdd = F(x, xd) from L = 1/2 sum_ij M_ij qdot_i . qdot_j - V(q) (no simplification). States x = (theta_1, phi_1, ...) and xd are arrays of 4. Where sin theta_i = 0 phi_i is arbitrary and M(x) singular: to_angles returns ERR_POLE when sin theta_i < POLE_TOL, rhs returns ERR_SINGULAR when min |pivot| <= MIN_PIVOT_RATIO max |pivot|.
@@ -42,134 +45,140 @@ EVALS = "rhs_evals"  # the statistics counter of field evaluations
 
 
 def _k_dynamics(p, x, xd):
-    """mass matrix M(x) (row-major 4 x 4) and force F(x, xd) of M xdd = F (1598 ops as derived, 386 after cse)."""
+    """mass matrix M(x) (row-major 4 x 4) and force F(x, xd) of M xdd = F (1198 ops as derived, 294 after cse)."""
+    pw4 = p[2]*p[2]
+    pw9 = p[3]*p[3]
+    pw10 = xd[0]*xd[0]
+    pw11 = xd[2]*xd[2]
     x0 = numpy.sin(x[0])
-    x1 = 2*(x0*x0)
+    pw0 = x0*x0
+    x1 = pw0
     x2 = numpy.sin(x[1])
-    x3 = x2*x2
+    pw1 = x2*x2
+    x3 = pw1
     x4 = numpy.cos(x[0])
-    x5 = 2*(x4*x4)
+    pw2 = x4*x4
+    x5 = pw2
     x6 = numpy.cos(x[1])
-    x7 = x6*x6
-    x8 = p[2]*p[2]
-    x9 = p[0] + p[1]
-    x10 = (1/2)*x8*x9
-    x11 = numpy.sin(x[2])
-    x12 = x0*x11
-    x13 = x2*x4
+    pw3 = x6*x6
+    x7 = pw3
+    x8 = p[0] + p[1]
+    x9 = pw4*x8
+    x10 = numpy.sin(x[2])
+    pw5 = x10*x10
+    x11 = x0*x10
+    x12 = numpy.sin(x[3])
+    pw6 = x12*x12
+    x13 = x12*x2
     x14 = numpy.cos(x[2])
-    x15 = numpy.sin(x[3])
-    x16 = x14*x15
-    x17 = x4*x6
-    x18 = numpy.cos(x[3])
-    x19 = x14*x18
-    x20 = p[3]*p[1]
-    x21 = p[2]*x20
-    x22 = x21*(x12 + x13*x16 + x17*x19)
-    x23 = x11*x18
-    x24 = x11*x15
-    x25 = x21*(x13*x23 - x17*x24)
-    x26 = x0*x2
-    x27 = x21*(x0*x14*x15*x6 - x19*x26)
-    x28 = x21*(x12*x15*x2 + x12*x18*x6)
-    x29 = 2*(x11*x11)
-    x30 = x15*x15
-    x31 = 2*(x14*x14)
-    x32 = x18*x18
-    x33 = p[3]*p[3]
-    x34 = (1/2)*p[1]*x33
-    x35 = xd[3]*x11
-    x36 = x15*x35
-    x37 = xd[2]*x14*x18 - x36
-    x38 = x13*x37
-    x39 = x18*x35
-    x40 = xd[2]*x14
-    x41 = x15*x40
-    x42 = x39 + x41
-    x43 = -x42
-    x44 = xd[3]*x21
-    x45 = xd[3]*x14
-    x46 = x18*x45
-    x47 = xd[2]*x11
-    x48 = x15*x47
-    x49 = x46 - x48
-    x50 = x15*x45
-    x51 = x18*x47
-    x52 = -x50 - x51
-    x53 = xd[2]*x21
-    x54 = xd[1]*x17
-    x55 = xd[0]*x0
-    x56 = x2*x55
-    x57 = x54 - x56
-    x58 = xd[1]*x13
-    x59 = x55*x6
-    x60 = -x58 - x59
-    x61 = xd[1]*x0
-    x62 = x6*x61
-    x63 = xd[0]*x13
-    x64 = x62 + x63
-    x65 = x2*x61
-    x66 = xd[0]*x4*x6 - x65
-    x67 = x21*(-x38 + x4*x42*x6)
-    x68 = 2*x17
-    x69 = -x64
-    x70 = x0*x6
-    x71 = x37*x70
-    x72 = x26*x42 + x71
-    x73 = 2*x26
-    x74 = x64*x73
-    x75 = 2*x66
-    x76 = x16*x66
-    x77 = xd[1]*x21
-    x78 = xd[0]*x21
-    x79 = x21*(x14*x18*x64 - x76)
-    x80 = 2*x19
-    x81 = x23*x66
-    x82 = x24*x64 + x81
-    x83 = 2*x24
-    x84 = x42*x83
-    x85 = 2*x37
-    m = numpy.array([x10*(x1 + x3*x5 + x5*x7), 0, x22, x25, 0, x10*(x1*x3 + x1*x7), x27, x28, x22, x27, x34*(x29 + x30*x31 + x31*x32), 0, x25, x28, 0, x34*(x29*x30 + x29*x32)], dtype=float)
-    f = numpy.array([-p[4]*p[2]*x0*x9 + p[2]*p[3]*p[1]*(xd[0]*x4*x47 + x37*x60 + x42*x57) - xd[1]*(x10*(x64*x68 + x68*x69) + x67) - xd[0]*(x10*(2*x13*x57 + 4*x4*x55 + x60*x68 - x70*x75 - x74) + x21*(xd[2]*x11*x4 - x72)) - x44*(x17*x43 + x38) - x53*(x0*x40 + x13*x49 + x17*x52) + (1/2)*x8*x9*(2*x0*x4*(xd[0]*xd[0]) + x64*(2*x54 - 2*x56) + x66*(-2*x58 - 2*x59)), p[2]*p[3]*p[1]*(x37*x69 + x42*x66) - xd[1]*(x10*(-x69*x73 - x74) - x21*x72) - xd[0]*(x10*(2*x0*x57*x6 - x13*x75 + 2*x4*x6*x64 - x60*x73) + x67) - x44*(-x26*x43 + x71) - x53*(x0*x49*x6 - x26*x52) + (1/2)*x8*x9*(x64*(2*xd[0]*x4*x6 - 2*x65) + x66*(-2*x62 - 2*x63)), -p[4]*x11*x20 + p[2]*p[3]*p[1]*(x40*x55 + x49*x64 + x52*x66) + (1/2)*p[1]*x33*(2*x11*x14*(xd[2]*xd[2]) + x37*(-2*x50 - 2*x51) + x42*(2*x46 - 2*x48)) - xd[3]*(x34*(x42*x80 + x43*x80) + x79) - xd[2]*(x21*(xd[0]*x0*x14 - x82) + x34*(4*x11*x40 + 2*x16*x49 - x23*x85 + x52*x80 - x84)) - x77*(x19*x69 + x76) - x78*(xd[0]*x11*x4 + x16*x57 + x19*x60), p[2]*p[3]*p[1]*(x37*x64 + x43*x66) + (1/2)*p[1]*x33*(x37*(-2*x39 - 2*x41) + x42*(2*xd[2]*x14*x18 - 2*x36)) - xd[3]*(-x21*x82 + x34*(-x43*x83 - x84)) - xd[2]*(x34*(2*x11*x18*x49 + 2*x14*x18*x42 - x16*x85 - x52*x83) + x79) - x77*(-x24*x69 + x81) - x78*(x11*x18*x57 - x24*x60)], dtype=float)
+    pw7 = x14*x14
+    x15 = x14*x4
+    x16 = numpy.cos(x[3])
+    pw8 = x16*x16
+    x17 = x16*x6
+    x18 = p[3]*p[1]
+    x19 = p[2]*x18
+    x20 = x19*(x11 + x13*x15 + x15*x17)
+    x21 = -x12*x6 + x16*x2
+    x22 = x10*x19*x21*x4
+    x23 = -x0*x14*x19*x21
+    x24 = x11*x19*(x13 + x17)
+    x25 = pw5
+    x26 = pw6
+    x27 = pw7
+    x28 = pw8
+    x29 = p[1]*pw9
+    x30 = xd[3]*x10
+    x31 = xd[2]*x14*x16 - x12*x30
+    x32 = xd[2]*x14
+    x33 = x12*x32 + x16*x30
+    x34 = x2*x31 - x33*x6
+    x35 = x18*x4
+    x36 = -x34*x35
+    x37 = x0*x32
+    x38 = xd[3]*x14
+    x39 = xd[2]*x10
+    x40 = x12*x38 + x16*x39
+    x41 = x4*x6
+    x42 = -x12*x39 + x16*x38
+    x43 = x2*x4
+    x44 = xd[2]*x18
+    x45 = xd[1]*x6
+    x46 = xd[0]*x2
+    x47 = -x0*x46 + x4*x45
+    x48 = xd[1]*x43 + xd[0]*x0*x6
+    x49 = x0*x45 + x4*x46
+    x50 = x0*x2
+    x51 = -xd[1]*x50 + xd[0]*x4*x6
+    x52 = x2*x33
+    x53 = x31*x6
+    x54 = x0*x6
+    x55 = p[2]*x8
+    x56 = x52 + x53
+    x57 = -x31*x49 + x33*x51
+    x58 = x12*x51 - x16*x49
+    x59 = p[2]*x14
+    x60 = -x58
+    x61 = xd[0]*x10
+    x62 = x14*x16
+    x63 = x12*x14
+    x64 = x12*x49
+    x65 = x16*x51
+    x66 = x10*x12
+    x67 = x10*x16
+    x68 = x64 + x65
+    m = numpy.array([x9*(x1 + x3*x5 + x5*x7), 0, x20, x22, 0, x1*x9*(x3 + x7), x23, x24, x20, x23, x29*(x25 + x26*x27 + x27*x28), 0, x22, x24, 0, x25*x29*(x26 + x28)], dtype=float)
+    f = numpy.array([p[2]*(-p[4]*x0*x8 + p[2]*x8*(pw10*x0*x4 + x47*x49 - x48*x51) + p[3]*p[1]*(xd[0]*x39*x4 - x31*x48 + x33*x47) - xd[1]*x36 - xd[3]*x34*x35 - xd[0]*(x18*(xd[2]*x10*x4 - x0*x52 - x0*x53) + x55*(2*xd[0]*x0*x4 + x2*x4*x47 - x41*x48 - x49*x50 - x51*x54)) - x44*(x37 - x40*x41 + x42*x43)), p[2]*(p[3]*p[1]*xd[1]*x0*x56 + p[3]*p[1]*x57 - xd[3]*x0*x18*x56 - xd[0]*(x36 + x55*(x41*x49 - x43*x51 + x47*x54 + x48*x50)) - x0*x44*(x2*x40 + x42*x6)), x18*(-p[4]*x10 - p[2]*xd[0]*(x4*x61 + x47*x63 - x48*x62) - p[2]*x38*x60 + p[2]*(xd[0]*x37 - x40*x51 + x42*x49) + p[3]*(pw11*x10*x14 - x31*x40 + x33*x42) - xd[1]*x58*x59 - xd[2]*(p[2]*(xd[0]*x0*x14 - x10*x64 - x10*x65) + p[3]*(2*xd[2]*x10*x14 + x12*x14*x42 - x31*x67 - x33*x66 - x40*x62))), x18*(-p[2]*xd[1]*x10*x68 + p[2]*xd[3]*x10*x68 - p[2]*x57 - p[2]*x61*(x12*x48 + x16*x47) - xd[2]*(p[3]*(-x31*x63 + x33*x62 + x40*x66 + x42*x67) + x59*x60))], dtype=float)
     return m, f
 
 
 def _k_energy(p, x, xd):
-    """total energy T + V in angles (123 ops as derived, 68 after cse)."""
+    """total energy T + V in angles (122 ops as derived, 68 after cse)."""
+    pw0 = p[3]*p[3]
+    pw3 = xd[2]*xd[2]
+    pw5 = p[2]*p[2]
+    pw8 = xd[0]*xd[0]
     x0 = numpy.cos(x[2])
     x1 = p[3]*p[1]
     x2 = numpy.cos(x[0])
     x3 = p[0] + p[1]
     x4 = numpy.sin(x[2])
+    pw4 = x4*x4
     x5 = numpy.cos(x[3])
     x6 = xd[3]*x4
     x7 = numpy.sin(x[3])
     x8 = xd[2]*x0*x7 + x5*x6
+    pw1 = x8*x8
     x9 = xd[2]*x0*x5 - x6*x7
+    pw2 = x9*x9
     x10 = numpy.sin(x[0])
+    pw9 = x10*x10
     x11 = numpy.cos(x[1])
     x12 = xd[1]*x10
     x13 = numpy.sin(x[1])
     x14 = xd[0]*x13*x2 + x11*x12
+    pw6 = x14*x14
     x15 = xd[0]*x11*x2 - x12*x13
-    e = -p[4]*p[2]*x2*x3 - p[4]*x0*x1 + p[2]*x1*(xd[0]*xd[2]*x10*x4 + x14*x8 + x15*x9) + (1/2)*p[1]*(p[3]*p[3])*((xd[2]*xd[2])*(x4*x4) + x8*x8 + x9*x9) + (1/2)*x3*(p[2]*p[2])*((xd[0]*xd[0])*(x10*x10) + x14*x14 + x15*x15)
+    pw7 = x15*x15
+    e = -p[4]*p[2]*x2*x3 - p[4]*x0*x1 + p[2]*x1*(xd[0]*xd[2]*x10*x4 + x14*x8 + x15*x9) + (1/2)*p[1]*pw0*(pw1 + pw2 + pw3*pw4) + (1/2)*pw5*x3*(pw6 + pw7 + pw8*pw9)
     return e
 
 
 def _k_to_sphere(a, ad):
-    """one body: q = q(theta, phi), omega = q x qdot (69 ops as derived, 27 after cse)."""
+    """one body: q = q(theta, phi), omega = q x qdot (66 ops as derived, 27 after cse)."""
     x0 = numpy.sin(a[..., 0])
+    pw0 = x0*x0
     x1 = numpy.cos(a[..., 1])
     x2 = x0*x1
     x3 = numpy.sin(a[..., 1])
     x4 = x0*x3
     x5 = numpy.cos(a[..., 0])
-    x6 = x0*x0
+    x6 = pw0
     x7 = ad[..., 0]*x3
     x8 = ad[..., 1]*x2 + x5*x7
     x9 = -ad[..., 1]*x4 + ad[..., 0]*x1*x5
     q = _stack(x2, x4, x5)
-    w = _stack(-x5*x8 - x6*x7, ad[..., 0]*x1*x6 + x5*x9, x0*x1*x8 - x4*x9)
+    w = _stack(-x5*x8 - x6*x7, ad[..., 0]*x1*x6 + x5*x9, x0*(x1*x8 - x3*x9))
     return q, w
 
 

@@ -2,11 +2,14 @@
  * spec sha256 9fdaef79043e9a4a
  * See four_pendula.h for the interface. Parts: tables, kernels, helpers, context, potential, energy, field_diagonal, field, vi_explicit, vi_step, rattle_closed, rk, rk_step, driver.
  * Lowering passes (total operations of all kernels after each):
- *   cse: 321
- *   powers: 387
- *   opcount: 387
- *   calls: 387
- *   workspace: 387
+ *   factor: 0
+ *   cse: 350
+ *   hoist: 336
+ *   strength: 336
+ *   powers: 382
+ *   opcount: 382
+ *   calls: 382
+ *   workspace: 382
  */
 #include "four_pendula.h"
 
@@ -41,57 +44,77 @@ static const double four_pendula_t1_r[12] = {
 };
 
 /* ---- kernels derived by SymPy ------------------------------------------------------------- */
+/* constants of the kernels that depend only on the parameters (once per call)
+ * 5 operations as derived, 5 after cse (0 temporaries). */
+static void four_pendula_k_context(const double *FOUR_PENDULA_RESTRICT p, double *FOUR_PENDULA_RESTRICT cc)
+{
+    cc[0] = -p[2]*p[1]*p[0];
+    cc[1] = (1.0/2.0)*fabs(p[1]);
+}
+
+/* term 1: what depends only on parameters and the member's data (once per call and member)
+ * 17 operations as derived, 18 after cse (4 temporaries). */
+static void four_pendula_k_t1_table(const double *FOUR_PENDULA_RESTRICT p, const double d_kappa, const double *FOUR_PENDULA_RESTRICT d_r, double *FOUR_PENDULA_RESTRICT tab)
+{
+    const double pw0 = d_r[0]*d_r[0];
+    const double pw1 = d_r[1]*d_r[1];
+    const double pw2 = d_r[2]*d_r[2];
+    const double pw3 = p[1]*p[1];
+    tab[0] = 2*d_r[0];
+    tab[1] = 2*d_r[1];
+    tab[2] = 2*d_r[2];
+    tab[3] = -p[1]*sqrt(pw0 + pw1 + pw2);
+    tab[4] = (1.0/2.0)*d_kappa;
+    tab[5] = d_kappa*pw3*1.0/fabs(p[1]);
+}
+
 /* diagonal of M and its coupled off-diagonal entries (pair order of the header)
- * 2 operations as derived, 2 after cse (0 temporaries). */
+ * 2 operations as derived, 2 after cse (1 temporaries). */
 static void four_pendula_k_inertia(const double *FOUR_PENDULA_RESTRICT p, double *FOUR_PENDULA_RESTRICT mdiag)
 {
-    mdiag[0] = p[0]*(p[1]*p[1]);
+    const double pw0 = p[1]*p[1];
+    mdiag[0] = p[0]*pw0;
 }
 
 /* gravity: sum over bodies (all), value
- * 4 operations as derived, 4 after cse (0 temporaries). */
-static void four_pendula_k_t0_value(const double *FOUR_PENDULA_RESTRICT p, const double *FOUR_PENDULA_RESTRICT q, double *FOUR_PENDULA_RESTRICT v)
+ * 4 operations as derived, 1 after cse (0 temporaries). */
+static void four_pendula_k_t0_value(const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT cc, double *FOUR_PENDULA_RESTRICT v)
 {
-    v[0] = -p[2]*p[1]*p[0]*q[2];
+    v[0] = cc[0]*q[2];
 }
 
 /* gravity: sum over bodies (all), gradient
- * 3 operations as derived, 3 after cse (0 temporaries). */
-static void four_pendula_k_t0_gradient(const double *FOUR_PENDULA_RESTRICT p, const double *FOUR_PENDULA_RESTRICT q, double *FOUR_PENDULA_RESTRICT g)
+ * 3 operations as derived, 0 after cse (0 temporaries). */
+static void four_pendula_k_t0_gradient(const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT cc, double *FOUR_PENDULA_RESTRICT g)
 {
     (void)q;
     g[0] = 0;
     g[1] = 0;
-    g[2] = -p[2]*p[1]*p[0];
+    g[2] = cc[0];
 }
 
 /* midpoint springs: sum over pairs (list), value
- * 34 operations as derived, 84 after cse (1 temporaries). */
-static void four_pendula_k_t1_value(const double *FOUR_PENDULA_RESTRICT p, const double *FOUR_PENDULA_RESTRICT qi, const double *FOUR_PENDULA_RESTRICT qj, const double d_kappa, const double *FOUR_PENDULA_RESTRICT d_r, double *FOUR_PENDULA_RESTRICT v)
+ * 31 operations as derived, 44 after cse (0 temporaries). */
+static void four_pendula_k_t1_value(const double *FOUR_PENDULA_RESTRICT qi, const double *FOUR_PENDULA_RESTRICT qj, const double *FOUR_PENDULA_RESTRICT cc, const double *FOUR_PENDULA_RESTRICT tab, double *FOUR_PENDULA_RESTRICT v)
 {
-    const double x0 = (1.0/2.0)*p[1];
-    v[0] = (1.0/2.0)*d_kappa*((-p[1]*sqrt(d_r[0]*d_r[0] + d_r[1]*d_r[1] + d_r[2]*d_r[2]) + sqrt((p[1]*d_r[0] + x0*(-qi[0] + qj[0]))*(p[1]*d_r[0] + x0*(-qi[0] + qj[0])) + (p[1]*d_r[1] + x0*(-qi[1] + qj[1]))*(p[1]*d_r[1] + x0*(-qi[1] + qj[1])) + (p[1]*d_r[2] + x0*(-qi[2] + qj[2]))*(p[1]*d_r[2] + x0*(-qi[2] + qj[2]))))*(-p[1]*sqrt(d_r[0]*d_r[0] + d_r[1]*d_r[1] + d_r[2]*d_r[2]) + sqrt((p[1]*d_r[0] + x0*(-qi[0] + qj[0]))*(p[1]*d_r[0] + x0*(-qi[0] + qj[0])) + (p[1]*d_r[1] + x0*(-qi[1] + qj[1]))*(p[1]*d_r[1] + x0*(-qi[1] + qj[1])) + (p[1]*d_r[2] + x0*(-qi[2] + qj[2]))*(p[1]*d_r[2] + x0*(-qi[2] + qj[2])))));
+    v[0] = tab[4]*((cc[1]*sqrt((-qi[0] + qj[0] + tab[0])*(-qi[0] + qj[0] + tab[0]) + (-qi[1] + qj[1] + tab[1])*(-qi[1] + qj[1] + tab[1]) + (-qi[2] + qj[2] + tab[2])*(-qi[2] + qj[2] + tab[2])) + tab[3])*(cc[1]*sqrt((-qi[0] + qj[0] + tab[0])*(-qi[0] + qj[0] + tab[0]) + (-qi[1] + qj[1] + tab[1])*(-qi[1] + qj[1] + tab[1]) + (-qi[2] + qj[2] + tab[2])*(-qi[2] + qj[2] + tab[2])) + tab[3]));
 }
 
 /* midpoint springs: sum over pairs (list), gradient
- * 381 operations as derived, 39 after cse (9 temporaries). */
-static void four_pendula_k_t1_gradient(const double *FOUR_PENDULA_RESTRICT p, const double *FOUR_PENDULA_RESTRICT qi, const double *FOUR_PENDULA_RESTRICT qj, const double d_kappa, const double *FOUR_PENDULA_RESTRICT d_r, double *FOUR_PENDULA_RESTRICT gi, double *FOUR_PENDULA_RESTRICT gj)
+ * 333 operations as derived, 42 after cse (5 temporaries). */
+static void four_pendula_k_t1_gradient(const double *FOUR_PENDULA_RESTRICT qi, const double *FOUR_PENDULA_RESTRICT qj, const double *FOUR_PENDULA_RESTRICT d_r, const double *FOUR_PENDULA_RESTRICT cc, const double *FOUR_PENDULA_RESTRICT tab, double *FOUR_PENDULA_RESTRICT gi, double *FOUR_PENDULA_RESTRICT gj)
 {
-    const double x0 = (1.0/2.0)*p[1];
-    const double x1 = p[1]*d_r[0] + x0*(-qi[0] + qj[0]);
-    const double x2 = p[1]*d_r[1] + x0*(-qi[1] + qj[1]);
-    const double x3 = p[1]*d_r[2] + x0*(-qi[2] + qj[2]);
-    const double x4 = sqrt(x1*x1 + x2*x2 + x3*x3);
-    const double x5 = d_kappa*x0*1.0/x4*(-p[1]*sqrt(d_r[0]*d_r[0] + d_r[1]*d_r[1] + d_r[2]*d_r[2]) + x4);
-    const double x6 = x1*x5;
-    const double x7 = x2*x5;
-    const double x8 = x3*x5;
-    gi[0] = -x6;
-    gi[1] = -x7;
-    gi[2] = -x8;
-    gj[0] = x6;
-    gj[1] = x7;
-    gj[2] = x8;
+    const double x0 = sqrt((-qi[0] + qj[0] + tab[0])*(-qi[0] + qj[0] + tab[0]) + (-qi[1] + qj[1] + tab[1])*(-qi[1] + qj[1] + tab[1]) + (-qi[2] + qj[2] + tab[2])*(-qi[2] + qj[2] + tab[2]));
+    const double x2 = tab[5]*(cc[1]*x0 + tab[3])*1.0/x0;
+    const double x3 = x2*(-1.0/2.0*qi[0] + (1.0/2.0)*qj[0] + d_r[0]);
+    const double x4 = x2*(-1.0/2.0*qi[1] + (1.0/2.0)*qj[1] + d_r[1]);
+    const double x5 = x2*(-1.0/2.0*qi[2] + (1.0/2.0)*qj[2] + d_r[2]);
+    gi[0] = -x3;
+    gi[1] = -x4;
+    gi[2] = -x5;
+    gj[0] = x3;
+    gj[1] = x4;
+    gj[2] = x5;
 }
 
 /* kinetic energy of one body: 1/2 M_ii |omega x q|^2
@@ -127,76 +150,92 @@ static void four_pendula_k_rhs_diag(const double m, const double *FOUR_PENDULA_R
 }
 
 /* explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0)
- * 207 operations as derived, 45 after cse (6 temporaries). */
+ * 219 operations as derived, 53 after cse (14 temporaries). */
 static void four_pendula_k_vi_pos(const double h, const double m, const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT w, const double *FOUR_PENDULA_RESTRICT g, double *FOUR_PENDULA_RESTRICT qn, double *FOUR_PENDULA_RESTRICT s)
 {
-    const double x0 = (1.0/2.0)*(h*h)*1.0/m;
-    const double x1 = h*w[1] - x0*(g[0]*q[2] - g[2]*q[0]);
-    const double x2 = h*w[2] + x0*(g[0]*q[1] - g[1]*q[0]);
-    const double x3 = h*w[0] + x0*(g[1]*q[2] - g[2]*q[1]);
-    const double x4 = 1 - (x1*x1) - (x2*x2) - (x3*x3);
-    const double x5 = sqrt(x4);
-    qn[0] = q[0]*x5 - q[1]*x2 + q[2]*x1;
-    qn[1] = q[0]*x2 + q[1]*x5 - q[2]*x3;
-    qn[2] = -q[0]*x1 + q[1]*x3 + q[2]*x5;
-    s[0] = x4;
+    const double pw0 = h*h;
+    const double x0 = h*1.0/m;
+    const double x1 = 2*w[2] + x0*(g[0]*q[1] - g[1]*q[0]);
+    const double pw1 = x1*x1;
+    const double x2 = (1.0/2.0)*h;
+    const double x3 = x1*x2;
+    const double x4 = 2*w[1] - x0*(g[0]*q[2] - g[2]*q[0]);
+    const double pw2 = x4*x4;
+    const double x5 = q[2]*x2;
+    const double x6 = (1.0/4.0)*pw0;
+    const double x7 = 2*w[0] + x0*(g[1]*q[2] - g[2]*q[1]);
+    const double pw3 = x7*x7;
+    const double x8 = -pw1*x6 - pw2*x6 - pw3*x6 + 1;
+    const double x9 = sqrt(x8);
+    qn[0] = q[0]*x9 - q[1]*x3 + x4*x5;
+    qn[1] = q[0]*x3 + q[1]*x9 - x5*x7;
+    qn[2] = -q[0]*x2*x4 + q[1]*x2*x7 + q[2]*x9;
+    s[0] = x8;
 }
 
 /* explicit VI velocity update: omega+ = omega - h/(2M_ii)(q x g + q+ x g+)
- * 51 operations as derived, 42 after cse (4 temporaries). */
+ * 42 operations as derived, 33 after cse (1 temporaries). */
 static void four_pendula_k_vi_vel(const double h, const double m, const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT w, const double *FOUR_PENDULA_RESTRICT g, const double *FOUR_PENDULA_RESTRICT qn, const double *FOUR_PENDULA_RESTRICT gn, double *FOUR_PENDULA_RESTRICT wn)
 {
-    const double x0 = (1.0/2.0)*1.0/m;
-    const double x1 = h*x0;
-    const double x2 = 1.0/h;
-    const double x3 = x0*(h*h);
-    wn[0] = -x1*(-gn[1]*qn[2] + gn[2]*qn[1]) + x2*(h*w[0] + x3*(g[1]*q[2] - g[2]*q[1]));
-    wn[1] = -x1*(gn[0]*qn[2] - gn[2]*qn[0]) + x2*(h*w[1] - x3*(g[0]*q[2] - g[2]*q[0]));
-    wn[2] = -x1*(-gn[0]*qn[1] + gn[1]*qn[0]) + x2*(h*w[2] + x3*(g[0]*q[1] - g[1]*q[0]));
+    const double x0 = (1.0/2.0)*h*1.0/m;
+    wn[0] = w[0] + x0*(g[1]*q[2] - g[2]*q[1]) - x0*(-gn[1]*qn[2] + gn[2]*qn[1]);
+    wn[1] = w[1] - x0*(g[0]*q[2] - g[2]*q[0]) - x0*(gn[0]*qn[2] - gn[2]*qn[0]);
+    wn[2] = w[2] + x0*(g[0]*q[1] - g[1]*q[0]) - x0*(-gn[0]*qn[1] + gn[1]*qn[0]);
 }
 
 /* RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0)
- * 817 operations as derived, 69 after cse (17 temporaries). */
+ * 911 operations as derived, 80 after cse (25 temporaries). */
 static void four_pendula_k_rattle_pos(const double h, const double m, const double *FOUR_PENDULA_RESTRICT x, const double *FOUR_PENDULA_RESTRICT v, const double *FOUR_PENDULA_RESTRICT g, double *FOUR_PENDULA_RESTRICT xn, double *FOUR_PENDULA_RESTRICT vh, double *FOUR_PENDULA_RESTRICT disc)
 {
-    const double x0 = (1.0/2.0)*1.0/m;
-    const double x1 = x0*(h*h);
+    const double pw0 = h*h;
+    const double pw5 = x[0]*x[0];
+    const double pw6 = x[1]*x[1];
+    const double pw7 = x[2]*x[2];
+    const double x0 = 1.0/m;
+    const double x1 = pw0*x0;
     const double x2 = g[0]*x1;
-    const double x3 = h*v[0] - x2 + x[0];
+    const double x3 = 2*h*v[0] - x2 + 2*x[0];
+    const double pw1 = x3*x3;
     const double x4 = g[1]*x1;
-    const double x5 = h*v[1] - x4 + x[1];
+    const double x5 = 2*h*v[1] - x4 + 2*x[1];
+    const double pw2 = x5*x5;
     const double x6 = g[2]*x1;
-    const double x7 = h*v[2] - x6 + x[2];
-    const double x8 = -1 + x3*x3 + x5*x5 + x7*x7;
+    const double x7 = 2*h*v[2] - x6 + 2*x[2];
+    const double pw3 = x7*x7;
+    const double x8 = pw1 + pw2 + pw3 - 4;
     const double x9 = x3*x[0] + x5*x[1] + x7*x[2];
-    const double x10 = -x8*(x[0]*x[0] + x[1]*x[1] + x[2]*x[2]) + x9*x9;
-    const double x11 = x8*1.0/(sqrt(x10) + x9);
+    const double pw4 = x9*x9;
+    const double x10 = pw4 - x8*(pw5 + pw6 + pw7);
+    const double x11 = (1.0/2.0)*x8*1.0/(sqrt(x10) + x9);
     const double x12 = x11*x[0];
     const double x13 = x11*x[1];
     const double x14 = x11*x[2];
-    const double x15 = h*x0;
+    const double x15 = (1.0/2.0)*h*x0;
     const double x16 = 1.0/h;
-    xn[0] = h*v[0] - x12 - x2 + x[0];
-    xn[1] = h*v[1] - x13 - x4 + x[1];
-    xn[2] = h*v[2] - x14 - x6 + x[2];
+    xn[0] = h*v[0] - x12 - 1.0/2.0*x2 + x[0];
+    xn[1] = h*v[1] - x13 - 1.0/2.0*x4 + x[1];
+    xn[2] = h*v[2] - x14 - 1.0/2.0*x6 + x[2];
     vh[0] = -g[0]*x15 + v[0] - x12*x16;
     vh[1] = -g[1]*x15 + v[1] - x13*x16;
     vh[2] = -g[2]*x15 + v[2] - x14*x16;
-    disc[0] = x10;
+    disc[0] = (1.0/4.0)*x10;
 }
 
 /* RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+
- * 87 operations as derived, 31 after cse (5 temporaries). */
+ * 96 operations as derived, 36 after cse (8 temporaries). */
 static void four_pendula_k_rattle_vel(const double h, const double m, const double *FOUR_PENDULA_RESTRICT xn, const double *FOUR_PENDULA_RESTRICT vh, const double *FOUR_PENDULA_RESTRICT gn, double *FOUR_PENDULA_RESTRICT vn)
 {
-    const double x0 = (1.0/2.0)*h*1.0/m;
-    const double x1 = gn[0]*x0 - vh[0];
-    const double x2 = gn[1]*x0 - vh[1];
-    const double x3 = gn[2]*x0 - vh[2];
-    const double x4 = (-x1*xn[0] - x2*xn[1] - x3*xn[2])*1.0/(xn[0]*xn[0] + xn[1]*xn[1] + xn[2]*xn[2]);
-    vn[0] = -x1 - x4*xn[0];
-    vn[1] = -x2 - x4*xn[1];
-    vn[2] = -x3 - x4*xn[2];
+    const double pw0 = xn[0]*xn[0];
+    const double pw1 = xn[1]*xn[1];
+    const double pw2 = xn[2]*xn[2];
+    const double x0 = h*1.0/m;
+    const double x1 = gn[0]*x0;
+    const double x2 = gn[1]*x0;
+    const double x3 = gn[2]*x0;
+    const double x4 = (1.0/2.0)*(xn[0]*(2*vh[0] - x1) + xn[1]*(2*vh[1] - x2) + xn[2]*(2*vh[2] - x3))*1.0/(pw0 + pw1 + pw2);
+    vn[0] = vh[0] - 1.0/2.0*x1 - x4*xn[0];
+    vn[1] = vh[1] - 1.0/2.0*x2 - x4*xn[1];
+    vn[2] = vh[2] - 1.0/2.0*x3 - x4*xn[2];
 }
 
 /* ---- small helpers ---------------------------------------------------------------------- */
@@ -232,25 +271,52 @@ static void four_pendula_masses(const double *p, double *md, double *mp)
     }
 }
 
-/* Per-call context: parameters, masses (computed once per call) and scratch kept at the tail
- * of the caller's workspace (after the first FOUR_PENDULA_WORK_BASE doubles). */
+/* Per-call context: parameters, and what is computed once per call (masses, constants of the
+ * kernels, member tables) or kept between steps (neighbour lists), at the tail of the caller's
+ * workspace (after the first FOUR_PENDULA_WORK_BASE doubles). */
 typedef struct {
     const double *p;
     double *md; /* M_ii, one per body */
     double *mp; /* coupled entries, one per pair */
     double *adiag; /* diagonal of A(q+) in the VI velocity solve */
     double *nb; /* neighbour-list cells and links */
+    double *cc; /* constants of the kernels that depend only on the parameters */
+    double *t1; /* term 1's member table */
 } four_pendula_ctx;
+
+/* A context without workspace, for the public functions that take none: the constants of the
+ * kernels in `cc` (FOUR_PENDULA_NCONST doubles, computed here); masses, member tables and
+ * neighbour lists absent (NULL: tables are computed member by member, all pairs scanned). */
+static void four_pendula_ctx_bare(four_pendula_ctx *cx, const double *p, double *cc)
+{
+    cx->p = p;
+    cx->md = NULL;
+    cx->mp = NULL;
+    cx->adiag = NULL;
+    cx->nb = NULL;
+    cx->cc = NULL;
+    cx->t1 = NULL;
+    cx->cc = cc;
+    four_pendula_k_context(p, cx->cc);
+}
 
 static void four_pendula_ctx_init(four_pendula_ctx *cx, const double *p, double *work)
 {
     double *tail = work + FOUR_PENDULA_WORK_BASE;
+    long m;
     cx->p = p;
     cx->md = tail + 0;
     cx->mp = tail + 4;
     cx->adiag = tail + 4;
     cx->nb = tail + 4;
+    cx->cc = tail + 4;
+    cx->t1 = tail + 6;
     four_pendula_masses(p, cx->md, cx->mp);
+    four_pendula_k_context(p, cx->cc);
+    for (m = 0; m < 4; ++m) {
+        double *row = cx->t1 + 6 * m;
+        four_pendula_k_t1_table(p, four_pendula_t1_kappa[m], four_pendula_t1_r + 3 * m, row);
+    }
 }
 
 const char *const four_pendula_param_names[] = {
@@ -282,9 +348,11 @@ void four_pendula_default_options(four_pendula_options *opt)
 }
 /* ---- potential and its gradient ------------------------------------------------------------- */
 
-/* V(q); nb: neighbour-list storage for cutoff terms, or NULL (then all pairs are scanned). */
-static double four_pendula_potential_nb(const double *p, const double *q, double *nb)
+/* V(q), with the context's constants, member tables and neighbour lists (see _ctx_bare). */
+static double four_pendula_potential_cx(const four_pendula_ctx *cx, const double *q)
 {
+    const double *p = cx->p;
+    double *nb = cx->nb;
     double total = 0.0;
     /* term 0, gravity: sum over bodies (all), value: 4 members */
     {
@@ -292,7 +360,7 @@ static double four_pendula_potential_nb(const double *p, const double *q, double
         for (m = 0; m < 4; ++m) {
             const long i = m;
             double v;
-            four_pendula_k_t0_value(p, q + 3 * i, &v);
+            four_pendula_k_t0_value(q + 3 * i, cx->cc, &v);
             total += v;
         }
     }
@@ -301,8 +369,13 @@ static double four_pendula_potential_nb(const double *p, const double *q, double
         long m;
         for (m = 0; m < 4; ++m) {
             const long i = four_pendula_t1_i[m], j = four_pendula_t1_j[m];
+            double row[6];
+            const double *tab = cx->t1 ? cx->t1 + 6 * m : row;
+            if (!cx->t1) {
+                four_pendula_k_t1_table(p, four_pendula_t1_kappa[m], four_pendula_t1_r + 3 * m, row);
+            }
             double v;
-            four_pendula_k_t1_value(p, q + 3 * i, q + 3 * j, four_pendula_t1_kappa[m], four_pendula_t1_r + 3 * m, &v);
+            four_pendula_k_t1_value(q + 3 * i, q + 3 * j, cx->cc, tab, &v);
             total += v;
         }
     }
@@ -314,12 +387,18 @@ static double four_pendula_potential_nb(const double *p, const double *q, double
 
 double four_pendula_potential(const double *p, const double *q)
 {
-    return four_pendula_potential_nb(p, q, NULL);
+    double cc[2];
+    four_pendula_ctx cx;
+    four_pendula_ctx_bare(&cx, p, cc);
+    return four_pendula_potential_cx(&cx, q);
 }
 
-/* dV/dq; nb as for the potential. */
-static void four_pendula_gradient_nb(const double *p, const double *q, double *g, double *nb)
+/* dV/dq, with the context as for the potential. */
+static void four_pendula_gradient_cx(const four_pendula_ctx *cx, const double *q, double *g)
 {
+    const double *p = cx->p;
+    double *nb = cx->nb;
+    (void)p;
     (void)nb;
     long e;
     for (e = 0; e < FOUR_PENDULA_N3; ++e) {
@@ -331,7 +410,7 @@ static void four_pendula_gradient_nb(const double *p, const double *q, double *g
         for (m = 0; m < 4; ++m) {
             const long i = m;
             double gb[3];
-            four_pendula_k_t0_gradient(p, q + 3 * i, gb);
+            four_pendula_k_t0_gradient(q + 3 * i, cx->cc, gb);
             g[3 * i] += gb[0];
             g[3 * i + 1] += gb[1];
             g[3 * i + 2] += gb[2];
@@ -342,8 +421,13 @@ static void four_pendula_gradient_nb(const double *p, const double *q, double *g
         long m;
         for (m = 0; m < 4; ++m) {
             const long i = four_pendula_t1_i[m], j = four_pendula_t1_j[m];
+            double row[6];
+            const double *tab = cx->t1 ? cx->t1 + 6 * m : row;
+            if (!cx->t1) {
+                four_pendula_k_t1_table(p, four_pendula_t1_kappa[m], four_pendula_t1_r + 3 * m, row);
+            }
             double gi[3], gj[3];
-            four_pendula_k_t1_gradient(p, q + 3 * i, q + 3 * j, four_pendula_t1_kappa[m], four_pendula_t1_r + 3 * m, gi, gj);
+            four_pendula_k_t1_gradient(q + 3 * i, q + 3 * j, four_pendula_t1_r + 3 * m, cx->cc, tab, gi, gj);
             g[3 * i] += gi[0];
             g[3 * i + 1] += gi[1];
             g[3 * i + 2] += gi[2];
@@ -356,20 +440,18 @@ static void four_pendula_gradient_nb(const double *p, const double *q, double *g
 
 void four_pendula_gradient(const double *p, const double *q, double *g)
 {
-    four_pendula_gradient_nb(p, q, g, NULL);
-}
-
-static void four_pendula_gradient_cx(const four_pendula_ctx *cx, const double *q, double *g)
-{
-    four_pendula_gradient_nb(cx->p, q, g, cx->nb);
+    double cc[2];
+    four_pendula_ctx cx;
+    four_pendula_ctx_bare(&cx, p, cc);
+    four_pendula_gradient_cx(&cx, q, g);
 }
 /* ---- energy and angular momentum ------------------------------------------------------------ */
 
-/* Total energy with given masses (mp unused when M is diagonal). */
-static double four_pendula_energy_md(const double *p, const double *md, const double *mp,
-        const double *q, const double *w, double *nb)
+/* Total energy, with the context's masses (and constants, tables, neighbour lists). */
+static double four_pendula_energy_cx(const four_pendula_ctx *cx, const double *q, const double *w)
 {
-    double e = four_pendula_potential_nb(p, q, nb), t;
+    const double *md = cx->md, *mp = cx->mp;
+    double e = four_pendula_potential_cx(cx, q), t;
     int i;
     (void)mp;
     for (i = 0; i < 4; ++i) {
@@ -381,14 +463,13 @@ static double four_pendula_energy_md(const double *p, const double *md, const do
 
 double four_pendula_energy(const double *p, const double *q, const double *w)
 {
-    double md[4], mp[1];
+    double md[4], mp[1], cc[2];
+    four_pendula_ctx cx;
+    four_pendula_ctx_bare(&cx, p, cc);
+    cx.md = md;
+    cx.mp = mp;
     four_pendula_masses(p, md, mp);
-    return four_pendula_energy_md(p, md, mp, q, w, NULL);
-}
-
-static double four_pendula_energy_cx(const four_pendula_ctx *cx, const double *q, const double *w)
-{
-    return four_pendula_energy_md(cx->p, cx->md, cx->mp, q, w, cx->nb);
+    return four_pendula_energy_cx(&cx, q, w);
 }
 
 void four_pendula_angular_momentum(const double *p, const double *q, const double *w, double J[3])

@@ -2,11 +2,14 @@
 # spec sha256 9fdaef79043e9a4a
 # Parts: tables, kernels, helpers, context, potential, energy, field_diagonal, field, vi_explicit, vi_step, rattle_closed, rk, rk_step, driver.
 # Lowering passes (total operations of all kernels after each):
-#   cse: 321
-#   powers: 387
-#   opcount: 387
-#   calls: 387
-#   workspace: 387
+#   factor: 0
+#   cse: 350
+#   hoist: 336
+#   strength: 336
+#   powers: 382
+#   opcount: 382
+#   calls: 382
+#   workspace: 382
 """Equations of motion and integrators for the system "four_pendula" on (S^2)^4 (NumPy).
 
 Same functions as the emitted C (four_pendula.h). States are arrays q, w of shape (4, 3).
@@ -55,44 +58,56 @@ T1_R = numpy.array([1.0, 0.0, 0.0, 0.0, -1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0, 0.0
 # ---- kernels derived by SymPy ----------------------------------------------------------------
 
 
+def _k_context(p):
+    """constants of the kernels that depend only on the parameters (once per call) (5 ops as derived, 5 after cse)."""
+    cc = numpy.array([-p[2]*p[1]*p[0], (1/2)*abs(p[1])], dtype=float)
+    return cc
+
+
+def _k_t1_table(p, d_kappa, d_r):
+    """term 1: what depends only on parameters and the member's data (once per call and member) (17 ops as derived, 18 after cse)."""
+    pw0 = d_r[..., 0]*d_r[..., 0]
+    pw1 = d_r[..., 1]*d_r[..., 1]
+    pw2 = d_r[..., 2]*d_r[..., 2]
+    pw3 = p[..., 1]*p[..., 1]
+    tab = _stack(2*d_r[..., 0], 2*d_r[..., 1], 2*d_r[..., 2], -p[..., 1]*numpy.sqrt(pw0 + pw1 + pw2), (1/2)*d_kappa, d_kappa*pw3*abs(p[..., 1])**(-1.0))
+    return tab
+
+
 def _k_inertia(p):
     """diagonal of M and its coupled off-diagonal entries (pair order of the header) (2 ops as derived, 2 after cse)."""
-    mdiag = numpy.array([p[0]*(p[1]*p[1])], dtype=float)
+    pw0 = p[1]*p[1]
+    mdiag = numpy.array([p[0]*pw0], dtype=float)
     return mdiag
 
 
-def _k_t0_value(p, q):
-    """gravity: sum over bodies (all), value (4 ops as derived, 4 after cse)."""
-    v = -p[..., 2]*p[..., 1]*p[..., 0]*q[..., 2]
+def _k_t0_value(q, cc):
+    """gravity: sum over bodies (all), value (4 ops as derived, 1 after cse)."""
+    v = cc[0]*q[..., 2]
     return v
 
 
-def _k_t0_gradient(p, q):
-    """gravity: sum over bodies (all), gradient (3 ops as derived, 3 after cse)."""
-    g = _stack(0, 0, -p[..., 2]*p[..., 1]*p[..., 0])
+def _k_t0_gradient(q, cc):
+    """gravity: sum over bodies (all), gradient (3 ops as derived, 0 after cse)."""
+    g = _stack(0, 0, cc[0])
     return g
 
 
-def _k_t1_value(p, qi, qj, d_kappa, d_r):
-    """midpoint springs: sum over pairs (list), value (34 ops as derived, 84 after cse)."""
-    x0 = (1/2)*p[..., 1]
-    v = (1/2)*d_kappa*((-p[..., 1]*numpy.sqrt(d_r[..., 0]*d_r[..., 0] + d_r[..., 1]*d_r[..., 1] + d_r[..., 2]*d_r[..., 2]) + numpy.sqrt((p[..., 1]*d_r[..., 0] + x0*(-qi[..., 0] + qj[..., 0]))*(p[..., 1]*d_r[..., 0] + x0*(-qi[..., 0] + qj[..., 0])) + (p[..., 1]*d_r[..., 1] + x0*(-qi[..., 1] + qj[..., 1]))*(p[..., 1]*d_r[..., 1] + x0*(-qi[..., 1] + qj[..., 1])) + (p[..., 1]*d_r[..., 2] + x0*(-qi[..., 2] + qj[..., 2]))*(p[..., 1]*d_r[..., 2] + x0*(-qi[..., 2] + qj[..., 2]))))*(-p[..., 1]*numpy.sqrt(d_r[..., 0]*d_r[..., 0] + d_r[..., 1]*d_r[..., 1] + d_r[..., 2]*d_r[..., 2]) + numpy.sqrt((p[..., 1]*d_r[..., 0] + x0*(-qi[..., 0] + qj[..., 0]))*(p[..., 1]*d_r[..., 0] + x0*(-qi[..., 0] + qj[..., 0])) + (p[..., 1]*d_r[..., 1] + x0*(-qi[..., 1] + qj[..., 1]))*(p[..., 1]*d_r[..., 1] + x0*(-qi[..., 1] + qj[..., 1])) + (p[..., 1]*d_r[..., 2] + x0*(-qi[..., 2] + qj[..., 2]))*(p[..., 1]*d_r[..., 2] + x0*(-qi[..., 2] + qj[..., 2])))))
+def _k_t1_value(qi, qj, cc, tab):
+    """midpoint springs: sum over pairs (list), value (31 ops as derived, 44 after cse)."""
+    v = tab[..., 4]*((cc[1]*numpy.sqrt((-qi[..., 0] + qj[..., 0] + tab[..., 0])*(-qi[..., 0] + qj[..., 0] + tab[..., 0]) + (-qi[..., 1] + qj[..., 1] + tab[..., 1])*(-qi[..., 1] + qj[..., 1] + tab[..., 1]) + (-qi[..., 2] + qj[..., 2] + tab[..., 2])*(-qi[..., 2] + qj[..., 2] + tab[..., 2])) + tab[..., 3])*(cc[1]*numpy.sqrt((-qi[..., 0] + qj[..., 0] + tab[..., 0])*(-qi[..., 0] + qj[..., 0] + tab[..., 0]) + (-qi[..., 1] + qj[..., 1] + tab[..., 1])*(-qi[..., 1] + qj[..., 1] + tab[..., 1]) + (-qi[..., 2] + qj[..., 2] + tab[..., 2])*(-qi[..., 2] + qj[..., 2] + tab[..., 2])) + tab[..., 3]))
     return v
 
 
-def _k_t1_gradient(p, qi, qj, d_kappa, d_r):
-    """midpoint springs: sum over pairs (list), gradient (381 ops as derived, 39 after cse)."""
-    x0 = (1/2)*p[..., 1]
-    x1 = p[..., 1]*d_r[..., 0] + x0*(-qi[..., 0] + qj[..., 0])
-    x2 = p[..., 1]*d_r[..., 1] + x0*(-qi[..., 1] + qj[..., 1])
-    x3 = p[..., 1]*d_r[..., 2] + x0*(-qi[..., 2] + qj[..., 2])
-    x4 = numpy.sqrt(x1*x1 + x2*x2 + x3*x3)
-    x5 = d_kappa*x0*x4**(-1.0)*(-p[..., 1]*numpy.sqrt(d_r[..., 0]*d_r[..., 0] + d_r[..., 1]*d_r[..., 1] + d_r[..., 2]*d_r[..., 2]) + x4)
-    x6 = x1*x5
-    x7 = x2*x5
-    x8 = x3*x5
-    gi = _stack(-x6, -x7, -x8)
-    gj = _stack(x6, x7, x8)
+def _k_t1_gradient(qi, qj, d_r, cc, tab):
+    """midpoint springs: sum over pairs (list), gradient (333 ops as derived, 42 after cse)."""
+    x0 = numpy.sqrt((-qi[..., 0] + qj[..., 0] + tab[..., 0])*(-qi[..., 0] + qj[..., 0] + tab[..., 0]) + (-qi[..., 1] + qj[..., 1] + tab[..., 1])*(-qi[..., 1] + qj[..., 1] + tab[..., 1]) + (-qi[..., 2] + qj[..., 2] + tab[..., 2])*(-qi[..., 2] + qj[..., 2] + tab[..., 2]))
+    x2 = tab[..., 5]*(cc[1]*x0 + tab[..., 3])*x0**(-1.0)
+    x3 = x2*(-1/2*qi[..., 0] + (1/2)*qj[..., 0] + d_r[..., 0])
+    x4 = x2*(-1/2*qi[..., 1] + (1/2)*qj[..., 1] + d_r[..., 1])
+    x5 = x2*(-1/2*qi[..., 2] + (1/2)*qj[..., 2] + d_r[..., 2])
+    gi = _stack(-x3, -x4, -x5)
+    gj = _stack(x3, x4, x5)
     return gi, gj
 
 
@@ -120,61 +135,77 @@ def _k_rhs_diag(m, q, w, g):
 
 
 def _k_vi_pos(h, m, q, w, g):
-    """explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0) (207 ops as derived, 45 after cse)."""
-    x0 = (1/2)*(h*h)*m**(-1.0)
-    x1 = h*w[..., 1] - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])
-    x2 = h*w[..., 2] + x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0])
-    x3 = h*w[..., 0] + x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1])
-    x4 = 1 - (x1*x1) - (x2*x2) - (x3*x3)
-    x5 = numpy.sqrt(x4)
-    qn = _stack(q[..., 0]*x5 - q[..., 1]*x2 + q[..., 2]*x1, q[..., 0]*x2 + q[..., 1]*x5 - q[..., 2]*x3, -q[..., 0]*x1 + q[..., 1]*x3 + q[..., 2]*x5)
-    s = x4
+    """explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0) (219 ops as derived, 53 after cse)."""
+    pw0 = h*h
+    x0 = h*m**(-1.0)
+    x1 = 2*w[..., 2] + x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0])
+    pw1 = x1*x1
+    x2 = (1/2)*h
+    x3 = x1*x2
+    x4 = 2*w[..., 1] - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])
+    pw2 = x4*x4
+    x5 = q[..., 2]*x2
+    x6 = (1/4)*pw0
+    x7 = 2*w[..., 0] + x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1])
+    pw3 = x7*x7
+    x8 = -pw1*x6 - pw2*x6 - pw3*x6 + 1
+    x9 = numpy.sqrt(x8)
+    qn = _stack(q[..., 0]*x9 - q[..., 1]*x3 + x4*x5, q[..., 0]*x3 + q[..., 1]*x9 - x5*x7, -q[..., 0]*x2*x4 + q[..., 1]*x2*x7 + q[..., 2]*x9)
+    s = x8
     return qn, s
 
 
 def _k_vi_vel(h, m, q, w, g, qn, gn):
-    """explicit VI velocity update: omega+ = omega - h/(2M_ii)(q x g + q+ x g+) (51 ops as derived, 42 after cse)."""
-    x0 = (1/2)*m**(-1.0)
-    x1 = h*x0
-    x2 = h**(-1.0)
-    x3 = x0*(h*h)
-    wn = _stack(-x1*(-gn[..., 1]*qn[..., 2] + gn[..., 2]*qn[..., 1]) + x2*(h*w[..., 0] + x3*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1])), -x1*(gn[..., 0]*qn[..., 2] - gn[..., 2]*qn[..., 0]) + x2*(h*w[..., 1] - x3*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])), -x1*(-gn[..., 0]*qn[..., 1] + gn[..., 1]*qn[..., 0]) + x2*(h*w[..., 2] + x3*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0])))
+    """explicit VI velocity update: omega+ = omega - h/(2M_ii)(q x g + q+ x g+) (42 ops as derived, 33 after cse)."""
+    x0 = (1/2)*h*m**(-1.0)
+    wn = _stack(w[..., 0] + x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1]) - x0*(-gn[..., 1]*qn[..., 2] + gn[..., 2]*qn[..., 1]), w[..., 1] - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0]) - x0*(gn[..., 0]*qn[..., 2] - gn[..., 2]*qn[..., 0]), w[..., 2] + x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0]) - x0*(-gn[..., 0]*qn[..., 1] + gn[..., 1]*qn[..., 0]))
     return wn
 
 
 def _k_rattle_pos(h, m, x, v, g):
-    """RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0) (817 ops as derived, 69 after cse)."""
-    x0 = (1/2)*m**(-1.0)
-    x1 = x0*(h*h)
+    """RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0) (911 ops as derived, 80 after cse)."""
+    pw0 = h*h
+    pw5 = x[..., 0]*x[..., 0]
+    pw6 = x[..., 1]*x[..., 1]
+    pw7 = x[..., 2]*x[..., 2]
+    x0 = m**(-1.0)
+    x1 = pw0*x0
     x2 = g[..., 0]*x1
-    x3 = h*v[..., 0] - x2 + x[..., 0]
+    x3 = 2*h*v[..., 0] - x2 + 2*x[..., 0]
+    pw1 = x3*x3
     x4 = g[..., 1]*x1
-    x5 = h*v[..., 1] - x4 + x[..., 1]
+    x5 = 2*h*v[..., 1] - x4 + 2*x[..., 1]
+    pw2 = x5*x5
     x6 = g[..., 2]*x1
-    x7 = h*v[..., 2] - x6 + x[..., 2]
-    x8 = -1 + x3*x3 + x5*x5 + x7*x7
+    x7 = 2*h*v[..., 2] - x6 + 2*x[..., 2]
+    pw3 = x7*x7
+    x8 = pw1 + pw2 + pw3 - 4
     x9 = x3*x[..., 0] + x5*x[..., 1] + x7*x[..., 2]
-    x10 = -x8*(x[..., 0]*x[..., 0] + x[..., 1]*x[..., 1] + x[..., 2]*x[..., 2]) + x9*x9
-    x11 = x8*(numpy.sqrt(x10) + x9)**(-1.0)
+    pw4 = x9*x9
+    x10 = pw4 - x8*(pw5 + pw6 + pw7)
+    x11 = (1/2)*x8*(numpy.sqrt(x10) + x9)**(-1.0)
     x12 = x11*x[..., 0]
     x13 = x11*x[..., 1]
     x14 = x11*x[..., 2]
-    x15 = h*x0
+    x15 = (1/2)*h*x0
     x16 = h**(-1.0)
-    xn = _stack(h*v[..., 0] - x12 - x2 + x[..., 0], h*v[..., 1] - x13 - x4 + x[..., 1], h*v[..., 2] - x14 - x6 + x[..., 2])
+    xn = _stack(h*v[..., 0] - x12 - 1/2*x2 + x[..., 0], h*v[..., 1] - x13 - 1/2*x4 + x[..., 1], h*v[..., 2] - x14 - 1/2*x6 + x[..., 2])
     vh = _stack(-g[..., 0]*x15 + v[..., 0] - x12*x16, -g[..., 1]*x15 + v[..., 1] - x13*x16, -g[..., 2]*x15 + v[..., 2] - x14*x16)
-    disc = x10
+    disc = (1/4)*x10
     return xn, vh, disc
 
 
 def _k_rattle_vel(h, m, xn, vh, gn):
-    """RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+ (87 ops as derived, 31 after cse)."""
-    x0 = (1/2)*h*m**(-1.0)
-    x1 = gn[..., 0]*x0 - vh[..., 0]
-    x2 = gn[..., 1]*x0 - vh[..., 1]
-    x3 = gn[..., 2]*x0 - vh[..., 2]
-    x4 = (-x1*xn[..., 0] - x2*xn[..., 1] - x3*xn[..., 2])*(xn[..., 0]*xn[..., 0] + xn[..., 1]*xn[..., 1] + xn[..., 2]*xn[..., 2])**(-1.0)
-    vn = _stack(-x1 - x4*xn[..., 0], -x2 - x4*xn[..., 1], -x3 - x4*xn[..., 2])
+    """RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+ (96 ops as derived, 36 after cse)."""
+    pw0 = xn[..., 0]*xn[..., 0]
+    pw1 = xn[..., 1]*xn[..., 1]
+    pw2 = xn[..., 2]*xn[..., 2]
+    x0 = h*m**(-1.0)
+    x1 = gn[..., 0]*x0
+    x2 = gn[..., 1]*x0
+    x3 = gn[..., 2]*x0
+    x4 = (1/2)*(xn[..., 0]*(2*vh[..., 0] - x1) + xn[..., 1]*(2*vh[..., 1] - x2) + xn[..., 2]*(2*vh[..., 2] - x3))*(pw0 + pw1 + pw2)**(-1.0)
+    vn = _stack(vh[..., 0] - 1/2*x1 - x4*xn[..., 0], vh[..., 1] - 1/2*x2 - x4*xn[..., 1], vh[..., 2] - 1/2*x3 - x4*xn[..., 2])
     return vn
 
 
@@ -204,19 +235,26 @@ def _masses(p):
 # ---- potential and its gradient -----------------------------------------------------------------
 
 
+def _constants(p):
+    """The kernels' constants and the terms' member tables (computed once per call)."""
+    cc = _k_context(p)
+    return cc, _k_t1_table(p, T1_KAPPA, T1_R)
+
 def potential(p, q):
     """Potential energy V(q)."""
+    cc, tab1 = _constants(p)
     total = 0.0
-    total += float(numpy.sum(numpy.broadcast_to(_k_t0_value(p, q[T0_I]), (4,))))
-    total += float(numpy.sum(numpy.broadcast_to(_k_t1_value(p, q[T1_I], q[T1_J], T1_KAPPA, T1_R), (4,))))
+    total += float(numpy.sum(numpy.broadcast_to(_k_t0_value(q[T0_I], cc), (4,))))
+    total += float(numpy.sum(numpy.broadcast_to(_k_t1_value(q[T1_I], q[T1_J], cc, tab1), (4,))))
     return total
 
 
 def gradient(p, q):
     """dV/dq as an array of shape (4, 3)."""
+    cc, tab1 = _constants(p)
     g = numpy.zeros((4, 3))
-    numpy.add.at(g, T0_I, _k_t0_gradient(p, q[T0_I]))
-    gi, gj = _k_t1_gradient(p, q[T1_I], q[T1_J], T1_KAPPA, T1_R)
+    numpy.add.at(g, T0_I, _k_t0_gradient(q[T0_I], cc))
+    gi, gj = _k_t1_gradient(q[T1_I], q[T1_J], T1_R, cc, tab1)
     numpy.add.at(g, T1_I, gi)
     numpy.add.at(g, T1_J, gj)
     return g

@@ -2,11 +2,14 @@
  * spec sha256 3e9145b5bf4491cf
  * See lj_cutoff.h for the interface. Parts: tables, neighbours, kernels, helpers, context, potential, energy, field_diagonal, field, vi_explicit, vi_step, rattle_closed, rk, rk_step, driver.
  * Lowering passes (total operations of all kernels after each):
- *   cse: 316
- *   powers: 379
- *   opcount: 379
- *   calls: 379
- *   workspace: 379
+ *   factor: 0
+ *   cse: 301
+ *   hoist: 300
+ *   strength: 304
+ *   powers: 342
+ *   opcount: 342
+ *   calls: 342
+ *   workspace: 342
  */
 #include "lj_cutoff.h"
 
@@ -59,6 +62,19 @@ static int lj_cutoff_near(const double *a, const double *b, double rc2)
     return d0 * d0 + d1 * d1 + d2 * d2 < rc2;
 }
 /* ---- kernels derived by SymPy ------------------------------------------------------------- */
+/* constants of the kernels that depend only on the parameters (once per call)
+ * 7 operations as derived, 7 after cse (3 temporaries). */
+static void lj_cutoff_k_context(const double *LJ_CUTOFF_RESTRICT p, double *LJ_CUTOFF_RESTRICT cc)
+{
+    const double pw0 = p[2]*p[2];
+    const double pw1 = pw0*pw0;
+    const double x0 = pw0*pw1;
+    cc[0] = x0;
+    cc[1] = 4*p[1];
+    cc[2] = 2*x0;
+    cc[3] = 24*p[1]*x0;
+}
+
 /* diagonal of M and its coupled off-diagonal entries (pair order of the header)
  * 0 operations as derived, 0 after cse (0 temporaries). */
 static void lj_cutoff_k_inertia(const double *LJ_CUTOFF_RESTRICT p, double *LJ_CUTOFF_RESTRICT mdiag)
@@ -67,33 +83,34 @@ static void lj_cutoff_k_inertia(const double *LJ_CUTOFF_RESTRICT p, double *LJ_C
 }
 
 /* [[potential.pair]] #1: sum over pairs (all), value
- * 25 operations as derived, 41 after cse (1 temporaries). */
-static void lj_cutoff_k_t0_value(const double *LJ_CUTOFF_RESTRICT p, const double *LJ_CUTOFF_RESTRICT qi, const double *LJ_CUTOFF_RESTRICT qj, double *LJ_CUTOFF_RESTRICT v)
+ * 26 operations as derived, 40 after cse (1 temporaries). */
+static void lj_cutoff_k_t0_value(const double *LJ_CUTOFF_RESTRICT qi, const double *LJ_CUTOFF_RESTRICT qj, const double *LJ_CUTOFF_RESTRICT cc, double *LJ_CUTOFF_RESTRICT v)
 {
-    const double x0 = (qi[0] - qj[0])*(qi[0] - qj[0]) + (qi[1] - qj[1])*(qi[1] - qj[1]) + (qi[2] - qj[2])*(qi[2] - qj[2]);
-    v[0] = 4*p[1]*(-p[2]*p[2]*p[2]*p[2]*p[2]*p[2]*1.0/(x0*x0*x0) + (p[2]*p[2]*p[2]*p[2]*p[2]*p[2]*p[2]*p[2]*p[2]*p[2]*p[2]*p[2])*1.0/(x0*x0*x0*x0*x0*x0));
+    const double x0 = cc[0]*1.0/(((qi[0] - qj[0])*(qi[0] - qj[0]) + (qi[1] - qj[1])*(qi[1] - qj[1]) + (qi[2] - qj[2])*(qi[2] - qj[2]))*((qi[0] - qj[0])*(qi[0] - qj[0]) + (qi[1] - qj[1])*(qi[1] - qj[1]) + (qi[2] - qj[2])*(qi[2] - qj[2]))*((qi[0] - qj[0])*(qi[0] - qj[0]) + (qi[1] - qj[1])*(qi[1] - qj[1]) + (qi[2] - qj[2])*(qi[2] - qj[2])));
+    v[0] = cc[1]*x0*(x0 - 1);
 }
 
 /* [[potential.pair]] #1: sum over pairs (all), gradient
- * 198 operations as derived, 83 after cse (10 temporaries). */
-static void lj_cutoff_k_t0_gradient(const double *LJ_CUTOFF_RESTRICT p, const double *LJ_CUTOFF_RESTRICT qi, const double *LJ_CUTOFF_RESTRICT qj, double *LJ_CUTOFF_RESTRICT gi, double *LJ_CUTOFF_RESTRICT gj)
+ * 174 operations as derived, 25 after cse (11 temporaries). */
+static void lj_cutoff_k_t0_gradient(const double *LJ_CUTOFF_RESTRICT qi, const double *LJ_CUTOFF_RESTRICT qj, const double *LJ_CUTOFF_RESTRICT cc, double *LJ_CUTOFF_RESTRICT gi, double *LJ_CUTOFF_RESTRICT gj)
 {
-    const double x0 = 12*qi[0] - 12*qj[0];
-    const double x1 = (qi[0] - qj[0])*(qi[0] - qj[0]) + (qi[1] - qj[1])*(qi[1] - qj[1]) + (qi[2] - qj[2])*(qi[2] - qj[2]);
-    const double x2 = (p[2]*p[2]*p[2]*p[2]*p[2]*p[2]*p[2]*p[2]*p[2]*p[2]*p[2]*p[2])*1.0/(x1*x1*x1*x1*x1*x1*x1);
-    const double x3 = 6*qi[0] - 6*qj[0];
-    const double x4 = (p[2]*p[2]*p[2]*p[2]*p[2]*p[2])*1.0/(x1*x1*x1*x1);
-    const double x5 = 4*p[1];
-    const double x6 = 12*qi[1] - 12*qj[1];
-    const double x7 = 6*qi[1] - 6*qj[1];
-    const double x8 = 12*qi[2] - 12*qj[2];
-    const double x9 = 6*qi[2] - 6*qj[2];
-    gi[0] = x5*(-x0*x2 + x3*x4);
-    gi[1] = x5*(-x2*x6 + x4*x7);
-    gi[2] = x5*(-x2*x8 + x4*x9);
-    gj[0] = x5*(x0*x2 - x3*x4);
-    gj[1] = x5*(x2*x6 - x4*x7);
-    gj[2] = x5*(x2*x8 - x4*x9);
+    const double x0 = qi[0] - qj[0];
+    const double pw0 = x0*x0;
+    const double x2 = qi[1] - qj[1];
+    const double pw1 = x2*x2;
+    const double x3 = qi[2] - qj[2];
+    const double pw2 = x3*x3;
+    const double x4 = pw0 + pw1 + pw2;
+    const double pw3 = 1.0/x4;
+    const double pw4 = pw3*pw3;
+    const double pw5 = pw4*pw4;
+    const double x5 = cc[3]*pw5*(cc[2]*pw3*pw4 - 1);
+    gi[0] = -x0*x5;
+    gi[1] = -x2*x5;
+    gi[2] = -x3*x5;
+    gj[0] = x0*x5;
+    gj[1] = x2*x5;
+    gj[2] = x3*x5;
 }
 
 /* kinetic energy of one body: 1/2 M_ii |omega x q|^2
@@ -129,76 +146,92 @@ static void lj_cutoff_k_rhs_diag(const double m, const double *LJ_CUTOFF_RESTRIC
 }
 
 /* explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0)
- * 207 operations as derived, 45 after cse (6 temporaries). */
+ * 219 operations as derived, 53 after cse (14 temporaries). */
 static void lj_cutoff_k_vi_pos(const double h, const double m, const double *LJ_CUTOFF_RESTRICT q, const double *LJ_CUTOFF_RESTRICT w, const double *LJ_CUTOFF_RESTRICT g, double *LJ_CUTOFF_RESTRICT qn, double *LJ_CUTOFF_RESTRICT s)
 {
-    const double x0 = (1.0/2.0)*(h*h)*1.0/m;
-    const double x1 = h*w[1] - x0*(g[0]*q[2] - g[2]*q[0]);
-    const double x2 = h*w[2] + x0*(g[0]*q[1] - g[1]*q[0]);
-    const double x3 = h*w[0] + x0*(g[1]*q[2] - g[2]*q[1]);
-    const double x4 = 1 - (x1*x1) - (x2*x2) - (x3*x3);
-    const double x5 = sqrt(x4);
-    qn[0] = q[0]*x5 - q[1]*x2 + q[2]*x1;
-    qn[1] = q[0]*x2 + q[1]*x5 - q[2]*x3;
-    qn[2] = -q[0]*x1 + q[1]*x3 + q[2]*x5;
-    s[0] = x4;
+    const double pw0 = h*h;
+    const double x0 = h*1.0/m;
+    const double x1 = 2*w[2] + x0*(g[0]*q[1] - g[1]*q[0]);
+    const double pw1 = x1*x1;
+    const double x2 = (1.0/2.0)*h;
+    const double x3 = x1*x2;
+    const double x4 = 2*w[1] - x0*(g[0]*q[2] - g[2]*q[0]);
+    const double pw2 = x4*x4;
+    const double x5 = q[2]*x2;
+    const double x6 = (1.0/4.0)*pw0;
+    const double x7 = 2*w[0] + x0*(g[1]*q[2] - g[2]*q[1]);
+    const double pw3 = x7*x7;
+    const double x8 = -pw1*x6 - pw2*x6 - pw3*x6 + 1;
+    const double x9 = sqrt(x8);
+    qn[0] = q[0]*x9 - q[1]*x3 + x4*x5;
+    qn[1] = q[0]*x3 + q[1]*x9 - x5*x7;
+    qn[2] = -q[0]*x2*x4 + q[1]*x2*x7 + q[2]*x9;
+    s[0] = x8;
 }
 
 /* explicit VI velocity update: omega+ = omega - h/(2M_ii)(q x g + q+ x g+)
- * 51 operations as derived, 42 after cse (4 temporaries). */
+ * 42 operations as derived, 33 after cse (1 temporaries). */
 static void lj_cutoff_k_vi_vel(const double h, const double m, const double *LJ_CUTOFF_RESTRICT q, const double *LJ_CUTOFF_RESTRICT w, const double *LJ_CUTOFF_RESTRICT g, const double *LJ_CUTOFF_RESTRICT qn, const double *LJ_CUTOFF_RESTRICT gn, double *LJ_CUTOFF_RESTRICT wn)
 {
-    const double x0 = (1.0/2.0)*1.0/m;
-    const double x1 = h*x0;
-    const double x2 = 1.0/h;
-    const double x3 = x0*(h*h);
-    wn[0] = -x1*(-gn[1]*qn[2] + gn[2]*qn[1]) + x2*(h*w[0] + x3*(g[1]*q[2] - g[2]*q[1]));
-    wn[1] = -x1*(gn[0]*qn[2] - gn[2]*qn[0]) + x2*(h*w[1] - x3*(g[0]*q[2] - g[2]*q[0]));
-    wn[2] = -x1*(-gn[0]*qn[1] + gn[1]*qn[0]) + x2*(h*w[2] + x3*(g[0]*q[1] - g[1]*q[0]));
+    const double x0 = (1.0/2.0)*h*1.0/m;
+    wn[0] = w[0] + x0*(g[1]*q[2] - g[2]*q[1]) - x0*(-gn[1]*qn[2] + gn[2]*qn[1]);
+    wn[1] = w[1] - x0*(g[0]*q[2] - g[2]*q[0]) - x0*(gn[0]*qn[2] - gn[2]*qn[0]);
+    wn[2] = w[2] + x0*(g[0]*q[1] - g[1]*q[0]) - x0*(-gn[0]*qn[1] + gn[1]*qn[0]);
 }
 
 /* RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0)
- * 817 operations as derived, 69 after cse (17 temporaries). */
+ * 911 operations as derived, 80 after cse (25 temporaries). */
 static void lj_cutoff_k_rattle_pos(const double h, const double m, const double *LJ_CUTOFF_RESTRICT x, const double *LJ_CUTOFF_RESTRICT v, const double *LJ_CUTOFF_RESTRICT g, double *LJ_CUTOFF_RESTRICT xn, double *LJ_CUTOFF_RESTRICT vh, double *LJ_CUTOFF_RESTRICT disc)
 {
-    const double x0 = (1.0/2.0)*1.0/m;
-    const double x1 = x0*(h*h);
+    const double pw0 = h*h;
+    const double pw5 = x[0]*x[0];
+    const double pw6 = x[1]*x[1];
+    const double pw7 = x[2]*x[2];
+    const double x0 = 1.0/m;
+    const double x1 = pw0*x0;
     const double x2 = g[0]*x1;
-    const double x3 = h*v[0] - x2 + x[0];
+    const double x3 = 2*h*v[0] - x2 + 2*x[0];
+    const double pw1 = x3*x3;
     const double x4 = g[1]*x1;
-    const double x5 = h*v[1] - x4 + x[1];
+    const double x5 = 2*h*v[1] - x4 + 2*x[1];
+    const double pw2 = x5*x5;
     const double x6 = g[2]*x1;
-    const double x7 = h*v[2] - x6 + x[2];
-    const double x8 = -1 + x3*x3 + x5*x5 + x7*x7;
+    const double x7 = 2*h*v[2] - x6 + 2*x[2];
+    const double pw3 = x7*x7;
+    const double x8 = pw1 + pw2 + pw3 - 4;
     const double x9 = x3*x[0] + x5*x[1] + x7*x[2];
-    const double x10 = -x8*(x[0]*x[0] + x[1]*x[1] + x[2]*x[2]) + x9*x9;
-    const double x11 = x8*1.0/(sqrt(x10) + x9);
+    const double pw4 = x9*x9;
+    const double x10 = pw4 - x8*(pw5 + pw6 + pw7);
+    const double x11 = (1.0/2.0)*x8*1.0/(sqrt(x10) + x9);
     const double x12 = x11*x[0];
     const double x13 = x11*x[1];
     const double x14 = x11*x[2];
-    const double x15 = h*x0;
+    const double x15 = (1.0/2.0)*h*x0;
     const double x16 = 1.0/h;
-    xn[0] = h*v[0] - x12 - x2 + x[0];
-    xn[1] = h*v[1] - x13 - x4 + x[1];
-    xn[2] = h*v[2] - x14 - x6 + x[2];
+    xn[0] = h*v[0] - x12 - 1.0/2.0*x2 + x[0];
+    xn[1] = h*v[1] - x13 - 1.0/2.0*x4 + x[1];
+    xn[2] = h*v[2] - x14 - 1.0/2.0*x6 + x[2];
     vh[0] = -g[0]*x15 + v[0] - x12*x16;
     vh[1] = -g[1]*x15 + v[1] - x13*x16;
     vh[2] = -g[2]*x15 + v[2] - x14*x16;
-    disc[0] = x10;
+    disc[0] = (1.0/4.0)*x10;
 }
 
 /* RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+
- * 87 operations as derived, 31 after cse (5 temporaries). */
+ * 96 operations as derived, 36 after cse (8 temporaries). */
 static void lj_cutoff_k_rattle_vel(const double h, const double m, const double *LJ_CUTOFF_RESTRICT xn, const double *LJ_CUTOFF_RESTRICT vh, const double *LJ_CUTOFF_RESTRICT gn, double *LJ_CUTOFF_RESTRICT vn)
 {
-    const double x0 = (1.0/2.0)*h*1.0/m;
-    const double x1 = gn[0]*x0 - vh[0];
-    const double x2 = gn[1]*x0 - vh[1];
-    const double x3 = gn[2]*x0 - vh[2];
-    const double x4 = (-x1*xn[0] - x2*xn[1] - x3*xn[2])*1.0/(xn[0]*xn[0] + xn[1]*xn[1] + xn[2]*xn[2]);
-    vn[0] = -x1 - x4*xn[0];
-    vn[1] = -x2 - x4*xn[1];
-    vn[2] = -x3 - x4*xn[2];
+    const double pw0 = xn[0]*xn[0];
+    const double pw1 = xn[1]*xn[1];
+    const double pw2 = xn[2]*xn[2];
+    const double x0 = h*1.0/m;
+    const double x1 = gn[0]*x0;
+    const double x2 = gn[1]*x0;
+    const double x3 = gn[2]*x0;
+    const double x4 = (1.0/2.0)*(xn[0]*(2*vh[0] - x1) + xn[1]*(2*vh[1] - x2) + xn[2]*(2*vh[2] - x3))*1.0/(pw0 + pw1 + pw2);
+    vn[0] = vh[0] - 1.0/2.0*x1 - x4*xn[0];
+    vn[1] = vh[1] - 1.0/2.0*x2 - x4*xn[1];
+    vn[2] = vh[2] - 1.0/2.0*x3 - x4*xn[2];
 }
 
 /* ---- small helpers ---------------------------------------------------------------------- */
@@ -234,15 +267,32 @@ static void lj_cutoff_masses(const double *p, double *md, double *mp)
     }
 }
 
-/* Per-call context: parameters, masses (computed once per call) and scratch kept at the tail
- * of the caller's workspace (after the first LJ_CUTOFF_WORK_BASE doubles). */
+/* Per-call context: parameters, and what is computed once per call (masses, constants of the
+ * kernels, member tables) or kept between steps (neighbour lists), at the tail of the caller's
+ * workspace (after the first LJ_CUTOFF_WORK_BASE doubles). */
 typedef struct {
     const double *p;
     double *md; /* M_ii, one per body */
     double *mp; /* coupled entries, one per pair */
     double *adiag; /* diagonal of A(q+) in the VI velocity solve */
     double *nb; /* neighbour-list cells and links */
+    double *cc; /* constants of the kernels that depend only on the parameters */
 } lj_cutoff_ctx;
+
+/* A context without workspace, for the public functions that take none: the constants of the
+ * kernels in `cc` (LJ_CUTOFF_NCONST doubles, computed here); masses, member tables and
+ * neighbour lists absent (NULL: tables are computed member by member, all pairs scanned). */
+static void lj_cutoff_ctx_bare(lj_cutoff_ctx *cx, const double *p, double *cc)
+{
+    cx->p = p;
+    cx->md = NULL;
+    cx->mp = NULL;
+    cx->adiag = NULL;
+    cx->nb = NULL;
+    cx->cc = NULL;
+    cx->cc = cc;
+    lj_cutoff_k_context(p, cx->cc);
+}
 
 static void lj_cutoff_ctx_init(lj_cutoff_ctx *cx, const double *p, double *work)
 {
@@ -252,7 +302,9 @@ static void lj_cutoff_ctx_init(lj_cutoff_ctx *cx, const double *p, double *work)
     cx->mp = tail + 8;
     cx->adiag = tail + 8;
     cx->nb = tail + 8;
+    cx->cc = tail + 17;
     lj_cutoff_masses(p, cx->md, cx->mp);
+    lj_cutoff_k_context(p, cx->cc);
 }
 
 const char *const lj_cutoff_param_names[] = {
@@ -284,9 +336,11 @@ void lj_cutoff_default_options(lj_cutoff_options *opt)
 }
 /* ---- potential and its gradient ------------------------------------------------------------- */
 
-/* V(q); nb: neighbour-list storage for cutoff terms, or NULL (then all pairs are scanned). */
-static double lj_cutoff_potential_nb(const double *p, const double *q, double *nb)
+/* V(q), with the context's constants, member tables and neighbour lists (see _ctx_bare). */
+static double lj_cutoff_potential_cx(const lj_cutoff_ctx *cx, const double *q)
 {
+    const double *p = cx->p;
+    double *nb = cx->nb;
     double total = 0.0;
     /* term 0, [[potential.pair]] #1: sum over pairs within the cutoff, value */
     /* pairs closer than 1.3: a cell list when storage is given (O(n)), else all pairs */
@@ -308,7 +362,7 @@ static double lj_cutoff_potential_nb(const double *p, const double *q, double *n
                 for (j = (long)nb[(x * nc + y) * nc + z]; j >= 0; j = (long)nb[cells + j]) {
                     if (j > i && lj_cutoff_near(q + 3 * i, q + 3 * j, 1.6900000000000002)) {
                         double v;
-                        lj_cutoff_k_t0_value(p, q + 3 * i, q + 3 * j, &v);
+                        lj_cutoff_k_t0_value(q + 3 * i, q + 3 * j, cx->cc, &v);
                         total += v;
 
                     }
@@ -323,7 +377,7 @@ static double lj_cutoff_potential_nb(const double *p, const double *q, double *n
             for (j = i + 1; j < 8; ++j) {
                 if (lj_cutoff_near(q + 3 * i, q + 3 * j, 1.6900000000000002)) {
                         double v;
-                        lj_cutoff_k_t0_value(p, q + 3 * i, q + 3 * j, &v);
+                        lj_cutoff_k_t0_value(q + 3 * i, q + 3 * j, cx->cc, &v);
                         total += v;
 
                 }
@@ -338,12 +392,18 @@ static double lj_cutoff_potential_nb(const double *p, const double *q, double *n
 
 double lj_cutoff_potential(const double *p, const double *q)
 {
-    return lj_cutoff_potential_nb(p, q, NULL);
+    double cc[4];
+    lj_cutoff_ctx cx;
+    lj_cutoff_ctx_bare(&cx, p, cc);
+    return lj_cutoff_potential_cx(&cx, q);
 }
 
-/* dV/dq; nb as for the potential. */
-static void lj_cutoff_gradient_nb(const double *p, const double *q, double *g, double *nb)
+/* dV/dq, with the context as for the potential. */
+static void lj_cutoff_gradient_cx(const lj_cutoff_ctx *cx, const double *q, double *g)
 {
+    const double *p = cx->p;
+    double *nb = cx->nb;
+    (void)p;
     (void)nb;
     long e;
     for (e = 0; e < LJ_CUTOFF_N3; ++e) {
@@ -369,7 +429,7 @@ static void lj_cutoff_gradient_nb(const double *p, const double *q, double *g, d
                 for (j = (long)nb[(x * nc + y) * nc + z]; j >= 0; j = (long)nb[cells + j]) {
                     if (j > i && lj_cutoff_near(q + 3 * i, q + 3 * j, 1.6900000000000002)) {
                         double gi[3], gj[3];
-                        lj_cutoff_k_t0_gradient(p, q + 3 * i, q + 3 * j, gi, gj);
+                        lj_cutoff_k_t0_gradient(q + 3 * i, q + 3 * j, cx->cc, gi, gj);
                         g[3 * i] += gi[0];
                         g[3 * i + 1] += gi[1];
                         g[3 * i + 2] += gi[2];
@@ -389,7 +449,7 @@ static void lj_cutoff_gradient_nb(const double *p, const double *q, double *g, d
             for (j = i + 1; j < 8; ++j) {
                 if (lj_cutoff_near(q + 3 * i, q + 3 * j, 1.6900000000000002)) {
                         double gi[3], gj[3];
-                        lj_cutoff_k_t0_gradient(p, q + 3 * i, q + 3 * j, gi, gj);
+                        lj_cutoff_k_t0_gradient(q + 3 * i, q + 3 * j, cx->cc, gi, gj);
                         g[3 * i] += gi[0];
                         g[3 * i + 1] += gi[1];
                         g[3 * i + 2] += gi[2];
@@ -405,20 +465,18 @@ static void lj_cutoff_gradient_nb(const double *p, const double *q, double *g, d
 
 void lj_cutoff_gradient(const double *p, const double *q, double *g)
 {
-    lj_cutoff_gradient_nb(p, q, g, NULL);
-}
-
-static void lj_cutoff_gradient_cx(const lj_cutoff_ctx *cx, const double *q, double *g)
-{
-    lj_cutoff_gradient_nb(cx->p, q, g, cx->nb);
+    double cc[4];
+    lj_cutoff_ctx cx;
+    lj_cutoff_ctx_bare(&cx, p, cc);
+    lj_cutoff_gradient_cx(&cx, q, g);
 }
 /* ---- energy and angular momentum ------------------------------------------------------------ */
 
-/* Total energy with given masses (mp unused when M is diagonal). */
-static double lj_cutoff_energy_md(const double *p, const double *md, const double *mp,
-        const double *q, const double *w, double *nb)
+/* Total energy, with the context's masses (and constants, tables, neighbour lists). */
+static double lj_cutoff_energy_cx(const lj_cutoff_ctx *cx, const double *q, const double *w)
 {
-    double e = lj_cutoff_potential_nb(p, q, nb), t;
+    const double *md = cx->md, *mp = cx->mp;
+    double e = lj_cutoff_potential_cx(cx, q), t;
     int i;
     (void)mp;
     for (i = 0; i < 8; ++i) {
@@ -430,14 +488,13 @@ static double lj_cutoff_energy_md(const double *p, const double *md, const doubl
 
 double lj_cutoff_energy(const double *p, const double *q, const double *w)
 {
-    double md[8], mp[1];
+    double md[8], mp[1], cc[4];
+    lj_cutoff_ctx cx;
+    lj_cutoff_ctx_bare(&cx, p, cc);
+    cx.md = md;
+    cx.mp = mp;
     lj_cutoff_masses(p, md, mp);
-    return lj_cutoff_energy_md(p, md, mp, q, w, NULL);
-}
-
-static double lj_cutoff_energy_cx(const lj_cutoff_ctx *cx, const double *q, const double *w)
-{
-    return lj_cutoff_energy_md(cx->p, cx->md, cx->mp, q, w, cx->nb);
+    return lj_cutoff_energy_cx(&cx, q, w);
 }
 
 void lj_cutoff_angular_momentum(const double *p, const double *q, const double *w, double J[3])

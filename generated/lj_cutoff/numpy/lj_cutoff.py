@@ -2,11 +2,14 @@
 # spec sha256 3e9145b5bf4491cf
 # Parts: tables, neighbours, kernels, helpers, context, potential, energy, field_diagonal, field, vi_explicit, vi_step, rattle_closed, rk, rk_step, driver.
 # Lowering passes (total operations of all kernels after each):
-#   cse: 316
-#   powers: 379
-#   opcount: 379
-#   calls: 379
-#   workspace: 379
+#   factor: 0
+#   cse: 301
+#   hoist: 300
+#   strength: 304
+#   powers: 342
+#   opcount: 342
+#   calls: 342
+#   workspace: 342
 """Equations of motion and integrators for the system "lj_cutoff" on (S^2)^8 (NumPy).
 
 Same functions as the emitted C (lj_cutoff.h). States are arrays q, w of shape (8, 3).
@@ -57,33 +60,43 @@ def _pairs_within(q, cutoff):
 # ---- kernels derived by SymPy ----------------------------------------------------------------
 
 
+def _k_context(p):
+    """constants of the kernels that depend only on the parameters (once per call) (7 ops as derived, 7 after cse)."""
+    pw0 = p[2]*p[2]
+    pw1 = pw0*pw0
+    x0 = pw0*pw1
+    cc = numpy.array([x0, 4*p[1], 2*x0, 24*p[1]*x0], dtype=float)
+    return cc
+
+
 def _k_inertia(p):
     """diagonal of M and its coupled off-diagonal entries (pair order of the header) (0 ops as derived, 0 after cse)."""
     mdiag = numpy.array([p[0]], dtype=float)
     return mdiag
 
 
-def _k_t0_value(p, qi, qj):
-    """[[potential.pair]] #1: sum over pairs (all), value (25 ops as derived, 41 after cse)."""
-    x0 = (qi[..., 0] - qj[..., 0])*(qi[..., 0] - qj[..., 0]) + (qi[..., 1] - qj[..., 1])*(qi[..., 1] - qj[..., 1]) + (qi[..., 2] - qj[..., 2])*(qi[..., 2] - qj[..., 2])
-    v = 4*p[..., 1]*(-p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*(x0*x0*x0)**(-1.0) + (p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2])*(x0*x0*x0*x0*x0*x0)**(-1.0))
+def _k_t0_value(qi, qj, cc):
+    """[[potential.pair]] #1: sum over pairs (all), value (26 ops as derived, 40 after cse)."""
+    x0 = cc[0]*(((qi[..., 0] - qj[..., 0])*(qi[..., 0] - qj[..., 0]) + (qi[..., 1] - qj[..., 1])*(qi[..., 1] - qj[..., 1]) + (qi[..., 2] - qj[..., 2])*(qi[..., 2] - qj[..., 2]))*((qi[..., 0] - qj[..., 0])*(qi[..., 0] - qj[..., 0]) + (qi[..., 1] - qj[..., 1])*(qi[..., 1] - qj[..., 1]) + (qi[..., 2] - qj[..., 2])*(qi[..., 2] - qj[..., 2]))*((qi[..., 0] - qj[..., 0])*(qi[..., 0] - qj[..., 0]) + (qi[..., 1] - qj[..., 1])*(qi[..., 1] - qj[..., 1]) + (qi[..., 2] - qj[..., 2])*(qi[..., 2] - qj[..., 2])))**(-1.0)
+    v = cc[1]*x0*(x0 - 1)
     return v
 
 
-def _k_t0_gradient(p, qi, qj):
-    """[[potential.pair]] #1: sum over pairs (all), gradient (198 ops as derived, 83 after cse)."""
-    x0 = 12*qi[..., 0] - 12*qj[..., 0]
-    x1 = (qi[..., 0] - qj[..., 0])*(qi[..., 0] - qj[..., 0]) + (qi[..., 1] - qj[..., 1])*(qi[..., 1] - qj[..., 1]) + (qi[..., 2] - qj[..., 2])*(qi[..., 2] - qj[..., 2])
-    x2 = (p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2])*(x1*x1*x1*x1*x1*x1*x1)**(-1.0)
-    x3 = 6*qi[..., 0] - 6*qj[..., 0]
-    x4 = (p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2]*p[..., 2])*(x1*x1*x1*x1)**(-1.0)
-    x5 = 4*p[..., 1]
-    x6 = 12*qi[..., 1] - 12*qj[..., 1]
-    x7 = 6*qi[..., 1] - 6*qj[..., 1]
-    x8 = 12*qi[..., 2] - 12*qj[..., 2]
-    x9 = 6*qi[..., 2] - 6*qj[..., 2]
-    gi = _stack(x5*(-x0*x2 + x3*x4), x5*(-x2*x6 + x4*x7), x5*(-x2*x8 + x4*x9))
-    gj = _stack(x5*(x0*x2 - x3*x4), x5*(x2*x6 - x4*x7), x5*(x2*x8 - x4*x9))
+def _k_t0_gradient(qi, qj, cc):
+    """[[potential.pair]] #1: sum over pairs (all), gradient (174 ops as derived, 25 after cse)."""
+    x0 = qi[..., 0] - qj[..., 0]
+    pw0 = x0*x0
+    x2 = qi[..., 1] - qj[..., 1]
+    pw1 = x2*x2
+    x3 = qi[..., 2] - qj[..., 2]
+    pw2 = x3*x3
+    x4 = pw0 + pw1 + pw2
+    pw3 = x4**(-1.0)
+    pw4 = pw3*pw3
+    pw5 = pw4*pw4
+    x5 = cc[3]*pw5*(cc[2]*pw3*pw4 - 1)
+    gi = _stack(-x0*x5, -x2*x5, -x3*x5)
+    gj = _stack(x0*x5, x2*x5, x3*x5)
     return gi, gj
 
 
@@ -111,61 +124,77 @@ def _k_rhs_diag(m, q, w, g):
 
 
 def _k_vi_pos(h, m, q, w, g):
-    """explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0) (207 ops as derived, 45 after cse)."""
-    x0 = (1/2)*(h*h)*m**(-1.0)
-    x1 = h*w[..., 1] - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])
-    x2 = h*w[..., 2] + x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0])
-    x3 = h*w[..., 0] + x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1])
-    x4 = 1 - (x1*x1) - (x2*x2) - (x3*x3)
-    x5 = numpy.sqrt(x4)
-    qn = _stack(q[..., 0]*x5 - q[..., 1]*x2 + q[..., 2]*x1, q[..., 0]*x2 + q[..., 1]*x5 - q[..., 2]*x3, -q[..., 0]*x1 + q[..., 1]*x3 + q[..., 2]*x5)
-    s = x4
+    """explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0) (219 ops as derived, 53 after cse)."""
+    pw0 = h*h
+    x0 = h*m**(-1.0)
+    x1 = 2*w[..., 2] + x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0])
+    pw1 = x1*x1
+    x2 = (1/2)*h
+    x3 = x1*x2
+    x4 = 2*w[..., 1] - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])
+    pw2 = x4*x4
+    x5 = q[..., 2]*x2
+    x6 = (1/4)*pw0
+    x7 = 2*w[..., 0] + x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1])
+    pw3 = x7*x7
+    x8 = -pw1*x6 - pw2*x6 - pw3*x6 + 1
+    x9 = numpy.sqrt(x8)
+    qn = _stack(q[..., 0]*x9 - q[..., 1]*x3 + x4*x5, q[..., 0]*x3 + q[..., 1]*x9 - x5*x7, -q[..., 0]*x2*x4 + q[..., 1]*x2*x7 + q[..., 2]*x9)
+    s = x8
     return qn, s
 
 
 def _k_vi_vel(h, m, q, w, g, qn, gn):
-    """explicit VI velocity update: omega+ = omega - h/(2M_ii)(q x g + q+ x g+) (51 ops as derived, 42 after cse)."""
-    x0 = (1/2)*m**(-1.0)
-    x1 = h*x0
-    x2 = h**(-1.0)
-    x3 = x0*(h*h)
-    wn = _stack(-x1*(-gn[..., 1]*qn[..., 2] + gn[..., 2]*qn[..., 1]) + x2*(h*w[..., 0] + x3*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1])), -x1*(gn[..., 0]*qn[..., 2] - gn[..., 2]*qn[..., 0]) + x2*(h*w[..., 1] - x3*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])), -x1*(-gn[..., 0]*qn[..., 1] + gn[..., 1]*qn[..., 0]) + x2*(h*w[..., 2] + x3*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0])))
+    """explicit VI velocity update: omega+ = omega - h/(2M_ii)(q x g + q+ x g+) (42 ops as derived, 33 after cse)."""
+    x0 = (1/2)*h*m**(-1.0)
+    wn = _stack(w[..., 0] + x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1]) - x0*(-gn[..., 1]*qn[..., 2] + gn[..., 2]*qn[..., 1]), w[..., 1] - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0]) - x0*(gn[..., 0]*qn[..., 2] - gn[..., 2]*qn[..., 0]), w[..., 2] + x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0]) - x0*(-gn[..., 0]*qn[..., 1] + gn[..., 1]*qn[..., 0]))
     return wn
 
 
 def _k_rattle_pos(h, m, x, v, g):
-    """RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0) (817 ops as derived, 69 after cse)."""
-    x0 = (1/2)*m**(-1.0)
-    x1 = x0*(h*h)
+    """RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0) (911 ops as derived, 80 after cse)."""
+    pw0 = h*h
+    pw5 = x[..., 0]*x[..., 0]
+    pw6 = x[..., 1]*x[..., 1]
+    pw7 = x[..., 2]*x[..., 2]
+    x0 = m**(-1.0)
+    x1 = pw0*x0
     x2 = g[..., 0]*x1
-    x3 = h*v[..., 0] - x2 + x[..., 0]
+    x3 = 2*h*v[..., 0] - x2 + 2*x[..., 0]
+    pw1 = x3*x3
     x4 = g[..., 1]*x1
-    x5 = h*v[..., 1] - x4 + x[..., 1]
+    x5 = 2*h*v[..., 1] - x4 + 2*x[..., 1]
+    pw2 = x5*x5
     x6 = g[..., 2]*x1
-    x7 = h*v[..., 2] - x6 + x[..., 2]
-    x8 = -1 + x3*x3 + x5*x5 + x7*x7
+    x7 = 2*h*v[..., 2] - x6 + 2*x[..., 2]
+    pw3 = x7*x7
+    x8 = pw1 + pw2 + pw3 - 4
     x9 = x3*x[..., 0] + x5*x[..., 1] + x7*x[..., 2]
-    x10 = -x8*(x[..., 0]*x[..., 0] + x[..., 1]*x[..., 1] + x[..., 2]*x[..., 2]) + x9*x9
-    x11 = x8*(numpy.sqrt(x10) + x9)**(-1.0)
+    pw4 = x9*x9
+    x10 = pw4 - x8*(pw5 + pw6 + pw7)
+    x11 = (1/2)*x8*(numpy.sqrt(x10) + x9)**(-1.0)
     x12 = x11*x[..., 0]
     x13 = x11*x[..., 1]
     x14 = x11*x[..., 2]
-    x15 = h*x0
+    x15 = (1/2)*h*x0
     x16 = h**(-1.0)
-    xn = _stack(h*v[..., 0] - x12 - x2 + x[..., 0], h*v[..., 1] - x13 - x4 + x[..., 1], h*v[..., 2] - x14 - x6 + x[..., 2])
+    xn = _stack(h*v[..., 0] - x12 - 1/2*x2 + x[..., 0], h*v[..., 1] - x13 - 1/2*x4 + x[..., 1], h*v[..., 2] - x14 - 1/2*x6 + x[..., 2])
     vh = _stack(-g[..., 0]*x15 + v[..., 0] - x12*x16, -g[..., 1]*x15 + v[..., 1] - x13*x16, -g[..., 2]*x15 + v[..., 2] - x14*x16)
-    disc = x10
+    disc = (1/4)*x10
     return xn, vh, disc
 
 
 def _k_rattle_vel(h, m, xn, vh, gn):
-    """RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+ (87 ops as derived, 31 after cse)."""
-    x0 = (1/2)*h*m**(-1.0)
-    x1 = gn[..., 0]*x0 - vh[..., 0]
-    x2 = gn[..., 1]*x0 - vh[..., 1]
-    x3 = gn[..., 2]*x0 - vh[..., 2]
-    x4 = (-x1*xn[..., 0] - x2*xn[..., 1] - x3*xn[..., 2])*(xn[..., 0]*xn[..., 0] + xn[..., 1]*xn[..., 1] + xn[..., 2]*xn[..., 2])**(-1.0)
-    vn = _stack(-x1 - x4*xn[..., 0], -x2 - x4*xn[..., 1], -x3 - x4*xn[..., 2])
+    """RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+ (96 ops as derived, 36 after cse)."""
+    pw0 = xn[..., 0]*xn[..., 0]
+    pw1 = xn[..., 1]*xn[..., 1]
+    pw2 = xn[..., 2]*xn[..., 2]
+    x0 = h*m**(-1.0)
+    x1 = gn[..., 0]*x0
+    x2 = gn[..., 1]*x0
+    x3 = gn[..., 2]*x0
+    x4 = (1/2)*(xn[..., 0]*(2*vh[..., 0] - x1) + xn[..., 1]*(2*vh[..., 1] - x2) + xn[..., 2]*(2*vh[..., 2] - x3))*(pw0 + pw1 + pw2)**(-1.0)
+    vn = _stack(vh[..., 0] - 1/2*x1 - x4*xn[..., 0], vh[..., 1] - 1/2*x2 - x4*xn[..., 1], vh[..., 2] - 1/2*x3 - x4*xn[..., 2])
     return vn
 
 
@@ -195,19 +224,26 @@ def _masses(p):
 # ---- potential and its gradient -----------------------------------------------------------------
 
 
+def _constants(p):
+    """The kernels' constants and the terms' member tables (computed once per call)."""
+    cc = _k_context(p)
+    return cc
+
 def potential(p, q):
     """Potential energy V(q)."""
+    cc = _constants(p)
     total = 0.0
     T0_I, T0_J = _pairs_within(q, 1.3)
-    total += float(numpy.sum(numpy.broadcast_to(_k_t0_value(p, q[T0_I], q[T0_J]), (T0_I.size,))))
+    total += float(numpy.sum(numpy.broadcast_to(_k_t0_value(q[T0_I], q[T0_J], cc), (T0_I.size,))))
     return total
 
 
 def gradient(p, q):
     """dV/dq as an array of shape (8, 3)."""
+    cc = _constants(p)
     g = numpy.zeros((8, 3))
     T0_I, T0_J = _pairs_within(q, 1.3)
-    gi, gj = _k_t0_gradient(p, q[T0_I], q[T0_J])
+    gi, gj = _k_t0_gradient(q[T0_I], q[T0_J], cc)
     numpy.add.at(g, T0_I, gi)
     numpy.add.at(g, T0_J, gj)
     return g
