@@ -183,6 +183,9 @@ class TermLoop:
     value: str  # kernel names
     gradient: str
     table: int = 0  # slots per member of the term's table (see the `hoist` pass)
+    #: (slot, row, column) of the member's coefficients in the term's quadratic form, when the
+    #: `quadratic` pass put it into the module's matrix (column -1: linear; row -1: constant)
+    quadratic: tuple[tuple[int, int, int], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -261,6 +264,7 @@ class Module:
     work_base: int = 0  # doubles used by the functions; the per-call context follows
     work_size: int = 0
     constants: int = 0  # context constants (see the `hoist` pass)
+    quadratic: int = 0  # order of the quadratic terms' matrix K (3n, or 0 without one)
     facts: tuple[tuple[str, bool | int | float | str], ...] = ()
     field_calls: tuple[tuple[str, int], ...] = ()  # (kernel, calls) per vector-field evaluation
     passes: tuple[PassRecord, ...] = ()

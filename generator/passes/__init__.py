@@ -3,6 +3,8 @@
 Input: the unlowered `Module` of a system (`s2gen.equations.assemble`). Output: the lowered
 `Module` the printers read. The passes, in order (`PIPELINE`):
 
+- `quadratic`: terms quadratic in the positions summed into one matrix K built once per call,
+  their gradient Kq + b (`passes/quadratic.py`);
 - `factor`: common factors pulled out of sums (`passes/factor.py`);
 - `cse`: common subexpressions of each kernel, deterministic temporaries (`passes/cse.py`);
 - `hoist`: what depends only on parameters (and a member's data) computed once per call
@@ -19,7 +21,7 @@ Each run records the passes and the total operations after each; the emitted fil
 Example:
     >>> from s2gen.systems import builtin
     >>> [p.name for p in lower_system(builtin("double_pendulum")).passes]
-    ['factor', 'cse', 'hoist', 'strength', 'powers', 'opcount', 'calls', 'workspace']
+    ['quadratic', 'factor', 'cse', 'hoist', 'strength', 'powers', 'opcount', 'calls', 'workspace']
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ from s2gen.passes.factor import factor_pass
 from s2gen.passes.hoist import hoist_pass
 from s2gen.passes.opcount import module_ops, opcount_pass
 from s2gen.passes.powers import powers_pass
+from s2gen.passes.quadratic import quadratic_pass
 from s2gen.passes.strength import strength_pass
 from s2gen.passes.workspace import workspace_pass
 from s2gen.system import System
@@ -50,6 +53,7 @@ Pass = Callable[[Module], Module]
 
 #: The lowering passes, in the order they run.
 PIPELINE: tuple[tuple[str, Pass], ...] = (
+    ("quadratic", quadratic_pass),
     ("factor", factor_pass),
     ("cse", cse_pass),
     ("hoist", hoist_pass),

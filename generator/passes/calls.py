@@ -160,6 +160,8 @@ def _term_sites(module: Module, t: TermLoop) -> list[Site]:
     ]
     if t.table:
         sites.append(Site(f"t{t.index}_table", f"t{t.index}_table", _S, {**c, "tab": "row"}, py))
+    if t.quadratic:
+        sites.append(Site(f"t{t.index}_quad", f"t{t.index}_quad", _S, {**c, "coef": "row"}, py))
     return sites
 
 

@@ -105,6 +105,7 @@ def _context(module: Module) -> Layout:
         ("adiag", n if coupled else 0),
         ("nb", max(cells, default=0)),
         ("cc", module.constants),
+        *((("kq", module.quadratic**2), ("kb", module.quadratic + 10)) if module.quadratic else ()),
         *((f"t{t.index}", t.table * t.loop.count) for t in module.terms if t.table),
     )
 

@@ -119,6 +119,9 @@ class PrintedModule:
     constants_or_one: int
     table_inits: tuple[dict[str, Any], ...]  # per term with a table: index, count, table, call
     py_tables: tuple[str, ...]  # calls computing the terms' member tables (NumPy)
+    quadratic: int  # order of the quadratic terms' matrix K (0: none)
+    quad_inits: tuple[dict[str, Any], ...]  # per quadratic term: loop, coefficient call, scatter
+    py_quad_lines: tuple[str, ...]  # NumPy lines building K and b
     py_table_names: tuple[str, ...]
     c_parts: tuple[str, ...]
     py_parts: tuple[str, ...]
@@ -200,7 +203,7 @@ def _print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTe
         )
     else:
         py_acc = (f"numpy.add.at(g, {index[0]}, {gradient['py']})",)
-    suffix = "_cutoff" if cutoff else ""
+    suffix = "_cutoff" if cutoff else "_quadratic" if t.quadratic else ""
     label = module.kernel(t.value).doc.split(":")[0]
     table_lines: tuple[str, ...] = ()
     if t.table:
@@ -238,6 +241,56 @@ def _print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTe
     )
 
 
+def _coordinate(r: int, n: int, index: tuple[str, ...]) -> str:
+    """Component-major index (u n + body) in K of a member's local coordinate r (component
+    r % 3 of body i for r < 3, else of body j)."""
+    return f"{r % 3 * n} + {index[r // 3]}"
+
+
+def _quad_init(module: Module, t: TermLoop, calls: dict[str, Any]) -> dict[str, Any]:
+    """C text adding one quadratic term's members into K and b (once per call)."""
+    c_open, c_close = c_loop(module.name, t, module.n)
+    n3 = 3 * module.n
+    roles = ("i", "j")
+    lines = []
+    for slot, r, c in t.quadratic:
+        if r < 0:
+            lines.append(f"kb[{n3}] += row[{slot}];")
+        elif c < 0:
+            lines.append(f"kb[{_coordinate(r, module.n, roles)}] += row[{slot}];")
+        else:
+            row_i, col_i = _coordinate(r, module.n, roles), _coordinate(c, module.n, roles)
+            lines.append(f"kq[({row_i}) * {n3} + {col_i}] += row[{slot}];")
+            if r != c:
+                lines.append(f"kq[({col_i}) * {n3} + {row_i}] += row[{slot}];")
+    return {
+        "c_open": c_open,
+        "c_close": c_close,
+        "slots": len(t.quadratic),
+        "call": calls[f"t{t.index}_quad"]["c"],
+        "scatter": tuple(lines),
+    }
+
+
+def _py_quad(t: TermLoop, calls: dict[str, Any], n: int) -> tuple[str, ...]:
+    """NumPy lines adding one quadratic term's members into K and kb (component-major)."""
+    up = f"T{t.index}"
+    index = (f"{up}_I", f"{up}_J")
+    lines = [f"coef = {calls[f't{t.index}_quad']['py']}"]
+    for slot, r, c in t.quadratic:
+        value = f"numpy.broadcast_to(coef[..., {slot}], {index[0]}.shape)"
+        if r < 0:
+            lines.append(f"kb[-1] += float(numpy.sum({value}))")
+        elif c < 0:
+            lines.append(f"numpy.add.at(kb, {_coordinate(r, n, index)}, {value})")
+        else:
+            row_i, col_i = _coordinate(r, n, index), _coordinate(c, n, index)
+            lines.append(f"numpy.add.at(kq, ({row_i}, {col_i}), {value})")
+            if r != c:
+                lines.append(f"numpy.add.at(kq, ({col_i}, {row_i}), {value})")
+    return tuple(lines)
+
+
 def _doc(buffers: list[tuple[str, int]]) -> str:
     return ", ".join(f"{name} ({size})" for name, size in buffers if size) or "none"
 
@@ -254,6 +307,8 @@ def _work(module: Module) -> dict[str, dict[str, Any]]:
 
 _CONTEXT_DOC = {
     "cc": "constants of the kernels that depend only on the parameters",
+    "kq": "the quadratic terms' matrix K (row-major, N3 x N3)",
+    "kb": "the quadratic terms' linear part b (N3), then their constant",
     "md": "M_ii, one per body",
     "mp": "coupled entries, one per pair",
     "adiag": "diagonal of A(q+) in the VI velocity solve",
@@ -402,6 +457,11 @@ def print_module(module: Module) -> PrintedModule:
         ),
         py_tables=tuple(calls[f"t{t.index}_table"]["py"] for t in module.terms if t.table),
         py_table_names=tuple(f"tab{t.index}" for t in module.terms if t.table),
+        quadratic=module.quadratic,
+        quad_inits=tuple(_quad_init(module, t, calls) for t in module.terms if t.quadratic),
+        py_quad_lines=tuple(
+            line for t in module.terms if t.quadratic for line in _py_quad(t, calls, module.n)
+        ),
         c_parts=tuple(f"c/_{p}.jinja" for p in module.parts),
         py_parts=tuple(f"numpy/_{p}.jinja" for p in module.parts if p not in module.c_only),
         parts=module.parts,

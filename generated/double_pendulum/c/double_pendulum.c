@@ -2,6 +2,7 @@
  * spec sha256 22ca6b79c00fa6a8
  * See double_pendulum.h for the interface. Parts: tables, kernels, helpers, inertia_operator, cholesky, lu, context, potential, energy, field_coupled, field, vi_newton, vi_step, rattle_newton, rk, rk_step, driver.
  * Lowering passes (total operations of all kernels after each):
+ *   quadratic: 0
  *   factor: 0
  *   cse: 793
  *   hoist: 790
@@ -16,6 +17,21 @@
 #include <float.h>
 #include <math.h>
 #include <stddef.h>
+
+/* Loop hints for the vectorizer (OpenMP SIMD): they take effect with -fopenmp-simd or -fopenmp
+ * and are inert, without a warning, otherwise; compiled as C++ they are left out. */
+#if defined(__GNUC__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunknown-pragmas"
+#endif
+#if !defined(__cplusplus)
+#define DOUBLE_PENDULUM_PRAGMA(x) _Pragma(#x)
+#define DOUBLE_PENDULUM_SIMD DOUBLE_PENDULUM_PRAGMA(omp simd)
+#define DOUBLE_PENDULUM_SIMD_SUM(v) DOUBLE_PENDULUM_PRAGMA(omp simd reduction(+ : v))
+#else
+#define DOUBLE_PENDULUM_SIMD
+#define DOUBLE_PENDULUM_SIMD_SUM(v)
+#endif
 
 /* restrict as C99 spells it, or as C++ compilers do */
 #if defined(__cplusplus)
@@ -1603,3 +1619,7 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
     return double_pendulum_integrate_fixed(cx, method, h, nsteps, every, q0, w0, q, w, energy, run,
             stats);
 }
+
+#if defined(__GNUC__)
+#pragma GCC diagnostic pop
+#endif

@@ -2,6 +2,7 @@
 # spec sha256 22ca6b79c00fa6a8
 # Parts: tables, kernels, helpers, inertia_operator, cholesky, lu, context, potential, energy, field_coupled, field, vi_newton, vi_step, rattle_newton, rk, rk_step, driver.
 # Lowering passes (total operations of all kernels after each):
+#   quadratic: 0
 #   factor: 0
 #   cse: 793
 #   hoist: 790

@@ -2,6 +2,7 @@
  * spec sha256 22ca6b79c00fa6a8
  * See double_pendulum_angles.h for the interface. Parts: kernels, helpers, lu, angles_context, angles_convert, angles_field, rk, angles_driver.
  * Lowering passes (total operations of all kernels after each):
+ *   quadratic: 0
  *   factor: 0
  *   cse: 389
  *   hoist: 389
@@ -16,6 +17,21 @@
 #include <float.h>
 #include <math.h>
 #include <stddef.h>
+
+/* Loop hints for the vectorizer (OpenMP SIMD): they take effect with -fopenmp-simd or -fopenmp
+ * and are inert, without a warning, otherwise; compiled as C++ they are left out. */
+#if defined(__GNUC__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunknown-pragmas"
+#endif
+#if !defined(__cplusplus)
+#define DOUBLE_PENDULUM_ANGLES_PRAGMA(x) _Pragma(#x)
+#define DOUBLE_PENDULUM_ANGLES_SIMD DOUBLE_PENDULUM_ANGLES_PRAGMA(omp simd)
+#define DOUBLE_PENDULUM_ANGLES_SIMD_SUM(v) DOUBLE_PENDULUM_ANGLES_PRAGMA(omp simd reduction(+ : v))
+#else
+#define DOUBLE_PENDULUM_ANGLES_SIMD
+#define DOUBLE_PENDULUM_ANGLES_SIMD_SUM(v)
+#endif
 
 /* restrict as C99 spells it, or as C++ compilers do */
 #if defined(__cplusplus)
@@ -805,3 +821,7 @@ int double_pendulum_angles_integrate(const double *p, const double_pendulum_angl
     }
     return status;
 }
+
+#if defined(__GNUC__)
+#pragma GCC diagnostic pop
+#endif

@@ -2,6 +2,7 @@
 # spec sha256 22ca6b79c00fa6a8
 # Parts: kernels, helpers, lu, angles_context, angles_convert, angles_field, rk, angles_driver.
 # Lowering passes (total operations of all kernels after each):
+#   quadratic: 0
 #   factor: 0
 #   cse: 389
 #   hoist: 389

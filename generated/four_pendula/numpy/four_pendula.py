@@ -2,6 +2,7 @@
 # spec sha256 9fdaef79043e9a4a
 # Parts: tables, kernels, helpers, context, potential, energy, field_diagonal, field, vi_explicit, vi_step, rattle_closed, rk, rk_step, driver.
 # Lowering passes (total operations of all kernels after each):
+#   quadratic: 0
 #   factor: 0
 #   cse: 350
 #   hoist: 336

@@ -2,6 +2,7 @@
  * spec sha256 3e9145b5bf4491cf
  * See lj_cutoff.h for the interface. Parts: tables, neighbours, kernels, helpers, context, potential, energy, field_diagonal, field, vi_explicit, vi_step, rattle_closed, rk, rk_step, driver.
  * Lowering passes (total operations of all kernels after each):
+ *   quadratic: 0
  *   factor: 0
  *   cse: 301
  *   hoist: 300
@@ -16,6 +17,21 @@
 #include <float.h>
 #include <math.h>
 #include <stddef.h>
+
+/* Loop hints for the vectorizer (OpenMP SIMD): they take effect with -fopenmp-simd or -fopenmp
+ * and are inert, without a warning, otherwise; compiled as C++ they are left out. */
+#if defined(__GNUC__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunknown-pragmas"
+#endif
+#if !defined(__cplusplus)
+#define LJ_CUTOFF_PRAGMA(x) _Pragma(#x)
+#define LJ_CUTOFF_SIMD LJ_CUTOFF_PRAGMA(omp simd)
+#define LJ_CUTOFF_SIMD_SUM(v) LJ_CUTOFF_PRAGMA(omp simd reduction(+ : v))
+#else
+#define LJ_CUTOFF_SIMD
+#define LJ_CUTOFF_SIMD_SUM(v)
+#endif
 
 /* restrict as C99 spells it, or as C++ compilers do */
 #if defined(__cplusplus)
@@ -1158,3 +1174,7 @@ int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int metho
     return lj_cutoff_integrate_fixed(cx, method, h, nsteps, every, q0, w0, q, w, energy, run,
             stats);
 }
+
+#if defined(__GNUC__)
+#pragma GCC diagnostic pop
+#endif

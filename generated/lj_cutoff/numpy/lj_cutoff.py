@@ -2,6 +2,7 @@
 # spec sha256 3e9145b5bf4491cf
 # Parts: tables, neighbours, kernels, helpers, context, potential, energy, field_diagonal, field, vi_explicit, vi_step, rattle_closed, rk, rk_step, driver.
 # Lowering passes (total operations of all kernels after each):
+#   quadratic: 0
 #   factor: 0
 #   cse: 301
 #   hoist: 300
