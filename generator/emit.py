@@ -129,12 +129,11 @@ def _write_cached(folder: Path, files: dict[str, str]) -> None:
 
 
 def write_files(files: dict[str, str], out_dir: str | Path) -> list[Path]:
-    """Write files into out_dir (created if needed); returns the paths written."""
+    """Write files into out_dir (created if needed); returns the paths written. Every target
+    is checked before any is written, and each is written atomically; a symbolic link at a
+    target is refused, never followed (`s2gen.paths.OutputPathError`)."""
+    from s2gen.paths import check_output_file, write_text_atomic
+
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for name in sorted(files):
-        path = out / name
-        path.write_text(files[name])
-        paths.append(path)
-    return paths
+    targets = [check_output_file(out / name) for name in sorted(files)]
+    return [write_text_atomic(path, files[path.name]) for path in targets]
