@@ -275,7 +275,8 @@ class Trajectory:
 
     def plot(self, path: str | Path | None = None) -> Any:
         """Two panels against t on log axes: |E - E_0| and max_i | |q_i| - 1 |. Writes a PNG
-        to `path` when given; returns the matplotlib Figure.
+        to `path` when given; returns the matplotlib Figure (drawn without pyplot, so no
+        backend is chosen or switched; a notebook shows the returned figure).
 
         Example:
             >>> import numpy as np
@@ -284,13 +285,10 @@ class Trajectory:
             >>> len(tr.plot().axes)
             2
         """
-        import matplotlib
+        from matplotlib.figure import Figure
 
-        if path is not None:
-            matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
-
-        fig, (ax_e, ax_q) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
+        fig = Figure(figsize=(7, 5.5))
+        ax_e, ax_q = fig.subplots(2, 1, sharex=True)
         dE = np.abs(self.energy - self.energy[0]) if len(self.energy) else self.energy
         panels = (
             (ax_e, dE, r"$|E - E_0|$", "C0"),
@@ -312,7 +310,6 @@ class Trajectory:
         fig.tight_layout()
         if path is not None:
             fig.savefig(path, dpi=120)
-            plt.close(fig)
         return fig
 
 
