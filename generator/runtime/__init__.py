@@ -5,7 +5,10 @@ loaded with ctypes; "numpy": the emitted NumPy module; "reference": the independ
 `s2gen.reference`), step size, horizon and options. Output: a `Trajectory` (t, q, omega,
 energy, statistics, wall time). A failure raises `IntegrationError`, which names the step and
 why and keeps the trajectory computed so far (`.partial`). A method a backend does not have is
-refused before anything runs.
+refused before anything runs, and so is a request the machine cannot serve (`check_run`: h and
+T finite and positive, T a whole number of steps, at most `MAX_SAMPLES` samples, trajectory
+arrays within `MAX_MEMORY_FRACTION` of the physical memory, tolerances finite and positive with
+rtol at least `RTOL_FLOOR`): a ValueError of one line saying the limit.
 
 Example:
     >>> from s2gen.systems import builtin
@@ -17,7 +20,10 @@ Example:
 from __future__ import annotations
 
 import functools
+import math
+import os
 import time
+from collections.abc import Callable
 from typing import Any, Protocol
 
 import numpy as np
@@ -30,11 +36,15 @@ from s2gen.system import System
 __all__ = [
     "BACKENDS",
     "CONTROLS",
+    "MAX_MEMORY_FRACTION",
+    "MAX_SAMPLES",
     "METHODS",
+    "RTOL_FLOOR",
     "Backend",
     "IntegrationError",
     "Options",
     "Trajectory",
+    "check_run",
     "get_backend",
     "run",
     "simulate",
@@ -42,6 +52,18 @@ __all__ = [
 
 #: Method names (the table is `s2gen.methods.METHODS`).
 METHODS = NAMES
+
+#: Most samples (t = 0 included) one run may hold: 2^31, the count a C int can index.
+MAX_SAMPLES = 2**31
+#: Most steps of one run (the emitted C counts them in a long).
+MAX_STEPS = 2.0**62
+#: The trajectory arrays (t, q, omega, energy) may take at most this fraction of the
+#: machine's physical memory.
+MAX_MEMORY_FRACTION = 0.5
+#: Smallest relative tolerance: 100 machine epsilons (MATLAB ode45's floor); below it the
+#: error control asks for more than double precision can give, and with ode45's weights
+#: max(|y|, atol/rtol) a tiny rtol silently switches the control off.
+RTOL_FLOOR = 100 * float(np.finfo(float).eps)
 
 
 class Backend(Protocol):
@@ -104,12 +126,24 @@ def simulate(
     omega0: np.ndarray | None = None,
     every: int = 1,
     energy: bool = True,
+    progress: Callable[[float], None] | None = None,
 ) -> Trajectory:
     """Integrate a system from its (or the given) initial state to T with step h, keeping
-    every `every`-th sample (T/h must be a multiple of it) and, with `energy`, its energy."""
+    every `every`-th sample (T/h must be a multiple of it) and, with `energy`, its energy;
+    `progress(fraction)` is called as the run goes (see `run`)."""
     check_method(method, backend)
     return run(
-        get_backend(system, backend), method, h, T, options, params, q0, omega0, every, energy
+        get_backend(system, backend),
+        method,
+        h,
+        T,
+        options,
+        params,
+        q0,
+        omega0,
+        every,
+        energy,
+        progress,
     )
 
 
@@ -149,22 +183,19 @@ def run(
     omega0: np.ndarray | None = None,
     every: int = 1,
     energy: bool = True,
+    progress: Callable[[float], None] | None = None,
 ) -> Trajectory:
-    """`simulate` on a given backend object (a `Model` brings its own)."""
+    """`simulate` on a given backend object (a `Model` brings its own). `progress(fraction)`
+    is called a few times a second while the emitted C runs (the run is one call either way,
+    so the result does not depend on it), and once at the end on the other backends."""
     system, backend = be.system, be.name
     check_method(method, backend)
     h = h if h is not None else system.run.h
     T = T if T is not None else system.run.T
     if h is None or T is None:
         raise ValueError(f"{system.origin}: no step size h or final time T given (spec [run])")
-    if not (h > 0 and T > 0):
-        raise ValueError(f"h and T must be positive (got h={h}, T={T})")
-    nsteps = round(T / h)
-    if abs(nsteps * h - T) > 1e-9 * T:
-        raise ValueError(f"T={T} is not a whole number of steps h={h}")
-    if not (isinstance(every, int) and every >= 1 and nsteps % every == 0):
-        raise ValueError(f"every={every!r} must be a positive divisor of the {nsteps} steps")
     opts = options or Options()
+    nsteps = check_run(system, method, h, T, opts, every)
     q0, omega0 = _initial_state(system, q0, omega0, opts.unit_tol)
     p = np.array(system.parameter_values if params is None else params, dtype=float)
     if p.shape != (len(system.parameter_names),):
@@ -173,13 +204,23 @@ def run(
             f"({', '.join(system.parameter_names)}), got {p.size}"
         )
     start = time.perf_counter()
-    status, q, w, en, stats = be.integrate(method, h, nsteps, q0, omega0, p, opts, every, energy)
+    if progress is not None and backend == "c":
+        status, q, w, en, stats = be.integrate(  # type: ignore[call-arg]
+            method, h, nsteps, q0, omega0, p, opts, every, energy, progress=progress
+        )
+    else:
+        status, q, w, en, stats = be.integrate(
+            method, h, nsteps, q0, omega0, p, opts, every, energy
+        )
+        if progress is not None:
+            progress(1.0)
     wall = time.perf_counter() - start
     t = h * every * np.arange(nsteps // every + 1)
+    meta = _metadata(system, method, opts)
     if status != 0:
         k = int(stats.get("fail_step", 0))
         kept = None if en is None else en[:k]
-        partial = Trajectory(t[:k], q[:k], w[:k], kept, method, backend, h, stats, wall)
+        partial = Trajectory(t[:k], q[:k], w[:k], kept, method, backend, h, stats, wall, **meta)
         why = Status(status).message if status in Status._value2member_map_ else status
         last = f"after t = {t[k - 1]:.6g}" if k else "at the initial state"
         raise IntegrationError(
@@ -188,4 +229,103 @@ def run(
             k,
             partial,
         )
-    return Trajectory(t, q, w, en, method, backend, h, stats, wall)
+    return Trajectory(t, q, w, en, method, backend, h, stats, wall, **meta)
+
+
+def _metadata(system: System, method: str, opts: Options) -> dict[str, Any]:
+    """The Trajectory metadata of a run: system, spec hash and, when adaptive, tolerances."""
+    meta: dict[str, Any] = {"system": system.name, "spec_hash": system.spec_hash()}
+    if method == "rk45":
+        meta.update(rtol=opts.rtol, atol=opts.atol, control=opts.control)
+    return meta
+
+
+def _physical_memory() -> int | None:
+    """Bytes of physical memory, or None where the platform does not say."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, OSError, ValueError):
+        return None
+
+
+def _bytes(n: float) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"):
+        if n < 1024 or unit == "EiB":
+            return f"{n:.3g} {unit}"
+        n /= 1024
+    return f"{n:.3g} EiB"  # pragma: no cover
+
+
+def check_run(
+    system: System,
+    method: str,
+    h: float,
+    T: float,
+    options: Options | None = None,
+    every: int = 1,
+) -> int:
+    """The number of steps of a run, after checking that it can be served (ValueError else).
+
+    h and T must be finite and positive with T a whole number of steps, and `every` (the
+    output stride) a positive divisor of the steps; the run may keep at most `MAX_SAMPLES`
+    samples and its trajectory arrays at most `MAX_MEMORY_FRACTION` of the physical memory;
+    rtol must lie in [`RTOL_FLOOR`, 1] and atol be finite and positive.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> check_run(builtin("double_pendulum"), "vi", 0.01, 1.0)
+        100
+        >>> check_run(builtin("double_pendulum"), "vi", 0.01, 1e12)
+        Traceback (most recent call last):
+        ...
+        ValueError: T / h = 1e+12 / 0.01 = 1e+14 steps: more than one run may hold (2147483648 samples); raise h or shorten T
+    """
+    for key, value in (("step size h", h), ("final time T", T)):
+        if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
+            raise ValueError(f"{key} = {value}: must be a finite number")
+        if value <= 0:
+            raise ValueError(f"{key} = {value:g}: must be positive")
+    if not (isinstance(every, (int, np.integer)) and not isinstance(every, bool) and every >= 1):
+        raise ValueError(f"every = {every!r}: must be a positive whole number of steps")
+    ratio = T / h
+    if not math.isfinite(ratio) or ratio / every + 1 > MAX_SAMPLES or ratio > MAX_STEPS:
+        raise ValueError(
+            f"T / h = {T:g} / {h:g} = {ratio:g} steps kept every {every}: more than one run "
+            f"may hold ({MAX_SAMPLES} samples, {MAX_STEPS:g} steps); raise h, every or shorten T"
+        )
+    nsteps = round(ratio)
+    if nsteps < 1:
+        raise ValueError(f"final time T = {T:g} is shorter than one step h = {h:g}")
+    if abs(nsteps * h - T) > 1e-9 * T:
+        raise ValueError(f"T={T} is not a whole number of steps h={h}")
+    if nsteps % every:
+        raise ValueError(f"every={every!r} must be a positive divisor of the {nsteps} steps")
+    per_sample = 8 * (2 * 3 * system.n + 2)  # q, omega, energy, t
+    need, memory = (nsteps // every + 1) * per_sample, _physical_memory()
+    if memory is not None and need > MAX_MEMORY_FRACTION * memory:
+        raise ValueError(
+            f"T / h = {T:g} / {h:g}: the trajectory arrays would take {_bytes(need)}, more "
+            f"than {MAX_MEMORY_FRACTION:g} of this machine's {_bytes(memory)} of memory; raise "
+            "h or shorten T"
+        )
+    _check_options(options or Options())
+    return nsteps
+
+
+def _check_options(opts: Options) -> None:
+    """Tolerances and Newton settings finite and in range (ValueError naming the option)."""
+    for key in ("rtol", "atol", "newton_tol"):
+        value = getattr(opts, key)
+        if not math.isfinite(value) or value <= 0:
+            raise ValueError(f"{key} = {value}: must be a finite positive number")
+    if opts.rtol < RTOL_FLOOR or opts.rtol > 1:
+        raise ValueError(
+            f"rtol = {opts.rtol:g}: must lie between {RTOL_FLOOR:.3g} (100 machine epsilons, "
+            "MATLAB ode45's floor) and 1"
+        )
+    if not math.isfinite(opts.hmax) or opts.hmax < 0:
+        raise ValueError(f"hmax = {opts.hmax}: must be finite and >= 0 (0 means T/10)")
+    if opts.newton_maxiter < 1:
+        raise ValueError(f"newton_maxiter = {opts.newton_maxiter}: must be at least 1")
+    if opts.control not in CONTROLS:
+        raise ValueError(f"control = {opts.control!r}: choose one of {', '.join(CONTROLS)}")

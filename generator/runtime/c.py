@@ -18,6 +18,8 @@ Example:
 from __future__ import annotations
 
 import ctypes
+import threading
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -38,6 +40,10 @@ _SCALARS = {Kind.DOUBLE: ctypes.c_double, Kind.INT: ctypes.c_int, Kind.LONG: cty
 
 
 _ARRAYS = (Kind.ARRAY, Kind.CONST_ARRAY, Kind.LONG_ARRAY)
+#: Seconds between two progress reports of a run in a thread.
+POLL_SECONDS = 0.2
+#: A progress callback: the fraction of the run done, in [0, 1].
+Progress = Callable[[float], None]
 
 
 def pointer(a: np.ndarray | None) -> int | None:
@@ -177,14 +183,19 @@ class CBackend:
         options: Options,
         every: int = 1,
         with_energy: bool = True,
+        progress: Progress | None = None,
     ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray | None, dict[str, Any]]:
+        """One call of the emitted integrate(). With `progress`, the call runs in a thread
+        (ctypes releases the GIL) while this one reports the fraction done every
+        `POLL_SECONDS`, read from the statistics the C updates as it goes (steps taken, or
+        the time reached by RK45): the run itself is the same call, bit for bit."""
         n, samples = self.system.n, nsteps // every + 1
         q = np.full((samples, n, 3), np.nan)
         w = np.full((samples, n, 3), np.nan)
         en = np.full(samples, np.nan) if with_energy else None
         lib = self.library
         stats = lib.Stats()
-        status = self._fn["integrate"](
+        args = (
             contiguous(params),
             ctypes.byref(lib.options(options, every)),
             method(method_name).code,
@@ -198,4 +209,21 @@ class CBackend:
             self.work,
             ctypes.byref(stats),
         )
+        if progress is None or nsteps == 0:
+            status = self._fn["integrate"](*args)
+        else:
+            adaptive = method(method_name).evals == 0
+            span = h * nsteps
+
+            def done() -> float:
+                return stats.fail_time / span if adaptive else stats.steps / nsteps
+
+            result: list[int] = []
+            worker = threading.Thread(target=lambda: result.append(self._fn["integrate"](*args)))
+            worker.start()
+            while worker.is_alive():
+                worker.join(POLL_SECONDS)
+                progress(min(1.0, done()))
+            status = result[0]
+            progress(1.0 if status == 0 else min(1.0, done()))
         return status, q, w, en, lib.stats(stats)
