@@ -73,6 +73,7 @@ class BenchReport:
     parallel: BenchRun
     small: BenchRun
     plain: float
+    load: tuple[float, float]
 
     @property
     def ceiling(self) -> float:
@@ -90,7 +91,10 @@ class BenchReport:
         k = p.workers
         return [
             self.title,
-            f"build (gcc, cached by content) {self.build:.2f} s, before the runs",
+            (
+                f"build (gcc, cached by content) {self.build:.2f} s, before the runs; load average "
+                f"(1 min) {self.load[0]:.2f} before, {self.load[1]:.2f} after"
+            ),
             (
                 f"serial, one process:   members {s.wall:7.2f} s  (integration {s.integration:.2f} s,"
                 f" set-up {s.setup:.2f} s)"
@@ -233,6 +237,7 @@ def benchmark(
     import s2gen
 
     system = s2gen.load(spec)
+    load_before = os.getloadavg()[0]
     start = time.perf_counter()
     s2gen.compile(system)
     build = time.perf_counter() - start
@@ -256,7 +261,8 @@ def benchmark(
         + ", ".join(f"{k}={v:g}" for k, v in perturb.items())
         + f"; {os.cpu_count()} cores"
     )
-    return BenchReport(title, build, serial, parallel, few, plain)
+    load = (load_before, os.getloadavg()[0])
+    return BenchReport(title, build, serial, parallel, few, plain, load)
 
 
 def _main(job_text: str) -> None:

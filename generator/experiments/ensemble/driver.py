@@ -11,6 +11,7 @@ Example:
     >>> p = argparse.ArgumentParser()
     >>> add_parser(p.add_subparsers(dest="command"))
     >>> run(p.parse_args(["ensemble", "double_pendulum", "--sweep", "g=1:2"]))
+    ... # doctest: +IGNORE_EXCEPTION_DETAIL
     Traceback (most recent call last):
     ...
     s2gen.experiments.ensemble.members.EnsembleError: sweep g=1:2: expected START:STOP:COUNT (e.g. 100:1000:10) or a list V1,V2,...
