@@ -7,7 +7,7 @@ VI at h = 1e-4 and RK45 with MATLAB ode45's control and default tolerances, outp
 1e-4, T = 3): the min, median and max over the perturbed members of mean |E - E0| in the
 paper's energy units (the example's `energy_unit`), the unperturbed member's value and the
 paper's printed one; ``band.md`` and ``band.csv`` in the output folder, and each run's store
-under ``<method>_h<h>/``.
+and summary (divergence, Lyapunov exponent, figures) under ``<method>_h<h>/``.
 
 The statistics come from the workers, over every sample of each member; the stores keep every
 k-th sample (about `STORED_SAMPLES` per member) for the divergence figure.
@@ -36,6 +36,7 @@ from .cluster import CONNECT_TIMEOUT, connect
 from .dispatch import Progress, ensemble
 from .members import EnsembleError
 from .store import EnsembleStore
+from .summary import summarize
 
 __all__ = [
     "DEFAULT_MEMBERS",
@@ -107,10 +108,12 @@ def chaos_band(
     progress: Progress | None = None,
     timeout: float = CONNECT_TIMEOUT,
     overwrite: bool = False,
+    figures: bool = True,
     log: Any = print,
 ) -> tuple[Band, ...]:
     """Run each full run of `example` as an ensemble of `members` perturbed members (plus the
-    unperturbed reference) and write band.md and band.csv into `out`."""
+    unperturbed reference) and write band.md and band.csv into `out`, and each run's summary
+    (with its divergence and Lyapunov fit) beside its store."""
     import s2gen
 
     ex = paper_example(example)
@@ -143,7 +146,9 @@ def chaos_band(
                 overwrite=overwrite,
                 command=f"chaos band of {example}",
             )
-            band = _band(ex, run, result.path, time.perf_counter() - start)
+            seconds = time.perf_counter() - start
+            summarize(EnsembleStore.open(result.path), result.path.parent, result, figures)
+            band = _band(ex, run, result.path, seconds)
             log(f"  {_line(band)}")
             bands.append(band)
     write_band(tuple(bands), folder)

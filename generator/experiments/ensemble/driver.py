@@ -114,7 +114,11 @@ def run(args: argparse.Namespace) -> int:
 
     system = s2gen.load(args.spec)
     table = member_table(system, args.members, perturb, sweep, args.seed, args.h, args.T)
-    where = args.scheduler or f"{args.workers or 'one per core'} local worker(s)"
+    where = args.scheduler or (
+        "this process (serial)"
+        if args.workers == 0
+        else f"{args.workers or 'one per core'} local worker process(es)"
+    )
     print(f"{system.name}: {len(table)} members on {where}; store {args.out}/", flush=True)
     bar = _Bar(len(table), system.name)
     try:
@@ -209,6 +213,7 @@ def _chaos_band(args: argparse.Namespace, perturb: dict[str, float]) -> int:
             progress=bar,
             timeout=args.timeout,
             overwrite=args.overwrite,
+            figures=not args.no_figures,
             log=bar.write,
         )
     finally:

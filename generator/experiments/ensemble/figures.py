@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from .store import NOT_WRITTEN
-from .summary import Divergence
+from .summary import Divergence, point_label, swept_names
 
 __all__ = ["divergence_figure", "energy_figure", "sweep_figure", "write_figures"]
 
@@ -39,18 +39,6 @@ def _plt() -> Any:
 
 def _title(attrs: dict[str, Any]) -> str:
     return f"{attrs['system']}, {attrs['method']}, h = {attrs['h']:g}, T = {attrs['T']:g}"
-
-
-def _point_labels(per: dict[str, np.ndarray], points: np.ndarray) -> list[str]:
-    """Tick labels of sweep points: the swept values (``g=5``, or ``g=5\nh=0.01``)."""
-    names = sorted(k for k in per if k.startswith("param_"))
-    if len(np.unique(per["h"])) > 1:
-        names.append("h")
-    labels = []
-    for p in points:
-        i = int(np.flatnonzero(per["point"] == p)[0])
-        labels.append("\n".join(f"{n.removeprefix('param_')}={per[n][i]:.3g}" for n in names))
-    return labels
 
 
 def energy_figure(per: dict[str, np.ndarray], attrs: dict[str, Any], path: Path) -> Path:
@@ -73,9 +61,16 @@ def energy_figure(per: dict[str, np.ndarray], attrs: dict[str, Any], path: Path)
     ax.set_yscale("log")
     ax.set_ylabel("mean |E − E0| over the run")
     points = np.unique(per["point"])
+    names = swept_names(per)
     if len(points) > 1:
         ticks = points[:: int(np.ceil(len(points) / 12))]
-        ax.set_xticks(ticks, _point_labels(per, ticks), fontsize=8)
+        if len(names) == 1:  # the values alone, the name as the axis label
+            labels = [point_label(per, int(p)).split(" = ")[1] for p in ticks]
+            ax.set_xlabel(names[0].removeprefix("param_"))
+        else:
+            labels = [point_label(per, int(p), "\n") for p in ticks]
+            ax.set_xlabel("sweep point")
+        ax.set_xticks(ticks, labels, fontsize=8, rotation=30 if len(ticks) > 6 else 0)
     else:
         ax.set_xticks([])
     ax.legend(loc="best", fontsize=8)
@@ -92,10 +87,12 @@ def energy_figure(per: dict[str, np.ndarray], attrs: dict[str, Any], path: Path)
     return path
 
 
-def divergence_figure(divs: Sequence[Divergence], attrs: dict[str, Any], path: Path) -> Path:
+def divergence_figure(
+    divs: Sequence[Divergence], per: dict[str, np.ndarray], attrs: dict[str, Any], path: Path
+) -> Path:
     """Divergence from the reference against time (log scale) with the fitted exponent."""
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    fig, ax = plt.subplots(figsize=(10, 4.5))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     single = len(divs) == 1
     for k, d in enumerate(divs[:8]):
@@ -105,7 +102,8 @@ def divergence_figure(divs: Sequence[Divergence], attrs: dict[str, Any], path: P
             for c in d.curves:
                 ax.plot(t, np.where(c > 0, c, np.nan), color="tab:blue", lw=0.5, alpha=0.3)
             ax.fill_between(t, d.low, d.high, color="tab:blue", alpha=0.1, label="range")
-        label = "geometric mean" if single else f"point {d.point}"
+        where = point_label(per, d.point)
+        label = "geometric mean" if single else where
         ax.plot(t, np.exp(d.log_mean), color=color, lw=1.8, label=label)
         f = d.fit
         if f.rate is not None:
@@ -116,7 +114,7 @@ def divergence_figure(divs: Sequence[Divergence], attrs: dict[str, Any], path: P
                 "--",
                 color="tab:red" if single else color,
                 lw=2,
-                label=f"fit λ = {f.rate:.3g}" + ("" if single else f" (point {d.point})"),
+                label=f"fit λ = {f.rate:.3g}" + ("" if single else f" ({where})"),
             )
             if single:
                 ax.axvspan(f.t_start, f.t_end, color="tab:red", alpha=0.06)
@@ -125,7 +123,7 @@ def divergence_figure(divs: Sequence[Divergence], attrs: dict[str, Any], path: P
     ax.set_ylabel("max_i |q_i − q_i^ref|")
     members = sum(d.members for d in divs)
     ax.set_title(f"{_title(attrs)}: {members} perturbed members", fontsize=10)
-    ax.legend(loc="lower right", fontsize=8)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0)
     fig.tight_layout()
     fig.savefig(path, dpi=_DPI)
     plt.close(fig)
@@ -135,9 +133,7 @@ def divergence_figure(divs: Sequence[Divergence], attrs: dict[str, Any], path: P
 def sweep_figure(per: dict[str, np.ndarray], attrs: dict[str, Any], path: Path) -> Path:
     """Mean |E - E0| against each swept quantity (median over replicas, range as a bar)."""
     plt = _plt()
-    names = sorted(k for k in per if k.startswith("param_"))
-    if len(np.unique(per["h"])) > 1:
-        names.append("h")
+    names = swept_names(per)
     fig, axes = plt.subplots(1, len(names), figsize=(5.5 * len(names), 4), squeeze=False)
     written = per["status"] != NOT_WRITTEN
     for ax, name in zip(axes[0], names):
@@ -179,7 +175,7 @@ def write_figures(
     """Every figure that applies, written into `out`."""
     paths = [energy_figure(per, attrs, out / "energy.png")]
     if divs:
-        paths.append(divergence_figure(divs, attrs, out / "divergence.png"))
+        paths.append(divergence_figure(divs, per, attrs, out / "divergence.png"))
     if len(np.unique(per["point"])) > 1:
         paths.append(sweep_figure(per, attrs, out / "sweep.png"))
     return paths

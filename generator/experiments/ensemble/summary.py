@@ -156,6 +156,18 @@ def divergence(store: EnsembleStore, point: int, per: dict[str, np.ndarray]) -> 
 
 
 # -------------------------------------------------------------------------------------- tables
+def swept_names(per: dict[str, np.ndarray]) -> list[str]:
+    """The per-member arrays that vary over sweep points: param_NAME, and h if swept."""
+    names = sorted(k for k in per if k.startswith("param_"))
+    return names + (["h"] if len(np.unique(per["h"])) > 1 else [])
+
+
+def point_label(per: dict[str, np.ndarray], point: int, sep: str = ", ") -> str:
+    """The swept values of a sweep point, e.g. ``gamma = 17.7`` ("" without sweeps)."""
+    i = int(np.flatnonzero(per["point"] == point)[0])
+    return sep.join(f"{n.removeprefix('param_')} = {per[n][i]:.4g}" for n in swept_names(per))
+
+
 def _param_names(per: dict[str, np.ndarray]) -> list[str]:
     return sorted(k for k in per if k.startswith("param_"))
 
@@ -241,20 +253,18 @@ def _statistics(per: dict[str, np.ndarray], attrs: dict[str, Any]) -> list[str]:
 
 
 def _sweep_table(per: dict[str, np.ndarray], fits: dict[int, LyapunovFit]) -> list[str]:
-    names = _param_names(per)
-    if len(np.unique(per["h"])) > 1:
-        names.append("h")
+    names = swept_names(per)
     head = [n.removeprefix("param_") for n in names]
     lines = [
-        "| " + " | ".join(head) + " | members | failed | mean \\|ΔE\\| min | median | max | "
-        "Lyapunov |",
+        "| " + " | ".join(head) + " | members | failed | mean \\|ΔE\\| min | median | max "
+        "(members that reached T) | Lyapunov |",
         "|" + "---|" * len(head) + "---:|" * 6,
     ]
     for point in np.unique(per["point"]):
         sel = per["point"] == point
         written = sel & (per["status"] != NOT_WRITTEN)
         failed = int((sel & (per["status"] > 0)).sum())
-        a, b, c = _band(per["mean_dE"][written])
+        a, b, c = _band(per["mean_dE"][sel & (per["status"] == 0)])
         fit = fits.get(int(point))
         lyap = _fmt(fit.rate, ".3g") if fit and fit.rate is not None else "–"
         first = int(np.flatnonzero(sel)[0])
@@ -266,11 +276,11 @@ def _sweep_table(per: dict[str, np.ndarray], fits: dict[int, LyapunovFit]) -> li
     return lines
 
 
-def _fit_lines(divs: tuple[Divergence, ...]) -> list[str]:
+def _fit_lines(divs: tuple[Divergence, ...], per: dict[str, np.ndarray]) -> list[str]:
     lines = []
     for d in divs:
         f = d.fit
-        where = f"sweep point {d.point}: " if len(divs) > 1 else ""
+        where = f"{point_label(per, d.point)}: " if len(divs) > 1 else ""
         if f.rate is None:
             lines.append(f"- {where}no fit ({f.reason}; {d.members} perturbed members)")
         else:
@@ -343,7 +353,7 @@ def summarize(
                 "the largest)."
             ),
             "",
-            *_fit_lines(divs),
+            *_fit_lines(divs, per),
             "",
         ]
     lines += _failures(per, attrs)
