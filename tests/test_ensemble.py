@@ -145,6 +145,8 @@ def test_lyapunov_fit_recovers_a_known_exponent() -> None:
         (["--sweep", "kappa100"], "expected NAME=VALUE"),
         (["--perturb", "p=1e-13"], "cannot perturb 'p'"),
         (["--sweep", "h=0.3", "--T", "1"], "not a whole number of steps"),
+        (["--chaos-band", "--T", "3"], "drop --T"),
+        (["--bench", "--sweep", "kappa=1,2"], "no --sweep"),
     ],
 )
 def test_bad_input_is_one_line_exit_2(

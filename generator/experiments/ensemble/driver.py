@@ -102,9 +102,19 @@ def run(args: argparse.Namespace) -> int:
     sweep = sweeps(args.sweep)
     if args.every < 1:
         raise EnsembleError(f"--every must be at least 1 (got {args.every})")
+    if args.bench and args.chaos_band:
+        raise EnsembleError("--bench and --chaos-band are separate runs; give one")
     if args.bench:
+        if sweep:
+            raise EnsembleError("--bench times perturbed members; it takes no --sweep")
         return _bench(args, perturb)
     if args.chaos_band:
+        given = [f"--{k}" for k in ("method", "h", "T") if getattr(args, k) is not None]
+        if sweep or given or args.every != 1:
+            extra = ", ".join(
+                given + (["--sweep"] if sweep else []) + (["--every"] * (args.every != 1))
+            )
+            raise EnsembleError(f"--chaos-band runs the paper example's own runs; drop {extra}")
         return _chaos_band(args, perturb)
     import s2gen
 
