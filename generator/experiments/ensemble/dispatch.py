@@ -29,6 +29,7 @@ Example:
 from __future__ import annotations
 
 import itertools
+import math
 import tempfile
 import time
 import uuid
@@ -47,10 +48,12 @@ from .worker import MemberResult, Payload, Task, failed_task, make_payload, run_
 if TYPE_CHECKING:
     from s2gen.system import System
 
-__all__ = ["ATTEMPTS", "WINDOW_PER_WORKER", "EnsembleResult", "ensemble"]
+__all__ = ["ATTEMPTS", "WINDOW_CHECK_SECONDS", "WINDOW_PER_WORKER", "EnsembleResult", "ensemble"]
 
 #: Tasks in flight per worker (enough to keep each busy while results travel).
 WINDOW_PER_WORKER = 4
+#: Seconds between looks at the number of workers (the window grows as workers join).
+WINDOW_CHECK_SECONDS = 2.0
 #: Submissions of a member whose task was lost with its worker before it is recorded as failed.
 ATTEMPTS = 3
 
@@ -151,8 +154,7 @@ def ensemble(
     to a new temporary folder. Bad input raises `EnsembleError` (a ValueError).
 
     Example:
-        >>> r = ensemble("double_pendulum", sweep={"g": [1.0, 9.81]}, T=0.1,
-        ...              workers=0)  # doctest: +ELLIPSIS
+        >>> r = ensemble("double_pendulum", sweep={"g": [1.0, 9.81]}, T=0.1, workers=0)
         >>> r.members, r.path.name
         (2, 'ensemble.zarr')
     """
@@ -207,7 +209,6 @@ def _on_dask(
     """Results as they complete on the cluster (`data`: the scattered payload)."""
     from distributed import as_completed
 
-    window = WINDOW_PER_WORKER * max(1, worker_count(client))
     token = uuid.uuid4().hex[:12]
     flying: dict[str, tuple[Task, int]] = {}
     done = as_completed(loop=client.loop)
@@ -218,8 +219,17 @@ def _on_dask(
         flying[future.key] = (task, attempt)
         done.add(future)
 
-    for task in itertools.islice(tasks, window):
-        submit(task, 0)
+    window, checked = 0, -math.inf
+
+    def top_up() -> None:  # keep WINDOW_PER_WORKER tasks per worker in flight, workers may join
+        nonlocal window, checked
+        if time.monotonic() - checked > WINDOW_CHECK_SECONDS:
+            window = WINDOW_PER_WORKER * max(1, worker_count(client))
+            checked = time.monotonic()
+        for task in itertools.islice(tasks, max(0, window - len(flying))):
+            submit(task, 0)
+
+    top_up()
     for future in done:
         task, attempt = flying.pop(future.key)
         try:
@@ -234,9 +244,7 @@ def _on_dask(
         finally:
             future.release()
         yield result
-        following = next(tasks, None)
-        if following is not None:
-            submit(following, 0)
+        top_up()
 
 
 def _collect(
