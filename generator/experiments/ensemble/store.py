@@ -118,6 +118,7 @@ class EnsembleStore:
     def __init__(self, path: Path, group: Any) -> None:
         self.path = path
         self.group = group
+        self._arrays: dict[str, Any] = {}  # opened once: each lookup re-reads its metadata
         self._pending: dict[int, dict[str, Any]] = {}  # statistics only, never samples
         self._errors: dict[str, str] = {}
         self._last_flush = time.monotonic()
@@ -203,10 +204,8 @@ class EnsembleStore:
         k = len(result.t)
         i = result.index
         if k:
-            self.group["q"][i, :k] = result.q
-            self.group["omega"][i, :k] = result.omega
-            self.group["energy"][i, :k] = result.energy
-            self.group["t"][i, :k] = result.t
+            for name in TRAJECTORIES:
+                self.array(name)[i, :k] = getattr(result, name)
         self._pending[i] = {name: getattr(result, name) for name in STATISTICS}
         if result.status == TASK_ERROR:
             self._errors[str(i)] = result.message
@@ -226,18 +225,20 @@ class EnsembleStore:
             self._errors.clear()
         for name, (dtype, _) in STATISTICS.items():
             values = np.array([r[name] for r in rows], dtype=dtype)
-            self.group[name].set_orthogonal_selection((idx,), values)
+            self.array(name).set_orthogonal_selection((idx,), values)
         self._pending.clear()
         self._last_flush = time.monotonic()
 
     # ------------------------------------------------------------------------------ reading
     def array(self, name: str) -> Any:
         """The Zarr array `name` (index it to read)."""
-        return self.group[name]
+        if name not in self._arrays:
+            self._arrays[name] = self.group[name]
+        return self._arrays[name]
 
     def dims(self, name: str) -> tuple[str, ...]:
         """The dimension names of array `name`."""
-        return tuple(self.group[name].metadata.dimension_names)
+        return tuple(self.array(name).metadata.dimension_names)
 
     @property
     def attrs(self) -> dict[str, Any]:
@@ -251,15 +252,15 @@ class EnsembleStore:
     def per_member(self) -> dict[str, np.ndarray]:
         """Every per-member array (statistics and coordinates), read whole (small)."""
         return {
-            name: np.asarray(self.group[name][:])
+            name: np.asarray(self.array(name)[:])
             for name in self.names()
             if self.dims(name) == ("member",)
         }
 
     def member(self, i: int, names: tuple[str, ...] = tuple(TRAJECTORIES)) -> dict[str, Any]:
         """The stored samples of member i (NaN after its last valid sample)."""
-        return {name: np.asarray(self.group[name][i]) for name in names}
+        return {name: np.asarray(self.array(name)[i]) for name in names}
 
     def written(self) -> np.ndarray:
         """Boolean mask of the members present (status written)."""
-        return np.asarray(self.group["status"][:]) != NOT_WRITTEN
+        return np.asarray(self.array("status")[:]) != NOT_WRITTEN
