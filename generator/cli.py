@@ -46,6 +46,7 @@ class _Parser(argparse.ArgumentParser):
 def _parser() -> argparse.ArgumentParser:
     from s2gen.experiments.bench.command import add_parser as add_bench
     from s2gen.experiments.compare_angles.command import add_parser as add_compare
+    from s2gen.experiments.ensemble.command import add_parser as add_ensemble
     from s2gen.experiments.reproduce.command import add_parser as add_reproduce
 
     p = _Parser(
@@ -101,6 +102,7 @@ def _parser() -> argparse.ArgumentParser:
     add_reproduce(sub)
     add_compare(sub)
     add_bench(sub)
+    add_ensemble(sub)
     return p
 
 
@@ -278,6 +280,12 @@ def _bench(args: argparse.Namespace) -> int:
     return run(args)
 
 
+def _ensemble(args: argparse.Namespace) -> int:
+    from s2gen.experiments.ensemble.driver import run
+
+    return run(args)
+
+
 _COMMANDS = {
     "generate": _generate,
     "simulate": _simulate,
@@ -286,6 +294,7 @@ _COMMANDS = {
     "reproduce": _reproduce,
     "compare-angles": _compare_angles,
     "bench": _bench,
+    "ensemble": _ensemble,
 }
 
 
