@@ -161,8 +161,9 @@ def _model(payload: Payload) -> tuple[Model, float]:
 def thin(x: np.ndarray, every: int) -> np.ndarray:
     """The stored samples of a per-sample array: every `every`-th, from the first.
 
-    The one place the stride is applied (on the worker, before sending); when the emitted C
-    gains a native stride this becomes the identity.
+    The one place the stride is applied (on the worker, before sending): the member is
+    integrated at every step so that its statistics (energy and unit-length errors) see every
+    sample; only what is stored and sent is thinned.
 
     Example:
         >>> thin(np.arange(7), 3).tolist()
