@@ -186,6 +186,7 @@ class TermLoop:
     #: (slot, row, column) of the member's coefficients in the term's quadratic form, when the
     #: `quadratic` pass put it into the module's matrix (column -1: linear; row -1: constant)
     quadratic: tuple[tuple[int, int, int], ...] = ()
+    rows: bool = False  # all pairs as vectorisable rows on structure-of-arrays copies (`layout`)
 
 
 @dataclass(frozen=True)
@@ -279,6 +280,14 @@ class Module:
     def fact(self, name: str) -> bool | int | float | str:
         """The value of fact `name` (KeyError if absent)."""
         return dict(self.facts)[name]
+
+    @property
+    def body_major_terms(self) -> bool:
+        """True when part of the potential has only a body-major gradient (q[3 i + c]): a
+        general potential, or a term neither in K nor laid out as rows. The component-major
+        gradient of the explicit VI then passes through body-major copies for that part."""
+        general = bool(dict(self.facts).get("general", False))
+        return general or any(not (t.quadratic or t.rows) for t in self.terms)
 
     def layout(self, name: str) -> Layout:
         """The workspace layout of function `name` (KeyError if absent)."""

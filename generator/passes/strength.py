@@ -1,12 +1,13 @@
 """Pass `strength`: powers by products of shared bases, one division and one square root per base.
 
-Input: a `Module` of lowered kernels. Output: the same module in which, for every symbol `b`
-(an input or a temporary) raised to rational powers in a kernel, the powers share their work:
+Input: a `Module` of lowered kernels. Output: the same module in which, for every base `b`
+raised to rational powers in a kernel (a symbol, or an expression first named as a
+temporary so that its powers do not recompute it), the powers share their work:
 one division `1/b` for all negative exponents, one `sqrt(b)` for all half-integer exponents, and
 integer powers built by repeated squaring from a chain of squares shared by every exponent of
 that base (b^7 and b^4 cost four multiplications together, not nine). New temporaries are named
 pw0, pw1, ... and placed right after the base is defined. Powers the pass leaves alone (bases
-that are not symbols, exponents other than integers and halves) are expanded by `powers`.
+with exponents other than integers and halves, or beyond `LIMIT`) are left to `powers`.
 
 Example:
     >>> import sympy as sp
@@ -41,12 +42,26 @@ class _Powers:
         self.count = 0
         self.new: dict[sp.Symbol, list[Assignment]] = {}  # base -> its chain, in order
         self.made: dict[tuple[sp.Symbol, str, int], sp.Expr] = {}
+        self.bases: dict[sp.Expr, sp.Symbol] = {}  # a base that is an expression -> its temp
+        self.pending: list[Assignment] = []  # base temporaries to place before the assignment
 
-    def temp(self, base: sp.Symbol, expr: sp.Expr) -> sp.Symbol:
+    def fresh(self) -> sp.Symbol:
         sym = sp.Symbol(f"pw{self.count}", real=True)
         self.count += 1
+        return sym
+
+    def temp(self, base: sp.Symbol, expr: sp.Expr) -> sp.Symbol:
+        sym = self.fresh()
         self.new.setdefault(base, []).append(Assignment(sym, None, expr))
         return sym
+
+    def named(self, base: sp.Expr) -> sp.Symbol:
+        """A base that is an expression, named once (so its powers do not recompute it)."""
+        if base not in self.bases:
+            sym = self.fresh()
+            self.bases[base] = sym
+            self.pending.append(Assignment(sym, None, base))
+        return self.bases[base]
 
     def root(self, base: sp.Symbol, kind: str) -> sp.Expr:
         """1/b ("inv"), sqrt(b) ("sqrt") or 1/sqrt(b) ("isqrt"), once per base."""
@@ -74,26 +89,22 @@ class _Powers:
 
     def replace(self, expr: sp.Expr) -> sp.Expr:
         """`expr` with its reducible powers written from the chains."""
-        if expr.is_Pow and expr.base.is_Symbol and expr.exp.is_Rational:
+        if expr.is_Pow and expr.exp.is_Rational:
             e = expr.exp
             twice = 2 * e
             if twice.is_Integer and 1 < abs(twice) <= 2 * LIMIT and e not in (1, -1):
-                whole, half = divmod(int(abs(twice)), 2)
                 base = expr.base
+                if not base.is_Symbol:
+                    base = self.named(self.replace(base))
+                whole, half = divmod(int(abs(twice)), 2)
                 negative = e < 0
                 if half:
                     unit = self.root(base, "isqrt" if negative else "sqrt")
-                    rest = (
-                        self.power(
-                            base,
-                            self.root(base, "inv") if negative else base,
-                            "inv" if negative else "pos",
-                            whole,
-                        )
-                        if whole
-                        else None
-                    )
-                    return unit if rest is None else sp.Mul(rest, unit, evaluate=False)
+                    if not whole:
+                        return unit
+                    start = self.root(base, "inv") if negative else base
+                    rest = self.power(base, start, "inv" if negative else "pos", whole)
+                    return sp.Mul(rest, unit, evaluate=False)
                 start = self.root(base, "inv") if negative else base
                 return self.power(base, start, "inv" if negative else "pos", whole)
         if not expr.args:
@@ -105,15 +116,22 @@ class _Powers:
 def reduce_kernel(kernel: Kernel) -> Kernel:
     """The kernel with its powers of symbols sharing roots and squares."""
     powers = _Powers()
-    rewritten = [Assignment(a.temp, a.output, powers.replace(a.expr)) for a in kernel.assignments]
-    if not powers.new:
+    staged: list[tuple[list[Assignment], Assignment]] = []  # (base temps before it, assignment)
+    for a in kernel.assignments:
+        expr = powers.replace(a.expr)
+        staged.append((powers.pending, Assignment(a.temp, a.output, expr)))
+        powers.pending = []
+    if not powers.new and not powers.bases:
         return kernel
-    defined = {a.temp for a in rewritten if a.temp is not None}
+    defined = {a.temp for _, a in staged if a.temp is not None} | set(powers.bases.values())
     out: list[Assignment] = []
-    for base, chain in powers.new.items():  # bases that are inputs: chains first
+    for base, chain in powers.new.items():  # bases that are inputs: their chains first
         if base not in defined:
             out += chain
-    for a in rewritten:
+    for before, a in staged:
+        for b in before:
+            out.append(b)
+            out += powers.new.get(b.temp, [])  # type: ignore[arg-type]
         out.append(a)
         if a.temp is not None and a.temp in powers.new:
             out += powers.new[a.temp]

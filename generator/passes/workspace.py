@@ -51,10 +51,17 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
             ("u", m3),
             ("r", n),
         )
+        extra: list[Layout] = []
     else:
-        vi = layout("vi_advance")
+        # the explicit step runs on component-major (SoA) copies, so that its loops over bodies
+        # vectorise; "bridge" holds body-major q and g for terms without an SoA gradient
+        bridge = ("bridge", 2 * m3 if module.body_major_terms else 0)
+        soa = [(b, m3) for b in ("x", "v", "gx", "xn", "vn", "gn")]
+        vi = layout("vi_advance", *soa, ("s", n), bridge)
+        extra = [layout("explicit", *soa, ("s", n), bridge)]
         rattle = layout("rattle_advance", ("vh", m3))
-    step = max(vi.size, rattle.size)
+    # uncoupled, the geometric driver runs RATTLE only (the VI has its own: "explicit")
+    step = max(vi.size, rattle.size) if coupled else rattle.size
     state = [(b, m3) for b in ("qk", "wk", "q1", "w1")]  # the current and the next state
     # Newton's starting points: each substep's Cayley parameters (VI) or multipliers (RATTLE)
     # from the previous step
@@ -68,9 +75,10 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     )
     fixed = layout("fixed", *state, ("step", rk_step.size))
     vi_step = layout("vi_step", ("g", m3), ("gn", m3), ("f", m3), ("step", vi.size))
-    run = max(geometric.size, rk45.size, fixed.size)
+    run = max(geometric.size, rk45.size, fixed.size, *(lay.size for lay in extra))
     integrate = layout("integrate", ("run", run), ("y0", ns))
     layouts = [field, rk_fixed, rk_step, rk45, vi, rattle, geometric, fixed, vi_step, integrate]
+    layouts += extra
     return layouts, max(lay.size for lay in layouts)
 
 
@@ -91,7 +99,8 @@ CONTEXT = "context"
 
 
 def _context(module: Module) -> Layout:
-    """Per-call context after `work_base`: masses, coupled entries, A's diagonal in the VI,
+    """Per-call context after `work_base`: masses and their inverses, coupled entries, A's
+    diagonal in the VI,
     neighbour-list cells (the largest grid of the cutoff terms)."""
     if module.kind is not ModuleKind.SPHERE:
         return layout(CONTEXT)
@@ -101,10 +110,12 @@ def _context(module: Module) -> Layout:
     return layout(
         CONTEXT,
         ("md", n),
+        ("mi", n),
         ("mp", len(module.pairs)),
         ("adiag", n if coupled else 0),
         ("nb", max(cells, default=0)),
         ("cc", module.constants),
+        ("soa", 6 * n if any(t.rows for t in module.terms) else 0),
         *((("kq", module.quadratic**2), ("kb", module.quadratic + 10)) if module.quadratic else ()),
         *((f"t{t.index}", t.table * t.loop.count) for t in module.terms if t.table),
     )

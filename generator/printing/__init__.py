@@ -15,7 +15,7 @@ Example:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from s2gen.interface import interface
@@ -26,6 +26,7 @@ from s2gen.printing.c import (
     c_call,
     c_decl,
     c_field_decl,
+    c_inline,
     c_kernel,
     c_loop,
     c_term_tables,
@@ -51,6 +52,7 @@ class PrintedKernel:
     ops_before: int
     ops_after: int
     temporaries: int
+    c_function: bool = True  # False: the C code writes it inline only (no function emitted)
 
 
 @dataclass(frozen=True)
@@ -69,9 +71,14 @@ class PrintedTerm:
     c_close: tuple[str, ...]
     c_value_part: str
     c_gradient_part: str
+    layout: str  # "rows", "quadratic" (in K), "cutoff" or "" (the member loop): its partials
     c_value_call: str
     c_gradient_call: str
     c_table_lines: tuple[str, ...]
+    c_rows_value: tuple[str, ...]  # the kernels inline, for the rows layout
+    c_rows_gradient: tuple[str, ...]
+    c_rows_constants: tuple[str, ...]  # the context constants they read (c<k>)
+    c_rows_constants_gradient: tuple[str, ...]
     c_gradient_locals: str
     c_gradient_accumulate: tuple[str, ...]
     py_setup: tuple[str, ...]
@@ -96,6 +103,7 @@ class PrintedModule:
     spec_hash: str
     origin: str
     n: int
+    n2: int  # 2 n: offset of the third component row in a component-major (SoA) copy
     n3: int
     nx: int
     ns: int
@@ -103,6 +111,7 @@ class PrintedModule:
     npairs_or_one: int
     coupled: bool
     general: bool
+    soa_bridge: bool  # the component-major gradient needs the body-major one for some terms
     uniform_mass: bool
     neighbour_lists: bool
     parameters: tuple[tuple[str, str], ...]  # (name, value as a round-trip literal)
@@ -111,6 +120,7 @@ class PrintedModule:
     kernels: tuple[PrintedKernel, ...]
     terms: tuple[PrintedTerm, ...]
     call: dict[str, dict[str, str]]  # site -> {"c": ..., "py": ...}
+    inline: dict[str, tuple[str, ...]]  # kernel -> its body inline (explicit VI loops)
     work: dict[str, dict[str, Any]]  # layout -> {buffer: offset, "doc": ..., "size": ...}
     context: tuple[dict[str, Any], ...]  # the per-call context buffers (name, offset, doc)
     work_base: int
@@ -203,7 +213,13 @@ def _print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTe
         )
     else:
         py_acc = (f"numpy.add.at(g, {index[0]}, {gradient['py']})",)
-    suffix = "_cutoff" if cutoff else "_quadratic" if t.quadratic else ""
+    suffix = "_cutoff" if cutoff else "_quadratic" if t.quadratic else "_rows" if t.rows else ""
+    rows_value = rows_gradient = constants_value = constants_gradient = ()
+    if t.rows:
+        value_kernel, gradient_kernel = module.kernel(t.value), module.kernel(t.gradient)
+        assert isinstance(value_kernel, Kernel) and isinstance(gradient_kernel, Kernel)
+        constants_value, rows_value = c_inline(value_kernel)
+        constants_gradient, rows_gradient = c_inline(gradient_kernel)
     label = module.kernel(t.value).doc.split(":")[0]
     table_lines: tuple[str, ...] = ()
     if t.table:
@@ -221,11 +237,16 @@ def _print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTe
         count=t.loop.count,
         c_open=c_open,
         c_close=c_close,
+        layout=suffix[1:],
         c_value_part=f"c/_term_value{suffix}.jinja",
         c_gradient_part=f"c/_term_gradient{suffix}.jinja",
         c_value_call=value["c"],
         c_gradient_call=gradient["c"],
         c_table_lines=table_lines,
+        c_rows_value=rows_value,
+        c_rows_gradient=rows_gradient,
+        c_rows_constants=constants_value,
+        c_rows_constants_gradient=constants_gradient,
         c_gradient_locals=locals_,
         c_gradient_accumulate=tuple(acc),
         py_setup=setup,
@@ -239,6 +260,33 @@ def _print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTe
         rc2="" if t.loop.cutoff is None else repr(float(t.loop.cutoff) ** 2),
         cells=t.loop.cells,
     )
+
+
+_INLINE_SCALARS = ("q", "w", "g", "qn", "gn", "wh")
+
+
+def _inline(module: Module) -> dict[str, tuple[str, ...]]:
+    """The explicit VI kernels' bodies inline, for the SoA loops over bodies: vector operands
+    q, w, g, qn, gn are scalars (q0, q1, q2, ...), h by name, outputs qn0.., s0, wn0...;
+    "loads" declares their other scalar inputs (the body's mass) as the call sites bind them."""
+    out: dict[str, tuple[str, ...]] = {}
+    names = {k.name for k in module.kernels}
+    loads: list[str] = []
+    for name in ("vi_pos", "vi_vel"):
+        if name in names:
+            kernel = module.kernel(name)
+            assert isinstance(kernel, Kernel), "the passes lowered every kernel"
+            shared, lines = c_inline(kernel, scalars=_INLINE_SCALARS)
+            assert not shared, f"{name} reads no context constants"
+            out[name] = lines
+            call = next(c for c in module.calls if c.site == name)
+            for arg, bound in zip(kernel.inputs, call.c_args):
+                line = f"const double {arg.name} = {bound};"
+                if arg.scalar and arg.name != "h" and line not in loads:
+                    loads.append(line)
+    if out:
+        out["loads"] = tuple(loads)
+    return out
 
 
 def _coordinate(r: int, n: int, index: tuple[str, ...]) -> str:
@@ -308,8 +356,10 @@ def _work(module: Module) -> dict[str, dict[str, Any]]:
 _CONTEXT_DOC = {
     "cc": "constants of the kernels that depend only on the parameters",
     "kq": "the quadratic terms' matrix K (row-major, N3 x N3)",
+    "soa": "structure-of-arrays copies of q and g (x, y, z, gx, gy, gz) for the pair rows",
     "kb": "the quadratic terms' linear part b (N3), then their constant",
     "md": "M_ii, one per body",
+    "mi": "1 / M_ii, one per body",
     "mp": "coupled entries, one per pair",
     "adiag": "diagonal of A(q+) in the VI velocity solve",
     "nb": "neighbour-list cells and links",
@@ -369,7 +419,12 @@ def print_module(module: Module) -> PrintedModule:
     sphere = module.kind is ModuleKind.SPHERE
     restrict = f"{upper}_RESTRICT"
     calls = {c.site: {"c": c_call(name, c), "py": py_call(c)} for c in module.calls}
-    kernels = tuple(print_kernel(k, restrict) for k in module.kernels if isinstance(k, Kernel))
+    inline = _inline(module)
+    kernels = tuple(
+        replace(print_kernel(k, restrict), c_function=k.name not in inline)
+        for k in module.kernels
+        if isinstance(k, Kernel)
+    )
     terms = tuple(_print_term(module, t, calls) for t in module.terms)
     tables: list[tuple[str, str, int, tuple[str, ...]]] = []
     if module.coupling is not None:
@@ -415,6 +470,7 @@ def print_module(module: Module) -> PrintedModule:
         spec_hash=module.spec_hash,
         origin=module.origin,
         n=n,
+        n2=2 * n,
         n3=3 * n,
         nx=2 * n,
         ns=6 * n if sphere else 4 * n,
@@ -422,6 +478,7 @@ def print_module(module: Module) -> PrintedModule:
         npairs_or_one=max(npairs, 1),
         coupled=bool(facts.get("coupled", False)),
         general=bool(facts.get("general", False)),
+        soa_bridge=module.body_major_terms,
         uniform_mass=bool(facts.get("uniform_mass", False)),
         neighbour_lists=bool(facts.get("neighbour_lists", False)),
         parameters=tuple(
@@ -432,6 +489,7 @@ def print_module(module: Module) -> PrintedModule:
         kernels=kernels,
         terms=terms,
         call=calls,
+        inline=inline,
         work=_work(module),
         context=tuple(
             {

@@ -3,14 +3,16 @@
 # Parts: tables, kernels, helpers, inertia_operator, cholesky, lu, context, potential, energy, field_coupled, field, vi_newton, vi_step, rattle_newton, rk, rk_step, driver.
 # Lowering passes (total operations of all kernels after each):
 #   quadratic: 0
+#   reciprocal: 0
 #   factor: 0
 #   cse: 793
 #   hoist: 790
 #   strength: 790
-#   powers: 804
-#   opcount: 804
-#   calls: 804
-#   workspace: 804
+#   powers: 795
+#   opcount: 795
+#   calls: 795
+#   layout: 795
+#   workspace: 795
 """Equations of motion and integrators for the system "double_pendulum" on (S^2)^2 (NumPy).
 
 Same functions as the emitted C (double_pendulum.h). States are arrays q, w of shape (2, 3).
@@ -86,8 +88,14 @@ def _k_gradient(q, cc):
 
 
 def _k_kin_body(m, q, w):
-    """kinetic energy of one body: 1/2 M_ii |omega x q|^2 (16 ops as derived, 25 after cse)."""
-    t = (1/2)*m*((-q[..., 0]*w[..., 1] + q[..., 1]*w[..., 0])*(-q[..., 0]*w[..., 1] + q[..., 1]*w[..., 0]) + (q[..., 0]*w[..., 2] - q[..., 2]*w[..., 0])*(q[..., 0]*w[..., 2] - q[..., 2]*w[..., 0]) + (-q[..., 1]*w[..., 2] + q[..., 2]*w[..., 1])*(-q[..., 1]*w[..., 2] + q[..., 2]*w[..., 1]))
+    """kinetic energy of one body: 1/2 M_ii |omega x q|^2 (16 ops as derived, 16 after cse)."""
+    pw0 = q[..., 0]*w[..., 2] - q[..., 2]*w[..., 0]
+    pw1 = pw0*pw0
+    pw2 = -q[..., 0]*w[..., 1] + q[..., 1]*w[..., 0]
+    pw3 = pw2*pw2
+    pw4 = -q[..., 1]*w[..., 2] + q[..., 2]*w[..., 1]
+    pw5 = pw4*pw4
+    t = (1/2)*m*(pw1 + pw3 + pw5)
     return t
 
 

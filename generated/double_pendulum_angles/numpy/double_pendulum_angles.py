@@ -3,6 +3,7 @@
 # Parts: kernels, helpers, lu, angles_context, angles_convert, angles_field, rk, angles_driver.
 # Lowering passes (total operations of all kernels after each):
 #   quadratic: 0
+#   reciprocal: 0
 #   factor: 0
 #   cse: 389
 #   hoist: 389
@@ -10,6 +11,7 @@
 #   powers: 389
 #   opcount: 389
 #   calls: 389
+#   layout: 389
 #   workspace: 389
 """The classical spherical-angle form of the system "double_pendulum" (2 bodies), NumPy.
 

@@ -3,14 +3,16 @@
  * See four_pendula.h for the interface. Parts: tables, kernels, helpers, context, potential, energy, field_diagonal, field, vi_explicit, vi_step, rattle_closed, rk, rk_step, driver.
  * Lowering passes (total operations of all kernels after each):
  *   quadratic: 0
+ *   reciprocal: 0
  *   factor: 0
- *   cse: 350
- *   hoist: 336
- *   strength: 336
- *   powers: 382
- *   opcount: 382
- *   calls: 382
- *   workspace: 382
+ *   cse: 339
+ *   hoist: 325
+ *   strength: 325
+ *   powers: 326
+ *   opcount: 326
+ *   calls: 326
+ *   layout: 326
+ *   workspace: 326
  */
 #include "four_pendula.h"
 
@@ -27,10 +29,10 @@
 #if !defined(__cplusplus)
 #define FOUR_PENDULA_PRAGMA(x) _Pragma(#x)
 #define FOUR_PENDULA_SIMD FOUR_PENDULA_PRAGMA(omp simd)
-#define FOUR_PENDULA_SIMD_SUM(v) FOUR_PENDULA_PRAGMA(omp simd reduction(+ : v))
+#define FOUR_PENDULA_SIMD_SUM(...) FOUR_PENDULA_PRAGMA(omp simd reduction(+ : __VA_ARGS__))
 #else
 #define FOUR_PENDULA_SIMD
-#define FOUR_PENDULA_SIMD_SUM(v)
+#define FOUR_PENDULA_SIMD_SUM(...)
 #endif
 
 /* restrict as C99 spells it, or as C++ compilers do */
@@ -110,17 +112,31 @@ static void four_pendula_k_t0_gradient(const double *FOUR_PENDULA_RESTRICT q, co
 }
 
 /* midpoint springs: sum over pairs (list), value
- * 31 operations as derived, 44 after cse (0 temporaries). */
+ * 31 operations as derived, 17 after cse (8 temporaries). */
 static void four_pendula_k_t1_value(const double *FOUR_PENDULA_RESTRICT qi, const double *FOUR_PENDULA_RESTRICT qj, const double *FOUR_PENDULA_RESTRICT cc, const double *FOUR_PENDULA_RESTRICT tab, double *FOUR_PENDULA_RESTRICT v)
 {
-    v[0] = tab[4]*((cc[1]*sqrt((-qi[0] + qj[0] + tab[0])*(-qi[0] + qj[0] + tab[0]) + (-qi[1] + qj[1] + tab[1])*(-qi[1] + qj[1] + tab[1]) + (-qi[2] + qj[2] + tab[2])*(-qi[2] + qj[2] + tab[2])) + tab[3])*(cc[1]*sqrt((-qi[0] + qj[0] + tab[0])*(-qi[0] + qj[0] + tab[0]) + (-qi[1] + qj[1] + tab[1])*(-qi[1] + qj[1] + tab[1]) + (-qi[2] + qj[2] + tab[2])*(-qi[2] + qj[2] + tab[2])) + tab[3]));
+    const double pw0 = -qi[0] + qj[0] + tab[0];
+    const double pw1 = pw0*pw0;
+    const double pw2 = -qi[1] + qj[1] + tab[1];
+    const double pw3 = pw2*pw2;
+    const double pw4 = -qi[2] + qj[2] + tab[2];
+    const double pw5 = pw4*pw4;
+    const double pw6 = cc[1]*sqrt(pw1 + pw3 + pw5) + tab[3];
+    const double pw7 = pw6*pw6;
+    v[0] = pw7*tab[4];
 }
 
 /* midpoint springs: sum over pairs (list), gradient
- * 333 operations as derived, 42 after cse (5 temporaries). */
+ * 333 operations as derived, 36 after cse (11 temporaries). */
 static void four_pendula_k_t1_gradient(const double *FOUR_PENDULA_RESTRICT qi, const double *FOUR_PENDULA_RESTRICT qj, const double *FOUR_PENDULA_RESTRICT d_r, const double *FOUR_PENDULA_RESTRICT cc, const double *FOUR_PENDULA_RESTRICT tab, double *FOUR_PENDULA_RESTRICT gi, double *FOUR_PENDULA_RESTRICT gj)
 {
-    const double x0 = sqrt((-qi[0] + qj[0] + tab[0])*(-qi[0] + qj[0] + tab[0]) + (-qi[1] + qj[1] + tab[1])*(-qi[1] + qj[1] + tab[1]) + (-qi[2] + qj[2] + tab[2])*(-qi[2] + qj[2] + tab[2]));
+    const double pw0 = -qi[0] + qj[0] + tab[0];
+    const double pw1 = pw0*pw0;
+    const double pw2 = -qi[1] + qj[1] + tab[1];
+    const double pw3 = pw2*pw2;
+    const double pw4 = -qi[2] + qj[2] + tab[2];
+    const double pw5 = pw4*pw4;
+    const double x0 = sqrt(pw1 + pw3 + pw5);
     const double x2 = tab[5]*(cc[1]*x0 + tab[3])*1.0/x0;
     const double x3 = x2*(-1.0/2.0*qi[0] + (1.0/2.0)*qj[0] + d_r[0]);
     const double x4 = x2*(-1.0/2.0*qi[1] + (1.0/2.0)*qj[1] + d_r[1]);
@@ -134,10 +150,16 @@ static void four_pendula_k_t1_gradient(const double *FOUR_PENDULA_RESTRICT qi, c
 }
 
 /* kinetic energy of one body: 1/2 M_ii |omega x q|^2
- * 16 operations as derived, 25 after cse (0 temporaries). */
+ * 16 operations as derived, 16 after cse (6 temporaries). */
 static void four_pendula_k_kin_body(const double m, const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT w, double *FOUR_PENDULA_RESTRICT t)
 {
-    t[0] = (1.0/2.0)*m*((-q[0]*w[1] + q[1]*w[0])*(-q[0]*w[1] + q[1]*w[0]) + (q[0]*w[2] - q[2]*w[0])*(q[0]*w[2] - q[2]*w[0]) + (-q[1]*w[2] + q[2]*w[1])*(-q[1]*w[2] + q[2]*w[1]));
+    const double pw0 = q[0]*w[2] - q[2]*w[0];
+    const double pw1 = pw0*pw0;
+    const double pw2 = -q[0]*w[1] + q[1]*w[0];
+    const double pw3 = pw2*pw2;
+    const double pw4 = -q[1]*w[2] + q[2]*w[1];
+    const double pw5 = pw4*pw4;
+    t[0] = (1.0/2.0)*m*(pw1 + pw3 + pw5);
 }
 
 /* angular momentum of one body: M_ii q x (omega x q)
@@ -153,98 +175,62 @@ static void four_pendula_k_mom_body(const double m, const double *FOUR_PENDULA_R
 }
 
 /* vector field, uncoupled body: qdot = omega x q, omegadot = -q x g / M_ii
- * 21 operations as derived, 22 after cse (1 temporaries). */
-static void four_pendula_k_rhs_diag(const double m, const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT w, const double *FOUR_PENDULA_RESTRICT g, double *FOUR_PENDULA_RESTRICT dq, double *FOUR_PENDULA_RESTRICT dw)
+ * 21 operations as derived, 21 after cse (0 temporaries). */
+static void four_pendula_k_rhs_diag(const double mi, const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT w, const double *FOUR_PENDULA_RESTRICT g, double *FOUR_PENDULA_RESTRICT dq, double *FOUR_PENDULA_RESTRICT dw)
 {
-    const double x0 = 1.0/m;
     dq[0] = -q[1]*w[2] + q[2]*w[1];
     dq[1] = q[0]*w[2] - q[2]*w[0];
     dq[2] = -q[0]*w[1] + q[1]*w[0];
-    dw[0] = x0*(g[1]*q[2] - g[2]*q[1]);
-    dw[1] = x0*(-g[0]*q[2] + g[2]*q[0]);
-    dw[2] = x0*(g[0]*q[1] - g[1]*q[0]);
-}
-
-/* explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0)
- * 219 operations as derived, 53 after cse (14 temporaries). */
-static void four_pendula_k_vi_pos(const double h, const double m, const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT w, const double *FOUR_PENDULA_RESTRICT g, double *FOUR_PENDULA_RESTRICT qn, double *FOUR_PENDULA_RESTRICT s)
-{
-    const double pw0 = h*h;
-    const double x0 = h*1.0/m;
-    const double x1 = 2*w[2] + x0*(g[0]*q[1] - g[1]*q[0]);
-    const double pw1 = x1*x1;
-    const double x2 = (1.0/2.0)*h;
-    const double x3 = x1*x2;
-    const double x4 = 2*w[1] - x0*(g[0]*q[2] - g[2]*q[0]);
-    const double pw2 = x4*x4;
-    const double x5 = q[2]*x2;
-    const double x6 = (1.0/4.0)*pw0;
-    const double x7 = 2*w[0] + x0*(g[1]*q[2] - g[2]*q[1]);
-    const double pw3 = x7*x7;
-    const double x8 = -pw1*x6 - pw2*x6 - pw3*x6 + 1;
-    const double x9 = sqrt(x8);
-    qn[0] = q[0]*x9 - q[1]*x3 + x4*x5;
-    qn[1] = q[0]*x3 + q[1]*x9 - x5*x7;
-    qn[2] = -q[0]*x2*x4 + q[1]*x2*x7 + q[2]*x9;
-    s[0] = x8;
-}
-
-/* explicit VI velocity update: omega+ = omega - h/(2M_ii)(q x g + q+ x g+)
- * 42 operations as derived, 33 after cse (1 temporaries). */
-static void four_pendula_k_vi_vel(const double h, const double m, const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT w, const double *FOUR_PENDULA_RESTRICT g, const double *FOUR_PENDULA_RESTRICT qn, const double *FOUR_PENDULA_RESTRICT gn, double *FOUR_PENDULA_RESTRICT wn)
-{
-    const double x0 = (1.0/2.0)*h*1.0/m;
-    wn[0] = w[0] + x0*(g[1]*q[2] - g[2]*q[1]) - x0*(-gn[1]*qn[2] + gn[2]*qn[1]);
-    wn[1] = w[1] - x0*(g[0]*q[2] - g[2]*q[0]) - x0*(gn[0]*qn[2] - gn[2]*qn[0]);
-    wn[2] = w[2] + x0*(g[0]*q[1] - g[1]*q[0]) - x0*(-gn[0]*qn[1] + gn[1]*qn[0]);
+    dw[0] = mi*(g[1]*q[2] - g[2]*q[1]);
+    dw[1] = mi*(-g[0]*q[2] + g[2]*q[0]);
+    dw[2] = mi*(g[0]*q[1] - g[1]*q[0]);
 }
 
 /* RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0)
- * 911 operations as derived, 80 after cse (25 temporaries). */
-static void four_pendula_k_rattle_pos(const double h, const double m, const double *FOUR_PENDULA_RESTRICT x, const double *FOUR_PENDULA_RESTRICT v, const double *FOUR_PENDULA_RESTRICT g, double *FOUR_PENDULA_RESTRICT xn, double *FOUR_PENDULA_RESTRICT vh, double *FOUR_PENDULA_RESTRICT disc)
+ * 911 operations as derived, 79 after cse (24 temporaries). */
+static void four_pendula_k_rattle_pos(const double h, const double mi, const double *FOUR_PENDULA_RESTRICT x, const double *FOUR_PENDULA_RESTRICT v, const double *FOUR_PENDULA_RESTRICT g, double *FOUR_PENDULA_RESTRICT xn, double *FOUR_PENDULA_RESTRICT vh, double *FOUR_PENDULA_RESTRICT disc)
 {
     const double pw0 = h*h;
     const double pw5 = x[0]*x[0];
     const double pw6 = x[1]*x[1];
     const double pw7 = x[2]*x[2];
-    const double x0 = 1.0/m;
-    const double x1 = pw0*x0;
-    const double x2 = g[0]*x1;
-    const double x3 = 2*h*v[0] - x2 + 2*x[0];
-    const double pw1 = x3*x3;
-    const double x4 = g[1]*x1;
-    const double x5 = 2*h*v[1] - x4 + 2*x[1];
-    const double pw2 = x5*x5;
-    const double x6 = g[2]*x1;
-    const double x7 = 2*h*v[2] - x6 + 2*x[2];
-    const double pw3 = x7*x7;
-    const double x8 = pw1 + pw2 + pw3 - 4;
-    const double x9 = x3*x[0] + x5*x[1] + x7*x[2];
-    const double pw4 = x9*x9;
-    const double x10 = pw4 - x8*(pw5 + pw6 + pw7);
-    const double x11 = (1.0/2.0)*x8*1.0/(sqrt(x10) + x9);
-    const double x12 = x11*x[0];
-    const double x13 = x11*x[1];
-    const double x14 = x11*x[2];
-    const double x15 = (1.0/2.0)*h*x0;
-    const double x16 = 1.0/h;
-    xn[0] = h*v[0] - x12 - 1.0/2.0*x2 + x[0];
-    xn[1] = h*v[1] - x13 - 1.0/2.0*x4 + x[1];
-    xn[2] = h*v[2] - x14 - 1.0/2.0*x6 + x[2];
-    vh[0] = -g[0]*x15 + v[0] - x12*x16;
-    vh[1] = -g[1]*x15 + v[1] - x13*x16;
-    vh[2] = -g[2]*x15 + v[2] - x14*x16;
-    disc[0] = (1.0/4.0)*x10;
+    const double x0 = mi*pw0;
+    const double x1 = g[0]*x0;
+    const double x2 = 2*h*v[0] - x1 + 2*x[0];
+    const double pw1 = x2*x2;
+    const double x3 = g[1]*x0;
+    const double x4 = 2*h*v[1] - x3 + 2*x[1];
+    const double pw2 = x4*x4;
+    const double x5 = g[2]*x0;
+    const double x6 = 2*h*v[2] - x5 + 2*x[2];
+    const double pw3 = x6*x6;
+    const double x7 = pw1 + pw2 + pw3 - 4;
+    const double x8 = x2*x[0] + x4*x[1] + x6*x[2];
+    const double pw4 = x8*x8;
+    const double x9 = pw4 - x7*(pw5 + pw6 + pw7);
+    const double x10 = (1.0/2.0)*x7*1.0/(x8 + sqrt(x9));
+    const double x11 = x10*x[0];
+    const double x12 = x10*x[1];
+    const double x13 = x10*x[2];
+    const double x14 = (1.0/2.0)*h*mi;
+    const double x15 = 1.0/h;
+    xn[0] = h*v[0] - 1.0/2.0*x1 - x11 + x[0];
+    xn[1] = h*v[1] - x12 - 1.0/2.0*x3 + x[1];
+    xn[2] = h*v[2] - x13 - 1.0/2.0*x5 + x[2];
+    vh[0] = -g[0]*x14 + v[0] - x11*x15;
+    vh[1] = -g[1]*x14 + v[1] - x12*x15;
+    vh[2] = -g[2]*x14 + v[2] - x13*x15;
+    disc[0] = (1.0/4.0)*x9;
 }
 
 /* RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+
- * 96 operations as derived, 36 after cse (8 temporaries). */
-static void four_pendula_k_rattle_vel(const double h, const double m, const double *FOUR_PENDULA_RESTRICT xn, const double *FOUR_PENDULA_RESTRICT vh, const double *FOUR_PENDULA_RESTRICT gn, double *FOUR_PENDULA_RESTRICT vn)
+ * 96 operations as derived, 35 after cse (8 temporaries). */
+static void four_pendula_k_rattle_vel(const double h, const double mi, const double *FOUR_PENDULA_RESTRICT xn, const double *FOUR_PENDULA_RESTRICT vh, const double *FOUR_PENDULA_RESTRICT gn, double *FOUR_PENDULA_RESTRICT vn)
 {
     const double pw0 = xn[0]*xn[0];
     const double pw1 = xn[1]*xn[1];
     const double pw2 = xn[2]*xn[2];
-    const double x0 = h*1.0/m;
+    const double x0 = h*mi;
     const double x1 = gn[0]*x0;
     const double x2 = gn[1]*x0;
     const double x3 = gn[2]*x0;
@@ -256,15 +242,17 @@ static void four_pendula_k_rattle_vel(const double h, const double m, const doub
 
 /* ---- small helpers ---------------------------------------------------------------------- */
 
+/* 1 when every x[k] is finite: x * 0 is 0 for a finite x and NaN otherwise, so one sum
+ * (which vectorises, and whose order cannot matter) tells. */
 static int four_pendula_finite(const double *x, long len)
 {
+    double acc = 0.0;
     long k;
+FOUR_PENDULA_SIMD_SUM(acc)
     for (k = 0; k < len; ++k) {
-        if (!isfinite(x[k])) {
-            return 0;
-        }
+        acc += x[k] * 0.0;
     }
-    return 1;
+    return acc == 0.0;
 }
 
 static void four_pendula_copy(double *dst, const double *src, long len)
@@ -293,10 +281,12 @@ static void four_pendula_masses(const double *p, double *md, double *mp)
 typedef struct {
     const double *p;
     double *md; /* M_ii, one per body */
+    double *mi; /* 1 / M_ii, one per body */
     double *mp; /* coupled entries, one per pair */
     double *adiag; /* diagonal of A(q+) in the VI velocity solve */
     double *nb; /* neighbour-list cells and links */
     double *cc; /* constants of the kernels that depend only on the parameters */
+    double *soa; /* structure-of-arrays copies of q and g (x, y, z, gx, gy, gz) for the pair rows */
     double *t1; /* term 1's member table */
 } four_pendula_ctx;
 
@@ -307,10 +297,12 @@ static void four_pendula_ctx_bare(four_pendula_ctx *cx, const double *p, double 
 {
     cx->p = p;
     cx->md = NULL;
+    cx->mi = NULL;
     cx->mp = NULL;
     cx->adiag = NULL;
     cx->nb = NULL;
     cx->cc = NULL;
+    cx->soa = NULL;
     cx->t1 = NULL;
     cx->cc = cc;
     four_pendula_k_context(p, cx->cc);
@@ -319,15 +311,21 @@ static void four_pendula_ctx_bare(four_pendula_ctx *cx, const double *p, double 
 static void four_pendula_ctx_init(four_pendula_ctx *cx, const double *p, double *work)
 {
     double *tail = work + FOUR_PENDULA_WORK_BASE;
+    long i;
     long m;
     cx->p = p;
     cx->md = tail + 0;
-    cx->mp = tail + 4;
-    cx->adiag = tail + 4;
-    cx->nb = tail + 4;
-    cx->cc = tail + 4;
-    cx->t1 = tail + 6;
+    cx->mi = tail + 4;
+    cx->mp = tail + 8;
+    cx->adiag = tail + 8;
+    cx->nb = tail + 8;
+    cx->cc = tail + 8;
+    cx->soa = tail + 10;
+    cx->t1 = tail + 10;
     four_pendula_masses(p, cx->md, cx->mp);
+    for (i = 0; i < 4; ++i) {
+        cx->mi[i] = 1.0 / cx->md[i];
+    }
     four_pendula_k_context(p, cx->cc);
     for (m = 0; m < 4; ++m) {
         double *row = cx->t1 + 6 * m;
@@ -507,12 +505,11 @@ void four_pendula_angular_momentum(const double *p, const double *q, const doubl
 static int four_pendula_rhs_cx(const four_pendula_ctx *cx, const double *q, const double *w,
         double *dq, double *dw, double *work)
 {
-    const double *md = cx->md;
     double *g = work + 0;
     int i;
     four_pendula_gradient_cx(cx, q, g);
     for (i = 0; i < 4; ++i) {
-        four_pendula_k_rhs_diag(md[i], q + 3 * i, w + 3 * i, g + 3 * i, dq + 3 * i, dw + 3 * i);
+        four_pendula_k_rhs_diag(cx->mi[i], q + 3 * i, w + 3 * i, g + 3 * i, dq + 3 * i, dw + 3 * i);
     }
     return FOUR_PENDULA_OK;
 }
@@ -531,33 +528,195 @@ static int four_pendula_field(const four_pendula_ctx *cx, const double *y, doubl
 }
 /* ---- variational integrator (diagonal M: explicit update) ------------------------------------ */
 
-/* One explicit step. g holds dV/dq at q on entry; gn receives dV/dq at qn (f, warm: the
- * implicit step's Newton start, unused here). */
+/* The explicit VI runs on component-major (structure-of-arrays) copies of the state: x[c n + i]
+ * is component c of body i (n = 4), so that its loops over bodies vectorise. */
+static void four_pendula_to_soa(const double *FOUR_PENDULA_RESTRICT q, double *FOUR_PENDULA_RESTRICT x)
+{
+    long i;
+    for (i = 0; i < 4; ++i) {
+        x[i] = q[3 * i];
+        x[4 + i] = q[3 * i + 1];
+        x[8 + i] = q[3 * i + 2];
+    }
+}
+
+static void four_pendula_from_soa(const double *FOUR_PENDULA_RESTRICT x, double *FOUR_PENDULA_RESTRICT q)
+{
+    long i;
+    for (i = 0; i < 4; ++i) {
+        q[3 * i] = x[i];
+        q[3 * i + 1] = x[4 + i];
+        q[3 * i + 2] = x[8 + i];
+    }
+}
+
+/* dV/dq at component-major positions xs into gs (component-major): the terms in K and those
+ * laid out as rows read xs directly; the others go through body-major copies
+ * of q and g in bridge (2 N3 doubles). The context is ctx_init's (K and the row
+ * buffers present). */
+static void four_pendula_gradient_soa(const four_pendula_ctx *cx, const double *FOUR_PENDULA_RESTRICT xs,
+        double *FOUR_PENDULA_RESTRICT gs, double *bridge)
+{
+    const double *p = cx->p;
+    long e;
+    double *nb = cx->nb, *q = bridge, *g = bridge + FOUR_PENDULA_N3;
+    (void)nb;
+    (void)p;
+    for (e = 0; e < FOUR_PENDULA_N3; ++e) {
+        gs[e] = 0.0;
+    }
+    four_pendula_from_soa(xs, q);
+    for (e = 0; e < FOUR_PENDULA_N3; ++e) {
+        g[e] = 0.0;
+    }
+    /* term 0, gravity: sum over bodies (all), gradient: 4 members */
+    {
+        long m;
+        for (m = 0; m < 4; ++m) {
+            const long i = m;
+            double gb[3];
+            four_pendula_k_t0_gradient(q + 3 * i, cx->cc, gb);
+            g[3 * i] += gb[0];
+            g[3 * i + 1] += gb[1];
+            g[3 * i + 2] += gb[2];
+        }
+    }
+    /* term 1, midpoint springs: sum over pairs (list), gradient: 4 members */
+    {
+        long m;
+        for (m = 0; m < 4; ++m) {
+            const long i = four_pendula_t1_i[m], j = four_pendula_t1_j[m];
+            double row[6];
+            const double *tab = cx->t1 ? cx->t1 + 6 * m : row;
+            if (!cx->t1) {
+                four_pendula_k_t1_table(p, four_pendula_t1_kappa[m], four_pendula_t1_r + 3 * m, row);
+            }
+            double gi[3], gj[3];
+            four_pendula_k_t1_gradient(q + 3 * i, q + 3 * j, four_pendula_t1_r + 3 * m, cx->cc, tab, gi, gj);
+            g[3 * i] += gi[0];
+            g[3 * i + 1] += gi[1];
+            g[3 * i + 2] += gi[2];
+            g[3 * j] += gj[0];
+            g[3 * j + 1] += gj[1];
+            g[3 * j + 2] += gj[2];
+        }
+    }
+    for (e = 0; e < 4; ++e) {
+        gs[e] += g[3 * e];
+        gs[4 + e] += g[3 * e + 1];
+        gs[8 + e] += g[3 * e + 2];
+    }
+}
+
+/* One explicit step, all arrays component-major: from (x, v) with gx = dV/dq at x to (xn, vn)
+ * and gn = dV/dq at xn (vn holds the half-step velocity in between); sv: n doubles of scratch, bridge: see gradient_soa. Returns OK,
+ * ERR_INFEASIBLE (|a_i| > 1: no rotation realises the step) or ERR_NONFINITE; with x, v and
+ * gx finite, OK means xn and vn are finite. */
+static int four_pendula_vi_explicit(const four_pendula_ctx *cx, double h,
+        const double *FOUR_PENDULA_RESTRICT x, const double *FOUR_PENDULA_RESTRICT v,
+        const double *FOUR_PENDULA_RESTRICT gx, double *FOUR_PENDULA_RESTRICT xn,
+        double *FOUR_PENDULA_RESTRICT vn, double *FOUR_PENDULA_RESTRICT gn,
+        double *FOUR_PENDULA_RESTRICT sv, double *bridge)
+{
+    double chk = 0.0;
+    long i;
+    int bad = 0;
+    /* no early exit inside the loop, so that it vectorises; the check follows it */
+FOUR_PENDULA_SIMD
+    for (i = 0; i < 4; ++i) {
+        const double mi = cx->mi[i];
+        const double q0 = x[i], q1 = x[4 + i], q2 = x[8 + i];
+        const double w0 = v[i], w1 = v[4 + i], w2 = v[8 + i];
+        const double g0 = gx[i], g1 = gx[4 + i], g2 = gx[8 + i];
+        const double pw0 = h*h;
+        const double x0 = h*mi;
+        const double x1 = x0*(g0*q1 - g1*q0);
+        const double x2 = 2*w2 + x1;
+        const double pw2 = x2*x2;
+        const double x3 = (1.0/2.0)*h;
+        const double x4 = x2*x3;
+        const double x5 = x0*(g0*q2 - g2*q0);
+        const double x6 = 2*w1 - x5;
+        const double pw3 = x6*x6;
+        const double x7 = q2*x3;
+        const double x8 = (1.0/4.0)*pw0;
+        const double x9 = x0*(g1*q2 - g2*q1);
+        const double x10 = 2*w0 + x9;
+        const double pw1 = x10*x10;
+        const double x11 = -pw1*x8 - pw2*x8 - pw3*x8 + 1;
+        const double x12 = sqrt(x11);
+        const double qn0 = q0*x12 - q1*x4 + x6*x7;
+        const double qn1 = q0*x4 + q1*x12 - x10*x7;
+        const double qn2 = -q0*x3*x6 + q1*x10*x3 + q2*x12;
+        const double wh0 = w0 + (1.0/2.0)*x9;
+        const double wh1 = w1 - 1.0/2.0*x5;
+        const double wh2 = w2 + (1.0/2.0)*x1;
+        const double s0 = x11;
+        xn[i] = qn0;
+        xn[4 + i] = qn1;
+        xn[8 + i] = qn2;
+        vn[i] = wh0;
+        vn[4 + i] = wh1;
+        vn[8 + i] = wh2;
+        sv[i] = s0;
+    }
+    for (i = 0; i < 4; ++i) {
+        bad += !(sv[i] >= 0.0);
+    }
+    for (i = 0; i < 4 && bad; ++i) {
+        if (!(sv[i] >= 0.0)) {
+            return isfinite(sv[i]) ? FOUR_PENDULA_ERR_INFEASIBLE : FOUR_PENDULA_ERR_NONFINITE;
+        }
+    }
+    four_pendula_gradient_soa(cx, xn, gn, bridge);
+    /* xn is finite: s_i >= 0 makes a_i finite. vn is checked here: w * 0 is 0 for a finite w
+     * and NaN otherwise (see _finite) */
+FOUR_PENDULA_SIMD_SUM(chk)
+    for (i = 0; i < 4; ++i) {
+        const double mi = cx->mi[i];
+        const double wh0 = vn[i], wh1 = vn[4 + i], wh2 = vn[8 + i];
+        const double qn0 = xn[i], qn1 = xn[4 + i], qn2 = xn[8 + i];
+        const double gn0 = gn[i], gn1 = gn[4 + i], gn2 = gn[8 + i];
+        const double x0 = (1.0/2.0)*h*mi;
+        const double wn0 = wh0 - x0*(-gn1*qn2 + gn2*qn1);
+        const double wn1 = wh1 - x0*(gn0*qn2 - gn2*qn0);
+        const double wn2 = wh2 - x0*(-gn0*qn1 + gn1*qn0);
+        vn[i] = wn0;
+        vn[4 + i] = wn1;
+        vn[8 + i] = wn2;
+        chk += (wn0 * 0.0 + wn1 * 0.0) + wn2 * 0.0;
+    }
+    return chk == 0.0 ? FOUR_PENDULA_OK : FOUR_PENDULA_ERR_NONFINITE;
+}
+
+/* One explicit step on body-major arrays (for vi_step): g holds dV/dq at q on entry; gn
+ * receives dV/dq at qn (f, warm: the implicit step's Newton start, unused here).
+ * work: x (12), v (12), gx (12), xn (12), vn (12), gn (12), s (4), bridge (24). */
 static int four_pendula_vi_advance(const four_pendula_ctx *cx, const four_pendula_options *opt,
         double h, const double *q, const double *w, const double *g, double *qn, double *wn,
         double *gn, double *f, int warm, double *work, int *iters)
 {
-    const double *md = cx->md;
-    int i;
+    double *x = work + 0, *v = work + 12;
+    double *gx = work + 24, *xn = work + 36;
+    double *vn = work + 48, *gs = work + 60;
+    int status;
     (void)opt;
     (void)f;
     (void)warm;
-    (void)work;
     *iters = 0;
-    for (i = 0; i < 4; ++i) {
-        double s;
-        four_pendula_k_vi_pos(h, md[i], q + 3 * i, w + 3 * i, g + 3 * i, qn + 3 * i, &s);
-        if (!(s >= 0.0)) {
-            return isfinite(s) ? FOUR_PENDULA_ERR_INFEASIBLE : FOUR_PENDULA_ERR_NONFINITE;
-        }
+    four_pendula_to_soa(q, x);
+    four_pendula_to_soa(w, v);
+    four_pendula_to_soa(g, gx);
+    status = four_pendula_vi_explicit(cx, h, x, v, gx, xn, vn, gs, work + 72,
+            work + 76);
+    if (status == FOUR_PENDULA_OK) {
+        four_pendula_from_soa(xn, qn);
+        four_pendula_from_soa(vn, wn);
+        four_pendula_from_soa(gs, gn);
     }
-    four_pendula_gradient_cx(cx, qn, gn);
-    for (i = 0; i < 4; ++i) {
-        four_pendula_k_vi_vel(h, md[i], q + 3 * i, w + 3 * i, g + 3 * i, qn + 3 * i, gn + 3 * i, wn + 3 * i);
-    }
-    return FOUR_PENDULA_OK;
+    return status;
 }
-/* work: g (12), gn (12), f (12). */
+/* work: g (12), gn (12), f (12), step (100). */
 int four_pendula_vi_step(const double *p, const four_pendula_options *opt, double h,
         const double *q, const double *w, double *qn, double *wn, double *work, int *iters)
 {
@@ -591,7 +750,6 @@ static int four_pendula_rattle_advance(const four_pendula_ctx *cx, const four_pe
         const double *x, const double *v, const double *g, double *xn, double *vn, double *gn,
         double *sv, int warm, double *work, int *iters)
 {
-    const double *md = cx->md;
     double *vh = work + 0;
     int i;
     (void)opt;
@@ -600,14 +758,14 @@ static int four_pendula_rattle_advance(const four_pendula_ctx *cx, const four_pe
     *iters = 0;
     for (i = 0; i < 4; ++i) {
         double disc;
-        four_pendula_k_rattle_pos(h, md[i], x + 3 * i, v + 3 * i, g + 3 * i, xn + 3 * i, vh + 3 * i, &disc);
+        four_pendula_k_rattle_pos(h, cx->mi[i], x + 3 * i, v + 3 * i, g + 3 * i, xn + 3 * i, vh + 3 * i, &disc);
         if (!(disc >= 0.0)) {
             return isfinite(disc) ? FOUR_PENDULA_ERR_INFEASIBLE : FOUR_PENDULA_ERR_NONFINITE;
         }
     }
     four_pendula_gradient_cx(cx, xn, gn);
     for (i = 0; i < 4; ++i) {
-        four_pendula_k_rattle_vel(h, md[i], xn + 3 * i, vh + 3 * i, gn + 3 * i, vn + 3 * i);
+        four_pendula_k_rattle_vel(h, cx->mi[i], xn + 3 * i, vh + 3 * i, gn + 3 * i, vn + 3 * i);
     }
     return FOUR_PENDULA_OK;
 }
@@ -960,7 +1118,7 @@ static int four_pendula_rk45(const four_pendula_ctx *cx, const four_pendula_opti
 /* Step fractions of the symmetric compositions of the VI (Yoshida's triple jump: 4th order). */
 static const double four_pendula_yoshida[3] = { 1.3512071919596578, -1.7024143839193155, 1.3512071919596578 };
 
-/* VI, its 4th-order composition, or RATTLE from (q0, w0); every `every`-th state is stored.
+/* RATTLE from (q0, w0) (the explicit VI has its own driver); every `every`-th state is stored.
  * One gradient per substep (the gradient at the new state is reused by the next step).
  * work: g (12), gn (12), a (12), b (12), va (12), vb (12), qk (12), wk (12), q1 (12), w1 (12), step (12). */
 static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const four_pendula_options *opt,
@@ -968,11 +1126,10 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
         double *q, double *w, double *energy, double *work, four_pendula_stats *stats)
 {
     double *g = work + 0, *gn = work + 12;
-    double *a = work + 24, *b = work + 36;
     double *va = work + 48, *vb = work + 60;
     double *qk = work + 72, *wk = work + 84;
     double *q1 = work + 96, *w1 = work + 108;
-    double *fs = work + 120, *ss = work + 120;
+    double *ss = work + 120;
     double *rest = work + 120, *tmp;
     long k, e;
     int status = FOUR_PENDULA_OK;
@@ -989,30 +1146,8 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
         }
     }
     for (k = 0; k < nsteps; ++k) {
-        int iters = 0, sub, total = 0;
-        if (method == FOUR_PENDULA_METHOD_VI) {
-            status = four_pendula_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, fs, k > 0, rest,
-                    &iters);
-            total = iters;
-            tmp = g;
-            g = gn;
-            gn = tmp;
-        } else if (method == FOUR_PENDULA_METHOD_VI4) {
-            const double *qs = qk, *ws = wk;
-            for (sub = 0; sub < 3 && status == FOUR_PENDULA_OK; ++sub) {
-                double *qd = sub == 2 ? q1 : (sub == 0 ? a : b);
-                double *wd = sub == 2 ? w1 : (sub == 0 ? va : vb);
-                status = four_pendula_vi_advance(cx, opt, four_pendula_yoshida[sub] * h, qs, ws, g, qd,
-                        wd, gn, fs + sub * FOUR_PENDULA_N3, k > 0, rest, &iters);
-                total += iters;
-                qs = qd;
-                ws = wd;
-                tmp = g;
-                g = gn;
-                gn = tmp;
-                stats->gradient_evals += sub < 2 ? 1 : 0;
-            }
-        } else {
+        int iters = 0, total = 0;
+        {
             status = four_pendula_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, ss, k > 0, rest,
                     &iters);
             total = iters;
@@ -1051,6 +1186,60 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
         if ((k + 1) % every == 0) {
             four_pendula_store(cx, qk, wk, (k + 1) / every, q, w, energy);
             stats->fail_step = (k + 1) / every + 1;
+        }
+    }
+    return status;
+}
+
+/* The explicit VI or its 4th-order composition from (q0, w0), on component-major copies of the
+ * state (see vi_explicit); every `every`-th state is stored, body-major. One gradient per
+ * substep (the gradient at the new state is reused by the next step).
+ * work: x (12), v (12), gx (12), xn (12), vn (12), gn (12), s (4), bridge (24). */
+static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, int method, double h,
+        long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
+        double *energy, double *work, four_pendula_stats *stats)
+{
+    double *x = work + 0, *v = work + 12;
+    double *gx = work + 24, *xn = work + 36;
+    double *vn = work + 48, *gn = work + 60;
+    double *sv = work + 72, *bridge = work + 76;
+    double *tmp;
+    const int subs = method == FOUR_PENDULA_METHOD_VI4 ? 3 : 1;
+    long k;
+    int sub, status = FOUR_PENDULA_OK;
+    four_pendula_to_soa(q0, x);
+    four_pendula_to_soa(w0, v);
+    four_pendula_gradient_soa(cx, x, gx, bridge);
+    stats->gradient_evals += 1;
+    for (k = 0; k < nsteps; ++k) {
+        for (sub = 0; sub < subs && status == FOUR_PENDULA_OK; ++sub) {
+            const double hs = subs == 1 ? h : four_pendula_yoshida[sub] * h;
+            status = four_pendula_vi_explicit(cx, hs, x, v, gx, xn, vn, gn, sv, bridge);
+            tmp = x;
+            x = xn;
+            xn = tmp;
+            tmp = v;
+            v = vn;
+            vn = tmp;
+            tmp = gx;
+            gx = gn;
+            gn = tmp;
+        }
+        /* vi_explicit returned OK only with a finite state */
+        if (status != FOUR_PENDULA_OK) {
+            return status;
+        }
+        stats->gradient_evals += subs;
+        stats->steps += 1;
+        if ((k + 1) % every == 0) {
+            const long s = (k + 1) / every;
+            double *qs = q + s * FOUR_PENDULA_N3, *ws = w + s * FOUR_PENDULA_N3;
+            four_pendula_from_soa(x, qs);
+            four_pendula_from_soa(v, ws);
+            if (energy) {
+                energy[s] = four_pendula_energy_cx(cx, qs, ws);
+            }
+            stats->fail_step = s + 1;
         }
     }
     return status;
@@ -1136,6 +1325,10 @@ int four_pendula_integrate(const double *p, const four_pendula_options *opt, int
         four_pendula_copy(y0, q0, FOUR_PENDULA_N3);
         four_pendula_copy(y0 + FOUR_PENDULA_N3, w0, FOUR_PENDULA_N3);
         return four_pendula_rk45(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
+    }
+    if (method == FOUR_PENDULA_METHOD_VI || method == FOUR_PENDULA_METHOD_VI4) {
+        return four_pendula_integrate_explicit(cx, method, h, nsteps, every, q0, w0, q, w, energy,
+                run, stats);
     }
     if (method == FOUR_PENDULA_METHOD_VI || method == FOUR_PENDULA_METHOD_VI4
             || method == FOUR_PENDULA_METHOD_RATTLE) {

@@ -3,14 +3,16 @@
 # Parts: tables, kernels, helpers, context, potential, energy, field_diagonal, field, vi_explicit, vi_step, rattle_closed, rk, rk_step, driver.
 # Lowering passes (total operations of all kernels after each):
 #   quadratic: 0
+#   reciprocal: 0
 #   factor: 0
-#   cse: 350
-#   hoist: 336
-#   strength: 336
-#   powers: 382
-#   opcount: 382
-#   calls: 382
-#   workspace: 382
+#   cse: 339
+#   hoist: 325
+#   strength: 325
+#   powers: 326
+#   opcount: 326
+#   calls: 326
+#   layout: 326
+#   workspace: 326
 """Equations of motion and integrators for the system "four_pendula" on (S^2)^4 (NumPy).
 
 Same functions as the emitted C (four_pendula.h). States are arrays q, w of shape (4, 3).
@@ -95,14 +97,28 @@ def _k_t0_gradient(q, cc):
 
 
 def _k_t1_value(qi, qj, cc, tab):
-    """midpoint springs: sum over pairs (list), value (31 ops as derived, 44 after cse)."""
-    v = tab[..., 4]*((cc[1]*numpy.sqrt((-qi[..., 0] + qj[..., 0] + tab[..., 0])*(-qi[..., 0] + qj[..., 0] + tab[..., 0]) + (-qi[..., 1] + qj[..., 1] + tab[..., 1])*(-qi[..., 1] + qj[..., 1] + tab[..., 1]) + (-qi[..., 2] + qj[..., 2] + tab[..., 2])*(-qi[..., 2] + qj[..., 2] + tab[..., 2])) + tab[..., 3])*(cc[1]*numpy.sqrt((-qi[..., 0] + qj[..., 0] + tab[..., 0])*(-qi[..., 0] + qj[..., 0] + tab[..., 0]) + (-qi[..., 1] + qj[..., 1] + tab[..., 1])*(-qi[..., 1] + qj[..., 1] + tab[..., 1]) + (-qi[..., 2] + qj[..., 2] + tab[..., 2])*(-qi[..., 2] + qj[..., 2] + tab[..., 2])) + tab[..., 3]))
+    """midpoint springs: sum over pairs (list), value (31 ops as derived, 17 after cse)."""
+    pw0 = -qi[..., 0] + qj[..., 0] + tab[..., 0]
+    pw1 = pw0*pw0
+    pw2 = -qi[..., 1] + qj[..., 1] + tab[..., 1]
+    pw3 = pw2*pw2
+    pw4 = -qi[..., 2] + qj[..., 2] + tab[..., 2]
+    pw5 = pw4*pw4
+    pw6 = cc[1]*numpy.sqrt(pw1 + pw3 + pw5) + tab[..., 3]
+    pw7 = pw6*pw6
+    v = pw7*tab[..., 4]
     return v
 
 
 def _k_t1_gradient(qi, qj, d_r, cc, tab):
-    """midpoint springs: sum over pairs (list), gradient (333 ops as derived, 42 after cse)."""
-    x0 = numpy.sqrt((-qi[..., 0] + qj[..., 0] + tab[..., 0])*(-qi[..., 0] + qj[..., 0] + tab[..., 0]) + (-qi[..., 1] + qj[..., 1] + tab[..., 1])*(-qi[..., 1] + qj[..., 1] + tab[..., 1]) + (-qi[..., 2] + qj[..., 2] + tab[..., 2])*(-qi[..., 2] + qj[..., 2] + tab[..., 2]))
+    """midpoint springs: sum over pairs (list), gradient (333 ops as derived, 36 after cse)."""
+    pw0 = -qi[..., 0] + qj[..., 0] + tab[..., 0]
+    pw1 = pw0*pw0
+    pw2 = -qi[..., 1] + qj[..., 1] + tab[..., 1]
+    pw3 = pw2*pw2
+    pw4 = -qi[..., 2] + qj[..., 2] + tab[..., 2]
+    pw5 = pw4*pw4
+    x0 = numpy.sqrt(pw1 + pw3 + pw5)
     x2 = tab[..., 5]*(cc[1]*x0 + tab[..., 3])*x0**(-1.0)
     x3 = x2*(-1/2*qi[..., 0] + (1/2)*qj[..., 0] + d_r[..., 0])
     x4 = x2*(-1/2*qi[..., 1] + (1/2)*qj[..., 1] + d_r[..., 1])
@@ -113,8 +129,14 @@ def _k_t1_gradient(qi, qj, d_r, cc, tab):
 
 
 def _k_kin_body(m, q, w):
-    """kinetic energy of one body: 1/2 M_ii |omega x q|^2 (16 ops as derived, 25 after cse)."""
-    t = (1/2)*m*((-q[..., 0]*w[..., 1] + q[..., 1]*w[..., 0])*(-q[..., 0]*w[..., 1] + q[..., 1]*w[..., 0]) + (q[..., 0]*w[..., 2] - q[..., 2]*w[..., 0])*(q[..., 0]*w[..., 2] - q[..., 2]*w[..., 0]) + (-q[..., 1]*w[..., 2] + q[..., 2]*w[..., 1])*(-q[..., 1]*w[..., 2] + q[..., 2]*w[..., 1]))
+    """kinetic energy of one body: 1/2 M_ii |omega x q|^2 (16 ops as derived, 16 after cse)."""
+    pw0 = q[..., 0]*w[..., 2] - q[..., 2]*w[..., 0]
+    pw1 = pw0*pw0
+    pw2 = -q[..., 0]*w[..., 1] + q[..., 1]*w[..., 0]
+    pw3 = pw2*pw2
+    pw4 = -q[..., 1]*w[..., 2] + q[..., 2]*w[..., 1]
+    pw5 = pw4*pw4
+    t = (1/2)*m*(pw1 + pw3 + pw5)
     return t
 
 
@@ -127,81 +149,83 @@ def _k_mom_body(m, q, w):
     return j
 
 
-def _k_rhs_diag(m, q, w, g):
-    """vector field, uncoupled body: qdot = omega x q, omegadot = -q x g / M_ii (21 ops as derived, 22 after cse)."""
-    x0 = m**(-1.0)
+def _k_rhs_diag(mi, q, w, g):
+    """vector field, uncoupled body: qdot = omega x q, omegadot = -q x g / M_ii (21 ops as derived, 21 after cse)."""
     dq = _stack(-q[..., 1]*w[..., 2] + q[..., 2]*w[..., 1], q[..., 0]*w[..., 2] - q[..., 2]*w[..., 0], -q[..., 0]*w[..., 1] + q[..., 1]*w[..., 0])
-    dw = _stack(x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1]), x0*(-g[..., 0]*q[..., 2] + g[..., 2]*q[..., 0]), x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0]))
+    dw = _stack(mi*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1]), mi*(-g[..., 0]*q[..., 2] + g[..., 2]*q[..., 0]), mi*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0]))
     return dq, dw
 
 
-def _k_vi_pos(h, m, q, w, g):
-    """explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0) (219 ops as derived, 53 after cse)."""
+def _k_vi_pos(h, mi, q, w, g):
+    """explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0), wh = a/h (240 ops as derived, 58 after cse)."""
     pw0 = h*h
-    x0 = h*m**(-1.0)
-    x1 = 2*w[..., 2] + x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0])
-    pw1 = x1*x1
-    x2 = (1/2)*h
-    x3 = x1*x2
-    x4 = 2*w[..., 1] - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])
-    pw2 = x4*x4
-    x5 = q[..., 2]*x2
-    x6 = (1/4)*pw0
-    x7 = 2*w[..., 0] + x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1])
-    pw3 = x7*x7
-    x8 = -pw1*x6 - pw2*x6 - pw3*x6 + 1
-    x9 = numpy.sqrt(x8)
-    qn = _stack(q[..., 0]*x9 - q[..., 1]*x3 + x4*x5, q[..., 0]*x3 + q[..., 1]*x9 - x5*x7, -q[..., 0]*x2*x4 + q[..., 1]*x2*x7 + q[..., 2]*x9)
-    s = x8
-    return qn, s
+    x0 = h*mi
+    x1 = x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0])
+    x2 = 2*w[..., 2] + x1
+    pw2 = x2*x2
+    x3 = (1/2)*h
+    x4 = x2*x3
+    x5 = x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])
+    x6 = 2*w[..., 1] - x5
+    pw3 = x6*x6
+    x7 = q[..., 2]*x3
+    x8 = (1/4)*pw0
+    x9 = x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1])
+    x10 = 2*w[..., 0] + x9
+    pw1 = x10*x10
+    x11 = -pw1*x8 - pw2*x8 - pw3*x8 + 1
+    x12 = numpy.sqrt(x11)
+    qn = _stack(q[..., 0]*x12 - q[..., 1]*x4 + x6*x7, q[..., 0]*x4 + q[..., 1]*x12 - x10*x7, -q[..., 0]*x3*x6 + q[..., 1]*x10*x3 + q[..., 2]*x12)
+    wh = _stack(w[..., 0] + (1/2)*x9, w[..., 1] - 1/2*x5, w[..., 2] + (1/2)*x1)
+    s = x11
+    return qn, wh, s
 
 
-def _k_vi_vel(h, m, q, w, g, qn, gn):
-    """explicit VI velocity update: omega+ = omega - h/(2M_ii)(q x g + q+ x g+) (42 ops as derived, 33 after cse)."""
-    x0 = (1/2)*h*m**(-1.0)
-    wn = _stack(w[..., 0] + x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1]) - x0*(-gn[..., 1]*qn[..., 2] + gn[..., 2]*qn[..., 1]), w[..., 1] - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0]) - x0*(gn[..., 0]*qn[..., 2] - gn[..., 2]*qn[..., 0]), w[..., 2] + x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0]) - x0*(-gn[..., 0]*qn[..., 1] + gn[..., 1]*qn[..., 0]))
+def _k_vi_vel(h, mi, wh, qn, gn):
+    """explicit VI velocity update: omega+ = wh - h/(2M_ii) q+ x g+ (21 ops as derived, 17 after cse)."""
+    x0 = (1/2)*h*mi
+    wn = _stack(wh[..., 0] - x0*(-gn[..., 1]*qn[..., 2] + gn[..., 2]*qn[..., 1]), wh[..., 1] - x0*(gn[..., 0]*qn[..., 2] - gn[..., 2]*qn[..., 0]), wh[..., 2] - x0*(-gn[..., 0]*qn[..., 1] + gn[..., 1]*qn[..., 0]))
     return wn
 
 
-def _k_rattle_pos(h, m, x, v, g):
-    """RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0) (911 ops as derived, 80 after cse)."""
+def _k_rattle_pos(h, mi, x, v, g):
+    """RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0) (911 ops as derived, 79 after cse)."""
     pw0 = h*h
     pw5 = x[..., 0]*x[..., 0]
     pw6 = x[..., 1]*x[..., 1]
     pw7 = x[..., 2]*x[..., 2]
-    x0 = m**(-1.0)
-    x1 = pw0*x0
-    x2 = g[..., 0]*x1
-    x3 = 2*h*v[..., 0] - x2 + 2*x[..., 0]
-    pw1 = x3*x3
-    x4 = g[..., 1]*x1
-    x5 = 2*h*v[..., 1] - x4 + 2*x[..., 1]
-    pw2 = x5*x5
-    x6 = g[..., 2]*x1
-    x7 = 2*h*v[..., 2] - x6 + 2*x[..., 2]
-    pw3 = x7*x7
-    x8 = pw1 + pw2 + pw3 - 4
-    x9 = x3*x[..., 0] + x5*x[..., 1] + x7*x[..., 2]
-    pw4 = x9*x9
-    x10 = pw4 - x8*(pw5 + pw6 + pw7)
-    x11 = (1/2)*x8*(numpy.sqrt(x10) + x9)**(-1.0)
-    x12 = x11*x[..., 0]
-    x13 = x11*x[..., 1]
-    x14 = x11*x[..., 2]
-    x15 = (1/2)*h*x0
-    x16 = h**(-1.0)
-    xn = _stack(h*v[..., 0] - x12 - 1/2*x2 + x[..., 0], h*v[..., 1] - x13 - 1/2*x4 + x[..., 1], h*v[..., 2] - x14 - 1/2*x6 + x[..., 2])
-    vh = _stack(-g[..., 0]*x15 + v[..., 0] - x12*x16, -g[..., 1]*x15 + v[..., 1] - x13*x16, -g[..., 2]*x15 + v[..., 2] - x14*x16)
-    disc = (1/4)*x10
+    x0 = mi*pw0
+    x1 = g[..., 0]*x0
+    x2 = 2*h*v[..., 0] - x1 + 2*x[..., 0]
+    pw1 = x2*x2
+    x3 = g[..., 1]*x0
+    x4 = 2*h*v[..., 1] - x3 + 2*x[..., 1]
+    pw2 = x4*x4
+    x5 = g[..., 2]*x0
+    x6 = 2*h*v[..., 2] - x5 + 2*x[..., 2]
+    pw3 = x6*x6
+    x7 = pw1 + pw2 + pw3 - 4
+    x8 = x2*x[..., 0] + x4*x[..., 1] + x6*x[..., 2]
+    pw4 = x8*x8
+    x9 = pw4 - x7*(pw5 + pw6 + pw7)
+    x10 = (1/2)*x7*(x8 + numpy.sqrt(x9))**(-1.0)
+    x11 = x10*x[..., 0]
+    x12 = x10*x[..., 1]
+    x13 = x10*x[..., 2]
+    x14 = (1/2)*h*mi
+    x15 = h**(-1.0)
+    xn = _stack(h*v[..., 0] - 1/2*x1 - x11 + x[..., 0], h*v[..., 1] - x12 - 1/2*x3 + x[..., 1], h*v[..., 2] - x13 - 1/2*x5 + x[..., 2])
+    vh = _stack(-g[..., 0]*x14 + v[..., 0] - x11*x15, -g[..., 1]*x14 + v[..., 1] - x12*x15, -g[..., 2]*x14 + v[..., 2] - x13*x15)
+    disc = (1/4)*x9
     return xn, vh, disc
 
 
-def _k_rattle_vel(h, m, xn, vh, gn):
-    """RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+ (96 ops as derived, 36 after cse)."""
+def _k_rattle_vel(h, mi, xn, vh, gn):
+    """RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+ (96 ops as derived, 35 after cse)."""
     pw0 = xn[..., 0]*xn[..., 0]
     pw1 = xn[..., 1]*xn[..., 1]
     pw2 = xn[..., 2]*xn[..., 2]
-    x0 = h*m**(-1.0)
+    x0 = h*mi
     x1 = gn[..., 0]*x0
     x2 = gn[..., 1]*x0
     x3 = gn[..., 2]*x0
@@ -285,7 +309,7 @@ def rhs(p, q, w):
     """(qdot, omegadot) of the continuous equations."""
     md, mp = _masses(p)
     g = gradient(p, q)
-    return _k_rhs_diag(md, q, w, g)
+    return _k_rhs_diag((1.0 / md), q, w, g)
 
 
 def _field(p, y):
@@ -304,11 +328,11 @@ def _vi_advance(p, h, q, w, g, newton_tol, newton_maxiter, start=None):
     """Explicit step (diagonal inertia): closed-form update of every body at once. Returns
     (status, qn, wn, gn, 0, None)."""
     md, _ = _masses(p)
-    qn, s = _k_vi_pos(h, md, q, w, g)
+    qn, wh, s = _k_vi_pos(h, (1.0 / md), q, w, g)
     if not numpy.all(s >= 0.0):
         return (ERR_INFEASIBLE if numpy.all(numpy.isfinite(s)) else ERR_NONFINITE), None, None, None, 0, None
     gn = gradient(p, qn)
-    wn = _k_vi_vel(h, md, q, w, g, qn, gn)
+    wn = _k_vi_vel(h, (1.0 / md), wh, qn, gn)
     return OK, qn, wn, gn, 0, None
 
 
@@ -329,11 +353,11 @@ def vi_step(p, h, q, w, newton_tol=1e-14, newton_maxiter=50):
 def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter, start=None):
     """One RATTLE step, diagonal M: closed-form position and velocity updates of every body."""
     md, _ = _masses(p)
-    xn, vh, disc = _k_rattle_pos(h, md, x, v, g)
+    xn, vh, disc = _k_rattle_pos(h, (1.0 / md), x, v, g)
     if not numpy.all(disc >= 0.0):
         return (ERR_INFEASIBLE if numpy.all(numpy.isfinite(disc)) else ERR_NONFINITE), None, None, None, 0, None
     gn = gradient(p, xn)
-    return OK, xn, _k_rattle_vel(h, md, xn, vh, gn), gn, 0, None
+    return OK, xn, _k_rattle_vel(h, (1.0 / md), xn, vh, gn), gn, 0, None
 
 
 # ---- fixed-step Runge-Kutta on y = (q, omega) --------------------------------------------

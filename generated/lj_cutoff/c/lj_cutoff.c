@@ -3,14 +3,16 @@
  * See lj_cutoff.h for the interface. Parts: tables, neighbours, kernels, helpers, context, potential, energy, field_diagonal, field, vi_explicit, vi_step, rattle_closed, rk, rk_step, driver.
  * Lowering passes (total operations of all kernels after each):
  *   quadratic: 0
+ *   reciprocal: 0
  *   factor: 0
- *   cse: 301
- *   hoist: 300
- *   strength: 304
- *   powers: 342
- *   opcount: 342
- *   calls: 342
- *   workspace: 342
+ *   cse: 290
+ *   hoist: 289
+ *   strength: 295
+ *   powers: 294
+ *   opcount: 294
+ *   calls: 294
+ *   layout: 294
+ *   workspace: 294
  */
 #include "lj_cutoff.h"
 
@@ -27,10 +29,10 @@
 #if !defined(__cplusplus)
 #define LJ_CUTOFF_PRAGMA(x) _Pragma(#x)
 #define LJ_CUTOFF_SIMD LJ_CUTOFF_PRAGMA(omp simd)
-#define LJ_CUTOFF_SIMD_SUM(v) LJ_CUTOFF_PRAGMA(omp simd reduction(+ : v))
+#define LJ_CUTOFF_SIMD_SUM(...) LJ_CUTOFF_PRAGMA(omp simd reduction(+ : __VA_ARGS__))
 #else
 #define LJ_CUTOFF_SIMD
-#define LJ_CUTOFF_SIMD_SUM(v)
+#define LJ_CUTOFF_SIMD_SUM(...)
 #endif
 
 /* restrict as C99 spells it, or as C++ compilers do */
@@ -99,10 +101,19 @@ static void lj_cutoff_k_inertia(const double *LJ_CUTOFF_RESTRICT p, double *LJ_C
 }
 
 /* [[potential.pair]] #1: sum over pairs (all), value
- * 26 operations as derived, 40 after cse (1 temporaries). */
+ * 26 operations as derived, 15 after cse (10 temporaries). */
 static void lj_cutoff_k_t0_value(const double *LJ_CUTOFF_RESTRICT qi, const double *LJ_CUTOFF_RESTRICT qj, const double *LJ_CUTOFF_RESTRICT cc, double *LJ_CUTOFF_RESTRICT v)
 {
-    const double x0 = cc[0]*1.0/(((qi[0] - qj[0])*(qi[0] - qj[0]) + (qi[1] - qj[1])*(qi[1] - qj[1]) + (qi[2] - qj[2])*(qi[2] - qj[2]))*((qi[0] - qj[0])*(qi[0] - qj[0]) + (qi[1] - qj[1])*(qi[1] - qj[1]) + (qi[2] - qj[2])*(qi[2] - qj[2]))*((qi[0] - qj[0])*(qi[0] - qj[0]) + (qi[1] - qj[1])*(qi[1] - qj[1]) + (qi[2] - qj[2])*(qi[2] - qj[2])));
+    const double pw0 = qi[0] - qj[0];
+    const double pw1 = pw0*pw0;
+    const double pw2 = qi[1] - qj[1];
+    const double pw3 = pw2*pw2;
+    const double pw4 = qi[2] - qj[2];
+    const double pw5 = pw4*pw4;
+    const double pw6 = pw1 + pw3 + pw5;
+    const double pw7 = 1.0/pw6;
+    const double pw8 = pw7*pw7;
+    const double x0 = cc[0]*pw7*pw8;
     v[0] = cc[1]*x0*(x0 - 1);
 }
 
@@ -130,10 +141,16 @@ static void lj_cutoff_k_t0_gradient(const double *LJ_CUTOFF_RESTRICT qi, const d
 }
 
 /* kinetic energy of one body: 1/2 M_ii |omega x q|^2
- * 16 operations as derived, 25 after cse (0 temporaries). */
+ * 16 operations as derived, 16 after cse (6 temporaries). */
 static void lj_cutoff_k_kin_body(const double m, const double *LJ_CUTOFF_RESTRICT q, const double *LJ_CUTOFF_RESTRICT w, double *LJ_CUTOFF_RESTRICT t)
 {
-    t[0] = (1.0/2.0)*m*((-q[0]*w[1] + q[1]*w[0])*(-q[0]*w[1] + q[1]*w[0]) + (q[0]*w[2] - q[2]*w[0])*(q[0]*w[2] - q[2]*w[0]) + (-q[1]*w[2] + q[2]*w[1])*(-q[1]*w[2] + q[2]*w[1]));
+    const double pw0 = q[0]*w[2] - q[2]*w[0];
+    const double pw1 = pw0*pw0;
+    const double pw2 = -q[0]*w[1] + q[1]*w[0];
+    const double pw3 = pw2*pw2;
+    const double pw4 = -q[1]*w[2] + q[2]*w[1];
+    const double pw5 = pw4*pw4;
+    t[0] = (1.0/2.0)*m*(pw1 + pw3 + pw5);
 }
 
 /* angular momentum of one body: M_ii q x (omega x q)
@@ -149,98 +166,62 @@ static void lj_cutoff_k_mom_body(const double m, const double *LJ_CUTOFF_RESTRIC
 }
 
 /* vector field, uncoupled body: qdot = omega x q, omegadot = -q x g / M_ii
- * 21 operations as derived, 22 after cse (1 temporaries). */
-static void lj_cutoff_k_rhs_diag(const double m, const double *LJ_CUTOFF_RESTRICT q, const double *LJ_CUTOFF_RESTRICT w, const double *LJ_CUTOFF_RESTRICT g, double *LJ_CUTOFF_RESTRICT dq, double *LJ_CUTOFF_RESTRICT dw)
+ * 21 operations as derived, 21 after cse (0 temporaries). */
+static void lj_cutoff_k_rhs_diag(const double mi, const double *LJ_CUTOFF_RESTRICT q, const double *LJ_CUTOFF_RESTRICT w, const double *LJ_CUTOFF_RESTRICT g, double *LJ_CUTOFF_RESTRICT dq, double *LJ_CUTOFF_RESTRICT dw)
 {
-    const double x0 = 1.0/m;
     dq[0] = -q[1]*w[2] + q[2]*w[1];
     dq[1] = q[0]*w[2] - q[2]*w[0];
     dq[2] = -q[0]*w[1] + q[1]*w[0];
-    dw[0] = x0*(g[1]*q[2] - g[2]*q[1]);
-    dw[1] = x0*(-g[0]*q[2] + g[2]*q[0]);
-    dw[2] = x0*(g[0]*q[1] - g[1]*q[0]);
-}
-
-/* explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0)
- * 219 operations as derived, 53 after cse (14 temporaries). */
-static void lj_cutoff_k_vi_pos(const double h, const double m, const double *LJ_CUTOFF_RESTRICT q, const double *LJ_CUTOFF_RESTRICT w, const double *LJ_CUTOFF_RESTRICT g, double *LJ_CUTOFF_RESTRICT qn, double *LJ_CUTOFF_RESTRICT s)
-{
-    const double pw0 = h*h;
-    const double x0 = h*1.0/m;
-    const double x1 = 2*w[2] + x0*(g[0]*q[1] - g[1]*q[0]);
-    const double pw1 = x1*x1;
-    const double x2 = (1.0/2.0)*h;
-    const double x3 = x1*x2;
-    const double x4 = 2*w[1] - x0*(g[0]*q[2] - g[2]*q[0]);
-    const double pw2 = x4*x4;
-    const double x5 = q[2]*x2;
-    const double x6 = (1.0/4.0)*pw0;
-    const double x7 = 2*w[0] + x0*(g[1]*q[2] - g[2]*q[1]);
-    const double pw3 = x7*x7;
-    const double x8 = -pw1*x6 - pw2*x6 - pw3*x6 + 1;
-    const double x9 = sqrt(x8);
-    qn[0] = q[0]*x9 - q[1]*x3 + x4*x5;
-    qn[1] = q[0]*x3 + q[1]*x9 - x5*x7;
-    qn[2] = -q[0]*x2*x4 + q[1]*x2*x7 + q[2]*x9;
-    s[0] = x8;
-}
-
-/* explicit VI velocity update: omega+ = omega - h/(2M_ii)(q x g + q+ x g+)
- * 42 operations as derived, 33 after cse (1 temporaries). */
-static void lj_cutoff_k_vi_vel(const double h, const double m, const double *LJ_CUTOFF_RESTRICT q, const double *LJ_CUTOFF_RESTRICT w, const double *LJ_CUTOFF_RESTRICT g, const double *LJ_CUTOFF_RESTRICT qn, const double *LJ_CUTOFF_RESTRICT gn, double *LJ_CUTOFF_RESTRICT wn)
-{
-    const double x0 = (1.0/2.0)*h*1.0/m;
-    wn[0] = w[0] + x0*(g[1]*q[2] - g[2]*q[1]) - x0*(-gn[1]*qn[2] + gn[2]*qn[1]);
-    wn[1] = w[1] - x0*(g[0]*q[2] - g[2]*q[0]) - x0*(gn[0]*qn[2] - gn[2]*qn[0]);
-    wn[2] = w[2] + x0*(g[0]*q[1] - g[1]*q[0]) - x0*(-gn[0]*qn[1] + gn[1]*qn[0]);
+    dw[0] = mi*(g[1]*q[2] - g[2]*q[1]);
+    dw[1] = mi*(-g[0]*q[2] + g[2]*q[0]);
+    dw[2] = mi*(g[0]*q[1] - g[1]*q[0]);
 }
 
 /* RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0)
- * 911 operations as derived, 80 after cse (25 temporaries). */
-static void lj_cutoff_k_rattle_pos(const double h, const double m, const double *LJ_CUTOFF_RESTRICT x, const double *LJ_CUTOFF_RESTRICT v, const double *LJ_CUTOFF_RESTRICT g, double *LJ_CUTOFF_RESTRICT xn, double *LJ_CUTOFF_RESTRICT vh, double *LJ_CUTOFF_RESTRICT disc)
+ * 911 operations as derived, 79 after cse (24 temporaries). */
+static void lj_cutoff_k_rattle_pos(const double h, const double mi, const double *LJ_CUTOFF_RESTRICT x, const double *LJ_CUTOFF_RESTRICT v, const double *LJ_CUTOFF_RESTRICT g, double *LJ_CUTOFF_RESTRICT xn, double *LJ_CUTOFF_RESTRICT vh, double *LJ_CUTOFF_RESTRICT disc)
 {
     const double pw0 = h*h;
     const double pw5 = x[0]*x[0];
     const double pw6 = x[1]*x[1];
     const double pw7 = x[2]*x[2];
-    const double x0 = 1.0/m;
-    const double x1 = pw0*x0;
-    const double x2 = g[0]*x1;
-    const double x3 = 2*h*v[0] - x2 + 2*x[0];
-    const double pw1 = x3*x3;
-    const double x4 = g[1]*x1;
-    const double x5 = 2*h*v[1] - x4 + 2*x[1];
-    const double pw2 = x5*x5;
-    const double x6 = g[2]*x1;
-    const double x7 = 2*h*v[2] - x6 + 2*x[2];
-    const double pw3 = x7*x7;
-    const double x8 = pw1 + pw2 + pw3 - 4;
-    const double x9 = x3*x[0] + x5*x[1] + x7*x[2];
-    const double pw4 = x9*x9;
-    const double x10 = pw4 - x8*(pw5 + pw6 + pw7);
-    const double x11 = (1.0/2.0)*x8*1.0/(sqrt(x10) + x9);
-    const double x12 = x11*x[0];
-    const double x13 = x11*x[1];
-    const double x14 = x11*x[2];
-    const double x15 = (1.0/2.0)*h*x0;
-    const double x16 = 1.0/h;
-    xn[0] = h*v[0] - x12 - 1.0/2.0*x2 + x[0];
-    xn[1] = h*v[1] - x13 - 1.0/2.0*x4 + x[1];
-    xn[2] = h*v[2] - x14 - 1.0/2.0*x6 + x[2];
-    vh[0] = -g[0]*x15 + v[0] - x12*x16;
-    vh[1] = -g[1]*x15 + v[1] - x13*x16;
-    vh[2] = -g[2]*x15 + v[2] - x14*x16;
-    disc[0] = (1.0/4.0)*x10;
+    const double x0 = mi*pw0;
+    const double x1 = g[0]*x0;
+    const double x2 = 2*h*v[0] - x1 + 2*x[0];
+    const double pw1 = x2*x2;
+    const double x3 = g[1]*x0;
+    const double x4 = 2*h*v[1] - x3 + 2*x[1];
+    const double pw2 = x4*x4;
+    const double x5 = g[2]*x0;
+    const double x6 = 2*h*v[2] - x5 + 2*x[2];
+    const double pw3 = x6*x6;
+    const double x7 = pw1 + pw2 + pw3 - 4;
+    const double x8 = x2*x[0] + x4*x[1] + x6*x[2];
+    const double pw4 = x8*x8;
+    const double x9 = pw4 - x7*(pw5 + pw6 + pw7);
+    const double x10 = (1.0/2.0)*x7*1.0/(x8 + sqrt(x9));
+    const double x11 = x10*x[0];
+    const double x12 = x10*x[1];
+    const double x13 = x10*x[2];
+    const double x14 = (1.0/2.0)*h*mi;
+    const double x15 = 1.0/h;
+    xn[0] = h*v[0] - 1.0/2.0*x1 - x11 + x[0];
+    xn[1] = h*v[1] - x12 - 1.0/2.0*x3 + x[1];
+    xn[2] = h*v[2] - x13 - 1.0/2.0*x5 + x[2];
+    vh[0] = -g[0]*x14 + v[0] - x11*x15;
+    vh[1] = -g[1]*x14 + v[1] - x12*x15;
+    vh[2] = -g[2]*x14 + v[2] - x13*x15;
+    disc[0] = (1.0/4.0)*x9;
 }
 
 /* RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+
- * 96 operations as derived, 36 after cse (8 temporaries). */
-static void lj_cutoff_k_rattle_vel(const double h, const double m, const double *LJ_CUTOFF_RESTRICT xn, const double *LJ_CUTOFF_RESTRICT vh, const double *LJ_CUTOFF_RESTRICT gn, double *LJ_CUTOFF_RESTRICT vn)
+ * 96 operations as derived, 35 after cse (8 temporaries). */
+static void lj_cutoff_k_rattle_vel(const double h, const double mi, const double *LJ_CUTOFF_RESTRICT xn, const double *LJ_CUTOFF_RESTRICT vh, const double *LJ_CUTOFF_RESTRICT gn, double *LJ_CUTOFF_RESTRICT vn)
 {
     const double pw0 = xn[0]*xn[0];
     const double pw1 = xn[1]*xn[1];
     const double pw2 = xn[2]*xn[2];
-    const double x0 = h*1.0/m;
+    const double x0 = h*mi;
     const double x1 = gn[0]*x0;
     const double x2 = gn[1]*x0;
     const double x3 = gn[2]*x0;
@@ -252,15 +233,17 @@ static void lj_cutoff_k_rattle_vel(const double h, const double m, const double 
 
 /* ---- small helpers ---------------------------------------------------------------------- */
 
+/* 1 when every x[k] is finite: x * 0 is 0 for a finite x and NaN otherwise, so one sum
+ * (which vectorises, and whose order cannot matter) tells. */
 static int lj_cutoff_finite(const double *x, long len)
 {
+    double acc = 0.0;
     long k;
+LJ_CUTOFF_SIMD_SUM(acc)
     for (k = 0; k < len; ++k) {
-        if (!isfinite(x[k])) {
-            return 0;
-        }
+        acc += x[k] * 0.0;
     }
-    return 1;
+    return acc == 0.0;
 }
 
 static void lj_cutoff_copy(double *dst, const double *src, long len)
@@ -289,10 +272,12 @@ static void lj_cutoff_masses(const double *p, double *md, double *mp)
 typedef struct {
     const double *p;
     double *md; /* M_ii, one per body */
+    double *mi; /* 1 / M_ii, one per body */
     double *mp; /* coupled entries, one per pair */
     double *adiag; /* diagonal of A(q+) in the VI velocity solve */
     double *nb; /* neighbour-list cells and links */
     double *cc; /* constants of the kernels that depend only on the parameters */
+    double *soa; /* structure-of-arrays copies of q and g (x, y, z, gx, gy, gz) for the pair rows */
 } lj_cutoff_ctx;
 
 /* A context without workspace, for the public functions that take none: the constants of the
@@ -302,10 +287,12 @@ static void lj_cutoff_ctx_bare(lj_cutoff_ctx *cx, const double *p, double *cc)
 {
     cx->p = p;
     cx->md = NULL;
+    cx->mi = NULL;
     cx->mp = NULL;
     cx->adiag = NULL;
     cx->nb = NULL;
     cx->cc = NULL;
+    cx->soa = NULL;
     cx->cc = cc;
     lj_cutoff_k_context(p, cx->cc);
 }
@@ -313,13 +300,19 @@ static void lj_cutoff_ctx_bare(lj_cutoff_ctx *cx, const double *p, double *cc)
 static void lj_cutoff_ctx_init(lj_cutoff_ctx *cx, const double *p, double *work)
 {
     double *tail = work + LJ_CUTOFF_WORK_BASE;
+    long i;
     cx->p = p;
     cx->md = tail + 0;
-    cx->mp = tail + 8;
-    cx->adiag = tail + 8;
-    cx->nb = tail + 8;
-    cx->cc = tail + 17;
+    cx->mi = tail + 8;
+    cx->mp = tail + 16;
+    cx->adiag = tail + 16;
+    cx->nb = tail + 16;
+    cx->cc = tail + 25;
+    cx->soa = tail + 29;
     lj_cutoff_masses(p, cx->md, cx->mp);
+    for (i = 0; i < 8; ++i) {
+        cx->mi[i] = 1.0 / cx->md[i];
+    }
     lj_cutoff_k_context(p, cx->cc);
 }
 
@@ -532,12 +525,11 @@ void lj_cutoff_angular_momentum(const double *p, const double *q, const double *
 static int lj_cutoff_rhs_cx(const lj_cutoff_ctx *cx, const double *q, const double *w,
         double *dq, double *dw, double *work)
 {
-    const double *md = cx->md;
     double *g = work + 0;
     int i;
     lj_cutoff_gradient_cx(cx, q, g);
     for (i = 0; i < 8; ++i) {
-        lj_cutoff_k_rhs_diag(md[i], q + 3 * i, w + 3 * i, g + 3 * i, dq + 3 * i, dw + 3 * i);
+        lj_cutoff_k_rhs_diag(cx->mi[i], q + 3 * i, w + 3 * i, g + 3 * i, dq + 3 * i, dw + 3 * i);
     }
     return LJ_CUTOFF_OK;
 }
@@ -556,33 +548,215 @@ static int lj_cutoff_field(const lj_cutoff_ctx *cx, const double *y, double *dy,
 }
 /* ---- variational integrator (diagonal M: explicit update) ------------------------------------ */
 
-/* One explicit step. g holds dV/dq at q on entry; gn receives dV/dq at qn (f, warm: the
- * implicit step's Newton start, unused here). */
+/* The explicit VI runs on component-major (structure-of-arrays) copies of the state: x[c n + i]
+ * is component c of body i (n = 8), so that its loops over bodies vectorise. */
+static void lj_cutoff_to_soa(const double *LJ_CUTOFF_RESTRICT q, double *LJ_CUTOFF_RESTRICT x)
+{
+    long i;
+    for (i = 0; i < 8; ++i) {
+        x[i] = q[3 * i];
+        x[8 + i] = q[3 * i + 1];
+        x[16 + i] = q[3 * i + 2];
+    }
+}
+
+static void lj_cutoff_from_soa(const double *LJ_CUTOFF_RESTRICT x, double *LJ_CUTOFF_RESTRICT q)
+{
+    long i;
+    for (i = 0; i < 8; ++i) {
+        q[3 * i] = x[i];
+        q[3 * i + 1] = x[8 + i];
+        q[3 * i + 2] = x[16 + i];
+    }
+}
+
+/* dV/dq at component-major positions xs into gs (component-major): the terms in K and those
+ * laid out as rows read xs directly; the others go through body-major copies
+ * of q and g in bridge (2 N3 doubles). The context is ctx_init's (K and the row
+ * buffers present). */
+static void lj_cutoff_gradient_soa(const lj_cutoff_ctx *cx, const double *LJ_CUTOFF_RESTRICT xs,
+        double *LJ_CUTOFF_RESTRICT gs, double *bridge)
+{
+    const double *p = cx->p;
+    long e;
+    double *nb = cx->nb, *q = bridge, *g = bridge + LJ_CUTOFF_N3;
+    (void)nb;
+    (void)p;
+    for (e = 0; e < LJ_CUTOFF_N3; ++e) {
+        gs[e] = 0.0;
+    }
+    lj_cutoff_from_soa(xs, q);
+    for (e = 0; e < LJ_CUTOFF_N3; ++e) {
+        g[e] = 0.0;
+    }
+    /* term 0, [[potential.pair]] #1: sum over pairs within the cutoff, gradient */
+    /* pairs closer than 1.3: a cell list when storage is given (O(n)), else all pairs */
+    if (nb) {
+        const long nc = 1, cells = nc * nc * nc;
+        long i;
+        lj_cutoff_cells(q, nb, nc);
+        for (i = 0; i < 8; ++i) {
+            const long ci = lj_cutoff_cell_of(q + 3 * i, nc);
+            const long x0 = ci / (nc * nc), y0 = (ci / nc) % nc, z0 = ci % nc;
+            long dx, dy, dz, j;
+            for (dx = -1; dx <= 1; ++dx) {
+            for (dy = -1; dy <= 1; ++dy) {
+            for (dz = -1; dz <= 1; ++dz) {
+                const long x = x0 + dx, y = y0 + dy, z = z0 + dz;
+                if (x < 0 || y < 0 || z < 0 || x >= nc || y >= nc || z >= nc) {
+                    continue;
+                }
+                for (j = (long)nb[(x * nc + y) * nc + z]; j >= 0; j = (long)nb[cells + j]) {
+                    if (j > i && lj_cutoff_near(q + 3 * i, q + 3 * j, 1.6900000000000002)) {
+                        double gi[3], gj[3];
+                        lj_cutoff_k_t0_gradient(q + 3 * i, q + 3 * j, cx->cc, gi, gj);
+                        g[3 * i] += gi[0];
+                        g[3 * i + 1] += gi[1];
+                        g[3 * i + 2] += gi[2];
+                        g[3 * j] += gj[0];
+                        g[3 * j + 1] += gj[1];
+                        g[3 * j + 2] += gj[2];
+
+                    }
+                }
+            }
+            }
+            }
+        }
+    } else {
+        long i, j;
+        for (i = 0; i < 8; ++i) {
+            for (j = i + 1; j < 8; ++j) {
+                if (lj_cutoff_near(q + 3 * i, q + 3 * j, 1.6900000000000002)) {
+                        double gi[3], gj[3];
+                        lj_cutoff_k_t0_gradient(q + 3 * i, q + 3 * j, cx->cc, gi, gj);
+                        g[3 * i] += gi[0];
+                        g[3 * i + 1] += gi[1];
+                        g[3 * i + 2] += gi[2];
+                        g[3 * j] += gj[0];
+                        g[3 * j + 1] += gj[1];
+                        g[3 * j + 2] += gj[2];
+
+                }
+            }
+        }
+    }
+    for (e = 0; e < 8; ++e) {
+        gs[e] += g[3 * e];
+        gs[8 + e] += g[3 * e + 1];
+        gs[16 + e] += g[3 * e + 2];
+    }
+}
+
+/* One explicit step, all arrays component-major: from (x, v) with gx = dV/dq at x to (xn, vn)
+ * and gn = dV/dq at xn (vn holds the half-step velocity in between); sv: n doubles of scratch, bridge: see gradient_soa. Returns OK,
+ * ERR_INFEASIBLE (|a_i| > 1: no rotation realises the step) or ERR_NONFINITE; with x, v and
+ * gx finite, OK means xn and vn are finite. */
+static int lj_cutoff_vi_explicit(const lj_cutoff_ctx *cx, double h,
+        const double *LJ_CUTOFF_RESTRICT x, const double *LJ_CUTOFF_RESTRICT v,
+        const double *LJ_CUTOFF_RESTRICT gx, double *LJ_CUTOFF_RESTRICT xn,
+        double *LJ_CUTOFF_RESTRICT vn, double *LJ_CUTOFF_RESTRICT gn,
+        double *LJ_CUTOFF_RESTRICT sv, double *bridge)
+{
+    double chk = 0.0;
+    long i;
+    int bad = 0;
+    /* no early exit inside the loop, so that it vectorises; the check follows it */
+LJ_CUTOFF_SIMD
+    for (i = 0; i < 8; ++i) {
+        const double mi = cx->mi[i];
+        const double q0 = x[i], q1 = x[8 + i], q2 = x[16 + i];
+        const double w0 = v[i], w1 = v[8 + i], w2 = v[16 + i];
+        const double g0 = gx[i], g1 = gx[8 + i], g2 = gx[16 + i];
+        const double pw0 = h*h;
+        const double x0 = h*mi;
+        const double x1 = x0*(g0*q1 - g1*q0);
+        const double x2 = 2*w2 + x1;
+        const double pw2 = x2*x2;
+        const double x3 = (1.0/2.0)*h;
+        const double x4 = x2*x3;
+        const double x5 = x0*(g0*q2 - g2*q0);
+        const double x6 = 2*w1 - x5;
+        const double pw3 = x6*x6;
+        const double x7 = q2*x3;
+        const double x8 = (1.0/4.0)*pw0;
+        const double x9 = x0*(g1*q2 - g2*q1);
+        const double x10 = 2*w0 + x9;
+        const double pw1 = x10*x10;
+        const double x11 = -pw1*x8 - pw2*x8 - pw3*x8 + 1;
+        const double x12 = sqrt(x11);
+        const double qn0 = q0*x12 - q1*x4 + x6*x7;
+        const double qn1 = q0*x4 + q1*x12 - x10*x7;
+        const double qn2 = -q0*x3*x6 + q1*x10*x3 + q2*x12;
+        const double wh0 = w0 + (1.0/2.0)*x9;
+        const double wh1 = w1 - 1.0/2.0*x5;
+        const double wh2 = w2 + (1.0/2.0)*x1;
+        const double s0 = x11;
+        xn[i] = qn0;
+        xn[8 + i] = qn1;
+        xn[16 + i] = qn2;
+        vn[i] = wh0;
+        vn[8 + i] = wh1;
+        vn[16 + i] = wh2;
+        sv[i] = s0;
+    }
+    for (i = 0; i < 8; ++i) {
+        bad += !(sv[i] >= 0.0);
+    }
+    for (i = 0; i < 8 && bad; ++i) {
+        if (!(sv[i] >= 0.0)) {
+            return isfinite(sv[i]) ? LJ_CUTOFF_ERR_INFEASIBLE : LJ_CUTOFF_ERR_NONFINITE;
+        }
+    }
+    lj_cutoff_gradient_soa(cx, xn, gn, bridge);
+    /* xn is finite: s_i >= 0 makes a_i finite. vn is checked here: w * 0 is 0 for a finite w
+     * and NaN otherwise (see _finite) */
+LJ_CUTOFF_SIMD_SUM(chk)
+    for (i = 0; i < 8; ++i) {
+        const double mi = cx->mi[i];
+        const double wh0 = vn[i], wh1 = vn[8 + i], wh2 = vn[16 + i];
+        const double qn0 = xn[i], qn1 = xn[8 + i], qn2 = xn[16 + i];
+        const double gn0 = gn[i], gn1 = gn[8 + i], gn2 = gn[16 + i];
+        const double x0 = (1.0/2.0)*h*mi;
+        const double wn0 = wh0 - x0*(-gn1*qn2 + gn2*qn1);
+        const double wn1 = wh1 - x0*(gn0*qn2 - gn2*qn0);
+        const double wn2 = wh2 - x0*(-gn0*qn1 + gn1*qn0);
+        vn[i] = wn0;
+        vn[8 + i] = wn1;
+        vn[16 + i] = wn2;
+        chk += (wn0 * 0.0 + wn1 * 0.0) + wn2 * 0.0;
+    }
+    return chk == 0.0 ? LJ_CUTOFF_OK : LJ_CUTOFF_ERR_NONFINITE;
+}
+
+/* One explicit step on body-major arrays (for vi_step): g holds dV/dq at q on entry; gn
+ * receives dV/dq at qn (f, warm: the implicit step's Newton start, unused here).
+ * work: x (24), v (24), gx (24), xn (24), vn (24), gn (24), s (8), bridge (48). */
 static int lj_cutoff_vi_advance(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
         double h, const double *q, const double *w, const double *g, double *qn, double *wn,
         double *gn, double *f, int warm, double *work, int *iters)
 {
-    const double *md = cx->md;
-    int i;
+    double *x = work + 0, *v = work + 24;
+    double *gx = work + 48, *xn = work + 72;
+    double *vn = work + 96, *gs = work + 120;
+    int status;
     (void)opt;
     (void)f;
     (void)warm;
-    (void)work;
     *iters = 0;
-    for (i = 0; i < 8; ++i) {
-        double s;
-        lj_cutoff_k_vi_pos(h, md[i], q + 3 * i, w + 3 * i, g + 3 * i, qn + 3 * i, &s);
-        if (!(s >= 0.0)) {
-            return isfinite(s) ? LJ_CUTOFF_ERR_INFEASIBLE : LJ_CUTOFF_ERR_NONFINITE;
-        }
+    lj_cutoff_to_soa(q, x);
+    lj_cutoff_to_soa(w, v);
+    lj_cutoff_to_soa(g, gx);
+    status = lj_cutoff_vi_explicit(cx, h, x, v, gx, xn, vn, gs, work + 144,
+            work + 152);
+    if (status == LJ_CUTOFF_OK) {
+        lj_cutoff_from_soa(xn, qn);
+        lj_cutoff_from_soa(vn, wn);
+        lj_cutoff_from_soa(gs, gn);
     }
-    lj_cutoff_gradient_cx(cx, qn, gn);
-    for (i = 0; i < 8; ++i) {
-        lj_cutoff_k_vi_vel(h, md[i], q + 3 * i, w + 3 * i, g + 3 * i, qn + 3 * i, gn + 3 * i, wn + 3 * i);
-    }
-    return LJ_CUTOFF_OK;
+    return status;
 }
-/* work: g (24), gn (24), f (24). */
+/* work: g (24), gn (24), f (24), step (200). */
 int lj_cutoff_vi_step(const double *p, const lj_cutoff_options *opt, double h,
         const double *q, const double *w, double *qn, double *wn, double *work, int *iters)
 {
@@ -616,7 +790,6 @@ static int lj_cutoff_rattle_advance(const lj_cutoff_ctx *cx, const lj_cutoff_opt
         const double *x, const double *v, const double *g, double *xn, double *vn, double *gn,
         double *sv, int warm, double *work, int *iters)
 {
-    const double *md = cx->md;
     double *vh = work + 0;
     int i;
     (void)opt;
@@ -625,14 +798,14 @@ static int lj_cutoff_rattle_advance(const lj_cutoff_ctx *cx, const lj_cutoff_opt
     *iters = 0;
     for (i = 0; i < 8; ++i) {
         double disc;
-        lj_cutoff_k_rattle_pos(h, md[i], x + 3 * i, v + 3 * i, g + 3 * i, xn + 3 * i, vh + 3 * i, &disc);
+        lj_cutoff_k_rattle_pos(h, cx->mi[i], x + 3 * i, v + 3 * i, g + 3 * i, xn + 3 * i, vh + 3 * i, &disc);
         if (!(disc >= 0.0)) {
             return isfinite(disc) ? LJ_CUTOFF_ERR_INFEASIBLE : LJ_CUTOFF_ERR_NONFINITE;
         }
     }
     lj_cutoff_gradient_cx(cx, xn, gn);
     for (i = 0; i < 8; ++i) {
-        lj_cutoff_k_rattle_vel(h, md[i], xn + 3 * i, vh + 3 * i, gn + 3 * i, vn + 3 * i);
+        lj_cutoff_k_rattle_vel(h, cx->mi[i], xn + 3 * i, vh + 3 * i, gn + 3 * i, vn + 3 * i);
     }
     return LJ_CUTOFF_OK;
 }
@@ -985,7 +1158,7 @@ static int lj_cutoff_rk45(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
 /* Step fractions of the symmetric compositions of the VI (Yoshida's triple jump: 4th order). */
 static const double lj_cutoff_yoshida[3] = { 1.3512071919596578, -1.7024143839193155, 1.3512071919596578 };
 
-/* VI, its 4th-order composition, or RATTLE from (q0, w0); every `every`-th state is stored.
+/* RATTLE from (q0, w0) (the explicit VI has its own driver); every `every`-th state is stored.
  * One gradient per substep (the gradient at the new state is reused by the next step).
  * work: g (24), gn (24), a (24), b (24), va (24), vb (24), qk (24), wk (24), q1 (24), w1 (24), step (24). */
 static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
@@ -993,11 +1166,10 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
         double *q, double *w, double *energy, double *work, lj_cutoff_stats *stats)
 {
     double *g = work + 0, *gn = work + 24;
-    double *a = work + 48, *b = work + 72;
     double *va = work + 96, *vb = work + 120;
     double *qk = work + 144, *wk = work + 168;
     double *q1 = work + 192, *w1 = work + 216;
-    double *fs = work + 240, *ss = work + 240;
+    double *ss = work + 240;
     double *rest = work + 240, *tmp;
     long k, e;
     int status = LJ_CUTOFF_OK;
@@ -1014,30 +1186,8 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
         }
     }
     for (k = 0; k < nsteps; ++k) {
-        int iters = 0, sub, total = 0;
-        if (method == LJ_CUTOFF_METHOD_VI) {
-            status = lj_cutoff_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, fs, k > 0, rest,
-                    &iters);
-            total = iters;
-            tmp = g;
-            g = gn;
-            gn = tmp;
-        } else if (method == LJ_CUTOFF_METHOD_VI4) {
-            const double *qs = qk, *ws = wk;
-            for (sub = 0; sub < 3 && status == LJ_CUTOFF_OK; ++sub) {
-                double *qd = sub == 2 ? q1 : (sub == 0 ? a : b);
-                double *wd = sub == 2 ? w1 : (sub == 0 ? va : vb);
-                status = lj_cutoff_vi_advance(cx, opt, lj_cutoff_yoshida[sub] * h, qs, ws, g, qd,
-                        wd, gn, fs + sub * LJ_CUTOFF_N3, k > 0, rest, &iters);
-                total += iters;
-                qs = qd;
-                ws = wd;
-                tmp = g;
-                g = gn;
-                gn = tmp;
-                stats->gradient_evals += sub < 2 ? 1 : 0;
-            }
-        } else {
+        int iters = 0, total = 0;
+        {
             status = lj_cutoff_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, ss, k > 0, rest,
                     &iters);
             total = iters;
@@ -1076,6 +1226,60 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
         if ((k + 1) % every == 0) {
             lj_cutoff_store(cx, qk, wk, (k + 1) / every, q, w, energy);
             stats->fail_step = (k + 1) / every + 1;
+        }
+    }
+    return status;
+}
+
+/* The explicit VI or its 4th-order composition from (q0, w0), on component-major copies of the
+ * state (see vi_explicit); every `every`-th state is stored, body-major. One gradient per
+ * substep (the gradient at the new state is reused by the next step).
+ * work: x (24), v (24), gx (24), xn (24), vn (24), gn (24), s (8), bridge (48). */
+static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, int method, double h,
+        long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
+        double *energy, double *work, lj_cutoff_stats *stats)
+{
+    double *x = work + 0, *v = work + 24;
+    double *gx = work + 48, *xn = work + 72;
+    double *vn = work + 96, *gn = work + 120;
+    double *sv = work + 144, *bridge = work + 152;
+    double *tmp;
+    const int subs = method == LJ_CUTOFF_METHOD_VI4 ? 3 : 1;
+    long k;
+    int sub, status = LJ_CUTOFF_OK;
+    lj_cutoff_to_soa(q0, x);
+    lj_cutoff_to_soa(w0, v);
+    lj_cutoff_gradient_soa(cx, x, gx, bridge);
+    stats->gradient_evals += 1;
+    for (k = 0; k < nsteps; ++k) {
+        for (sub = 0; sub < subs && status == LJ_CUTOFF_OK; ++sub) {
+            const double hs = subs == 1 ? h : lj_cutoff_yoshida[sub] * h;
+            status = lj_cutoff_vi_explicit(cx, hs, x, v, gx, xn, vn, gn, sv, bridge);
+            tmp = x;
+            x = xn;
+            xn = tmp;
+            tmp = v;
+            v = vn;
+            vn = tmp;
+            tmp = gx;
+            gx = gn;
+            gn = tmp;
+        }
+        /* vi_explicit returned OK only with a finite state */
+        if (status != LJ_CUTOFF_OK) {
+            return status;
+        }
+        stats->gradient_evals += subs;
+        stats->steps += 1;
+        if ((k + 1) % every == 0) {
+            const long s = (k + 1) / every;
+            double *qs = q + s * LJ_CUTOFF_N3, *ws = w + s * LJ_CUTOFF_N3;
+            lj_cutoff_from_soa(x, qs);
+            lj_cutoff_from_soa(v, ws);
+            if (energy) {
+                energy[s] = lj_cutoff_energy_cx(cx, qs, ws);
+            }
+            stats->fail_step = s + 1;
         }
     }
     return status;
@@ -1161,6 +1365,10 @@ int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int metho
         lj_cutoff_copy(y0, q0, LJ_CUTOFF_N3);
         lj_cutoff_copy(y0 + LJ_CUTOFF_N3, w0, LJ_CUTOFF_N3);
         return lj_cutoff_rk45(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
+    }
+    if (method == LJ_CUTOFF_METHOD_VI || method == LJ_CUTOFF_METHOD_VI4) {
+        return lj_cutoff_integrate_explicit(cx, method, h, nsteps, every, q0, w0, q, w, energy,
+                run, stats);
     }
     if (method == LJ_CUTOFF_METHOD_VI || method == LJ_CUTOFF_METHOD_VI4
             || method == LJ_CUTOFF_METHOD_RATTLE) {

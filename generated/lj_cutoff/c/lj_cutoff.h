@@ -33,7 +33,7 @@ extern "C" {
 #define LJ_CUTOFF_NPAIRS 0 /* coupled pairs of M (off-diagonal entries not zero) */
 #define LJ_CUTOFF_NCONST 4 /* constants of the kernels (computed once per call) */
 #define LJ_CUTOFF_WORK_BASE 552 /* workspace doubles before the per-call context */
-#define LJ_CUTOFF_WORK_SIZE 573 /* workspace doubles every `work` must hold */
+#define LJ_CUTOFF_WORK_SIZE 581 /* workspace doubles every `work` must hold */
 
 /* Status codes returned by the step and integrate functions. */
 enum {
