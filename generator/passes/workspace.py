@@ -20,7 +20,13 @@ from dataclasses import replace
 
 from s2gen.ir import Buffer, Layout, LoopKind, Module, ModuleKind
 
-__all__ = ["CONTEXT", "layout", "workspace_pass"]
+__all__ = ["CONTEXT", "layout", "padded", "workspace_pass"]
+
+
+def padded(dim: int) -> int:
+    """Row stride of a dim x dim matrix for the dense solvers: dim rounded up to a multiple of
+    4 doubles (one AVX register), so that their row updates have a fixed vector length."""
+    return -(-dim // 4) * 4
 
 
 def layout(name: str, *buffers: tuple[str, int]) -> Layout:
@@ -36,16 +42,16 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     n, m3 = module.n, 3 * module.n
     ns = 2 * m3
     coupled = module.coupling is not None
-    field = layout("field", ("g", m3), ("a", m3 * m3 if coupled else 0))
+    field = layout("field", ("g", m3), ("a", m3 * padded(m3) if coupled else 0))
     rk_fixed = layout("rk_fixed", ("k1", ns), ("k2", ns), ("acc", ns), ("field", field.size))
     rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("rk", rk_fixed.size))
     rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
     if coupled:
-        vi = layout("vi_advance", ("d", m3), ("r", m3), ("jm", m3 * m3))
+        vi = layout("vi_advance", ("d", m3), ("r", m3), ("jm", m3 * padded(m3)))
         rattle = layout(
             "rattle_advance",
             ("wi", n * n),
-            ("jm", n * n),
+            ("jm", n * padded(n)),
             ("y", m3),
             ("gw", m3),
             ("u", m3),
@@ -85,7 +91,7 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
 def _angles(module: Module) -> tuple[list[Layout], int]:
     nx = 2 * module.n
     ns = 2 * nx
-    field = layout("field", ("m", nx * nx))
+    field = layout("field", ("m", nx * nx), ("lu", nx * padded(nx)))
     rk_fixed = layout("rk_fixed", ("k1", ns), ("k2", ns), ("acc", ns), ("field", field.size))
     rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("fail", ns), ("rk", rk_fixed.size))
     rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))

@@ -21,7 +21,7 @@ from typing import Any
 from s2gen.interface import interface
 from s2gen.ir import Kernel, LoopKind, Module, ModuleKind, PassRecord, TermLoop
 from s2gen.methods import METHODS, Status, method
-from s2gen.passes.workspace import CONTEXT
+from s2gen.passes.workspace import CONTEXT, padded
 from s2gen.printing.c import (
     c_call,
     c_decl,
@@ -443,6 +443,9 @@ def print_module(module: Module) -> PrintedModule:
         c_macros = (
             ("N3", str(3 * n), "doubles in q (or w): 3 per body"),
             ("NS", str(6 * n), "doubles in the state y = (q, w)"),
+            ("LD3", str(padded(3 * n)), "row stride of the dense N3 x N3 systems"),
+            ("LDN", str(padded(n)), "row stride of the dense n x n systems"),
+            ("LD_MAX", str(padded(3 * n)), "the largest row stride"),
         )
         h_macros = (
             ("NBODIES", str(n), "bodies"),
@@ -454,7 +457,11 @@ def print_module(module: Module) -> PrintedModule:
             ("WORK_SIZE", str(module.work_size), "workspace doubles every `work` must hold"),
         )
     else:
-        c_macros = (("NS", str(4 * n), "doubles in the state y = (x, xd)"),)
+        c_macros = (
+            ("NS", str(4 * n), "doubles in the state y = (x, xd)"),
+            ("LDX", str(padded(2 * n)), "row stride of the dense NX x NX system"),
+            ("LD_MAX", str(padded(2 * n)), "the largest row stride"),
+        )
         h_macros = (
             ("NBODIES", str(n), "bodies"),
             ("NX", str(2 * n), "angles (and rates): theta_i, phi_i per body"),

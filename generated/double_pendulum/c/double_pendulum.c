@@ -43,6 +43,9 @@
 #endif
 #define DOUBLE_PENDULUM_N3 6 /* doubles in q (or w): 3 per body */
 #define DOUBLE_PENDULUM_NS 12 /* doubles in the state y = (q, w) */
+#define DOUBLE_PENDULUM_LD3 8 /* row stride of the dense N3 x N3 systems */
+#define DOUBLE_PENDULUM_LDN 4 /* row stride of the dense n x n systems */
+#define DOUBLE_PENDULUM_LD_MAX 8 /* the largest row stride */
 /* ---- member tables ---------------------------------------------------------------------- */
 static const int double_pendulum_pair_i[1] = {
     0,
@@ -470,18 +473,19 @@ static void double_pendulum_copy(double *dst, const double *src, long len)
 /* ---- the matrix A(q) of the (q, omega) equations ----------------------------------------- */
 
 /* Fill the symmetric positive definite matrix A(q) of the (q, omega) equations:
- * A_ii = diag[i] I, A_ij = -M_ij hat(q_i) hat(q_j), A_ji = A_ij^T (row-major, N3 x N3).
+ * A_ii = diag[i] I, A_ij = -M_ij hat(q_i) hat(q_j), A_ji = A_ij^T (row-major, N3 x N3, row
+ * stride LD3).
  * diag[i] is M_ii for the continuous equations (paper's ELwm) and M_ii (q_i.q_i) in the VI. */
 static void double_pendulum_build_a(const double *diag, const double *mp, const double *q, double *a)
 {
     long r, c;
     int i, k;
-    for (r = 0; r < DOUBLE_PENDULUM_N3 * DOUBLE_PENDULUM_N3; ++r) {
+    for (r = 0; r < DOUBLE_PENDULUM_N3 * DOUBLE_PENDULUM_LD3; ++r) {
         a[r] = 0.0;
     }
     for (i = 0; i < 2; ++i) {
         for (r = 0; r < 3; ++r) {
-            a[(3 * i + r) * DOUBLE_PENDULUM_N3 + 3 * i + r] = diag[i];
+            a[(3 * i + r) * DOUBLE_PENDULUM_LD3 + 3 * i + r] = diag[i];
         }
     }
     for (k = 0; k < 1; ++k) {
@@ -490,95 +494,108 @@ static void double_pendulum_build_a(const double *diag, const double *mp, const 
         double_pendulum_k_a_pair(mp[k], q + 3 * i0, q + 3 * j0, blk);
         for (r = 0; r < 3; ++r) {
             for (c = 0; c < 3; ++c) {
-                a[(3 * i0 + r) * DOUBLE_PENDULUM_N3 + 3 * j0 + c] = blk[3 * r + c];
-                a[(3 * j0 + c) * DOUBLE_PENDULUM_N3 + 3 * i0 + r] = blk[3 * r + c];
+                a[(3 * i0 + r) * DOUBLE_PENDULUM_LD3 + 3 * j0 + c] = blk[3 * r + c];
+                a[(3 * j0 + c) * DOUBLE_PENDULUM_LD3 + 3 * i0 + r] = blk[3 * r + c];
             }
         }
     }
 }
 /* ---- symmetric positive definite solve ---------------------------------------------------- */
 
-/* Solve A x = b in place (b becomes x) for symmetric positive definite A of size dim
- * (Cholesky; A is overwritten by its factor). Returns 0 if A is not numerically positive definite. */
-static int double_pendulum_cholesky_solve(long dim, double *a, double *b)
+/* Solve A x = b in place (b becomes x) for symmetric positive definite A of size dim, stored
+ * row-major with row stride ld >= dim (Cholesky; A is overwritten by its factor). Returns 0 if
+ * A is not numerically positive definite. */
+static int double_pendulum_cholesky_solve(long dim, long ld, double *a, double *b)
 {
     long i, j, k;
     for (j = 0; j < dim; ++j) {
-        double s = a[j * dim + j];
+        double s = a[j * ld + j];
         for (k = 0; k < j; ++k) {
-            s -= a[j * dim + k] * a[j * dim + k];
+            s -= a[j * ld + k] * a[j * ld + k];
         }
         if (!(s > 0.0)) {
             return 0;
         }
-        a[j * dim + j] = sqrt(s);
+        a[j * ld + j] = sqrt(s);
         for (i = j + 1; i < dim; ++i) {
-            double t = a[i * dim + j];
+            double t = a[i * ld + j];
             for (k = 0; k < j; ++k) {
-                t -= a[i * dim + k] * a[j * dim + k];
+                t -= a[i * ld + k] * a[j * ld + k];
             }
-            a[i * dim + j] = t / a[j * dim + j];
+            a[i * ld + j] = t / a[j * ld + j];
         }
     }
     for (i = 0; i < dim; ++i) {
         double t = b[i];
         for (k = 0; k < i; ++k) {
-            t -= a[i * dim + k] * b[k];
+            t -= a[i * ld + k] * b[k];
         }
-        b[i] = t / a[i * dim + i];
+        b[i] = t / a[i * ld + i];
     }
     for (i = dim - 1; i >= 0; --i) {
         double t = b[i];
         for (k = i + 1; k < dim; ++k) {
-            t -= a[k * dim + i] * b[k];
+            t -= a[k * ld + i] * b[k];
         }
-        b[i] = t / a[i * dim + i];
+        b[i] = t / a[i * ld + i];
     }
     return 1;
 }
 /* ---- general solve ---------------------------------------------------------------------------- */
 
-/* Solve A x = b in place (b becomes x) for the dim x dim row-major matrix A (destroyed) by
- * Gaussian elimination with partial pivoting. Returns DOUBLE_PENDULUM_ERR_SINGULAR when a pivot is 0
- * or the pivots satisfy min |pivot| <= ratio * max |pivot| (ratio 0: only exact zeros),
- * DOUBLE_PENDULUM_ERR_NONFINITE when the solution is not finite, else DOUBLE_PENDULUM_OK. */
-static int double_pendulum_lu_solve(long dim, double ratio, double *a, double *b)
+/* Solve A x = b in place (b becomes x) for the dim x dim matrix A stored row-major with row
+ * stride ld >= dim (A destroyed) by Gaussian elimination with partial pivoting (the first row of
+ * largest |pivot|). The row updates run over whole padded rows of fixed length ld, so that with
+ * the sizes known at compile time they are straight vector code; the padding is never read.
+ * Returns DOUBLE_PENDULUM_ERR_SINGULAR when a pivot is 0 or the pivots satisfy
+ * min |pivot| <= ratio * max |pivot| (ratio 0: only exact zeros), DOUBLE_PENDULUM_ERR_NONFINITE
+ * when the solution is not finite, else DOUBLE_PENDULUM_OK. */
+static int double_pendulum_lu_solve(long dim, long ld, double ratio, double *a, double *b)
 {
-    long i, j, k;
+    double u[DOUBLE_PENDULUM_LD_MAX], pinv[DOUBLE_PENDULUM_LD_MAX];
     double pmax = 0.0, pmin = INFINITY;
+    long i, j, k;
     for (k = 0; k < dim; ++k) {
+        double *ak = a + k * ld;
         long piv = k;
-        double best = fabs(a[k * dim + k]);
+        double best = fabs(ak[k]);
         for (i = k + 1; i < dim; ++i) {
-            if (fabs(a[i * dim + k]) > best) {
-                best = fabs(a[i * dim + k]);
+            const double v = fabs(a[i * ld + k]);
+            if (v > best) {
+                best = v;
                 piv = i;
             }
         }
         if (!(best > 0.0)) {
             return DOUBLE_PENDULUM_ERR_SINGULAR;
         }
-        pmax = fmax(pmax, best);
-        pmin = fmin(pmin, best);
+        pmax = best > pmax ? best : pmax;
+        pmin = best < pmin ? best : pmin;
         if (piv != k) {
-            double t;
-            for (j = 0; j < dim; ++j) {
-                t = a[k * dim + j];
-                a[k * dim + j] = a[piv * dim + j];
-                a[piv * dim + j] = t;
+            double *ap = a + piv * ld, t;
+            for (j = 0; j < ld; ++j) {
+                t = ak[j];
+                ak[j] = ap[j];
+                ap[j] = t;
             }
             t = b[k];
             b[k] = b[piv];
             b[piv] = t;
         }
+        pinv[k] = 1.0 / ak[k];
+        /* the pivot row right of the pivot; zeros elsewhere, so that the updates below may run
+         * over whole rows without changing the columns already eliminated */
+        for (j = 0; j < ld; ++j) {
+            u[j] = j > k && j < dim ? ak[j] : 0.0;
+        }
         for (i = k + 1; i < dim; ++i) {
-            const double l = a[i * dim + k] / a[k * dim + k];
-            if (l != 0.0) {
-                for (j = k + 1; j < dim; ++j) {
-                    a[i * dim + j] -= l * a[k * dim + j];
-                }
-                b[i] -= l * b[k];
+            double *ai = a + i * ld;
+            const double l = ai[k] * pinv[k];
+DOUBLE_PENDULUM_SIMD
+            for (j = 0; j < ld; ++j) {
+                ai[j] -= l * u[j];
             }
+            b[i] -= l * b[k];
         }
     }
     if (!(pmin > ratio * pmax)) {
@@ -587,9 +604,9 @@ static int double_pendulum_lu_solve(long dim, double ratio, double *a, double *b
     for (i = dim - 1; i >= 0; --i) {
         double t = b[i];
         for (j = i + 1; j < dim; ++j) {
-            t -= a[i * dim + j] * b[j];
+            t -= a[i * ld + j] * b[j];
         }
-        b[i] = t / a[i * dim + i];
+        b[i] = t * pinv[i];
     }
     return double_pendulum_finite(b, dim) ? DOUBLE_PENDULUM_OK : DOUBLE_PENDULUM_ERR_NONFINITE;
 }
@@ -779,7 +796,7 @@ void double_pendulum_angular_momentum(const double *p, const double *q, const do
 }
 /* ---- continuous vector field (coupled M) ---------------------------------------------------- */
 
-/* qdot_i = omega_i x q_i and A(q) omegadot = b. work: g (6), a (36). */
+/* qdot_i = omega_i x q_i and A(q) omegadot = b. work: g (6), a (48). */
 static int double_pendulum_rhs_cx(const double_pendulum_ctx *cx, const double *q, const double *w,
         double *dq, double *dw, double *work)
 {
@@ -802,7 +819,7 @@ static int double_pendulum_rhs_cx(const double_pendulum_ctx *cx, const double *q
     /* A is SPD on the sphere; off it (RK stages drift from |q| = 1) it stays symmetric but may
      * be indefinite, so the field uses pivoted elimination rather than Cholesky */
     double_pendulum_build_a(md, mp, q, a);
-    return double_pendulum_lu_solve(DOUBLE_PENDULUM_N3, 0.0, a, dw);
+    return double_pendulum_lu_solve(DOUBLE_PENDULUM_N3, DOUBLE_PENDULUM_LD3, 0.0, a, dw);
 }
 int double_pendulum_rhs(const double *p, const double *q, const double *w, double *dq, double *dw,
         double *work)
@@ -823,7 +840,7 @@ static int double_pendulum_field(const double_pendulum_ctx *cx, const double *y,
  * Cayley parameters) holds Newton's starting point on entry when `warm` (the previous step's
  * solution), else the uncoupled guess d_i / (2 M_ii) is used; it receives the solution.
  * Newton stops when max|delta f| <= newton_tol max|f|, or <= 1000 newton_tol max|f| once the
- * update stops shrinking (round-off reached). work: d (6), r (6), jm (36). */
+ * update stops shrinking (round-off reached). work: d (6), r (6), jm (48). */
 static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const double_pendulum_options *opt,
         double h, const double *q, const double *w, const double *g, double *qn, double *wn,
         double *gn, double *f, int warm, double *work, int *iters)
@@ -857,7 +874,7 @@ static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const doubl
         double step = 0.0, size = 1e-300;
         long e;
         int solved;
-        for (e = 0; e < (long)DOUBLE_PENDULUM_N3 * DOUBLE_PENDULUM_N3; ++e) {
+        for (e = 0; e < (long)DOUBLE_PENDULUM_N3 * DOUBLE_PENDULUM_LD3; ++e) {
             jm[e] = 0.0;
         }
         for (i = 0; i < 2; ++i) {
@@ -866,7 +883,7 @@ static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const doubl
             double_pendulum_k_res_body(md[i], q + 3 * i, f + 3 * i, d + 3 * i, r + 3 * i, jac);
             for (a = 0; a < 3; ++a) {
                 for (b = 0; b < 3; ++b) {
-                    jm[(3 * i + a) * DOUBLE_PENDULUM_N3 + 3 * i + b] = jac[3 * a + b];
+                    jm[(3 * i + a) * DOUBLE_PENDULUM_LD3 + 3 * i + b] = jac[3 * a + b];
                 }
             }
         }
@@ -879,8 +896,8 @@ static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const doubl
                 r[3 * i0 + a] += ri[a];
                 r[3 * j0 + a] += rj[a];
                 for (b = 0; b < 3; ++b) {
-                    jm[(3 * i0 + a) * DOUBLE_PENDULUM_N3 + 3 * j0 + b] += jij[3 * a + b];
-                    jm[(3 * j0 + a) * DOUBLE_PENDULUM_N3 + 3 * i0 + b] += jji[3 * a + b];
+                    jm[(3 * i0 + a) * DOUBLE_PENDULUM_LD3 + 3 * j0 + b] += jij[3 * a + b];
+                    jm[(3 * j0 + a) * DOUBLE_PENDULUM_LD3 + 3 * i0 + b] += jji[3 * a + b];
                 }
             }
         }
@@ -888,18 +905,18 @@ static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const doubl
             r[e] = -r[e];
         }
         /* a singular Jacobian is a failure of Newton's method, not of the inertia */
-        solved = double_pendulum_lu_solve(DOUBLE_PENDULUM_N3, 0.0, jm, r);
+        solved = double_pendulum_lu_solve(DOUBLE_PENDULUM_N3, DOUBLE_PENDULUM_LD3, 0.0, jm, r);
         *iters = it;
         if (solved == DOUBLE_PENDULUM_ERR_SINGULAR) {
             return DOUBLE_PENDULUM_ERR_NEWTON;
         }
-        for (e = 0; e < DOUBLE_PENDULUM_N3; ++e) {
-            f[e] += r[e];
-            step = fmax(step, fabs(r[e]));
-            size = fmax(size, fabs(f[e]));
+        if (solved != DOUBLE_PENDULUM_OK) { /* a non-finite update */
+            return solved;
         }
-        if (!isfinite(step)) {
-            return DOUBLE_PENDULUM_ERR_NONFINITE;
+        for (e = 0; e < DOUBLE_PENDULUM_N3; ++e) {
+            const double moved = fabs(r[e]), now = fabs(f[e] += r[e]);
+            step = moved > step ? moved : step;
+            size = now > size ? now : size;
         }
         converged = step <= opt->newton_tol * size
                 || (step <= 1e3 * opt->newton_tol * size && step > 0.5 * previous);
@@ -929,12 +946,12 @@ static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const doubl
         double_pendulum_k_a_body(md[i], qn + 3 * i, &cx->adiag[i]);
     }
     double_pendulum_build_a(cx->adiag, mp, qn, jm);
-    if (!double_pendulum_cholesky_solve(DOUBLE_PENDULUM_N3, jm, wn)) {
+    if (!double_pendulum_cholesky_solve(DOUBLE_PENDULUM_N3, DOUBLE_PENDULUM_LD3, jm, wn)) {
         return DOUBLE_PENDULUM_ERR_SINGULAR;
     }
     return DOUBLE_PENDULUM_OK;
 }
-/* work: g (6), gn (6), f (6), step (48). */
+/* work: g (6), gn (6), f (6), step (60). */
 int double_pendulum_vi_step(const double *p, const double_pendulum_options *opt, double h,
         const double *q, const double *w, double *qn, double *wn, double *work, int *iters)
 {
@@ -965,37 +982,37 @@ int double_pendulum_vi_step(const double *p, const double_pendulum_options *opt,
  * at x; gn receives it at xn. The position multipliers (s_k = h^2 lambda_k / 2) solve
  * |x_i+|^2 = 1 by Newton's method, started from sv (n values) when `warm` (the previous step's
  * multipliers), else from 0, and stopped as the VI's Newton; sv receives the solution. The
- * velocity multipliers solve a linear SPD system. work: wi (4), jm (4), y (6), gw (6), u (6), r (2). */
+ * velocity multipliers solve a linear SPD system. work: wi (4), jm (8), y (6), gw (6), u (6), r (2). */
 static int double_pendulum_rattle_advance(const double_pendulum_ctx *cx, const double_pendulum_options *opt,
         double h,
         const double *x, const double *v, const double *g, double *xn, double *vn, double *gn,
         double *sv, int warm, double *work, int *iters)
 {
-    const long nb = 2;
+    const long nb = 2, ld = DOUBLE_PENDULUM_LDN;
     const double *md = cx->md, *mp = cx->mp;
     double *wi = work + 0, *jm = work + 4;
-    double *y = work + 8, *gw = work + 14;
-    double *u = work + 20, previous = INFINITY;
-    double *r = work + 26;
+    double *y = work + 12, *gw = work + 18;
+    double *u = work + 24, previous = INFINITY;
+    double *r = work + 30;
     long i, k, c;
-    int it, converged = 0;
+    int it, solved, converged = 0;
     *iters = 0;
     /* W = M^-1, column by column from the Cholesky factor of M */
     for (k = 0; k < nb; ++k) {
-        for (i = 0; i < nb * nb; ++i) {
+        for (i = 0; i < nb * ld; ++i) {
             jm[i] = 0.0;
         }
         for (i = 0; i < nb; ++i) {
-            jm[i * nb + i] = md[i];
+            jm[i * ld + i] = md[i];
         }
         for (i = 0; i < 1; ++i) {
-            jm[double_pendulum_pair_i[i] * nb + double_pendulum_pair_j[i]] = mp[i];
-            jm[double_pendulum_pair_j[i] * nb + double_pendulum_pair_i[i]] = mp[i];
+            jm[double_pendulum_pair_i[i] * ld + double_pendulum_pair_j[i]] = mp[i];
+            jm[double_pendulum_pair_j[i] * ld + double_pendulum_pair_i[i]] = mp[i];
         }
         for (i = 0; i < nb; ++i) {
             r[i] = i == k ? 1.0 : 0.0;
         }
-        if (!double_pendulum_cholesky_solve(nb, jm, r)) {
+        if (!double_pendulum_cholesky_solve(nb, ld, jm, r)) {
             return DOUBLE_PENDULUM_ERR_SINGULAR;
         }
         for (i = 0; i < nb; ++i) {
@@ -1029,13 +1046,17 @@ static int double_pendulum_rattle_advance(const double_pendulum_ctx *cx, const d
             r[i] = -(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] - 1.0);
             for (k = 0; k < nb; ++k) {
                 const double *b = x + 3 * k;
-                jm[i * nb + k] = -2.0 * wi[i * nb + k] * (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
+                jm[i * ld + k] = -2.0 * wi[i * nb + k] * (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
             }
         }
         /* a singular Jacobian is a failure of Newton's method, not of the inertia */
-        if (double_pendulum_lu_solve(nb, 0.0, jm, r) == DOUBLE_PENDULUM_ERR_SINGULAR) {
-            *iters = it;
+        solved = double_pendulum_lu_solve(nb, ld, 0.0, jm, r);
+        *iters = it;
+        if (solved == DOUBLE_PENDULUM_ERR_SINGULAR) {
             return DOUBLE_PENDULUM_ERR_NEWTON;
+        }
+        if (solved != DOUBLE_PENDULUM_OK) { /* a non-finite update */
+            return solved;
         }
         for (i = 0; i < nb; ++i) {
             double moved = 0.0; /* size of the position correction, (W delta)_i */
@@ -1043,11 +1064,8 @@ static int double_pendulum_rattle_advance(const double_pendulum_ctx *cx, const d
                 moved += wi[i * nb + k] * r[k];
             }
             sv[i] += r[i];
-            step = fmax(step, fabs(moved));
-        }
-        *iters = it;
-        if (!isfinite(step)) {
-            return DOUBLE_PENDULUM_ERR_NONFINITE;
+            moved = fabs(moved);
+            step = moved > step ? moved : step;
         }
         converged = step <= opt->newton_tol * size
                 || (step <= 1e3 * opt->newton_tol * size && step > 0.5 * previous);
@@ -1084,10 +1102,10 @@ static int double_pendulum_rattle_advance(const double_pendulum_ctx *cx, const d
         r[i] = a[0] * u[3 * i] + a[1] * u[3 * i + 1] + a[2] * u[3 * i + 2];
         for (k = 0; k < nb; ++k) {
             const double *b = xn + 3 * k;
-            jm[i * nb + k] = wi[i * nb + k] * (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
+            jm[i * ld + k] = wi[i * nb + k] * (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
         }
     }
-    if (!double_pendulum_cholesky_solve(nb, jm, r)) {
+    if (!double_pendulum_cholesky_solve(nb, ld, jm, r)) {
         return DOUBLE_PENDULUM_ERR_SINGULAR;
     }
     for (i = 0; i < nb; ++i) {
@@ -1115,7 +1133,7 @@ static int double_pendulum_stage(const double_pendulum_ctx *cx, const double *y,
 }
 
 /* One step of the explicit midpoint rule (classic = 0) or classical RK4 (classic = 1) from y0
- * into yn (DOUBLE_PENDULUM_NS doubles each). work: k1 (12), k2 (12), acc (12), field (42). */
+ * into yn (DOUBLE_PENDULUM_NS doubles each). work: k1 (12), k2 (12), acc (12), field (54). */
 static int double_pendulum_rk_fixed(const double_pendulum_ctx *cx, int classic, double h, const double *y0,
         double *yn, double *fail, double *work)
 {
@@ -1169,7 +1187,7 @@ static int double_pendulum_rk_fixed(const double_pendulum_ctx *cx, int classic, 
     return DOUBLE_PENDULUM_OK;
 }
 /* One fixed step of RK2, RK2 with projection or RK4 from (q, w) into (qn, wn).
- * work: y0 (12), yt (12), rk (78). */
+ * work: y0 (12), yt (12), rk (90). */
 static int double_pendulum_rk_step_cx(const double_pendulum_ctx *cx, int method, double h,
         const double *q, const double *w, double *qn, double *wn, double *work)
 {
@@ -1321,7 +1339,7 @@ static double double_pendulum_rk45_h0(const double_pendulum_ctx *cx, const doubl
 }
 
 /* Adaptive Dormand-Prince from y0 over nsteps output intervals of length hout; samples on the
- * grid from the continuous extension. work: k (84), y (12), yn (12), ys (12), field (42). */
+ * grid from the continuous extension. work: k (84), y (12), yn (12), ys (12), field (54). */
 static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pendulum_options *opt, double hout,
         long nsteps, const double *y0, long every, double *q, double *w, double *energy, double *work, double_pendulum_stats *stats)
 {
@@ -1452,7 +1470,7 @@ static const double double_pendulum_yoshida[3] = { 1.3512071919596578, -1.702414
 
 /* VI, its 4th-order composition, or RATTLE from (q0, w0); every `every`-th state is stored.
  * One gradient per substep (the gradient at the new state is reused by the next step).
- * work: g (6), gn (6), a (6), b (6), va (6), vb (6), qk (6), wk (6), q1 (6), w1 (6), f (18), s (2), step (48). */
+ * work: g (6), gn (6), a (6), b (6), va (6), vb (6), qk (6), wk (6), q1 (6), w1 (6), f (18), s (2), step (60). */
 static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, const double_pendulum_options *opt,
         int method, double h, long nsteps, long every, const double *q0, const double *w0,
         double *q, double *w, double *energy, double *work, double_pendulum_stats *stats)
@@ -1549,7 +1567,7 @@ static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, co
 }
 
 /* Fixed-step RK2, RK2 with projection or RK4 from (q0, w0); every `every`-th state is stored.
- * work: qk (6), wk (6), q1 (6), w1 (6), step (102). */
+ * work: qk (6), wk (6), q1 (6), w1 (6), step (114). */
 static int double_pendulum_integrate_fixed(const double_pendulum_ctx *cx, int method, double h,
         long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
         double *energy, double *work, double_pendulum_stats *stats)
@@ -1581,7 +1599,7 @@ static int double_pendulum_integrate_fixed(const double_pendulum_ctx *cx, int me
     return DOUBLE_PENDULUM_OK;
 }
 
-/* work: run (162), y0 (12). */
+/* work: run (174), y0 (12). */
 int double_pendulum_integrate(const double *p, const double_pendulum_options *opt, int method, double h,
         long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy,
         double *work, double_pendulum_stats *stats)
@@ -1624,7 +1642,7 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
     double_pendulum_store(cx, q0, w0, 0, q, w, energy);
     stats->fail_step = 1;
     if (method == DOUBLE_PENDULUM_METHOD_RK45) {
-        double *y0 = work + 162;
+        double *y0 = work + 174;
         double_pendulum_copy(y0, q0, DOUBLE_PENDULUM_N3);
         double_pendulum_copy(y0 + DOUBLE_PENDULUM_N3, w0, DOUBLE_PENDULUM_N3);
         return double_pendulum_rk45(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);

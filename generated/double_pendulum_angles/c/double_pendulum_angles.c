@@ -42,6 +42,8 @@
 #define DOUBLE_PENDULUM_ANGLES_RESTRICT restrict
 #endif
 #define DOUBLE_PENDULUM_ANGLES_NS 8 /* doubles in the state y = (x, xd) */
+#define DOUBLE_PENDULUM_ANGLES_LDX 4 /* row stride of the dense NX x NX system */
+#define DOUBLE_PENDULUM_ANGLES_LD_MAX 4 /* the largest row stride */
 /* ---- kernels derived by SymPy ------------------------------------------------------------- */
 /* mass matrix M(x) (row-major 4 x 4) and force F(x, xd) of M xdd = F
  * 1198 operations as derived, 294 after cse (81 temporaries). */
@@ -230,47 +232,59 @@ static void double_pendulum_angles_copy(double *dst, const double *src, long len
 }
 /* ---- general solve ---------------------------------------------------------------------------- */
 
-/* Solve A x = b in place (b becomes x) for the dim x dim row-major matrix A (destroyed) by
- * Gaussian elimination with partial pivoting. Returns DOUBLE_PENDULUM_ANGLES_ERR_SINGULAR when a pivot is 0
- * or the pivots satisfy min |pivot| <= ratio * max |pivot| (ratio 0: only exact zeros),
- * DOUBLE_PENDULUM_ANGLES_ERR_NONFINITE when the solution is not finite, else DOUBLE_PENDULUM_ANGLES_OK. */
-static int double_pendulum_angles_lu_solve(long dim, double ratio, double *a, double *b)
+/* Solve A x = b in place (b becomes x) for the dim x dim matrix A stored row-major with row
+ * stride ld >= dim (A destroyed) by Gaussian elimination with partial pivoting (the first row of
+ * largest |pivot|). The row updates run over whole padded rows of fixed length ld, so that with
+ * the sizes known at compile time they are straight vector code; the padding is never read.
+ * Returns DOUBLE_PENDULUM_ANGLES_ERR_SINGULAR when a pivot is 0 or the pivots satisfy
+ * min |pivot| <= ratio * max |pivot| (ratio 0: only exact zeros), DOUBLE_PENDULUM_ANGLES_ERR_NONFINITE
+ * when the solution is not finite, else DOUBLE_PENDULUM_ANGLES_OK. */
+static int double_pendulum_angles_lu_solve(long dim, long ld, double ratio, double *a, double *b)
 {
-    long i, j, k;
+    double u[DOUBLE_PENDULUM_ANGLES_LD_MAX], pinv[DOUBLE_PENDULUM_ANGLES_LD_MAX];
     double pmax = 0.0, pmin = INFINITY;
+    long i, j, k;
     for (k = 0; k < dim; ++k) {
+        double *ak = a + k * ld;
         long piv = k;
-        double best = fabs(a[k * dim + k]);
+        double best = fabs(ak[k]);
         for (i = k + 1; i < dim; ++i) {
-            if (fabs(a[i * dim + k]) > best) {
-                best = fabs(a[i * dim + k]);
+            const double v = fabs(a[i * ld + k]);
+            if (v > best) {
+                best = v;
                 piv = i;
             }
         }
         if (!(best > 0.0)) {
             return DOUBLE_PENDULUM_ANGLES_ERR_SINGULAR;
         }
-        pmax = fmax(pmax, best);
-        pmin = fmin(pmin, best);
+        pmax = best > pmax ? best : pmax;
+        pmin = best < pmin ? best : pmin;
         if (piv != k) {
-            double t;
-            for (j = 0; j < dim; ++j) {
-                t = a[k * dim + j];
-                a[k * dim + j] = a[piv * dim + j];
-                a[piv * dim + j] = t;
+            double *ap = a + piv * ld, t;
+            for (j = 0; j < ld; ++j) {
+                t = ak[j];
+                ak[j] = ap[j];
+                ap[j] = t;
             }
             t = b[k];
             b[k] = b[piv];
             b[piv] = t;
         }
+        pinv[k] = 1.0 / ak[k];
+        /* the pivot row right of the pivot; zeros elsewhere, so that the updates below may run
+         * over whole rows without changing the columns already eliminated */
+        for (j = 0; j < ld; ++j) {
+            u[j] = j > k && j < dim ? ak[j] : 0.0;
+        }
         for (i = k + 1; i < dim; ++i) {
-            const double l = a[i * dim + k] / a[k * dim + k];
-            if (l != 0.0) {
-                for (j = k + 1; j < dim; ++j) {
-                    a[i * dim + j] -= l * a[k * dim + j];
-                }
-                b[i] -= l * b[k];
+            double *ai = a + i * ld;
+            const double l = ai[k] * pinv[k];
+DOUBLE_PENDULUM_ANGLES_SIMD
+            for (j = 0; j < ld; ++j) {
+                ai[j] -= l * u[j];
             }
+            b[i] -= l * b[k];
         }
     }
     if (!(pmin > ratio * pmax)) {
@@ -279,9 +293,9 @@ static int double_pendulum_angles_lu_solve(long dim, double ratio, double *a, do
     for (i = dim - 1; i >= 0; --i) {
         double t = b[i];
         for (j = i + 1; j < dim; ++j) {
-            t -= a[i * dim + j] * b[j];
+            t -= a[i * ld + j] * b[j];
         }
-        b[i] = t / a[i * dim + i];
+        b[i] = t * pinv[i];
     }
     return double_pendulum_angles_finite(b, dim) ? DOUBLE_PENDULUM_ANGLES_OK : DOUBLE_PENDULUM_ANGLES_ERR_NONFINITE;
 }
@@ -382,15 +396,21 @@ double double_pendulum_angles_energy(const double *p, const double *x, const dou
 }
 /* ---- vector field ------------------------------------------------------------------------ */
 
-/* work: m (16). */
+/* work: m (16), lu (16). */
 int double_pendulum_angles_rhs(const double *p, const double *x, const double *xd, double *xdd, double *work)
 {
-    double *mm = work + 0;
+    double *mm = work + 0, *lu = work + 16;
+    long r, c;
     double_pendulum_angles_k_dynamics(p, x, xd, mm, xdd);
     if (!(double_pendulum_angles_finite(mm, DOUBLE_PENDULUM_ANGLES_NX * DOUBLE_PENDULUM_ANGLES_NX) && double_pendulum_angles_finite(xdd, DOUBLE_PENDULUM_ANGLES_NX))) {
         return DOUBLE_PENDULUM_ANGLES_ERR_NONFINITE;
     }
-    return double_pendulum_angles_lu_solve(DOUBLE_PENDULUM_ANGLES_NX, DOUBLE_PENDULUM_ANGLES_MIN_PIVOT_RATIO, mm, xdd);
+    for (r = 0; r < DOUBLE_PENDULUM_ANGLES_NX; ++r) { /* M(x) into the solver's padded rows */
+        for (c = 0; c < DOUBLE_PENDULUM_ANGLES_LDX; ++c) {
+            lu[r * DOUBLE_PENDULUM_ANGLES_LDX + c] = c < DOUBLE_PENDULUM_ANGLES_NX ? mm[r * DOUBLE_PENDULUM_ANGLES_NX + c] : 0.0;
+        }
+    }
+    return double_pendulum_angles_lu_solve(DOUBLE_PENDULUM_ANGLES_NX, DOUBLE_PENDULUM_ANGLES_LDX, DOUBLE_PENDULUM_ANGLES_MIN_PIVOT_RATIO, lu, xdd);
 }
 
 /* The field on the state y = (x, xd) (DOUBLE_PENDULUM_ANGLES_NS doubles). */
@@ -413,7 +433,7 @@ static int double_pendulum_angles_stage(const double_pendulum_angles_ctx *cx, co
 }
 
 /* One step of the explicit midpoint rule (classic = 0) or classical RK4 (classic = 1) from y0
- * into yn (DOUBLE_PENDULUM_ANGLES_NS doubles each). work: k1 (8), k2 (8), acc (8), field (16). */
+ * into yn (DOUBLE_PENDULUM_ANGLES_NS doubles each). work: k1 (8), k2 (8), acc (8), field (32). */
 static int double_pendulum_angles_rk_fixed(const double_pendulum_angles_ctx *cx, int classic, double h, const double *y0,
         double *yn, double *fail, double *work)
 {
@@ -467,7 +487,7 @@ static int double_pendulum_angles_rk_fixed(const double_pendulum_angles_ctx *cx,
     return DOUBLE_PENDULUM_ANGLES_OK;
 }
 /* One classical Runge-Kutta step; on failure of a field evaluation xn, xdn receive the stage
- * state where it failed. work: y0 (8), yt (8), fail (8), rk (40). */
+ * state where it failed. work: y0 (8), yt (8), fail (8), rk (56). */
 int double_pendulum_angles_rk4_step(const double *p, double h, const double *x, const double *xd, double *xn,
         double *xdn, double *work)
 {
@@ -602,7 +622,7 @@ static double double_pendulum_angles_rk45_h0(const double_pendulum_angles_ctx *c
 }
 
 /* Adaptive Dormand-Prince from y0 over nsteps output intervals of length hout; samples on the
- * grid from the continuous extension. work: k (56), y (8), yn (8), ys (8), field (16). */
+ * grid from the continuous extension. work: k (56), y (8), yn (8), ys (8), field (32). */
 static int double_pendulum_angles_rk45(const double_pendulum_angles_ctx *cx, const double_pendulum_angles_options *opt, double hout,
         long nsteps, const double *y0, double *x, double *xd, double *energy, long *counts, double *work, double_pendulum_angles_stats *stats)
 {
@@ -738,7 +758,7 @@ static int double_pendulum_angles_rk45(const double_pendulum_angles_ctx *cx, con
 
 /* ---- driver ------------------------------------------------------------------------------ */
 
-/* work: run (96), y0 (8), fail (8). */
+/* work: run (112), y0 (8), fail (8). */
 int double_pendulum_angles_integrate(const double *p, const double_pendulum_angles_options *opt, int method, double h,
         long nsteps, const double *x0, const double *xd0, double *x, double *xd, double *energy,
         long *counts, double *work, double_pendulum_angles_stats *stats)
@@ -746,7 +766,7 @@ int double_pendulum_angles_integrate(const double *p, const double_pendulum_angl
     long k;
     int status = DOUBLE_PENDULUM_ANGLES_OK;
     double_pendulum_angles_ctx ctx, *cx = &ctx;
-    double *run = work + 0, *fail = work + 104;
+    double *run = work + 0, *fail = work + 120;
     double_pendulum_angles_options defaults;
     double_pendulum_angles_stats local;
     cx->p = p;
@@ -780,7 +800,7 @@ int double_pendulum_angles_integrate(const double *p, const double_pendulum_angl
     }
     stats->fail_step = 1;
     if (method == DOUBLE_PENDULUM_ANGLES_METHOD_RK45) {
-        double *y0 = work + 96;
+        double *y0 = work + 112;
         double_pendulum_angles_copy(y0, x0, DOUBLE_PENDULUM_ANGLES_NX);
         double_pendulum_angles_copy(y0 + DOUBLE_PENDULUM_ANGLES_NX, xd0, DOUBLE_PENDULUM_ANGLES_NX);
         status = double_pendulum_angles_rk45(cx, opt, h, nsteps, y0, x, xd, energy, counts, run, stats);

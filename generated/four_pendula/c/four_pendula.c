@@ -43,6 +43,9 @@
 #endif
 #define FOUR_PENDULA_N3 12 /* doubles in q (or w): 3 per body */
 #define FOUR_PENDULA_NS 24 /* doubles in the state y = (q, w) */
+#define FOUR_PENDULA_LD3 12 /* row stride of the dense N3 x N3 systems */
+#define FOUR_PENDULA_LDN 4 /* row stride of the dense n x n systems */
+#define FOUR_PENDULA_LD_MAX 12 /* the largest row stride */
 /* ---- member tables ---------------------------------------------------------------------- */
 static const int four_pendula_t1_i[4] = {
     0, 1, 2, 3,

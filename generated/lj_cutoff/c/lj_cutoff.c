@@ -43,6 +43,9 @@
 #endif
 #define LJ_CUTOFF_N3 24 /* doubles in q (or w): 3 per body */
 #define LJ_CUTOFF_NS 48 /* doubles in the state y = (q, w) */
+#define LJ_CUTOFF_LD3 24 /* row stride of the dense N3 x N3 systems */
+#define LJ_CUTOFF_LDN 8 /* row stride of the dense n x n systems */
+#define LJ_CUTOFF_LD_MAX 24 /* the largest row stride */
 /* ---- member tables ---------------------------------------------------------------------- */
 /* ---- neighbour lists for pair terms with a cutoff ------------------------------------------- */
 
