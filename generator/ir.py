@@ -232,10 +232,12 @@ class Layout:
 
 @dataclass(frozen=True)
 class PassRecord:
-    """A lowering pass that ran, with the total operations of all kernels after it."""
+    """A lowering pass that ran, with the operations of all kernels after it (total, and by
+    kind as `passes.opcount.Ops` prints them)."""
 
     name: str
     ops: int
+    profile: str = ""
 
 
 @dataclass(frozen=True)

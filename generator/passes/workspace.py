@@ -11,7 +11,7 @@ Example:
     >>> from s2gen.passes import lower_system
     >>> m = lower_system(builtin("double_pendulum"))
     >>> m.layout("field").buffers
-    (Buffer(name='g', size=6, offset=0), Buffer(name='a', size=36, offset=6))
+    (Buffer(name='g', size=6, offset=0), Buffer(name='a', size=48, offset=6))
 """
 
 from __future__ import annotations

@@ -21,6 +21,7 @@ from typing import Any
 from s2gen.interface import interface
 from s2gen.ir import Kernel, LoopKind, Module, ModuleKind, PassRecord, TermLoop
 from s2gen.methods import METHODS, Status, method
+from s2gen.passes.opcount import kernel_profile
 from s2gen.passes.workspace import CONTEXT, padded
 from s2gen.printing.c import (
     c_call,
@@ -51,6 +52,7 @@ class PrintedKernel:
     py_lines: tuple[str, ...]
     ops_before: int
     ops_after: int
+    profile: str  # ops_after by kind
     temporaries: int
     c_function: bool = True  # False: the C code writes it inline only (no function emitted)
 
@@ -170,6 +172,7 @@ def print_kernel(kernel: Kernel, restrict: str) -> PrintedKernel:
         py_lines=py_lines,
         ops_before=kernel.ops_before,
         ops_after=kernel.ops_after,
+        profile=str(kernel_profile(kernel)),
         temporaries=kernel.temporaries,
     )
 
