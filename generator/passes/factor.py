@@ -4,7 +4,9 @@ Input: a `Module` whose kernels are `KernelDef`s. Output: the same kernels with 
 expression passed through `sympy.factor_terms` (which pulls common numeric and symbolic factors
 out of sums without expanding anything), so that, e.g., the two components 12*qi_0 - 12*qj_0 and
 6*qi_0 - 6*qj_0 of a gradient become 12*(qi_0 - qj_0) and 6*(qi_0 - qj_0) and `cse` finds the
-shared difference. Factored once per kernel definition and process.
+shared difference. Factoring can also hide a subexpression two outputs share, so a kernel keeps
+its factored form only when `cse` then leaves fewer operations. Factored once per kernel
+definition and process.
 
 Example:
     >>> import sympy as sp
@@ -32,11 +34,19 @@ def factored(expr: sp.Expr) -> sp.Expr:
 
 @functools.lru_cache(maxsize=1024)
 def _factor_kernel(kdef: KernelDef) -> KernelDef:
+    """The factored kernel, when common subexpressions then cost fewer operations; else the
+    kernel as it is (factoring can hide a subexpression two outputs share)."""
+    from s2gen.passes.cse import lower_kernel
+    from s2gen.passes.opcount import kernel_ops
+
     outputs = tuple(
         Output(o.name, tuple(factored(sp.sympify(e)) for e in o.exprs), o.scalar)
         for o in kdef.outputs
     )
-    return replace(kdef, outputs=outputs)
+    candidate = replace(kdef, outputs=outputs)
+    if kernel_ops(lower_kernel(candidate)) < kernel_ops(lower_kernel(kdef)):
+        return candidate
+    return kdef
 
 
 def clear_cache() -> None:

@@ -37,13 +37,45 @@ CONSTANT_ENTRY = (-1, -1)
 MAX_BODIES = 1024
 
 
+def _degree_bound(expr: sp.Basic, coords: frozenset[sp.Symbol]) -> int | None:
+    """An upper bound of the degree of `expr` as a polynomial in `coords`, read off its tree
+    (sums: the largest, products: the sum, powers: times a non-negative integer exponent);
+    None when the tree is not a polynomial in them (a coordinate under a root, a division or a
+    function). Cheap, so that a term that is not quadratic is turned down without expanding it.
+
+    Example:
+        >>> x, y, a = sp.symbols("x y a")
+        >>> _degree_bound(a * x * y + x, frozenset({x, y})), _degree_bound(1 / x, frozenset({x}))
+        (2, None)
+    """
+    if not expr.has(*coords):
+        return 0
+    if expr.is_Symbol:
+        return 1
+    if isinstance(expr, sp.Add):
+        parts = [_degree_bound(a, coords) for a in expr.args]
+        return None if None in parts else max(p for p in parts if p is not None)
+    if isinstance(expr, sp.Mul):
+        parts = [_degree_bound(a, coords) for a in expr.args]
+        return None if None in parts else sum(p for p in parts if p is not None)
+    if isinstance(expr, sp.Pow) and expr.exp.is_Integer and expr.exp >= 0:
+        base = _degree_bound(expr.base, coords)
+        return None if base is None else base * int(expr.exp)
+    return None
+
+
 def _coefficients(expr: sp.Expr, coords: list[sp.Symbol]) -> list[tuple[int, int, sp.Expr]] | None:
     """(row, column, coefficient) of the Hessian's upper triangle, the linear part (column
     LINEAR) and the constant (row and column -1), not identically zero; None when `expr` is
     not a polynomial of degree <= 2 in `coords`."""
-    poly = sp.sympify(expr).as_poly(*coords)
-    if poly is None or poly.total_degree() > 2:
+    expr = sp.sympify(expr)
+    bound = _degree_bound(expr, frozenset(coords))
+    if bound is None:
         return None
+    if bound > 2:  # a polynomial whose terms of degree > 2 might cancel
+        poly = expr.as_poly(*coords)
+        if poly is None or poly.total_degree() > 2:
+            return None
     at_zero = {c: 0 for c in coords}
     out: list[tuple[int, int, sp.Expr]] = []
     for r, x in enumerate(coords):

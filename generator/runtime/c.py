@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.build import BuildError, compile_shared, header_macro
+from s2gen.build import BuildError, build_flags, compile_shared, header_macro
 from s2gen.emit import emit
 from s2gen.interface import Field, Interface, Kind, interface
 from s2gen.ir import ModuleKind
@@ -65,9 +65,11 @@ def _struct(name: str, fields: tuple[Field, ...]) -> type[ctypes.Structure]:
 class CLibrary:
     """An emitted C module compiled and loaded, its functions declared from the interface."""
 
-    def __init__(self, files: dict[str, str], kind: ModuleKind, prefix: str) -> None:
+    def __init__(
+        self, files: dict[str, str], kind: ModuleKind, prefix: str, opt: str | None = None
+    ) -> None:
         self.api: Interface = interface(kind)
-        self.build = compile_shared(files)
+        self.build = compile_shared(files, build_flags(opt))
         self.lib = ctypes.CDLL(str(self.build.path))
         self.work = np.zeros(max(1, header_macro(files[f"{prefix}.h"], "WORK_SIZE")))
         self.Options = _struct("Options", self.api.options)
@@ -129,12 +131,15 @@ class CBackend:
 
     name = "c"
 
-    def __init__(self, system: System, files: dict[str, str] | None = None) -> None:
-        """Compile `files` (default: the system's emitted C) and load the library; `files`
-        lets a process that never derived the system (a cluster worker) build it."""
+    def __init__(
+        self, system: System, files: dict[str, str] | None = None, opt: str | None = None
+    ) -> None:
+        """Compile `files` (default: the system's emitted C) with flag set `opt` (see
+        `s2gen.build.FLAG_SETS`; default S2GEN_OPT, else "portable") and load the library;
+        `files` lets a process that never derived the system (a cluster worker) build it."""
         self.system = system
         files = emit(system, "c") if files is None else files
-        self.library = CLibrary(files, ModuleKind.SPHERE, system.name)
+        self.library = CLibrary(files, ModuleKind.SPHERE, system.name, opt)
         if self.library.spec_hash != system.spec_hash().encode():
             raise BuildError(
                 f"{system.name}: the library was built from spec {self.library.spec_hash!r}, "
