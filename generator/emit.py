@@ -133,10 +133,12 @@ def emit_angles(
 
 
 #: Modules kept in the repository's generated/ folder, one of each kind (folder, spec, form):
-#: coupled inertia, diagonal inertia with term loops, a cutoff term, and an angle-form module.
-#: Specs are built-in names or paths relative to the repository.
+#: coupled inertia (dense solves), diagonal inertia with term loops, a cutoff term, a chain
+#: with max-index inertia (structured O(n) solves) and an angle-form module. Specs are
+#: built-in names or paths relative to the repository.
 GENERATED = (
     ("double_pendulum", "double_pendulum", "sphere"),
+    ("rope", "rope", "sphere"),
     ("four_pendula", "four_pendula", "sphere"),
     ("lj_cutoff", "tests/specs/lj_cutoff.toml", "sphere"),
     ("double_pendulum_angles", "double_pendulum", "angles"),

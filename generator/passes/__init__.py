@@ -24,6 +24,7 @@ from dataclasses import replace
 
 from s2gen.equations.angles import AngleEquations
 from s2gen.equations.assemble import angle_module, sphere_module
+from s2gen.equations.assemble import clear_caches as _clear_generic
 from s2gen.ir import Kernel, KernelDef, Module, ModuleKind, PassRecord
 from s2gen.passes import opcount as _opcount
 from s2gen.passes import powers as _powers
@@ -85,7 +86,8 @@ def lower(kdef: KernelDef) -> Kernel:
 
 
 def clear_caches() -> None:
-    """Forget every kernel lowered in this process."""
+    """Forget every kernel derived or lowered in this process."""
+    _clear_generic()
     lower_kernel.cache_clear()
     _powers.clear_cache()
     _opcount.kernel_ops.cache_clear()
