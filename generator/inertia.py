@@ -154,9 +154,9 @@ class ChainInertia:
     def matrix(self, n: int) -> sp.ImmutableSparseMatrix:
         """The n x n SymPy matrix (n^2 entries: small n only)."""
         g = self.generators(n)
-        entries = {}
-        for i in range(n):
-            entries[(i, i)] = g.diagonal[i]
+        entries = {(i, i): g.diagonal[i] for i in range(n)}
+        coupled = self.max_index != 0 and self.scale != 0
+        for i in range(n if coupled else 0):
             for j in range(n):
                 if j != i:
                     entries[(i, j)] = g.scale[i] * g.scale[j] * g.max_index[max(i, j)]

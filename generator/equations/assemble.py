@@ -30,10 +30,11 @@ from s2gen.equations.structure import (
     choose_solver,
     coupling_pairs,
     has_general_potential,
+    per_body_inertia,
     system_kernels,
     term_kernels,
 )
-from s2gen.inertia import ChainInertia, InertiaKind
+from s2gen.inertia import InertiaKind
 from s2gen.ir import KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
 from s2gen.system import System, Term
 
@@ -151,7 +152,7 @@ def sphere_module(system: System) -> Module:
     kernels += generic_kernel_defs(coupled, solver)
     loops = tuple(_term_loop(k, t, system.n) for k, t in terms)
     cutoff = any(t.loop.kind is LoopKind.CUTOFF_PAIRS for t in loops)
-    per_body = chain and isinstance(system.structure.generators, ChainInertia)
+    per_body = per_body_inertia(system, solver) is not None
     uniform = system.n > 1 and not per_body and kernels[0].outputs[0].size == 1
     general = has_general_potential(system)
     field = [("inertia_body" if per_body else "inertia", system.n if per_body else 1)]

@@ -31,6 +31,7 @@ __all__ = [
     "choose_solver",
     "coupling_pairs",
     "has_general_potential",
+    "per_body_inertia",
     "solve_cost",
     "system_kernels",
     "term_kernels",
@@ -101,32 +102,41 @@ def has_general_potential(system: System) -> bool:
     return system.potential != 0 or not system.terms
 
 
+def per_body_inertia(system: System, solver: InertiaKind) -> ChainInertia | None:
+    """The per-body inertia of a system whose code evaluates M body by body (a `ChainInertia`
+    with the diagonal or the max-index solvers), else None (M's entries as one kernel)."""
+    if system.chain is None or solver not in (InertiaKind.DIAGONAL, InertiaKind.MAX_INDEX):
+        return None
+    return system.chain
+
+
 def _inertia_kernel(system: System, solver: InertiaKind) -> KernelDef:
     """The kernel of M's entries: the diagonal and the coupled entries (pair order), or the
     generators of a max-index M (per body, from the spec's expressions and data, or as found)."""
     p = Argument("p", system.parameter_symbols)
     structure = system.structure
     doc = "diagonal of M and its coupled off-diagonal entries (pair order of the header)"
-    if solver is InertiaKind.MAX_INDEX and isinstance(structure.generators, ChainInertia):
-        chain = structure.generators
+    chain = per_body_inertia(system, solver)
+    if chain is not None:
         inputs = [p, Argument("i", (INDEX,), scalar=True)]
         inputs += [
             Argument(f"d_{d.name}", (s,), scalar=True)
             for d, s in zip(chain.data, chain.data_symbols())
         ]
+        outputs = [("md", chain.diagonal)]
+        if solver is InertiaKind.MAX_INDEX:
+            outputs += [("sa", chain.scale), ("sc", chain.max_index)]
         return KernelDef(
             "inertia_body",
-            "M per body: M_ii, the scale a_i and the max-index generator c_i "
-            "(M_ij = a_i a_j c_max(i,j)); i is the 1-based body index",
+            "M per body: M_ii"
+            + (
+                ", the scale a_i and the max-index generator c_i (M_ij = a_i a_j c_max(i,j))"
+                if solver is InertiaKind.MAX_INDEX
+                else ""
+            )
+            + "; i is the 1-based body index",
             tuple(inputs),
-            tuple(
-                Output(name, (sp.sympify(e),), scalar=True)
-                for name, e in (
-                    ("md", chain.diagonal),
-                    ("sa", chain.scale),
-                    ("sc", chain.max_index),
-                )
-            ),
+            tuple(Output(name, (sp.sympify(e),), scalar=True) for name, e in outputs),
         )
     if solver is InertiaKind.MAX_INDEX:
         assert isinstance(structure.generators, Generators)

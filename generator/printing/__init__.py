@@ -307,7 +307,9 @@ def _masses_parts(module: Module) -> tuple[str, str]:
     """(C, NumPy) partials of the masses: M's entries from one system kernel, the
     max-index generators from one system kernel, or from a per-body kernel in a loop."""
     names = {k.name for k in module.kernels}
-    if "inertia_body" in names:
+    if "inertia_body" in names and module.solver is InertiaKind.DIAGONAL:
+        stem = "masses_body_diagonal"
+    elif "inertia_body" in names:
         stem = "masses_body"
     elif module.solver is InertiaKind.MAX_INDEX:
         stem = "masses_generators"

@@ -41,6 +41,20 @@ one-body and pair terms, each a sum of one expression over its members::
     pairs = "all"
     cutoff = 0.1             # chord distance |qi - qj|; cell lists make the cost O(n)
 
+Chains: the inertia per body. Instead of its n^2 entries, [inertia] may give M as
+one expression per body (see `s2gen.spec.inertia`), in the parameters, per-body data, the body
+index `i` (1..n) and the body count `n`: M_ii = diagonal, M_ij = scale_i scale_j
+max_index_max(i,j) for i != j (the form of every chain of links; the O(n) solvers use it)::
+
+    [inertia]
+    diagonal  = "l**2*T"         # a string: one expression per body (a list: n entries)
+    max_index = "T"              # optional; without it M is diagonal
+    scale     = "l"              # optional, default 1
+    solver    = "auto"           # optional: "auto", "dense" or "structured"
+    [inertia.data]               # per-body data: one number per body
+    l = [0.3, 0.25, 0.2]
+    T = [1.2, 0.8, 0.5]
+
 A term expression sees its own vectors (`q`, or `qi` and `qj`), its data, the parameters and
 everything above except the global `q1..qn`. A datum is a list with one entry per member, all
 numbers (a scalar, symbol `name`) or all 3-vectors (usable wherever a vector is: `dot(r, qi)`,
