@@ -284,6 +284,35 @@ def _eye_blocks(rows, cols):
     return numpy.broadcast_to(numpy.eye(rows, cols), (NBODIES, rows, cols))
 
 
+_BAND_SLOTS = {}
+
+
+def _band_slots(p, r, ku):
+    """Where the blocks of body i go in LAPACK's band storage (ab[ku + row - col, col]),
+    computed once per (p, r, ku): G (p x p), a H (p x r), -a K (r x p), and the diagonal,
+    lower and upper entries of C^-1 (r per body)."""
+    key = (p, r, ku)
+    if key not in _BAND_SLOTS:
+        o = numpy.arange(NBODIES)[:, None, None] * (p + r)
+        ia, ib = numpy.arange(p), numpy.arange(r)
+
+        def slot(row, col):
+            row, col = numpy.broadcast_arrays(row, col)
+            return ku + row - col, col
+
+        x_rows, y_rows = o + ia[None, :, None], o + p + ib[None, :, None]
+        y = o[:, :, 0] + p + ib[None, :]
+        _BAND_SLOTS[key] = (
+            slot(x_rows, o + ia[None, None, :]),
+            slot(x_rows, o + p + ib[None, None, :]),
+            slot(y_rows, o + ia[None, None, :]),
+            slot(y, y),
+            slot(y[1:], y[:-1]),
+            slot(y[:-1], y[1:]),
+        )
+    return _BAND_SLOTS[key]
+
+
 def _coupled_solve(mp, p, r, kl, ku, e, hb, kb, b):
     """x of L x = b, L = E + H (M_off x I_r) K (E_i p x p, H_i p x r, K_i r x p per body;
     None: [I; 0] and [I, 0]); b of shape (NBODIES, p) or (NBODIES, p, nrhs). With y =
@@ -301,30 +330,19 @@ def _coupled_solve(mp, p, r, kl, ku, e, hb, kb, b):
     if not (numpy.all(numpy.isfinite(tn))):
         raise numpy.linalg.LinAlgError("max-index generators c_i = c_i+1: C is singular")
     s = p + r
-    rows = NBODIES * s
-    ab = numpy.zeros((kl + ku + 1, rows))
-    o = numpy.arange(NBODIES) * s
-
-    def put(row, col, values):
-        row, col = numpy.broadcast_arrays(row, col)
-        ab[ku + row - col, col] = values
-
-    ia, ib = numpy.arange(p), numpy.arange(r)
-    g = e - (a * a * c)[:, None, None] * (hb @ kb)
-    put(o[:, None, None] + ia[None, :, None], o[:, None, None] + ia[None, None, :], g)
-    put(o[:, None, None] + ia[None, :, None], o[:, None, None] + p + ib[None, None, :],
-        a[:, None, None] * hb)
-    put(o[:, None, None] + p + ib[None, :, None], o[:, None, None] + ia[None, None, :],
-        -a[:, None, None] * kb)
-    y = o[:, None] + p + ib[None, :]
-    put(y, y, (tn + tp)[:, None] * numpy.ones(r))
-    put(y[1:], y[:-1], -tp[1:, None] * numpy.ones(r))
-    put(y[:-1], y[1:], -tn[:-1, None] * numpy.ones(r))
+    ab = numpy.zeros((kl + ku + 1, NBODIES * s))
+    g_at, h_at, k_at, d_at, lo_at, up_at = _band_slots(p, r, ku)
+    ab[g_at] = e - (a * a * c)[:, None, None] * (hb @ kb)
+    ab[h_at] = a[:, None, None] * hb
+    ab[k_at] = -a[:, None, None] * kb
+    ab[d_at] = (tn + tp)[:, None]
+    ab[lo_at] = -tp[1:, None]
+    ab[up_at] = -tn[:-1, None]
     b = numpy.asarray(b, dtype=float)
     rhs = numpy.zeros((NBODIES, s) + b.shape[2:])
     rhs[:, :p] = b.reshape((NBODIES, p) + b.shape[2:])
     try:
-        x = solve_banded((kl, ku), ab, rhs.reshape((rows,) + b.shape[2:]))
+        x = solve_banded((kl, ku), ab, rhs.reshape((NBODIES * s,) + b.shape[2:]))
     except ValueError as exc:  # non-finite entries
         raise numpy.linalg.LinAlgError(str(exc)) from None
     return x.reshape((NBODIES, s) + b.shape[2:])[:, :p].reshape(b.shape)
