@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import enum
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -54,9 +54,9 @@ __all__ = [
     "InertiaKind",
     "InertiaStructure",
     "chain_cholesky_pivots",
+    "chain_structure",
     "coupled_pairs",
     "detect",
-    "max_index_inverse",
 ]
 
 #: The body index (1-based) in the expressions of a `ChainInertia`.
@@ -193,21 +193,6 @@ class InertiaStructure:
 
 
 # --------------------------------------------------------------------------- numbers
-def max_index_inverse(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(diagonal, superdiagonal) of C^-1 for C_ij = c_max(i,j) (needs c_k != c_k+1, c_n != 0).
-
-    Example:
-        >>> dg, up = max_index_inverse(np.array([3.0, 2.0, 1.0]))
-        >>> C = np.array([[3.0, 2, 1], [2, 2, 1], [1, 1, 1]])
-        >>> np.allclose(np.linalg.inv(C), np.diag(dg) + np.diag(up, 1) + np.diag(up, -1))
-        True
-    """
-    delta = c - np.append(c[1:], 0.0)
-    inv = 1.0 / delta
-    diag = inv + np.concatenate(([0.0], inv[:-1]))
-    return diag, -inv[:-1]
-
-
 def chain_cholesky_pivots(d: np.ndarray, a: np.ndarray, c: np.ndarray) -> np.ndarray:
     """The squared pivots l_j^2 of the Cholesky factor of M = diag(d) + (a_i a_j c_max)_{i!=j},
     in O(n): M is positive definite iff all are positive.
@@ -384,8 +369,3 @@ def chain_structure(chain: ChainInertia, n: int, subs: Mapping[sp.Symbol, float]
     delta = c - np.append(c[1:], 0.0)
     top = float(np.max(np.abs(c))) if n else 0.0
     return bool(top > 0 and np.all(np.abs(delta) > DELTA_TOL * top))
-
-
-def data_lengths(data: Sequence[TermData], n: int) -> list[str]:
-    """Names of the data whose length is not one number per body."""
-    return [d.name for d in data if d.width != 1 or len(d.values) != n]

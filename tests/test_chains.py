@@ -12,12 +12,15 @@ it, for every parameter value.
 from __future__ import annotations
 
 import re
+import subprocess
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
 import sympy as sp
 
+from s2gen.build import STRICT_FLAGS, compiler
 from s2gen.cli import main
 from s2gen.emit import emit
 from s2gen.equations.operators import verify_factorization
@@ -301,6 +304,9 @@ def test_builtin_options_from_the_spec_string(capsys: pytest.CaptureFixture[str]
 
 # ------------------------------------------------------------------------------ solvers
 CASES = {
+    "chain4 (generators found in M)": lambda solver: _with_solver(
+        resolve("tests/specs/chain4.toml"), solver
+    ),
     "rod paper": lambda solver: elastic_rod(12, "paper", solver=solver),
     "rod physical": lambda solver: elastic_rod(12, "physical", solver=solver),
     "rope": lambda solver: rope(16, solver=solver),
@@ -395,6 +401,41 @@ def test_parameters_that_break_the_structure_are_reported(backend: str) -> None:
     assert info.value.status == 6  # Status.SINGULAR
     dense = simulate(_with_solver(s, "dense"), "rk4", backend, h=0.01, T=0.1, params=broken)
     assert np.all(np.isfinite(dense.q))
+
+
+def test_every_structured_variant_compiles_strictly(tmp_path: Path) -> None:
+    """C99 with every warning an error, and C++: banded, max-index found in a matrix,
+    max-index per body (the rope is in test_c_interface), and a per-body diagonal."""
+    variants = [
+        banded_chain(9, 2),
+        _with_solver(resolve("tests/specs/chain4.toml"), "structured"),
+        define_system(
+            name="beads", bodies=3, parameters={"m": 1.0}, diagonal="m*i", potential="q1[2]"
+        ),
+    ]
+    cc, _ = compiler()
+    for system in variants:
+        for name, text in emit(system, "c").items():
+            (tmp_path / name).write_text(text)
+        source = str(tmp_path / f"{system.name}.c")
+        for cmd in (
+            [cc, *STRICT_FLAGS, "-c", source, "-o", str(tmp_path / "x.o")],
+            [
+                "g++",
+                "-x",
+                "c++",
+                "-std=c++11",
+                "-Wall",
+                "-Wextra",
+                "-Werror",
+                "-c",
+                source,
+                "-o",
+                str(tmp_path / "y.o"),
+            ],
+        ):
+            proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+            assert proc.returncode == 0, (system.name, proc.stderr[:2000])
 
 
 def test_emitted_code_does_not_grow_with_n() -> None:

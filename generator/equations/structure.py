@@ -104,7 +104,14 @@ def has_general_potential(system: System) -> bool:
 
 def per_body_inertia(system: System, solver: InertiaKind) -> ChainInertia | None:
     """The per-body inertia of a system whose code evaluates M body by body (a `ChainInertia`
-    with the diagonal or the max-index solvers), else None (M's entries as one kernel)."""
+    with the diagonal or the max-index solvers), else None (M's entries as one kernel).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> rod = builtin("elastic_rod", n=20)
+        >>> per_body_inertia(rod, choose_solver(rod)) is rod.chain
+        True
+    """
     if system.chain is None or solver not in (InertiaKind.DIAGONAL, InertiaKind.MAX_INDEX):
         return None
     return system.chain

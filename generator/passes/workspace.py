@@ -41,6 +41,13 @@ def band(module: Module, name: str, p: int, r: int, nrhs: int) -> Band:
 
     MAX_INDEX: unknowns (x_i, y_i) per body, y_i coupled to y_i-1 and y_i+1: kl = ku = p + r.
     BANDED (bandwidth w): the blocks L_ij of |i - j| <= w: kl = ku = p (w + 1) - 1.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> b = lower_system(builtin("rope", n=10)).band("newton")
+        >>> b.block, b.rows, b.kl, b.ku
+        (6, 60, 6, 6)
     """
     n = module.n
     if module.solver is InertiaKind.MAX_INDEX:
