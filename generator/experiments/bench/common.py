@@ -28,16 +28,19 @@ def _print(line: str) -> None:
 
 
 def example_system(name: str) -> System:
-    """A built-in system by name, else a factory of `s2gen.systems.paper` of that name.
+    """A built-in system by name (with options: ``rope:n=50``), else a factory of
+    `s2gen.systems.paper` of that name.
 
     Example:
-        >>> example_system("double_pendulum").n
-        2
+        >>> example_system("double_pendulum").n, example_system("rope:n=50").n
+        (2, 50)
     """
-    from s2gen.systems import builtin, builtin_names
+    from s2gen.systems import builtin, builtin_names, resolve
 
     if name in builtin_names():
         return builtin(name)
+    if name.partition(":")[0] in builtin_names():
+        return resolve(name)
     from s2gen.systems import paper
 
     factory = getattr(paper, name, None)
