@@ -793,9 +793,7 @@ static int rope_rhs_cx(const rope_ctx *cx, const double *q, const double *w,
         rope_k_rhs_coupled(q + 3 * i, w + 3 * i, g + 3 * i, z + 3 * i, dq + 3 * i, dw + 3 * i);
         rope_k_a_blocks(md[i], q + 3 * i, e + 9 * i, hb + 9 * i, kb + 9 * i);
     }
-    return rope_coupled_solve(cx, 3, 3,
-            6, 6, e, hb, kb, dw, 1,
-            work + 720);
+    return rope_coupled_solve(cx, 3, 3, 6, 6, e, hb, kb, dw, 1, work + 720);
 }
 int rope_rhs(const double *p, const double *q, const double *w, double *dq, double *dw,
         double *work)
@@ -861,9 +859,7 @@ static int rope_vi_advance(const rope_ctx *cx, const rope_options *opt,
         for (k = 0; k < ROPE_N3; ++k) {
             r[k] = -r[k];
         }
-        status = rope_coupled_solve(cx, 3, 3,
-                6, 6, e, hb, kb, r,
-                1, sw);
+        status = rope_coupled_solve(cx, 3, 3, 6, 6, e, hb, kb, r, 1, sw);
         *iters = it;
         /* a singular Jacobian is a failure of Newton's method, not of the inertia */
         if (status == ROPE_ERR_SINGULAR) {
@@ -898,9 +894,7 @@ static int rope_vi_advance(const rope_ctx *cx, const rope_options *opt,
         rope_k_a_body(md[i], qn + 3 * i, &cx->adiag[i]);
         rope_k_a_blocks(cx->adiag[i], qn + 3 * i, e + 9 * i, hb + 9 * i, kb + 9 * i);
     }
-    status = rope_coupled_solve(cx, 3, 3,
-            6, 6, e, hb, kb, wn,
-            1, sw);
+    status = rope_coupled_solve(cx, 3, 3, 6, 6, e, hb, kb, wn, 1, sw);
     return status;
 }
 /* work: g (60), gn (60), f (60), step (3180). */
@@ -934,8 +928,7 @@ int rope_vi_step(const double *p, const rope_options *opt, double h,
  * never formed. */
 static int rope_m_solve(const rope_ctx *cx, double *b, int nrhs, double *work)
 {
-    return rope_coupled_solve(cx, 1, 1,
-            2, 2, cx->md, NULL, NULL, b, nrhs, work);
+    return rope_coupled_solve(cx, 1, 1, 2, 2, cx->md, NULL, NULL, b, nrhs, work);
 }
 
 /* One RATTLE step for coupled M, the dense path's iteration in O(n) per Newton iteration. x, v:
@@ -990,9 +983,7 @@ static int rope_rattle_advance(const rope_ctx *cx, const rope_options *opt,
             rb[4 * i] = rb[4 * i + 1] = rb[4 * i + 2] = 0.0;
             rb[4 * i + 3] = -(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] - 1.0);
         }
-        status = rope_coupled_solve(cx, 4, 3,
-                7, 7, e, NULL, NULL, rb,
-                1, sw);
+        status = rope_coupled_solve(cx, 4, 3, 7, 7, e, NULL, NULL, rb, 1, sw);
         /* a singular Jacobian is a failure of Newton's method, not of the inertia */
         if (status == ROPE_ERR_SINGULAR) {
             *iters = it;
@@ -1048,9 +1039,7 @@ static int rope_rattle_advance(const rope_ctx *cx, const rope_options *opt,
         rb[4 * i] = rb[4 * i + 1] = rb[4 * i + 2] = 0.0;
         rb[4 * i + 3] = a[0] * u[3 * i] + a[1] * u[3 * i + 1] + a[2] * u[3 * i + 2];
     }
-    status = rope_coupled_solve(cx, 4, 3,
-            7, 7, e, NULL, NULL, rb,
-            1, sw);
+    status = rope_coupled_solve(cx, 4, 3, 7, 7, e, NULL, NULL, rb, 1, sw);
     if (status != ROPE_OK) {
         return ROPE_ERR_SINGULAR;
     }

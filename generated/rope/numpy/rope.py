@@ -436,8 +436,7 @@ def _vi_advance(p, h, q, w, g, newton_tol, newton_maxiter, start=None):
         r, e, hq = _k_res_coupled(md, q, f, d, z)
         iters += 1
         try:
-            delta = _coupled_solve(mp, 3, 3, 6, 6, e, hq, kd,
-                                   -r)
+            delta = _coupled_solve(mp, 3, 3, 6, 6, e, hq, kd, -r)
         except numpy.linalg.LinAlgError:  # a singular Jacobian: Newton's method failed
             return ERR_NEWTON, None, None, None, iters, None
         f = f + delta
