@@ -52,7 +52,8 @@ def _parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="s2gen",
         description="Equations, variational integrators and C/NumPy code for mechanics on "
-        "(S^2)^n. SPEC is a TOML file or the name of a built-in system (s2gen list).",
+        "(S^2)^n. SPEC is a TOML file or the name of a built-in system (s2gen list), with "
+        "options after a colon: elastic_rod:n=1000, rope:n=200,kappa=0.1.",
     )
     p.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = p.add_subparsers(dest="command", required=True)
@@ -225,12 +226,14 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def _list(args: argparse.Namespace) -> int:
-    from s2gen.systems import builtin, builtin_names
+    from s2gen.systems import builtin, builtin_names, builtin_options
 
     for name in builtin_names():
         s = builtin(name)
-        kind = "coupled" if not s.is_diagonal else "diagonal"
-        print(f"{name}  (n = {s.n}, {kind} inertia)")
+        options = ", ".join(str(o) for o in builtin_options(name))
+        print(f"{name}  (n = {s.n}, {s.structure.kind.value} inertia)")
+        if options:
+            print(f"    options: {options}")
     return 0
 
 

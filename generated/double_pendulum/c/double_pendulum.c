@@ -4,15 +4,15 @@
  * Lowering passes (operations of all kernels after each, as printed):
  *   quadratic: 2844 ops (862 +, 1850 *, 132 /, 0 sqrt, 0 calls)
  *   reciprocal: 2844 ops (862 +, 1850 *, 132 /, 0 sqrt, 0 calls)
- *   factor: 2225 ops (766 +, 1363 *, 96 /, 0 sqrt, 0 calls)
- *   cse: 776 ops (237 +, 529 *, 10 /, 0 sqrt, 0 calls)
- *   hoist: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
- *   strength: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
- *   powers: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
- *   opcount: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
- *   calls: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
- *   layout: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
- *   workspace: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
+ *   factor: 2255 ops (772 +, 1387 *, 96 /, 0 sqrt, 0 calls)
+ *   cse: 769 ops (237 +, 522 *, 10 /, 0 sqrt, 0 calls)
+ *   hoist: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+ *   strength: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+ *   powers: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+ *   opcount: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+ *   calls: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+ *   layout: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+ *   workspace: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
  */
 #include "double_pendulum.h"
 
@@ -57,15 +57,15 @@ static const int double_pendulum_pair_j[1] = {
 
 /* ---- kernels derived by SymPy ------------------------------------------------------------- */
 /* constants of the kernels that depend only on the parameters (once per call)
- * 8 operations as derived; after the passes 5 ops (1 +, 4 *, 0 /, 0 sqrt, 0 calls), 2 temporaries. */
+ * 8 operations as derived; after the passes 6 ops (1 +, 5 *, 0 /, 0 sqrt, 0 calls), 2 temporaries. */
 static void double_pendulum_k_context(const double *DOUBLE_PENDULUM_RESTRICT p, double *DOUBLE_PENDULUM_RESTRICT cc)
 {
-    const double x0 = p[2]*(p[0] + p[1]);
+    const double x0 = p[0] + p[1];
     const double x1 = p[3]*p[1];
-    cc[0] = x0;
+    cc[0] = p[2]*x0;
     cc[1] = x1;
     cc[2] = -p[4];
-    cc[3] = -p[4]*x0;
+    cc[3] = -p[4]*p[2]*x0;
     cc[4] = -p[4]*x1;
 }
 
@@ -183,37 +183,39 @@ static void double_pendulum_k_rhs_pair(const double mij, const double *DOUBLE_PE
 }
 
 /* block A_ij = -M_ij hat(q_i) hat(q_j) (row-major); A_ji is its transpose
- * 24 operations as derived; after the passes 18 ops (3 +, 15 *, 0 /, 0 sqrt, 0 calls), 6 temporaries. */
+ * 27 operations as derived; after the passes 15 ops (3 +, 12 *, 0 /, 0 sqrt, 0 calls), 6 temporaries. */
 static void double_pendulum_k_a_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT qj, double *DOUBLE_PENDULUM_RESTRICT a)
 {
-    const double x0 = qi[1]*qj[1];
-    const double x1 = qi[2]*qj[2];
-    const double x2 = mij*qj[0];
-    const double x3 = mij*qj[1];
-    const double x4 = qi[0]*qj[0];
-    const double x5 = mij*qj[2];
-    a[0] = mij*(x0 + x1);
-    a[1] = -qi[1]*x2;
-    a[2] = -qi[2]*x2;
-    a[3] = -qi[0]*x3;
-    a[4] = mij*(x1 + x4);
-    a[5] = -qi[2]*x3;
-    a[6] = -qi[0]*x5;
-    a[7] = -qi[1]*x5;
-    a[8] = mij*(x0 + x4);
+    const double x0 = mij*qi[1];
+    const double x1 = qj[1]*x0;
+    const double x2 = mij*qi[2];
+    const double x3 = qj[2]*x2;
+    const double x4 = mij*qi[0];
+    const double x5 = qj[0]*x4;
+    a[0] = x1 + x3;
+    a[1] = -qj[0]*x0;
+    a[2] = -qj[0]*x2;
+    a[3] = -qj[1]*x4;
+    a[4] = x3 + x5;
+    a[5] = -qj[1]*x2;
+    a[6] = -qj[2]*x4;
+    a[7] = -qj[2]*x0;
+    a[8] = x1 + x5;
 }
 
 /* known side d_i, one-body part: h M_ii omega_i - h^2/2 q_i x g_i
- * 51 operations as derived; after the passes 40 ops (12 +, 28 *, 0 /, 0 sqrt, 0 calls), 4 temporaries. */
+ * 54 operations as derived; after the passes 40 ops (12 +, 28 *, 0 /, 0 sqrt, 0 calls), 6 temporaries. */
 static void double_pendulum_k_d_body(const double h, const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT w, const double *DOUBLE_PENDULUM_RESTRICT g, double *DOUBLE_PENDULUM_RESTRICT d)
 {
-    const double x0 = (1.0/2.0)*h;
+    const double pw0 = h*h;
+    const double x0 = (1.0/2.0)*pw0;
     const double x1 = -q[0]*w[1] + q[1]*w[0];
     const double x2 = q[0]*w[2] - q[2]*w[0];
-    const double x3 = -q[1]*w[2] + q[2]*w[1];
-    d[0] = h*(m*(q[1]*x1 - q[2]*x2) + x0*(g[1]*q[2] - g[2]*q[1]));
-    d[1] = h*(m*(-q[0]*x1 + q[2]*x3) - x0*(g[0]*q[2] - g[2]*q[0]));
-    d[2] = h*(m*(q[0]*x2 - q[1]*x3) + x0*(g[0]*q[1] - g[1]*q[0]));
+    const double x3 = h*m;
+    const double x4 = -q[1]*w[2] + q[2]*w[1];
+    d[0] = x0*(g[1]*q[2] - g[2]*q[1]) + x3*(q[1]*x1 - q[2]*x2);
+    d[1] = h*m*(-q[0]*x1 + q[2]*x4) - x0*(g[0]*q[2] - g[2]*q[0]);
+    d[2] = x0*(g[0]*q[1] - g[1]*q[0]) + x3*(q[0]*x2 - q[1]*x4);
 }
 
 /* known side, pair part: h M_ij q_i x (omega_j x q_j) (and i <-> j)
@@ -240,7 +242,7 @@ static void double_pendulum_k_d_pair(const double h, const double mij, const dou
 }
 
 /* residual 2 M_ii (q.q) f/(1+f.f) - d and its Jacobian block in f (row-major)
- * 231 operations as derived; after the passes 50 ops (11 +, 37 *, 2 /, 0 sqrt, 0 calls), 22 temporaries. */
+ * 255 operations as derived; after the passes 46 ops (11 +, 33 *, 2 /, 0 sqrt, 0 calls), 20 temporaries. */
 static void double_pendulum_k_res_body(const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT f, const double *DOUBLE_PENDULUM_RESTRICT d, double *DOUBLE_PENDULUM_RESTRICT r, double *DOUBLE_PENDULUM_RESTRICT jac)
 {
     const double pw0 = q[0]*q[0];
@@ -257,26 +259,24 @@ static void double_pendulum_k_res_body(const double m, const double *DOUBLE_PEND
     const double pw6 = 1.0/x4;
     const double pw7 = pw6*pw6;
     const double x5 = 1.0/x4;
-    const double x6 = 2*x5;
-    const double x7 = m*x0;
-    const double x8 = x6*x7;
-    const double x9 = pw7;
-    const double x10 = 4*f[0]*x7*x9;
-    const double x11 = -f[1]*x10;
-    const double x12 = -f[2]*x10;
-    const double x13 = -4*f[1]*f[2]*x7*x9;
+    const double x6 = -2*m*x0*x5;
+    const double x7 = 4*m*pw7*x0;
+    const double x8 = f[0]*x7;
+    const double x9 = -f[1]*x8;
+    const double x10 = -f[2]*x8;
+    const double x11 = -f[1]*f[2]*x7;
     r[0] = -d[0] + 2*f[0]*m*x0*x5;
     r[1] = -d[1] + 2*f[1]*m*x0*x5;
     r[2] = -d[2] + 2*f[2]*m*x0*x5;
-    jac[0] = x8*(-x1*x6 + 1);
-    jac[1] = x11;
-    jac[2] = x12;
-    jac[3] = x11;
-    jac[4] = x8*(-x2*x6 + 1);
-    jac[5] = x13;
-    jac[6] = x12;
-    jac[7] = x13;
-    jac[8] = x8*(-x3*x6 + 1);
+    jac[0] = -x1*x7 - x6;
+    jac[1] = x9;
+    jac[2] = x10;
+    jac[3] = x9;
+    jac[4] = -x2*x7 - x6;
+    jac[5] = x11;
+    jac[6] = x10;
+    jac[7] = x11;
+    jac[8] = -x3*x7 - x6;
 }
 
 /* pair residual M_ij q_i x (F_j q_j - q_j) (and i <-> j), Jacobian blocks d/df_j, d/df_i

@@ -4,15 +4,15 @@
 # Lowering passes (operations of all kernels after each, as printed):
 #   quadratic: 2844 ops (862 +, 1850 *, 132 /, 0 sqrt, 0 calls)
 #   reciprocal: 2844 ops (862 +, 1850 *, 132 /, 0 sqrt, 0 calls)
-#   factor: 2225 ops (766 +, 1363 *, 96 /, 0 sqrt, 0 calls)
-#   cse: 776 ops (237 +, 529 *, 10 /, 0 sqrt, 0 calls)
-#   hoist: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
-#   strength: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
-#   powers: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
-#   opcount: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
-#   calls: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
-#   layout: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
-#   workspace: 773 ops (236 +, 527 *, 10 /, 0 sqrt, 0 calls)
+#   factor: 2255 ops (772 +, 1387 *, 96 /, 0 sqrt, 0 calls)
+#   cse: 769 ops (237 +, 522 *, 10 /, 0 sqrt, 0 calls)
+#   hoist: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+#   strength: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+#   powers: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+#   opcount: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+#   calls: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+#   layout: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+#   workspace: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
 """Equations of motion and integrators for the system "double_pendulum" on (S^2)^2 (NumPy).
 
 Same functions as the emitted C (double_pendulum.h). States are arrays q, w of shape (2, 3).
@@ -59,10 +59,10 @@ PAIR_J = numpy.array([1], dtype=int)
 
 
 def _k_context(p):
-    """constants of the kernels that depend only on the parameters (once per call) (8 ops as derived; after the passes 5 ops (1 +, 4 *, 0 /, 0 sqrt, 0 calls))."""
-    x0 = p[2]*(p[0] + p[1])
+    """constants of the kernels that depend only on the parameters (once per call) (8 ops as derived; after the passes 6 ops (1 +, 5 *, 0 /, 0 sqrt, 0 calls))."""
+    x0 = p[0] + p[1]
     x1 = p[3]*p[1]
-    cc = numpy.array([x0, x1, -p[4], -p[4]*x0, -p[4]*x1], dtype=float)
+    cc = numpy.array([p[2]*x0, x1, -p[4], -p[4]*p[2]*x0, -p[4]*x1], dtype=float)
     return cc
 
 
@@ -152,24 +152,26 @@ def _k_rhs_pair(mij, qi, wi, qj, wj):
 
 
 def _k_a_pair(mij, qi, qj):
-    """block A_ij = -M_ij hat(q_i) hat(q_j) (row-major); A_ji is its transpose (24 ops as derived; after the passes 18 ops (3 +, 15 *, 0 /, 0 sqrt, 0 calls))."""
-    x0 = qi[..., 1]*qj[..., 1]
-    x1 = qi[..., 2]*qj[..., 2]
-    x2 = mij*qj[..., 0]
-    x3 = mij*qj[..., 1]
-    x4 = qi[..., 0]*qj[..., 0]
-    x5 = mij*qj[..., 2]
-    a = _stack(mij*(x0 + x1), -qi[..., 1]*x2, -qi[..., 2]*x2, -qi[..., 0]*x3, mij*(x1 + x4), -qi[..., 2]*x3, -qi[..., 0]*x5, -qi[..., 1]*x5, mij*(x0 + x4))
+    """block A_ij = -M_ij hat(q_i) hat(q_j) (row-major); A_ji is its transpose (27 ops as derived; after the passes 15 ops (3 +, 12 *, 0 /, 0 sqrt, 0 calls))."""
+    x0 = mij*qi[..., 1]
+    x1 = qj[..., 1]*x0
+    x2 = mij*qi[..., 2]
+    x3 = qj[..., 2]*x2
+    x4 = mij*qi[..., 0]
+    x5 = qj[..., 0]*x4
+    a = _stack(x1 + x3, -qj[..., 0]*x0, -qj[..., 0]*x2, -qj[..., 1]*x4, x3 + x5, -qj[..., 1]*x2, -qj[..., 2]*x4, -qj[..., 2]*x0, x1 + x5)
     return a
 
 
 def _k_d_body(h, m, q, w, g):
-    """known side d_i, one-body part: h M_ii omega_i - h^2/2 q_i x g_i (51 ops as derived; after the passes 40 ops (12 +, 28 *, 0 /, 0 sqrt, 0 calls))."""
-    x0 = (1/2)*h
+    """known side d_i, one-body part: h M_ii omega_i - h^2/2 q_i x g_i (54 ops as derived; after the passes 40 ops (12 +, 28 *, 0 /, 0 sqrt, 0 calls))."""
+    pw0 = h*h
+    x0 = (1/2)*pw0
     x1 = -q[..., 0]*w[..., 1] + q[..., 1]*w[..., 0]
     x2 = q[..., 0]*w[..., 2] - q[..., 2]*w[..., 0]
-    x3 = -q[..., 1]*w[..., 2] + q[..., 2]*w[..., 1]
-    d = _stack(h*(m*(q[..., 1]*x1 - q[..., 2]*x2) + x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1])), h*(m*(-q[..., 0]*x1 + q[..., 2]*x3) - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])), h*(m*(q[..., 0]*x2 - q[..., 1]*x3) + x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0])))
+    x3 = h*m
+    x4 = -q[..., 1]*w[..., 2] + q[..., 2]*w[..., 1]
+    d = _stack(x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1]) + x3*(q[..., 1]*x1 - q[..., 2]*x2), h*m*(-q[..., 0]*x1 + q[..., 2]*x4) - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0]), x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0]) + x3*(q[..., 0]*x2 - q[..., 1]*x4))
     return d
 
 
@@ -192,7 +194,7 @@ def _k_d_pair(h, mij, qi, wi, qj, wj):
 
 
 def _k_res_body(m, q, f, d):
-    """residual 2 M_ii (q.q) f/(1+f.f) - d and its Jacobian block in f (row-major) (231 ops as derived; after the passes 50 ops (11 +, 37 *, 2 /, 0 sqrt, 0 calls))."""
+    """residual 2 M_ii (q.q) f/(1+f.f) - d and its Jacobian block in f (row-major) (255 ops as derived; after the passes 46 ops (11 +, 33 *, 2 /, 0 sqrt, 0 calls))."""
     pw0 = q[..., 0]*q[..., 0]
     pw1 = q[..., 1]*q[..., 1]
     pw2 = q[..., 2]*q[..., 2]
@@ -207,16 +209,14 @@ def _k_res_body(m, q, f, d):
     pw6 = x4**(-1.0)
     pw7 = pw6*pw6
     x5 = x4**(-1.0)
-    x6 = 2*x5
-    x7 = m*x0
-    x8 = x6*x7
-    x9 = pw7
-    x10 = 4*f[..., 0]*x7*x9
-    x11 = -f[..., 1]*x10
-    x12 = -f[..., 2]*x10
-    x13 = -4*f[..., 1]*f[..., 2]*x7*x9
+    x6 = -2*m*x0*x5
+    x7 = 4*m*pw7*x0
+    x8 = f[..., 0]*x7
+    x9 = -f[..., 1]*x8
+    x10 = -f[..., 2]*x8
+    x11 = -f[..., 1]*f[..., 2]*x7
     r = _stack(-d[..., 0] + 2*f[..., 0]*m*x0*x5, -d[..., 1] + 2*f[..., 1]*m*x0*x5, -d[..., 2] + 2*f[..., 2]*m*x0*x5)
-    jac = _stack(x8*(-x1*x6 + 1), x11, x12, x11, x8*(-x2*x6 + 1), x13, x12, x13, x8*(-x3*x6 + 1))
+    jac = _stack(-x1*x7 - x6, x9, x10, x9, -x2*x7 - x6, x11, x10, x11, -x3*x7 - x6)
     return r, jac
 
 

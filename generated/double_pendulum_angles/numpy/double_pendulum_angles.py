@@ -4,7 +4,7 @@
 # Lowering passes (operations of all kernels after each, as printed):
 #   quadratic: 1759 ops (220 +, 898 *, 0 /, 0 sqrt, 641 calls)
 #   reciprocal: 1759 ops (220 +, 898 *, 0 /, 0 sqrt, 641 calls)
-#   factor: 1386 ops (189 +, 663 *, 0 /, 0 sqrt, 534 calls)
+#   factor: 1388 ops (189 +, 664 *, 0 /, 0 sqrt, 535 calls)
 #   cse: 385 ops (100 +, 265 *, 0 /, 0 sqrt, 20 calls)
 #   hoist: 385 ops (100 +, 265 *, 0 /, 0 sqrt, 20 calls)
 #   strength: 385 ops (100 +, 265 *, 0 /, 0 sqrt, 20 calls)
@@ -168,7 +168,7 @@ def _k_energy(p, x, xd):
 
 
 def _k_to_sphere(a, ad):
-    """one body: q = q(theta, phi), omega = q x qdot (66 ops as derived; after the passes 26 ops (5 +, 17 *, 0 /, 0 sqrt, 4 calls))."""
+    """one body: q = q(theta, phi), omega = q x qdot (68 ops as derived; after the passes 26 ops (5 +, 17 *, 0 /, 0 sqrt, 4 calls))."""
     x0 = numpy.sin(a[..., 0])
     pw0 = x0*x0
     x1 = numpy.cos(a[..., 1])
@@ -181,7 +181,7 @@ def _k_to_sphere(a, ad):
     x8 = ad[..., 1]*x2 + x5*x7
     x9 = -ad[..., 1]*x4 + ad[..., 0]*x1*x5
     q = _stack(x2, x4, x5)
-    w = _stack(-x5*x8 - x6*x7, ad[..., 0]*x1*x6 + x5*x9, x0*(x1*x8 - x3*x9))
+    w = _stack(-x5*x8 - x6*x7, ad[..., 0]*x1*x6 + x5*x9, x0*x1*x8 - x4*x9)
     return q, w
 
 

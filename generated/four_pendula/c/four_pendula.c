@@ -4,15 +4,15 @@
  * Lowering passes (operations of all kernels after each, as printed):
  *   quadratic: 1625 ops (513 +, 939 *, 144 /, 29 sqrt, 0 calls)
  *   reciprocal: 1625 ops (513 +, 1062 *, 21 /, 29 sqrt, 0 calls)
- *   factor: 1665 ops (513 +, 1086 *, 24 /, 29 sqrt, 13 calls)
- *   cse: 325 ops (112 +, 200 *, 5 /, 6 sqrt, 2 calls)
- *   hoist: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
- *   strength: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
- *   powers: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
- *   opcount: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
- *   calls: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
- *   layout: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
- *   workspace: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
+ *   factor: 1622 ops (513 +, 1058 *, 21 /, 29 sqrt, 1 calls)
+ *   cse: 282 ops (100 +, 170 *, 5 /, 6 sqrt, 1 calls)
+ *   hoist: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
+ *   strength: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
+ *   powers: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
+ *   opcount: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
+ *   calls: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
+ *   layout: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
+ *   workspace: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
  */
 #include "four_pendula.h"
 
@@ -66,27 +66,31 @@ static const double four_pendula_t1_r[12] = {
 
 /* ---- kernels derived by SymPy ------------------------------------------------------------- */
 /* constants of the kernels that depend only on the parameters (once per call)
- * 4 operations as derived; after the passes 4 ops (0 +, 3 *, 0 /, 0 sqrt, 1 calls), 0 temporaries. */
+ * 5 operations as derived; after the passes 5 ops (0 +, 4 *, 0 /, 0 sqrt, 1 calls), 0 temporaries. */
 static void four_pendula_k_context(const double *FOUR_PENDULA_RESTRICT p, double *FOUR_PENDULA_RESTRICT cc)
 {
     cc[0] = -p[2]*p[1]*p[0];
     cc[1] = (1.0/2.0)*fabs(p[1]);
+    cc[2] = (1.0/2.0)*p[1];
 }
 
 /* term 1: what depends only on parameters and the member's data (once per call and member)
- * 15 operations as derived; after the passes 15 ops (2 +, 10 *, 1 /, 1 sqrt, 1 calls), 4 temporaries. */
+ * 16 operations as derived; after the passes 15 ops (2 +, 12 *, 0 /, 1 sqrt, 0 calls), 4 temporaries. */
 static void four_pendula_k_t1_table(const double *FOUR_PENDULA_RESTRICT p, const double d_kappa, const double *FOUR_PENDULA_RESTRICT d_r, double *FOUR_PENDULA_RESTRICT tab)
 {
     const double pw0 = d_r[0]*d_r[0];
     const double pw1 = d_r[1]*d_r[1];
     const double pw2 = d_r[2]*d_r[2];
-    const double pw3 = p[1]*p[1];
+    const double x0 = (1.0/2.0)*d_kappa;
     tab[0] = 2*d_r[0];
     tab[1] = 2*d_r[1];
     tab[2] = 2*d_r[2];
     tab[3] = -p[1]*sqrt(pw0 + pw1 + pw2);
-    tab[4] = (1.0/2.0)*d_kappa;
-    tab[5] = d_kappa*pw3*1.0/fabs(p[1]);
+    tab[4] = x0;
+    tab[5] = p[1]*d_r[0];
+    tab[6] = p[1]*d_r[1];
+    tab[7] = p[1]*d_r[2];
+    tab[8] = p[1]*x0;
 }
 
 /* diagonal of M and its coupled off-diagonal entries (pair order of the header)
@@ -130,26 +134,26 @@ static void four_pendula_k_t1_value(const double *FOUR_PENDULA_RESTRICT qi, cons
 }
 
 /* midpoint springs: sum over pairs (list), gradient
- * 318 operations as derived; after the passes 31 ops (15 +, 14 *, 1 /, 1 sqrt, 0 calls), 11 temporaries. */
-static void four_pendula_k_t1_gradient(const double *FOUR_PENDULA_RESTRICT qi, const double *FOUR_PENDULA_RESTRICT qj, const double *FOUR_PENDULA_RESTRICT d_r, const double *FOUR_PENDULA_RESTRICT cc, const double *FOUR_PENDULA_RESTRICT tab, double *FOUR_PENDULA_RESTRICT gi, double *FOUR_PENDULA_RESTRICT gj)
+ * 366 operations as derived; after the passes 21 ops (9 +, 10 *, 1 /, 1 sqrt, 0 calls), 11 temporaries. */
+static void four_pendula_k_t1_gradient(const double *FOUR_PENDULA_RESTRICT qi, const double *FOUR_PENDULA_RESTRICT qj, const double *FOUR_PENDULA_RESTRICT cc, const double *FOUR_PENDULA_RESTRICT tab, double *FOUR_PENDULA_RESTRICT gi, double *FOUR_PENDULA_RESTRICT gj)
 {
-    const double pw0 = -qi[0] + qj[0] + tab[0];
-    const double pw1 = pw0*pw0;
-    const double pw2 = -qi[1] + qj[1] + tab[1];
-    const double pw3 = pw2*pw2;
-    const double pw4 = -qi[2] + qj[2] + tab[2];
-    const double pw5 = pw4*pw4;
-    const double x0 = sqrt(pw1 + pw3 + pw5);
-    const double x2 = tab[5]*(cc[1]*x0 + tab[3])*1.0/x0;
-    const double x3 = x2*(-1.0/2.0*qi[0] + (1.0/2.0)*qj[0] + d_r[0]);
-    const double x4 = x2*(-1.0/2.0*qi[1] + (1.0/2.0)*qj[1] + d_r[1]);
-    const double x5 = x2*(-1.0/2.0*qi[2] + (1.0/2.0)*qj[2] + d_r[2]);
-    gi[0] = -x3;
-    gi[1] = -x4;
-    gi[2] = -x5;
-    gj[0] = x3;
-    gj[1] = x4;
-    gj[2] = x5;
+    const double x1 = cc[2]*(-qi[0] + qj[0]) + tab[5];
+    const double pw0 = x1*x1;
+    const double x2 = cc[2]*(-qi[1] + qj[1]) + tab[6];
+    const double pw1 = x2*x2;
+    const double x3 = cc[2]*(-qi[2] + qj[2]) + tab[7];
+    const double pw2 = x3*x3;
+    const double x4 = sqrt(pw0 + pw1 + pw2);
+    const double x5 = tab[8]*(tab[3] + x4)*1.0/x4;
+    const double x6 = x1*x5;
+    const double x7 = x2*x5;
+    const double x8 = x3*x5;
+    gi[0] = -x6;
+    gi[1] = -x7;
+    gi[2] = -x8;
+    gj[0] = x6;
+    gj[1] = x7;
+    gj[2] = x8;
 }
 
 /* kinetic energy of one body: 1/2 M_ii |omega x q|^2
@@ -190,57 +194,58 @@ static void four_pendula_k_rhs_diag(const double mi, const double *FOUR_PENDULA_
 }
 
 /* RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0)
- * 896 operations as derived; after the passes 77 ops (30 +, 44 *, 2 /, 1 sqrt, 0 calls), 24 temporaries. */
+ * 811 operations as derived; after the passes 66 ops (30 +, 33 *, 2 /, 1 sqrt, 0 calls), 25 temporaries. */
 static void four_pendula_k_rattle_pos(const double h, const double mi, const double *FOUR_PENDULA_RESTRICT x, const double *FOUR_PENDULA_RESTRICT v, const double *FOUR_PENDULA_RESTRICT g, double *FOUR_PENDULA_RESTRICT xn, double *FOUR_PENDULA_RESTRICT vh, double *FOUR_PENDULA_RESTRICT disc)
 {
     const double pw0 = h*h;
     const double pw5 = x[0]*x[0];
     const double pw6 = x[1]*x[1];
     const double pw7 = x[2]*x[2];
-    const double x0 = mi*pw0;
-    const double x1 = g[0]*x0;
-    const double x2 = 2*h*v[0] - x1 + 2*x[0];
-    const double pw1 = x2*x2;
-    const double x3 = g[1]*x0;
-    const double x4 = 2*h*v[1] - x3 + 2*x[1];
-    const double pw2 = x4*x4;
-    const double x5 = g[2]*x0;
-    const double x6 = 2*h*v[2] - x5 + 2*x[2];
-    const double pw3 = x6*x6;
-    const double x7 = pw1 + pw2 + pw3 - 4;
-    const double x8 = x2*x[0] + x4*x[1] + x6*x[2];
-    const double pw4 = x8*x8;
-    const double x9 = pw4 - x7*(pw5 + pw6 + pw7);
-    const double x10 = (1.0/2.0)*x7*1.0/(x8 + sqrt(x9));
-    const double x11 = x10*x[0];
-    const double x12 = x10*x[1];
-    const double x13 = x10*x[2];
-    const double x14 = (1.0/2.0)*h*mi;
-    const double x15 = 1.0/h;
-    xn[0] = h*v[0] - 1.0/2.0*x1 - x11 + x[0];
-    xn[1] = h*v[1] - x12 - 1.0/2.0*x3 + x[1];
-    xn[2] = h*v[2] - x13 - 1.0/2.0*x5 + x[2];
-    vh[0] = -g[0]*x14 + v[0] - x11*x15;
-    vh[1] = -g[1]*x14 + v[1] - x12*x15;
-    vh[2] = -g[2]*x14 + v[2] - x13*x15;
-    disc[0] = (1.0/4.0)*x9;
+    const double x0 = (1.0/2.0)*mi;
+    const double x1 = pw0*x0;
+    const double x2 = g[0]*x1;
+    const double x3 = h*v[0] - x2 + x[0];
+    const double pw1 = x3*x3;
+    const double x4 = g[1]*x1;
+    const double x5 = h*v[1] - x4 + x[1];
+    const double pw2 = x5*x5;
+    const double x6 = g[2]*x1;
+    const double x7 = h*v[2] - x6 + x[2];
+    const double pw3 = x7*x7;
+    const double x8 = pw1 + pw2 + pw3 - 1;
+    const double x9 = x3*x[0] + x5*x[1] + x7*x[2];
+    const double pw4 = x9*x9;
+    const double x10 = pw4 - x8*(pw5 + pw6 + pw7);
+    const double x11 = x8*1.0/(sqrt(x10) + x9);
+    const double x12 = x11*x[0];
+    const double x13 = x11*x[1];
+    const double x14 = x11*x[2];
+    const double x15 = h*x0;
+    const double x16 = 1.0/h;
+    xn[0] = h*v[0] - x12 - x2 + x[0];
+    xn[1] = h*v[1] - x13 - x4 + x[1];
+    xn[2] = h*v[2] - x14 - x6 + x[2];
+    vh[0] = -g[0]*x15 + v[0] - x12*x16;
+    vh[1] = -g[1]*x15 + v[1] - x13*x16;
+    vh[2] = -g[2]*x15 + v[2] - x14*x16;
+    disc[0] = x10;
 }
 
 /* RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+
- * 90 operations as derived; after the passes 34 ops (13 +, 20 *, 1 /, 0 sqrt, 0 calls), 8 temporaries. */
+ * 87 operations as derived; after the passes 25 ops (10 +, 14 *, 1 /, 0 sqrt, 0 calls), 8 temporaries. */
 static void four_pendula_k_rattle_vel(const double h, const double mi, const double *FOUR_PENDULA_RESTRICT xn, const double *FOUR_PENDULA_RESTRICT vh, const double *FOUR_PENDULA_RESTRICT gn, double *FOUR_PENDULA_RESTRICT vn)
 {
     const double pw0 = xn[0]*xn[0];
     const double pw1 = xn[1]*xn[1];
     const double pw2 = xn[2]*xn[2];
-    const double x0 = h*mi;
-    const double x1 = gn[0]*x0;
-    const double x2 = gn[1]*x0;
-    const double x3 = gn[2]*x0;
-    const double x4 = (1.0/2.0)*(xn[0]*(2*vh[0] - x1) + xn[1]*(2*vh[1] - x2) + xn[2]*(2*vh[2] - x3))*1.0/(pw0 + pw1 + pw2);
-    vn[0] = vh[0] - 1.0/2.0*x1 - x4*xn[0];
-    vn[1] = vh[1] - 1.0/2.0*x2 - x4*xn[1];
-    vn[2] = vh[2] - 1.0/2.0*x3 - x4*xn[2];
+    const double x0 = (1.0/2.0)*h*mi;
+    const double x1 = gn[0]*x0 - vh[0];
+    const double x2 = gn[1]*x0 - vh[1];
+    const double x3 = gn[2]*x0 - vh[2];
+    const double x4 = (-x1*xn[0] - x2*xn[1] - x3*xn[2])*1.0/(pw0 + pw1 + pw2);
+    vn[0] = -x1 - x4*xn[0];
+    vn[1] = -x2 - x4*xn[1];
+    vn[2] = -x3 - x4*xn[2];
 }
 
 /* ---- small helpers ---------------------------------------------------------------------- */
@@ -323,15 +328,15 @@ static void four_pendula_ctx_init(four_pendula_ctx *cx, const double *p, double 
     cx->adiag = tail + 8;
     cx->nb = tail + 8;
     cx->cc = tail + 8;
-    cx->soa = tail + 10;
-    cx->t1 = tail + 10;
+    cx->soa = tail + 11;
+    cx->t1 = tail + 11;
     four_pendula_masses(p, cx->md, cx->mp);
     for (i = 0; i < 4; ++i) {
         cx->mi[i] = 1.0 / cx->md[i];
     }
     four_pendula_k_context(p, cx->cc);
     for (m = 0; m < 4; ++m) {
-        double *row = cx->t1 + 6 * m;
+        double *row = cx->t1 + 9 * m;
         four_pendula_k_t1_table(p, four_pendula_t1_kappa[m], four_pendula_t1_r + 3 * m, row);
     }
 }
@@ -386,8 +391,8 @@ static double four_pendula_potential_cx(const four_pendula_ctx *cx, const double
         long m;
         for (m = 0; m < 4; ++m) {
             const long i = four_pendula_t1_i[m], j = four_pendula_t1_j[m];
-            double row[6];
-            const double *tab = cx->t1 ? cx->t1 + 6 * m : row;
+            double row[9];
+            const double *tab = cx->t1 ? cx->t1 + 9 * m : row;
             if (!cx->t1) {
                 four_pendula_k_t1_table(p, four_pendula_t1_kappa[m], four_pendula_t1_r + 3 * m, row);
             }
@@ -404,7 +409,7 @@ static double four_pendula_potential_cx(const four_pendula_ctx *cx, const double
 
 double four_pendula_potential(const double *p, const double *q)
 {
-    double cc[2];
+    double cc[3];
     four_pendula_ctx cx;
     four_pendula_ctx_bare(&cx, p, cc);
     return four_pendula_potential_cx(&cx, q);
@@ -438,13 +443,13 @@ static void four_pendula_gradient_cx(const four_pendula_ctx *cx, const double *q
         long m;
         for (m = 0; m < 4; ++m) {
             const long i = four_pendula_t1_i[m], j = four_pendula_t1_j[m];
-            double row[6];
-            const double *tab = cx->t1 ? cx->t1 + 6 * m : row;
+            double row[9];
+            const double *tab = cx->t1 ? cx->t1 + 9 * m : row;
             if (!cx->t1) {
                 four_pendula_k_t1_table(p, four_pendula_t1_kappa[m], four_pendula_t1_r + 3 * m, row);
             }
             double gi[3], gj[3];
-            four_pendula_k_t1_gradient(q + 3 * i, q + 3 * j, four_pendula_t1_r + 3 * m, cx->cc, tab, gi, gj);
+            four_pendula_k_t1_gradient(q + 3 * i, q + 3 * j, cx->cc, tab, gi, gj);
             g[3 * i] += gi[0];
             g[3 * i + 1] += gi[1];
             g[3 * i + 2] += gi[2];
@@ -457,7 +462,7 @@ static void four_pendula_gradient_cx(const four_pendula_ctx *cx, const double *q
 
 void four_pendula_gradient(const double *p, const double *q, double *g)
 {
-    double cc[2];
+    double cc[3];
     four_pendula_ctx cx;
     four_pendula_ctx_bare(&cx, p, cc);
     four_pendula_gradient_cx(&cx, q, g);
@@ -480,7 +485,7 @@ static double four_pendula_energy_cx(const four_pendula_ctx *cx, const double *q
 
 double four_pendula_energy(const double *p, const double *q, const double *w)
 {
-    double md[4], mp[1], cc[2];
+    double md[4], mp[1], cc[3];
     four_pendula_ctx cx;
     four_pendula_ctx_bare(&cx, p, cc);
     cx.md = md;
@@ -589,13 +594,13 @@ static void four_pendula_gradient_soa(const four_pendula_ctx *cx, const double *
         long m;
         for (m = 0; m < 4; ++m) {
             const long i = four_pendula_t1_i[m], j = four_pendula_t1_j[m];
-            double row[6];
-            const double *tab = cx->t1 ? cx->t1 + 6 * m : row;
+            double row[9];
+            const double *tab = cx->t1 ? cx->t1 + 9 * m : row;
             if (!cx->t1) {
                 four_pendula_k_t1_table(p, four_pendula_t1_kappa[m], four_pendula_t1_r + 3 * m, row);
             }
             double gi[3], gj[3];
-            four_pendula_k_t1_gradient(q + 3 * i, q + 3 * j, four_pendula_t1_r + 3 * m, cx->cc, tab, gi, gj);
+            four_pendula_k_t1_gradient(q + 3 * i, q + 3 * j, cx->cc, tab, gi, gj);
             g[3 * i] += gi[0];
             g[3 * i + 1] += gi[1];
             g[3 * i + 2] += gi[2];
@@ -632,29 +637,23 @@ FOUR_PENDULA_SIMD
         const double w0 = v[i], w1 = v[4 + i], w2 = v[8 + i];
         const double g0 = gx[i], g1 = gx[4 + i], g2 = gx[8 + i];
         const double pw0 = h*h;
-        const double x0 = h*mi;
-        const double x1 = x0*(g0*q1 - g1*q0);
-        const double x2 = 2*w2 + x1;
+        const double x0 = (1.0/2.0)*mi*pw0;
+        const double x1 = h*w1 - x0*(g0*q2 - g2*q0);
+        const double pw1 = x1*x1;
+        const double x2 = h*w2 + x0*(g0*q1 - g1*q0);
         const double pw2 = x2*x2;
-        const double x3 = (1.0/2.0)*h;
-        const double x4 = x2*x3;
-        const double x5 = x0*(g0*q2 - g2*q0);
-        const double x6 = 2*w1 - x5;
-        const double pw3 = x6*x6;
-        const double x7 = q2*x3;
-        const double x8 = (1.0/4.0)*pw0;
-        const double x9 = x0*(g1*q2 - g2*q1);
-        const double x10 = 2*w0 + x9;
-        const double pw1 = x10*x10;
-        const double x11 = -pw1*x8 - pw2*x8 - pw3*x8 + 1;
-        const double x12 = sqrt(x11);
-        const double qn0 = q0*x12 - q1*x4 + x6*x7;
-        const double qn1 = q0*x4 + q1*x12 - x10*x7;
-        const double qn2 = -q0*x3*x6 + q1*x10*x3 + q2*x12;
-        const double wh0 = w0 + (1.0/2.0)*x9;
-        const double wh1 = w1 - 1.0/2.0*x5;
-        const double wh2 = w2 + (1.0/2.0)*x1;
-        const double s0 = x11;
+        const double x3 = h*w0 + x0*(g1*q2 - g2*q1);
+        const double pw3 = x3*x3;
+        const double x4 = -pw1 - pw2 - pw3 + 1;
+        const double x5 = sqrt(x4);
+        const double x6 = 1.0/h;
+        const double qn0 = q0*x5 - q1*x2 + q2*x1;
+        const double qn1 = q0*x2 + q1*x5 - q2*x3;
+        const double qn2 = -q0*x1 + q1*x3 + q2*x5;
+        const double wh0 = x3*x6;
+        const double wh1 = x1*x6;
+        const double wh2 = x2*x6;
+        const double s0 = x4;
         xn[i] = qn0;
         xn[4 + i] = qn1;
         xn[8 + i] = qn2;

@@ -4,15 +4,15 @@
 # Lowering passes (operations of all kernels after each, as printed):
 #   quadratic: 1625 ops (513 +, 939 *, 144 /, 29 sqrt, 0 calls)
 #   reciprocal: 1625 ops (513 +, 1062 *, 21 /, 29 sqrt, 0 calls)
-#   factor: 1665 ops (513 +, 1086 *, 24 /, 29 sqrt, 13 calls)
-#   cse: 325 ops (112 +, 200 *, 5 /, 6 sqrt, 2 calls)
-#   hoist: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
-#   strength: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
-#   powers: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
-#   opcount: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
-#   calls: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
-#   layout: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
-#   workspace: 312 ops (110 +, 190 *, 5 /, 5 sqrt, 2 calls)
+#   factor: 1622 ops (513 +, 1058 *, 21 /, 29 sqrt, 1 calls)
+#   cse: 282 ops (100 +, 170 *, 5 /, 6 sqrt, 1 calls)
+#   hoist: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
+#   strength: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
+#   powers: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
+#   opcount: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
+#   calls: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
+#   layout: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
+#   workspace: 273 ops (98 +, 164 *, 5 /, 5 sqrt, 1 calls)
 """Equations of motion and integrators for the system "four_pendula" on (S^2)^4 (NumPy).
 
 Same functions as the emitted C (four_pendula.h). States are arrays q, w of shape (4, 3).
@@ -62,18 +62,18 @@ T1_R = numpy.array([1.0, 0.0, 0.0, 0.0, -1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0, 0.0
 
 
 def _k_context(p):
-    """constants of the kernels that depend only on the parameters (once per call) (4 ops as derived; after the passes 4 ops (0 +, 3 *, 0 /, 0 sqrt, 1 calls))."""
-    cc = numpy.array([-p[2]*p[1]*p[0], (1/2)*abs(p[1])], dtype=float)
+    """constants of the kernels that depend only on the parameters (once per call) (5 ops as derived; after the passes 5 ops (0 +, 4 *, 0 /, 0 sqrt, 1 calls))."""
+    cc = numpy.array([-p[2]*p[1]*p[0], (1/2)*abs(p[1]), (1/2)*p[1]], dtype=float)
     return cc
 
 
 def _k_t1_table(p, d_kappa, d_r):
-    """term 1: what depends only on parameters and the member's data (once per call and member) (15 ops as derived; after the passes 15 ops (2 +, 10 *, 1 /, 1 sqrt, 1 calls))."""
+    """term 1: what depends only on parameters and the member's data (once per call and member) (16 ops as derived; after the passes 15 ops (2 +, 12 *, 0 /, 1 sqrt, 0 calls))."""
     pw0 = d_r[..., 0]*d_r[..., 0]
     pw1 = d_r[..., 1]*d_r[..., 1]
     pw2 = d_r[..., 2]*d_r[..., 2]
-    pw3 = p[..., 1]*p[..., 1]
-    tab = _stack(2*d_r[..., 0], 2*d_r[..., 1], 2*d_r[..., 2], -p[..., 1]*numpy.sqrt(pw0 + pw1 + pw2), (1/2)*d_kappa, d_kappa*pw3*abs(p[..., 1])**(-1.0))
+    x0 = (1/2)*d_kappa
+    tab = _stack(2*d_r[..., 0], 2*d_r[..., 1], 2*d_r[..., 2], -p[..., 1]*numpy.sqrt(pw0 + pw1 + pw2), x0, p[..., 1]*d_r[..., 0], p[..., 1]*d_r[..., 1], p[..., 1]*d_r[..., 2], p[..., 1]*x0)
     return tab
 
 
@@ -110,21 +110,21 @@ def _k_t1_value(qi, qj, cc, tab):
     return v
 
 
-def _k_t1_gradient(qi, qj, d_r, cc, tab):
-    """midpoint springs: sum over pairs (list), gradient (318 ops as derived; after the passes 31 ops (15 +, 14 *, 1 /, 1 sqrt, 0 calls))."""
-    pw0 = -qi[..., 0] + qj[..., 0] + tab[..., 0]
-    pw1 = pw0*pw0
-    pw2 = -qi[..., 1] + qj[..., 1] + tab[..., 1]
-    pw3 = pw2*pw2
-    pw4 = -qi[..., 2] + qj[..., 2] + tab[..., 2]
-    pw5 = pw4*pw4
-    x0 = numpy.sqrt(pw1 + pw3 + pw5)
-    x2 = tab[..., 5]*(cc[1]*x0 + tab[..., 3])*x0**(-1.0)
-    x3 = x2*(-1/2*qi[..., 0] + (1/2)*qj[..., 0] + d_r[..., 0])
-    x4 = x2*(-1/2*qi[..., 1] + (1/2)*qj[..., 1] + d_r[..., 1])
-    x5 = x2*(-1/2*qi[..., 2] + (1/2)*qj[..., 2] + d_r[..., 2])
-    gi = _stack(-x3, -x4, -x5)
-    gj = _stack(x3, x4, x5)
+def _k_t1_gradient(qi, qj, cc, tab):
+    """midpoint springs: sum over pairs (list), gradient (366 ops as derived; after the passes 21 ops (9 +, 10 *, 1 /, 1 sqrt, 0 calls))."""
+    x1 = cc[2]*(-qi[..., 0] + qj[..., 0]) + tab[..., 5]
+    pw0 = x1*x1
+    x2 = cc[2]*(-qi[..., 1] + qj[..., 1]) + tab[..., 6]
+    pw1 = x2*x2
+    x3 = cc[2]*(-qi[..., 2] + qj[..., 2]) + tab[..., 7]
+    pw2 = x3*x3
+    x4 = numpy.sqrt(pw0 + pw1 + pw2)
+    x5 = tab[..., 8]*(tab[..., 3] + x4)*x4**(-1.0)
+    x6 = x1*x5
+    x7 = x2*x5
+    x8 = x3*x5
+    gi = _stack(-x6, -x7, -x8)
+    gj = _stack(x6, x7, x8)
     return gi, gj
 
 
@@ -157,27 +157,21 @@ def _k_rhs_diag(mi, q, w, g):
 
 
 def _k_vi_pos(h, mi, q, w, g):
-    """explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0), wh = a/h (237 ops as derived; after the passes 57 ops (18 +, 38 *, 0 /, 1 sqrt, 0 calls))."""
+    """explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0), wh = a/h (234 ops as derived; after the passes 47 ops (15 +, 30 *, 1 /, 1 sqrt, 0 calls))."""
     pw0 = h*h
-    x0 = h*mi
-    x1 = x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0])
-    x2 = 2*w[..., 2] + x1
+    x0 = (1/2)*mi*pw0
+    x1 = h*w[..., 1] - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])
+    pw1 = x1*x1
+    x2 = h*w[..., 2] + x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0])
     pw2 = x2*x2
-    x3 = (1/2)*h
-    x4 = x2*x3
-    x5 = x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])
-    x6 = 2*w[..., 1] - x5
-    pw3 = x6*x6
-    x7 = q[..., 2]*x3
-    x8 = (1/4)*pw0
-    x9 = x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1])
-    x10 = 2*w[..., 0] + x9
-    pw1 = x10*x10
-    x11 = -pw1*x8 - pw2*x8 - pw3*x8 + 1
-    x12 = numpy.sqrt(x11)
-    qn = _stack(q[..., 0]*x12 - q[..., 1]*x4 + x6*x7, q[..., 0]*x4 + q[..., 1]*x12 - x10*x7, -q[..., 0]*x3*x6 + q[..., 1]*x10*x3 + q[..., 2]*x12)
-    wh = _stack(w[..., 0] + (1/2)*x9, w[..., 1] - 1/2*x5, w[..., 2] + (1/2)*x1)
-    s = x11
+    x3 = h*w[..., 0] + x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1])
+    pw3 = x3*x3
+    x4 = -pw1 - pw2 - pw3 + 1
+    x5 = numpy.sqrt(x4)
+    x6 = h**(-1.0)
+    qn = _stack(q[..., 0]*x5 - q[..., 1]*x2 + q[..., 2]*x1, q[..., 0]*x2 + q[..., 1]*x5 - q[..., 2]*x3, -q[..., 0]*x1 + q[..., 1]*x3 + q[..., 2]*x5)
+    wh = _stack(x3*x6, x1*x6, x2*x6)
+    s = x4
     return qn, wh, s
 
 
@@ -189,48 +183,49 @@ def _k_vi_vel(h, mi, wh, qn, gn):
 
 
 def _k_rattle_pos(h, mi, x, v, g):
-    """RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0) (896 ops as derived; after the passes 77 ops (30 +, 44 *, 2 /, 1 sqrt, 0 calls))."""
+    """RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0) (811 ops as derived; after the passes 66 ops (30 +, 33 *, 2 /, 1 sqrt, 0 calls))."""
     pw0 = h*h
     pw5 = x[..., 0]*x[..., 0]
     pw6 = x[..., 1]*x[..., 1]
     pw7 = x[..., 2]*x[..., 2]
-    x0 = mi*pw0
-    x1 = g[..., 0]*x0
-    x2 = 2*h*v[..., 0] - x1 + 2*x[..., 0]
-    pw1 = x2*x2
-    x3 = g[..., 1]*x0
-    x4 = 2*h*v[..., 1] - x3 + 2*x[..., 1]
-    pw2 = x4*x4
-    x5 = g[..., 2]*x0
-    x6 = 2*h*v[..., 2] - x5 + 2*x[..., 2]
-    pw3 = x6*x6
-    x7 = pw1 + pw2 + pw3 - 4
-    x8 = x2*x[..., 0] + x4*x[..., 1] + x6*x[..., 2]
-    pw4 = x8*x8
-    x9 = pw4 - x7*(pw5 + pw6 + pw7)
-    x10 = (1/2)*x7*(x8 + numpy.sqrt(x9))**(-1.0)
-    x11 = x10*x[..., 0]
-    x12 = x10*x[..., 1]
-    x13 = x10*x[..., 2]
-    x14 = (1/2)*h*mi
-    x15 = h**(-1.0)
-    xn = _stack(h*v[..., 0] - 1/2*x1 - x11 + x[..., 0], h*v[..., 1] - x12 - 1/2*x3 + x[..., 1], h*v[..., 2] - x13 - 1/2*x5 + x[..., 2])
-    vh = _stack(-g[..., 0]*x14 + v[..., 0] - x11*x15, -g[..., 1]*x14 + v[..., 1] - x12*x15, -g[..., 2]*x14 + v[..., 2] - x13*x15)
-    disc = (1/4)*x9
+    x0 = (1/2)*mi
+    x1 = pw0*x0
+    x2 = g[..., 0]*x1
+    x3 = h*v[..., 0] - x2 + x[..., 0]
+    pw1 = x3*x3
+    x4 = g[..., 1]*x1
+    x5 = h*v[..., 1] - x4 + x[..., 1]
+    pw2 = x5*x5
+    x6 = g[..., 2]*x1
+    x7 = h*v[..., 2] - x6 + x[..., 2]
+    pw3 = x7*x7
+    x8 = pw1 + pw2 + pw3 - 1
+    x9 = x3*x[..., 0] + x5*x[..., 1] + x7*x[..., 2]
+    pw4 = x9*x9
+    x10 = pw4 - x8*(pw5 + pw6 + pw7)
+    x11 = x8*(numpy.sqrt(x10) + x9)**(-1.0)
+    x12 = x11*x[..., 0]
+    x13 = x11*x[..., 1]
+    x14 = x11*x[..., 2]
+    x15 = h*x0
+    x16 = h**(-1.0)
+    xn = _stack(h*v[..., 0] - x12 - x2 + x[..., 0], h*v[..., 1] - x13 - x4 + x[..., 1], h*v[..., 2] - x14 - x6 + x[..., 2])
+    vh = _stack(-g[..., 0]*x15 + v[..., 0] - x12*x16, -g[..., 1]*x15 + v[..., 1] - x13*x16, -g[..., 2]*x15 + v[..., 2] - x14*x16)
+    disc = x10
     return xn, vh, disc
 
 
 def _k_rattle_vel(h, mi, xn, vh, gn):
-    """RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+ (90 ops as derived; after the passes 34 ops (13 +, 20 *, 1 /, 0 sqrt, 0 calls))."""
+    """RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+ (87 ops as derived; after the passes 25 ops (10 +, 14 *, 1 /, 0 sqrt, 0 calls))."""
     pw0 = xn[..., 0]*xn[..., 0]
     pw1 = xn[..., 1]*xn[..., 1]
     pw2 = xn[..., 2]*xn[..., 2]
-    x0 = h*mi
-    x1 = gn[..., 0]*x0
-    x2 = gn[..., 1]*x0
-    x3 = gn[..., 2]*x0
-    x4 = (1/2)*(xn[..., 0]*(2*vh[..., 0] - x1) + xn[..., 1]*(2*vh[..., 1] - x2) + xn[..., 2]*(2*vh[..., 2] - x3))*(pw0 + pw1 + pw2)**(-1.0)
-    vn = _stack(vh[..., 0] - 1/2*x1 - x4*xn[..., 0], vh[..., 1] - 1/2*x2 - x4*xn[..., 1], vh[..., 2] - 1/2*x3 - x4*xn[..., 2])
+    x0 = (1/2)*h*mi
+    x1 = gn[..., 0]*x0 - vh[..., 0]
+    x2 = gn[..., 1]*x0 - vh[..., 1]
+    x3 = gn[..., 2]*x0 - vh[..., 2]
+    x4 = (-x1*xn[..., 0] - x2*xn[..., 1] - x3*xn[..., 2])*(pw0 + pw1 + pw2)**(-1.0)
+    vn = _stack(-x1 - x4*xn[..., 0], -x2 - x4*xn[..., 1], -x3 - x4*xn[..., 2])
     return vn
 
 
@@ -279,7 +274,7 @@ def gradient(p, q):
     cc, tab1 = _constants(p)
     g = numpy.zeros((4, 3))
     numpy.add.at(g, T0_I, _k_t0_gradient(q[T0_I], cc))
-    gi, gj = _k_t1_gradient(q[T1_I], q[T1_J], T1_R, cc, tab1)
+    gi, gj = _k_t1_gradient(q[T1_I], q[T1_J], cc, tab1)
     numpy.add.at(g, T1_I, gi)
     numpy.add.at(g, T1_J, gj)
     return g

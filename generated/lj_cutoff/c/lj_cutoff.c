@@ -4,15 +4,15 @@
  * Lowering passes (operations of all kernels after each, as printed):
  *   quadratic: 1602 ops (465 +, 976 *, 152 /, 9 sqrt, 0 calls)
  *   reciprocal: 1602 ops (465 +, 1099 *, 29 /, 9 sqrt, 0 calls)
- *   factor: 1601 ops (459 +, 1107 *, 26 /, 9 sqrt, 0 calls)
- *   cse: 297 ops (96 +, 193 *, 6 /, 2 sqrt, 0 calls)
- *   hoist: 292 ops (96 +, 188 *, 6 /, 2 sqrt, 0 calls)
- *   strength: 287 ops (96 +, 184 *, 5 /, 2 sqrt, 0 calls)
- *   powers: 287 ops (96 +, 184 *, 5 /, 2 sqrt, 0 calls)
- *   opcount: 287 ops (96 +, 184 *, 5 /, 2 sqrt, 0 calls)
- *   calls: 287 ops (96 +, 184 *, 5 /, 2 sqrt, 0 calls)
- *   layout: 287 ops (96 +, 184 *, 5 /, 2 sqrt, 0 calls)
- *   workspace: 287 ops (96 +, 184 *, 5 /, 2 sqrt, 0 calls)
+ *   factor: 1510 ops (459 +, 1013 *, 29 /, 9 sqrt, 0 calls)
+ *   cse: 267 ops (90 +, 168 *, 7 /, 2 sqrt, 0 calls)
+ *   hoist: 262 ops (90 +, 163 *, 7 /, 2 sqrt, 0 calls)
+ *   strength: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
+ *   powers: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
+ *   opcount: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
+ *   calls: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
+ *   layout: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
+ *   workspace: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
  */
 #include "lj_cutoff.h"
 
@@ -181,57 +181,58 @@ static void lj_cutoff_k_rhs_diag(const double mi, const double *LJ_CUTOFF_RESTRI
 }
 
 /* RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0)
- * 896 operations as derived; after the passes 77 ops (30 +, 44 *, 2 /, 1 sqrt, 0 calls), 24 temporaries. */
+ * 811 operations as derived; after the passes 66 ops (30 +, 33 *, 2 /, 1 sqrt, 0 calls), 25 temporaries. */
 static void lj_cutoff_k_rattle_pos(const double h, const double mi, const double *LJ_CUTOFF_RESTRICT x, const double *LJ_CUTOFF_RESTRICT v, const double *LJ_CUTOFF_RESTRICT g, double *LJ_CUTOFF_RESTRICT xn, double *LJ_CUTOFF_RESTRICT vh, double *LJ_CUTOFF_RESTRICT disc)
 {
     const double pw0 = h*h;
     const double pw5 = x[0]*x[0];
     const double pw6 = x[1]*x[1];
     const double pw7 = x[2]*x[2];
-    const double x0 = mi*pw0;
-    const double x1 = g[0]*x0;
-    const double x2 = 2*h*v[0] - x1 + 2*x[0];
-    const double pw1 = x2*x2;
-    const double x3 = g[1]*x0;
-    const double x4 = 2*h*v[1] - x3 + 2*x[1];
-    const double pw2 = x4*x4;
-    const double x5 = g[2]*x0;
-    const double x6 = 2*h*v[2] - x5 + 2*x[2];
-    const double pw3 = x6*x6;
-    const double x7 = pw1 + pw2 + pw3 - 4;
-    const double x8 = x2*x[0] + x4*x[1] + x6*x[2];
-    const double pw4 = x8*x8;
-    const double x9 = pw4 - x7*(pw5 + pw6 + pw7);
-    const double x10 = (1.0/2.0)*x7*1.0/(x8 + sqrt(x9));
-    const double x11 = x10*x[0];
-    const double x12 = x10*x[1];
-    const double x13 = x10*x[2];
-    const double x14 = (1.0/2.0)*h*mi;
-    const double x15 = 1.0/h;
-    xn[0] = h*v[0] - 1.0/2.0*x1 - x11 + x[0];
-    xn[1] = h*v[1] - x12 - 1.0/2.0*x3 + x[1];
-    xn[2] = h*v[2] - x13 - 1.0/2.0*x5 + x[2];
-    vh[0] = -g[0]*x14 + v[0] - x11*x15;
-    vh[1] = -g[1]*x14 + v[1] - x12*x15;
-    vh[2] = -g[2]*x14 + v[2] - x13*x15;
-    disc[0] = (1.0/4.0)*x9;
+    const double x0 = (1.0/2.0)*mi;
+    const double x1 = pw0*x0;
+    const double x2 = g[0]*x1;
+    const double x3 = h*v[0] - x2 + x[0];
+    const double pw1 = x3*x3;
+    const double x4 = g[1]*x1;
+    const double x5 = h*v[1] - x4 + x[1];
+    const double pw2 = x5*x5;
+    const double x6 = g[2]*x1;
+    const double x7 = h*v[2] - x6 + x[2];
+    const double pw3 = x7*x7;
+    const double x8 = pw1 + pw2 + pw3 - 1;
+    const double x9 = x3*x[0] + x5*x[1] + x7*x[2];
+    const double pw4 = x9*x9;
+    const double x10 = pw4 - x8*(pw5 + pw6 + pw7);
+    const double x11 = x8*1.0/(sqrt(x10) + x9);
+    const double x12 = x11*x[0];
+    const double x13 = x11*x[1];
+    const double x14 = x11*x[2];
+    const double x15 = h*x0;
+    const double x16 = 1.0/h;
+    xn[0] = h*v[0] - x12 - x2 + x[0];
+    xn[1] = h*v[1] - x13 - x4 + x[1];
+    xn[2] = h*v[2] - x14 - x6 + x[2];
+    vh[0] = -g[0]*x15 + v[0] - x12*x16;
+    vh[1] = -g[1]*x15 + v[1] - x13*x16;
+    vh[2] = -g[2]*x15 + v[2] - x14*x16;
+    disc[0] = x10;
 }
 
 /* RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+
- * 90 operations as derived; after the passes 34 ops (13 +, 20 *, 1 /, 0 sqrt, 0 calls), 8 temporaries. */
+ * 87 operations as derived; after the passes 25 ops (10 +, 14 *, 1 /, 0 sqrt, 0 calls), 8 temporaries. */
 static void lj_cutoff_k_rattle_vel(const double h, const double mi, const double *LJ_CUTOFF_RESTRICT xn, const double *LJ_CUTOFF_RESTRICT vh, const double *LJ_CUTOFF_RESTRICT gn, double *LJ_CUTOFF_RESTRICT vn)
 {
     const double pw0 = xn[0]*xn[0];
     const double pw1 = xn[1]*xn[1];
     const double pw2 = xn[2]*xn[2];
-    const double x0 = h*mi;
-    const double x1 = gn[0]*x0;
-    const double x2 = gn[1]*x0;
-    const double x3 = gn[2]*x0;
-    const double x4 = (1.0/2.0)*(xn[0]*(2*vh[0] - x1) + xn[1]*(2*vh[1] - x2) + xn[2]*(2*vh[2] - x3))*1.0/(pw0 + pw1 + pw2);
-    vn[0] = vh[0] - 1.0/2.0*x1 - x4*xn[0];
-    vn[1] = vh[1] - 1.0/2.0*x2 - x4*xn[1];
-    vn[2] = vh[2] - 1.0/2.0*x3 - x4*xn[2];
+    const double x0 = (1.0/2.0)*h*mi;
+    const double x1 = gn[0]*x0 - vh[0];
+    const double x2 = gn[1]*x0 - vh[1];
+    const double x3 = gn[2]*x0 - vh[2];
+    const double x4 = (-x1*xn[0] - x2*xn[1] - x3*xn[2])*1.0/(pw0 + pw1 + pw2);
+    vn[0] = -x1 - x4*xn[0];
+    vn[1] = -x2 - x4*xn[1];
+    vn[2] = -x3 - x4*xn[2];
 }
 
 /* ---- small helpers ---------------------------------------------------------------------- */
@@ -672,29 +673,23 @@ LJ_CUTOFF_SIMD
         const double w0 = v[i], w1 = v[8 + i], w2 = v[16 + i];
         const double g0 = gx[i], g1 = gx[8 + i], g2 = gx[16 + i];
         const double pw0 = h*h;
-        const double x0 = h*mi;
-        const double x1 = x0*(g0*q1 - g1*q0);
-        const double x2 = 2*w2 + x1;
+        const double x0 = (1.0/2.0)*mi*pw0;
+        const double x1 = h*w1 - x0*(g0*q2 - g2*q0);
+        const double pw1 = x1*x1;
+        const double x2 = h*w2 + x0*(g0*q1 - g1*q0);
         const double pw2 = x2*x2;
-        const double x3 = (1.0/2.0)*h;
-        const double x4 = x2*x3;
-        const double x5 = x0*(g0*q2 - g2*q0);
-        const double x6 = 2*w1 - x5;
-        const double pw3 = x6*x6;
-        const double x7 = q2*x3;
-        const double x8 = (1.0/4.0)*pw0;
-        const double x9 = x0*(g1*q2 - g2*q1);
-        const double x10 = 2*w0 + x9;
-        const double pw1 = x10*x10;
-        const double x11 = -pw1*x8 - pw2*x8 - pw3*x8 + 1;
-        const double x12 = sqrt(x11);
-        const double qn0 = q0*x12 - q1*x4 + x6*x7;
-        const double qn1 = q0*x4 + q1*x12 - x10*x7;
-        const double qn2 = -q0*x3*x6 + q1*x10*x3 + q2*x12;
-        const double wh0 = w0 + (1.0/2.0)*x9;
-        const double wh1 = w1 - 1.0/2.0*x5;
-        const double wh2 = w2 + (1.0/2.0)*x1;
-        const double s0 = x11;
+        const double x3 = h*w0 + x0*(g1*q2 - g2*q1);
+        const double pw3 = x3*x3;
+        const double x4 = -pw1 - pw2 - pw3 + 1;
+        const double x5 = sqrt(x4);
+        const double x6 = 1.0/h;
+        const double qn0 = q0*x5 - q1*x2 + q2*x1;
+        const double qn1 = q0*x2 + q1*x5 - q2*x3;
+        const double qn2 = -q0*x1 + q1*x3 + q2*x5;
+        const double wh0 = x3*x6;
+        const double wh1 = x1*x6;
+        const double wh2 = x2*x6;
+        const double s0 = x4;
         xn[i] = qn0;
         xn[8 + i] = qn1;
         xn[16 + i] = qn2;

@@ -4,15 +4,15 @@
 # Lowering passes (operations of all kernels after each, as printed):
 #   quadratic: 1602 ops (465 +, 976 *, 152 /, 9 sqrt, 0 calls)
 #   reciprocal: 1602 ops (465 +, 1099 *, 29 /, 9 sqrt, 0 calls)
-#   factor: 1601 ops (459 +, 1107 *, 26 /, 9 sqrt, 0 calls)
-#   cse: 297 ops (96 +, 193 *, 6 /, 2 sqrt, 0 calls)
-#   hoist: 292 ops (96 +, 188 *, 6 /, 2 sqrt, 0 calls)
-#   strength: 287 ops (96 +, 184 *, 5 /, 2 sqrt, 0 calls)
-#   powers: 287 ops (96 +, 184 *, 5 /, 2 sqrt, 0 calls)
-#   opcount: 287 ops (96 +, 184 *, 5 /, 2 sqrt, 0 calls)
-#   calls: 287 ops (96 +, 184 *, 5 /, 2 sqrt, 0 calls)
-#   layout: 287 ops (96 +, 184 *, 5 /, 2 sqrt, 0 calls)
-#   workspace: 287 ops (96 +, 184 *, 5 /, 2 sqrt, 0 calls)
+#   factor: 1510 ops (459 +, 1013 *, 29 /, 9 sqrt, 0 calls)
+#   cse: 267 ops (90 +, 168 *, 7 /, 2 sqrt, 0 calls)
+#   hoist: 262 ops (90 +, 163 *, 7 /, 2 sqrt, 0 calls)
+#   strength: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
+#   powers: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
+#   opcount: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
+#   calls: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
+#   layout: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
+#   workspace: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
 """Equations of motion and integrators for the system "lj_cutoff" on (S^2)^8 (NumPy).
 
 Same functions as the emitted C (lj_cutoff.h). States are arrays q, w of shape (8, 3).
@@ -141,27 +141,21 @@ def _k_rhs_diag(mi, q, w, g):
 
 
 def _k_vi_pos(h, mi, q, w, g):
-    """explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0), wh = a/h (237 ops as derived; after the passes 57 ops (18 +, 38 *, 0 /, 1 sqrt, 0 calls))."""
+    """explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0), wh = a/h (234 ops as derived; after the passes 47 ops (15 +, 30 *, 1 /, 1 sqrt, 0 calls))."""
     pw0 = h*h
-    x0 = h*mi
-    x1 = x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0])
-    x2 = 2*w[..., 2] + x1
+    x0 = (1/2)*mi*pw0
+    x1 = h*w[..., 1] - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])
+    pw1 = x1*x1
+    x2 = h*w[..., 2] + x0*(g[..., 0]*q[..., 1] - g[..., 1]*q[..., 0])
     pw2 = x2*x2
-    x3 = (1/2)*h
-    x4 = x2*x3
-    x5 = x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])
-    x6 = 2*w[..., 1] - x5
-    pw3 = x6*x6
-    x7 = q[..., 2]*x3
-    x8 = (1/4)*pw0
-    x9 = x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1])
-    x10 = 2*w[..., 0] + x9
-    pw1 = x10*x10
-    x11 = -pw1*x8 - pw2*x8 - pw3*x8 + 1
-    x12 = numpy.sqrt(x11)
-    qn = _stack(q[..., 0]*x12 - q[..., 1]*x4 + x6*x7, q[..., 0]*x4 + q[..., 1]*x12 - x10*x7, -q[..., 0]*x3*x6 + q[..., 1]*x10*x3 + q[..., 2]*x12)
-    wh = _stack(w[..., 0] + (1/2)*x9, w[..., 1] - 1/2*x5, w[..., 2] + (1/2)*x1)
-    s = x11
+    x3 = h*w[..., 0] + x0*(g[..., 1]*q[..., 2] - g[..., 2]*q[..., 1])
+    pw3 = x3*x3
+    x4 = -pw1 - pw2 - pw3 + 1
+    x5 = numpy.sqrt(x4)
+    x6 = h**(-1.0)
+    qn = _stack(q[..., 0]*x5 - q[..., 1]*x2 + q[..., 2]*x1, q[..., 0]*x2 + q[..., 1]*x5 - q[..., 2]*x3, -q[..., 0]*x1 + q[..., 1]*x3 + q[..., 2]*x5)
+    wh = _stack(x3*x6, x1*x6, x2*x6)
+    s = x4
     return qn, wh, s
 
 
@@ -173,48 +167,49 @@ def _k_vi_vel(h, mi, wh, qn, gn):
 
 
 def _k_rattle_pos(h, mi, x, v, g):
-    """RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0) (896 ops as derived; after the passes 77 ops (30 +, 44 *, 2 /, 1 sqrt, 0 calls))."""
+    """RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0) (811 ops as derived; after the passes 66 ops (30 +, 33 *, 2 /, 1 sqrt, 0 calls))."""
     pw0 = h*h
     pw5 = x[..., 0]*x[..., 0]
     pw6 = x[..., 1]*x[..., 1]
     pw7 = x[..., 2]*x[..., 2]
-    x0 = mi*pw0
-    x1 = g[..., 0]*x0
-    x2 = 2*h*v[..., 0] - x1 + 2*x[..., 0]
-    pw1 = x2*x2
-    x3 = g[..., 1]*x0
-    x4 = 2*h*v[..., 1] - x3 + 2*x[..., 1]
-    pw2 = x4*x4
-    x5 = g[..., 2]*x0
-    x6 = 2*h*v[..., 2] - x5 + 2*x[..., 2]
-    pw3 = x6*x6
-    x7 = pw1 + pw2 + pw3 - 4
-    x8 = x2*x[..., 0] + x4*x[..., 1] + x6*x[..., 2]
-    pw4 = x8*x8
-    x9 = pw4 - x7*(pw5 + pw6 + pw7)
-    x10 = (1/2)*x7*(x8 + numpy.sqrt(x9))**(-1.0)
-    x11 = x10*x[..., 0]
-    x12 = x10*x[..., 1]
-    x13 = x10*x[..., 2]
-    x14 = (1/2)*h*mi
-    x15 = h**(-1.0)
-    xn = _stack(h*v[..., 0] - 1/2*x1 - x11 + x[..., 0], h*v[..., 1] - x12 - 1/2*x3 + x[..., 1], h*v[..., 2] - x13 - 1/2*x5 + x[..., 2])
-    vh = _stack(-g[..., 0]*x14 + v[..., 0] - x11*x15, -g[..., 1]*x14 + v[..., 1] - x12*x15, -g[..., 2]*x14 + v[..., 2] - x13*x15)
-    disc = (1/4)*x9
+    x0 = (1/2)*mi
+    x1 = pw0*x0
+    x2 = g[..., 0]*x1
+    x3 = h*v[..., 0] - x2 + x[..., 0]
+    pw1 = x3*x3
+    x4 = g[..., 1]*x1
+    x5 = h*v[..., 1] - x4 + x[..., 1]
+    pw2 = x5*x5
+    x6 = g[..., 2]*x1
+    x7 = h*v[..., 2] - x6 + x[..., 2]
+    pw3 = x7*x7
+    x8 = pw1 + pw2 + pw3 - 1
+    x9 = x3*x[..., 0] + x5*x[..., 1] + x7*x[..., 2]
+    pw4 = x9*x9
+    x10 = pw4 - x8*(pw5 + pw6 + pw7)
+    x11 = x8*(numpy.sqrt(x10) + x9)**(-1.0)
+    x12 = x11*x[..., 0]
+    x13 = x11*x[..., 1]
+    x14 = x11*x[..., 2]
+    x15 = h*x0
+    x16 = h**(-1.0)
+    xn = _stack(h*v[..., 0] - x12 - x2 + x[..., 0], h*v[..., 1] - x13 - x4 + x[..., 1], h*v[..., 2] - x14 - x6 + x[..., 2])
+    vh = _stack(-g[..., 0]*x15 + v[..., 0] - x12*x16, -g[..., 1]*x15 + v[..., 1] - x13*x16, -g[..., 2]*x15 + v[..., 2] - x14*x16)
+    disc = x10
     return xn, vh, disc
 
 
 def _k_rattle_vel(h, mi, xn, vh, gn):
-    """RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+ (90 ops as derived; after the passes 34 ops (13 +, 20 *, 1 /, 0 sqrt, 0 calls))."""
+    """RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+ (87 ops as derived; after the passes 25 ops (10 +, 14 *, 1 /, 0 sqrt, 0 calls))."""
     pw0 = xn[..., 0]*xn[..., 0]
     pw1 = xn[..., 1]*xn[..., 1]
     pw2 = xn[..., 2]*xn[..., 2]
-    x0 = h*mi
-    x1 = gn[..., 0]*x0
-    x2 = gn[..., 1]*x0
-    x3 = gn[..., 2]*x0
-    x4 = (1/2)*(xn[..., 0]*(2*vh[..., 0] - x1) + xn[..., 1]*(2*vh[..., 1] - x2) + xn[..., 2]*(2*vh[..., 2] - x3))*(pw0 + pw1 + pw2)**(-1.0)
-    vn = _stack(vh[..., 0] - 1/2*x1 - x4*xn[..., 0], vh[..., 1] - 1/2*x2 - x4*xn[..., 1], vh[..., 2] - 1/2*x3 - x4*xn[..., 2])
+    x0 = (1/2)*h*mi
+    x1 = gn[..., 0]*x0 - vh[..., 0]
+    x2 = gn[..., 1]*x0 - vh[..., 1]
+    x3 = gn[..., 2]*x0 - vh[..., 2]
+    x4 = (-x1*xn[..., 0] - x2*xn[..., 1] - x3*xn[..., 2])*(pw0 + pw1 + pw2)**(-1.0)
+    vn = _stack(-x1 - x4*xn[..., 0], -x2 - x4*xn[..., 1], -x3 - x4*xn[..., 2])
     return vn
 
 
