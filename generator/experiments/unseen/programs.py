@@ -46,10 +46,12 @@ class Programs:
 
 @dataclass(frozen=True)
 class Result:
-    """What one launch printed: the median ns per step over its runs, Newton iterations per
-    step, |E_end - E_0| / |E_0| and the final state (q then w, body-major)."""
+    """What one launch printed: the median ns per step over its runs on the wall clock and in
+    CPU time, Newton iterations per step, |E_end - E_0| / |E_0| and the final state (q then
+    w, body-major)."""
 
     ns_per_step: float
+    cpu_ns_per_step: float
     newton_per_step: float
     energy_change: float
     state: np.ndarray
@@ -99,6 +101,7 @@ def _parse(text: str, program: Path) -> Result:
     try:
         return Result(
             float(fields["ns_per_step"][0]),
+            float(fields["cpu_ns_per_step"][0]),
             float(fields["newton_per_step"][0]),
             float(fields["energy_change"][0]),
             np.array([float(x) for x in fields["q"] + fields["w"]]),
