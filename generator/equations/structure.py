@@ -201,6 +201,26 @@ def system_kernels(system: System, solver: InertiaKind | None = None) -> list[Ke
     return kernels
 
 
+def _translation_invariant(
+    expr: sp.Expr, qi: tuple[sp.Symbol, ...], qj: tuple[sp.Symbol, ...]
+) -> bool:
+    """True when `expr` is seen to depend on qi and qj only through qi - qj: shifting both by
+    the same t leaves it unchanged once SymPy's sums cancel the shift (a form that hides the
+    difference, such as qi.qi - 2 qi.qj + qj.qj, is not seen: then False).
+
+    Example:
+        >>> a, b = sp.symbols("a_0:3"), sp.symbols("b_0:3")
+        >>> r2 = sum((x - y) ** 2 for x, y in zip(a, b))
+        >>> _translation_invariant(1 / r2, a, b), _translation_invariant(a[0] * b[0], a, b)
+        (True, False)
+    """
+    t = sp.Dummy("t")
+    for x, y in zip(qi, qj):
+        if sp.sympify(expr).xreplace({x: x + t, y: y + t}) != expr:
+            return False
+    return True
+
+
 def term_kernels(system: System, index: int, term: Term) -> tuple[KernelDef, KernelDef]:
     """Value and gradient kernels of one term, in its local positions, data and parameters."""
     p = Argument("p", system.parameter_symbols)
@@ -210,10 +230,13 @@ def term_kernels(system: System, index: int, term: Term) -> tuple[KernelDef, Ker
     inputs = (p, *positions, *data)
     stages = (("p", 0), *((a.name, 1) for a in data))
     where = f"{term.label}: {'sum over bodies' if term.kind == 'body' else 'sum over pairs'}"
-    grads = tuple(
+    grads = [
         Output(f"g{role[1:]}" if role != "q" else "g", tuple(sp.diff(term.expr, s) for s in pos))
         for role, pos in zip(term.roles(), (a.symbols for a in positions))
-    )
+    ]
+    if len(positions) == 2 and _translation_invariant(term.expr, *(a.symbols for a in positions)):
+        # V(qi + t, qj + t) = V: the force on j is minus the force on i
+        grads[1] = Output(grads[1].name, tuple(-e for e in grads[0].exprs))
     return (
         KernelDef(
             f"t{index}_value",
@@ -223,6 +246,10 @@ def term_kernels(system: System, index: int, term: Term) -> tuple[KernelDef, Ker
             stages=stages,
         ),
         KernelDef(
-            f"t{index}_gradient", f"{where} ({term.select}), gradient", inputs, grads, stages=stages
+            f"t{index}_gradient",
+            f"{where} ({term.select}), gradient",
+            inputs,
+            tuple(grads),
+            stages=stages,
         ),
     )

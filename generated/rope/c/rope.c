@@ -7,12 +7,12 @@
  *   factor: 1017 ops (358 +, 611 *, 48 /, 0 sqrt, 0 calls)
  *   cse: 424 ops (139 +, 279 *, 6 /, 0 sqrt, 0 calls)
  *   hoist: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
- *   strength: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
- *   powers: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
- *   opcount: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
- *   calls: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
- *   layout: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
- *   workspace: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
+ *   strength: 420 ops (139 +, 276 *, 5 /, 0 sqrt, 0 calls)
+ *   powers: 420 ops (139 +, 276 *, 5 /, 0 sqrt, 0 calls)
+ *   opcount: 420 ops (139 +, 276 *, 5 /, 0 sqrt, 0 calls)
+ *   calls: 420 ops (139 +, 276 *, 5 /, 0 sqrt, 0 calls)
+ *   layout: 420 ops (139 +, 276 *, 5 /, 0 sqrt, 0 calls)
+ *   workspace: 420 ops (139 +, 276 *, 5 /, 0 sqrt, 0 calls)
  */
 #include "rope.h"
 
@@ -33,6 +33,14 @@
 #else
 #define ROPE_SIMD
 #define ROPE_SIMD_SUM(...)
+#endif
+
+/* kernels are written into their loops (a call per pair or body would cost more than many
+ * kernels' arithmetic) */
+#if defined(__GNUC__)
+#define ROPE_KERNEL static inline __attribute__((always_inline))
+#else
+#define ROPE_KERNEL static inline
 #endif
 
 /* restrict as C99 spells it, or as C++ compilers do */
@@ -71,21 +79,21 @@ static const double rope_inertia_tail[20] = {
 /* ---- kernels derived by SymPy ------------------------------------------------------------- */
 /* constants of the kernels that depend only on the parameters (once per call)
  * 0 operations as derived; after the passes 0 ops (0 +, 0 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void rope_k_context(const double *ROPE_RESTRICT p, double *ROPE_RESTRICT cc)
+ROPE_KERNEL void rope_k_context(const double *ROPE_RESTRICT p, double *ROPE_RESTRICT cc)
 {
     cc[0] = -p[3];
 }
 
 /* term 0: what depends only on parameters and the member's data (once per call and member)
  * 3 operations as derived; after the passes 3 ops (0 +, 3 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void rope_k_t0_table(const double *ROPE_RESTRICT p, const double d_w, double *ROPE_RESTRICT tab)
+ROPE_KERNEL void rope_k_t0_table(const double *ROPE_RESTRICT p, const double d_w, double *ROPE_RESTRICT tab)
 {
     tab[0] = p[1]*p[2]*p[0]*d_w;
 }
 
 /* M per body: M_ii, the scale a_i and the max-index generator c_i (M_ij = a_i a_j c_max(i,j)); i is the 1-based body index
  * 8 operations as derived; after the passes 5 ops (0 +, 5 *, 0 /, 0 sqrt, 0 calls), 3 temporaries. */
-static void rope_k_inertia_body(const double *ROPE_RESTRICT p, const double i, const double d_lam, const double d_tail, double *ROPE_RESTRICT md, double *ROPE_RESTRICT sa, double *ROPE_RESTRICT sc)
+ROPE_KERNEL void rope_k_inertia_body(const double *ROPE_RESTRICT p, const double i, const double d_lam, const double d_tail, double *ROPE_RESTRICT md, double *ROPE_RESTRICT sa, double *ROPE_RESTRICT sc)
 {
     (void)i;
     const double pw0 = p[1]*p[1];
@@ -98,14 +106,14 @@ static void rope_k_inertia_body(const double *ROPE_RESTRICT p, const double i, c
 
 /* gravity: sum over bodies (all), value
  * 4 operations as derived; after the passes 1 ops (0 +, 1 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void rope_k_t0_value(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT tab, double *ROPE_RESTRICT v)
+ROPE_KERNEL void rope_k_t0_value(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT tab, double *ROPE_RESTRICT v)
 {
     v[0] = q[2]*tab[0];
 }
 
 /* gravity: sum over bodies (all), gradient
  * 3 operations as derived; after the passes 0 ops (0 +, 0 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void rope_k_t0_gradient(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT tab, double *ROPE_RESTRICT g)
+ROPE_KERNEL void rope_k_t0_gradient(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT tab, double *ROPE_RESTRICT g)
 {
     (void)q;
     g[0] = 0;
@@ -115,14 +123,14 @@ static void rope_k_t0_gradient(const double *ROPE_RESTRICT q, const double *ROPE
 
 /* bending springs: sum over pairs (chain), value
  * 7 operations as derived; after the passes 7 ops (3 +, 4 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void rope_k_t1_value(const double *ROPE_RESTRICT p, const double *ROPE_RESTRICT qi, const double *ROPE_RESTRICT qj, double *ROPE_RESTRICT v)
+ROPE_KERNEL void rope_k_t1_value(const double *ROPE_RESTRICT p, const double *ROPE_RESTRICT qi, const double *ROPE_RESTRICT qj, double *ROPE_RESTRICT v)
 {
     v[0] = p[3]*(-qi[0]*qj[0] - qi[1]*qj[1] - qi[2]*qj[2] + 1);
 }
 
 /* bending springs: sum over pairs (chain), gradient
  * 6 operations as derived; after the passes 6 ops (0 +, 6 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void rope_k_t1_gradient(const double *ROPE_RESTRICT qi, const double *ROPE_RESTRICT qj, const double *ROPE_RESTRICT cc, double *ROPE_RESTRICT gi, double *ROPE_RESTRICT gj)
+ROPE_KERNEL void rope_k_t1_gradient(const double *ROPE_RESTRICT qi, const double *ROPE_RESTRICT qj, const double *ROPE_RESTRICT cc, double *ROPE_RESTRICT gi, double *ROPE_RESTRICT gj)
 {
     gi[0] = cc[0]*qj[0];
     gi[1] = cc[0]*qj[1];
@@ -134,7 +142,7 @@ static void rope_k_t1_gradient(const double *ROPE_RESTRICT qi, const double *ROP
 
 /* diagonal block of A(q+) for the VI velocity solve: M_ii (q.q) I, the exact completion of -M_ii hat(q)^2 (equal to M_ii I on the sphere)
  * 6 operations as derived; after the passes 6 ops (2 +, 4 *, 0 /, 0 sqrt, 0 calls), 3 temporaries. */
-static void rope_k_a_body(const double m, const double *ROPE_RESTRICT q, double *ROPE_RESTRICT a)
+ROPE_KERNEL void rope_k_a_body(const double m, const double *ROPE_RESTRICT q, double *ROPE_RESTRICT a)
 {
     const double pw0 = q[0]*q[0];
     const double pw1 = q[1]*q[1];
@@ -144,7 +152,7 @@ static void rope_k_a_body(const double m, const double *ROPE_RESTRICT q, double 
 
 /* q+ = F q with F the Cayley rotation of f (exactly orthogonal for any f)
  * 84 operations as derived; after the passes 40 ops (15 +, 24 *, 1 /, 0 sqrt, 0 calls), 10 temporaries. */
-static void rope_k_cayley(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT f, double *ROPE_RESTRICT qn)
+ROPE_KERNEL void rope_k_cayley(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT f, double *ROPE_RESTRICT qn)
 {
     const double pw0 = f[0]*f[0];
     const double pw1 = f[1]*f[1];
@@ -163,7 +171,7 @@ static void rope_k_cayley(const double *ROPE_RESTRICT q, const double *ROPE_REST
 
 /* velocity of one body, omega x q (the source of the known side's pair sums)
  * 9 operations as derived; after the passes 9 ops (3 +, 6 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void rope_k_vel(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT w, double *ROPE_RESTRICT v)
+ROPE_KERNEL void rope_k_vel(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT w, double *ROPE_RESTRICT v)
 {
     v[0] = -q[1]*w[2] + q[2]*w[1];
     v[1] = q[0]*w[2] - q[2]*w[0];
@@ -172,7 +180,7 @@ static void rope_k_vel(const double *ROPE_RESTRICT q, const double *ROPE_RESTRIC
 
 /* known side d_i: one-body part plus h q_i x z_i, z_i = sum_j M_ij omega_j x q_j
  * 63 operations as derived; after the passes 52 ops (18 +, 34 *, 0 /, 0 sqrt, 0 calls), 4 temporaries. */
-static void rope_k_d_coupled(const double h, const double m, const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT w, const double *ROPE_RESTRICT g, const double *ROPE_RESTRICT z, double *ROPE_RESTRICT d)
+ROPE_KERNEL void rope_k_d_coupled(const double h, const double m, const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT w, const double *ROPE_RESTRICT g, const double *ROPE_RESTRICT z, double *ROPE_RESTRICT d)
 {
     const double x0 = (1.0/2.0)*h;
     const double x1 = -q[0]*w[1] + q[1]*w[0];
@@ -185,7 +193,7 @@ static void rope_k_d_coupled(const double h, const double m, const double *ROPE_
 
 /* Cayley displacement F q - q of one body and its Jacobian in f (row-major): the source of the residual's pair sums and the block K of the Newton Jacobian
  * 321 operations as derived; after the passes 72 ops (24 +, 47 *, 1 /, 0 sqrt, 0 calls), 16 temporaries. */
-static void rope_k_disp(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT f, double *ROPE_RESTRICT u, double *ROPE_RESTRICT kd)
+ROPE_KERNEL void rope_k_disp(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT f, double *ROPE_RESTRICT u, double *ROPE_RESTRICT kd)
 {
     const double pw0 = f[0]*f[0];
     const double pw1 = f[1]*f[1];
@@ -218,8 +226,8 @@ static void rope_k_disp(const double *ROPE_RESTRICT q, const double *ROPE_RESTRI
 }
 
 /* residual r_i = one-body part + q_i x z_i (z_i = sum_j M_ij (F_j q_j - q_j)); the diagonal block E_i = dr_i/df_i and H_i = hat(q_i) of the Newton Jacobian
- * 267 operations as derived; after the passes 58 ops (17 +, 39 *, 2 /, 0 sqrt, 0 calls), 20 temporaries. */
-static void rope_k_res_coupled(const double m, const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT f, const double *ROPE_RESTRICT d, const double *ROPE_RESTRICT z, double *ROPE_RESTRICT r, double *ROPE_RESTRICT e, double *ROPE_RESTRICT hq)
+ * 267 operations as derived; after the passes 57 ops (17 +, 39 *, 1 /, 0 sqrt, 0 calls), 20 temporaries. */
+ROPE_KERNEL void rope_k_res_coupled(const double m, const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT f, const double *ROPE_RESTRICT d, const double *ROPE_RESTRICT z, double *ROPE_RESTRICT r, double *ROPE_RESTRICT e, double *ROPE_RESTRICT hq)
 {
     const double pw0 = q[0]*q[0];
     const double pw1 = q[1]*q[1];
@@ -234,7 +242,7 @@ static void rope_k_res_coupled(const double m, const double *ROPE_RESTRICT q, co
     const double x4 = x1 + x2 + x3 + 1;
     const double pw6 = 1.0/x4;
     const double pw7 = pw6*pw6;
-    const double x5 = 1.0/x4;
+    const double x5 = pw6;
     const double x6 = -2*m*x0*x5;
     const double x7 = 4*m*pw7*x0;
     const double x8 = f[0]*x7;
@@ -266,7 +274,7 @@ static void rope_k_res_coupled(const double m, const double *ROPE_RESTRICT q, co
 
 /* velocity right side c_i: one-body part plus q_i+ x z_i / h
  * 81 operations as derived; after the passes 50 ops (17 +, 31 *, 2 /, 0 sqrt, 0 calls), 9 temporaries. */
-static void rope_k_c_coupled(const double h, const double m, const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT f, const double *ROPE_RESTRICT qn, const double *ROPE_RESTRICT gn, const double *ROPE_RESTRICT z, double *ROPE_RESTRICT c)
+ROPE_KERNEL void rope_k_c_coupled(const double h, const double m, const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT f, const double *ROPE_RESTRICT qn, const double *ROPE_RESTRICT gn, const double *ROPE_RESTRICT z, double *ROPE_RESTRICT c)
 {
     const double pw0 = f[0]*f[0];
     const double pw1 = f[1]*f[1];
@@ -284,7 +292,7 @@ static void rope_k_c_coupled(const double h, const double m, const double *ROPE_
 
 /* source of the field's pair sums, |omega|^2 q
  * 18 operations as derived; after the passes 8 ops (2 +, 6 *, 0 /, 0 sqrt, 0 calls), 4 temporaries. */
-static void rope_k_src_rhs(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT w, double *ROPE_RESTRICT u)
+ROPE_KERNEL void rope_k_src_rhs(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT w, double *ROPE_RESTRICT u)
 {
     const double pw0 = w[0]*w[0];
     const double pw1 = w[1]*w[1];
@@ -297,7 +305,7 @@ static void rope_k_src_rhs(const double *ROPE_RESTRICT q, const double *ROPE_RES
 
 /* vector field: qdot = omega x q and b_i = -q_i x g_i + q_i x z_i
  * 30 operations as derived; after the passes 30 ops (12 +, 18 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void rope_k_rhs_coupled(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT w, const double *ROPE_RESTRICT g, const double *ROPE_RESTRICT z, double *ROPE_RESTRICT dq, double *ROPE_RESTRICT b)
+ROPE_KERNEL void rope_k_rhs_coupled(const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT w, const double *ROPE_RESTRICT g, const double *ROPE_RESTRICT z, double *ROPE_RESTRICT dq, double *ROPE_RESTRICT b)
 {
     dq[0] = -q[1]*w[2] + q[2]*w[1];
     dq[1] = q[0]*w[2] - q[2]*w[0];
@@ -309,7 +317,7 @@ static void rope_k_rhs_coupled(const double *ROPE_RESTRICT q, const double *ROPE
 
 /* blocks of A(q) = E + H (M_off x I) K: E_i = a I, H_i = hat(q), K_i = -hat(q)
  * 0 operations as derived; after the passes 0 ops (0 +, 0 *, 0 /, 0 sqrt, 0 calls), 3 temporaries. */
-static void rope_k_a_blocks(const double a, const double *ROPE_RESTRICT q, double *ROPE_RESTRICT e, double *ROPE_RESTRICT hq, double *ROPE_RESTRICT kq)
+ROPE_KERNEL void rope_k_a_blocks(const double a, const double *ROPE_RESTRICT q, double *ROPE_RESTRICT e, double *ROPE_RESTRICT hq, double *ROPE_RESTRICT kq)
 {
     const double x0 = -q[2];
     const double x1 = -q[0];
@@ -345,7 +353,7 @@ static void rope_k_a_blocks(const double a, const double *ROPE_RESTRICT q, doubl
 
 /* RATTLE position multipliers, unknowns (z_i, delta_i): E_i = [[M_ii I, -x_i], [-2 xn_i^T, 0]] (row-major 4 x 4); H = [I; 0], K = [I, 0]
  * 3 operations as derived; after the passes 3 ops (0 +, 3 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void rope_k_rattle_pos_blocks(const double m, const double *ROPE_RESTRICT x, const double *ROPE_RESTRICT xn, double *ROPE_RESTRICT e)
+ROPE_KERNEL void rope_k_rattle_pos_blocks(const double m, const double *ROPE_RESTRICT x, const double *ROPE_RESTRICT xn, double *ROPE_RESTRICT e)
 {
     e[0] = m;
     e[1] = 0;
@@ -367,7 +375,7 @@ static void rope_k_rattle_pos_blocks(const double m, const double *ROPE_RESTRICT
 
 /* RATTLE velocity multipliers, unknowns (z_i, kappa_i): E_i = [[M_ii I, -xn_i], [xn_i^T, 0]] (row-major 4 x 4); H = [I; 0], K = [I, 0]
  * 0 operations as derived; after the passes 0 ops (0 +, 0 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void rope_k_rattle_vel_blocks(const double m, const double *ROPE_RESTRICT xn, double *ROPE_RESTRICT e)
+ROPE_KERNEL void rope_k_rattle_vel_blocks(const double m, const double *ROPE_RESTRICT xn, double *ROPE_RESTRICT e)
 {
     e[0] = m;
     e[1] = 0;
@@ -389,7 +397,7 @@ static void rope_k_rattle_vel_blocks(const double m, const double *ROPE_RESTRICT
 
 /* kinetic energy of body j in a max-index sweep: 1/2 M_jj |v_j|^2 + a_j c_j v_j . pv, pv = sum_{i<j} a_i v_i
  * 32 operations as derived; after the passes 23 ops (8 +, 15 *, 0 /, 0 sqrt, 0 calls), 6 temporaries. */
-static void rope_k_kin_sweep(const double m, const double ac, const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT w, const double *ROPE_RESTRICT pv, double *ROPE_RESTRICT t)
+ROPE_KERNEL void rope_k_kin_sweep(const double m, const double ac, const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT w, const double *ROPE_RESTRICT pv, double *ROPE_RESTRICT t)
 {
     const double x0 = -q[1]*w[2] + q[2]*w[1];
     const double pw0 = x0*x0;
@@ -402,7 +410,7 @@ static void rope_k_kin_sweep(const double m, const double ac, const double *ROPE
 
 /* angular momentum of body j in a max-index sweep: M_jj q_j x v_j + a_j c_j (pq x v_j + q_j x pv), pq = sum_{i<j} a_i q_i
  * 75 operations as derived; after the passes 48 ops (18 +, 30 *, 0 /, 0 sqrt, 0 calls), 3 temporaries. */
-static void rope_k_mom_sweep(const double m, const double ac, const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT w, const double *ROPE_RESTRICT pq, const double *ROPE_RESTRICT pv, double *ROPE_RESTRICT j)
+ROPE_KERNEL void rope_k_mom_sweep(const double m, const double ac, const double *ROPE_RESTRICT q, const double *ROPE_RESTRICT w, const double *ROPE_RESTRICT pq, const double *ROPE_RESTRICT pv, double *ROPE_RESTRICT j)
 {
     const double x0 = -q[0]*w[1] + q[1]*w[0];
     const double x1 = q[0]*w[2] - q[2]*w[0];

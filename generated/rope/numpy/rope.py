@@ -7,12 +7,12 @@
 #   factor: 1017 ops (358 +, 611 *, 48 /, 0 sqrt, 0 calls)
 #   cse: 424 ops (139 +, 279 *, 6 /, 0 sqrt, 0 calls)
 #   hoist: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
-#   strength: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
-#   powers: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
-#   opcount: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
-#   calls: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
-#   layout: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
-#   workspace: 421 ops (139 +, 276 *, 6 /, 0 sqrt, 0 calls)
+#   strength: 420 ops (139 +, 276 *, 5 /, 0 sqrt, 0 calls)
+#   powers: 420 ops (139 +, 276 *, 5 /, 0 sqrt, 0 calls)
+#   opcount: 420 ops (139 +, 276 *, 5 /, 0 sqrt, 0 calls)
+#   calls: 420 ops (139 +, 276 *, 5 /, 0 sqrt, 0 calls)
+#   layout: 420 ops (139 +, 276 *, 5 /, 0 sqrt, 0 calls)
+#   workspace: 420 ops (139 +, 276 *, 5 /, 0 sqrt, 0 calls)
 """Equations of motion and integrators for the system "rope" on (S^2)^20 (NumPy).
 
 Same functions as the emitted C (rope.h). States are arrays q, w of shape (20, 3).
@@ -175,7 +175,7 @@ def _k_disp(q, f):
 
 
 def _k_res_coupled(m, q, f, d, z):
-    """residual r_i = one-body part + q_i x z_i (z_i = sum_j M_ij (F_j q_j - q_j)); the diagonal block E_i = dr_i/df_i and H_i = hat(q_i) of the Newton Jacobian (267 ops as derived; after the passes 58 ops (17 +, 39 *, 2 /, 0 sqrt, 0 calls))."""
+    """residual r_i = one-body part + q_i x z_i (z_i = sum_j M_ij (F_j q_j - q_j)); the diagonal block E_i = dr_i/df_i and H_i = hat(q_i) of the Newton Jacobian (267 ops as derived; after the passes 57 ops (17 +, 39 *, 1 /, 0 sqrt, 0 calls))."""
     pw0 = q[..., 0]*q[..., 0]
     pw1 = q[..., 1]*q[..., 1]
     pw2 = q[..., 2]*q[..., 2]
@@ -189,7 +189,7 @@ def _k_res_coupled(m, q, f, d, z):
     x4 = x1 + x2 + x3 + 1
     pw6 = x4**(-1.0)
     pw7 = pw6*pw6
-    x5 = x4**(-1.0)
+    x5 = pw6
     x6 = -2*m*x0*x5
     x7 = 4*m*pw7*x0
     x8 = f[..., 0]*x7
