@@ -78,6 +78,19 @@ def _parser() -> argparse.ArgumentParser:
         help="RK45 error control: MATLAB ode45's (default) or Hairer's/scipy's",
     )
     s.add_argument(
+        "--every",
+        type=int,
+        default=1,
+        metavar="K",
+        help="keep every K-th step (T/h a multiple of K; energy only at kept samples); default 1",
+    )
+    s.add_argument(
+        "--opt",
+        choices=("portable", "native"),
+        help="gcc flags of the C library: portable (default: -O2 with SIMD hints, runs on any "
+        "machine) or native (-O3 -march=native: this processor only); or set S2GEN_OPT",
+    )
+    s.add_argument(
         "--out",
         required=True,
         help="trajectory file, written exactly as named (.npz format: t, q, omega, energy, "
@@ -157,14 +170,16 @@ def _progress_on(args: argparse.Namespace) -> bool:
     return bool(getattr(sys.stderr, "isatty", lambda: False)())
 
 
-def _integrate(be: Any, method: str, h: float, T: float, opts: Any, show: bool) -> Any:
-    """One run; when `show`, a progress bar (steps, rate, time left) on stderr once the run
-    has gone `PROGRESS_DELAY` seconds. The run is one call either way: the bar only reads
-    how far it has come."""
+def _integrate(
+    be: Any, method: str, h: float, T: float, opts: Any, show: bool, every: int = 1
+) -> Any:
+    """One run keeping every `every`-th step; when `show`, a progress bar (steps, rate, time
+    left) on stderr once the run has gone `PROGRESS_DELAY` seconds. The run is one call
+    either way: the bar only reads how far it has come."""
     from s2gen.runtime import run
 
     if not show:
-        return run(be, method, h, T, opts)
+        return run(be, method, h, T, opts, every=every)
     from tqdm import tqdm
 
     steps = round(T / h)
@@ -176,7 +191,7 @@ def _integrate(be: Any, method: str, h: float, T: float, opts: Any, show: bool) 
         def progress(fraction: float) -> None:
             bar.update(int(steps * fraction) - bar.n)
 
-        return run(be, method, h, T, opts, progress=progress)
+        return run(be, method, h, T, opts, every=every, progress=progress)
 
 
 def _output_file(path: str) -> Path:
@@ -207,14 +222,16 @@ def _simulate(args: argparse.Namespace) -> int:
     from s2gen.methods import check_method
 
     check_method(method, args.backend)
-    check_run(system, method, h, T, opts)  # a request the machine cannot serve: refused now
-    out = _output_file(args.out)  # and so is a file that could not be written
+    check_run(system, method, h, T, opts, args.every)  # a request the machine cannot serve
+    out = _output_file(args.out)  # and a file that could not be written: refused now
+    if args.opt:
+        os.environ["S2GEN_OPT"] = args.opt
     be = get_backend(system, args.backend)
     print(
         f"{system.name}: integrating with {method} on {args.backend} (h={h}, T={T}) ...", flush=True
     )
     try:
-        tr = _integrate(be, method, h, T, opts, _progress_on(args))
+        tr = _integrate(be, method, h, T, opts, _progress_on(args), args.every)
     except IntegrationError as exc:
         exc.partial.save(out)
         print(f"error: {exc}; saved them to {out}", file=sys.stderr)
