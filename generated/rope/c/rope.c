@@ -581,7 +581,7 @@ static int rope_band_solve(long dim, long kl, long ku, double *ab, double *b, in
         double *rk = ab + k * stride + kl;
         const long bottom = k + kl < dim ? k + kl : dim - 1;
         long last, piv = k;
-        double best = fabs(rk[k]);
+        double best = fabs(rk[k]), pinv;
         for (i = k + 1; i <= bottom; ++i) {
             const double v = fabs(ab[i * stride + kl + k]);
             if (v > best) {
@@ -610,9 +610,10 @@ static int rope_band_solve(long dim, long kl, long ku, double *ab, double *b, in
         if (kl > 0) { /* row k left of column k is eliminated: keep the row's reach there */
             rk[k - kl] = (double)last;
         }
+        pinv = 1.0 / rk[k];
         for (i = k + 1; i <= bottom; ++i) {
             double *ri = ab + i * stride + kl;
-            const double l = ri[k] / rk[k];
+            const double l = ri[k] * pinv;
             if (l != 0.0) {
                 for (j = k + 1; j <= last; ++j) {
                     ri[j] -= l * rk[j];
@@ -989,13 +990,13 @@ static int rope_vi_advance(const rope_ctx *cx, const rope_options *opt,
         if (status == ROPE_ERR_SINGULAR) {
             return ROPE_ERR_NEWTON;
         }
-        for (k = 0; k < ROPE_N3; ++k) {
-            f[k] += r[k];
-            step = fmax(step, fabs(r[k]));
-            size = fmax(size, fabs(f[k]));
+        if (status != ROPE_OK) { /* a non-finite update */
+            return status;
         }
-        if (!isfinite(step)) {
-            return ROPE_ERR_NONFINITE;
+        for (k = 0; k < ROPE_N3; ++k) {
+            const double moved = fabs(r[k]), now = fabs(f[k] += r[k]);
+            step = moved > step ? moved : step;
+            size = now > size ? now : size;
         }
         converged = step <= opt->newton_tol * size
                 || (step <= 1e3 * opt->newton_tol * size && step > 0.5 * previous);
@@ -1113,6 +1114,10 @@ static int rope_rattle_advance(const rope_ctx *cx, const rope_options *opt,
             *iters = it;
             return ROPE_ERR_NEWTON;
         }
+        if (status != ROPE_OK) { /* a non-finite update */
+            *iters = it;
+            return status;
+        }
         /* the size of the position correction, (W delta)_i */
         for (i = 0; i < 20; ++i) {
             t[i] = rb[4 * i + 3];
@@ -1122,7 +1127,7 @@ static int rope_rattle_advance(const rope_ctx *cx, const rope_options *opt,
         }
         for (i = 0; i < 20; ++i) {
             sv[i] += rb[4 * i + 3];
-            step = fmax(step, fabs(t[i]));
+            step = fabs(t[i]) > step ? fabs(t[i]) : step;
         }
         *iters = it;
         if (!isfinite(step)) {
