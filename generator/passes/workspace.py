@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from s2gen.ir import Buffer, Layout, LoopKind, Module, ModuleKind
+from s2gen.methods import METHODS
 
 __all__ = ["CONTEXT", "layout", "workspace_pass"]
 
@@ -64,11 +65,13 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     step = max(vi.size, rattle.size) if coupled else rattle.size
     state = [(b, m3) for b in ("qk", "wk", "q1", "w1")]  # the current and the next state
     # Newton's starting points: each substep's Cayley parameters (VI) or multipliers (RATTLE)
-    # from the previous step
-    starts = [("f", 3 * m3 if coupled else 0), ("s", n if coupled else 0)]
+    # from the previous step, for the longest composition
+    subs = max(len(m.composition.fractions) for m in METHODS if m.composition is not None)
+    starts = [("f", subs * m3 if coupled else 0), ("s", subs * n if coupled else 0)]
+    # substeps alternate between (a, vc) and (b, vd); va, vb carry RATTLE's velocities
     geometric = layout(
         "geometric",
-        *((b, m3) for b in ("g", "gn", "a", "b", "va", "vb")),
+        *((b, m3) for b in ("g", "gn", "a", "b", "va", "vb", "vc", "vd")),
         *state,
         *starts,
         ("step", step),

@@ -20,7 +20,7 @@ from typing import Any
 
 from s2gen.interface import interface
 from s2gen.ir import Kernel, LoopKind, Module, ModuleKind, PassRecord, TermLoop
-from s2gen.methods import METHODS, Status, method
+from s2gen.methods import COMPOSITIONS, METHODS, Family, Status
 from s2gen.passes.workspace import CONTEXT
 from s2gen.printing.c import (
     c_call,
@@ -145,7 +145,8 @@ class PrintedModule:
     statuses: tuple[tuple[str, int, str], ...]
     methods: tuple[tuple[str, int, str], ...]
     passes: tuple[PassRecord, ...]
-    yoshida: tuple[str, ...]
+    compositions: tuple[dict[str, Any], ...]  # name, source, order, count, fractions (literals)
+    schemes: tuple[dict[str, Any], ...]  # per geometric method: c_name, rattle, count, table
     evals: str  # the statistics counter of vector-field / gradient evaluations
     state_doc: str
     py_doc_title: str
@@ -413,6 +414,37 @@ def _enums(module: Module) -> tuple[tuple[tuple[str, int, str], ...], ...]:
     return tuple((s.c_name, int(s), s.message) for s in statuses), meths
 
 
+def _compositions() -> tuple[dict[str, Any], ...]:
+    """The step fractions of every composition a geometric method uses, as literals."""
+    used = {m.composition for m in METHODS if m.composition is not None}
+    return tuple(
+        {
+            "name": c.name,
+            "source": c.source,
+            "order": c.order,
+            "count": len(c.fractions),
+            "fractions": tuple(repr(g) for g in c.fractions),
+        }
+        for c in COMPOSITIONS
+        if c in used
+    )
+
+
+def _schemes() -> tuple[dict[str, Any], ...]:
+    """Per geometric method: its enum constant, whether its basic step is RATTLE's (else the
+    VI's), and its composition's table and length."""
+    return tuple(
+        {
+            "c_name": m.c_name,
+            "rattle": int(m.family is Family.RATTLE),
+            "count": len(m.composition.fractions),
+            "table": m.composition.name,
+        }
+        for m in METHODS
+        if m.composition is not None
+    )
+
+
 def print_module(module: Module) -> PrintedModule:
     """Print every part of a lowered module for both languages."""
     name, upper = module.name, module.name.upper()
@@ -532,7 +564,8 @@ def print_module(module: Module) -> PrintedModule:
         statuses=statuses,
         methods=meths,
         passes=module.passes,
-        yoshida=tuple(repr(g) for g in method("vi4").substeps),
+        compositions=_compositions(),
+        schemes=_schemes(),
         evals="gradient_evals" if sphere else "rhs_evals",
         state_doc="(q, omega)" if sphere else "(x, xd)",
         py_doc_title=(

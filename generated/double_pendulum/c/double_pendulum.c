@@ -1447,31 +1447,101 @@ static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pend
     return DOUBLE_PENDULUM_OK;
 }
 
-/* Step fractions of the symmetric compositions of the VI (Yoshida's triple jump: 4th order). */
-static const double double_pendulum_yoshida[3] = { 1.3512071919596578, -1.7024143839193155, 1.3512071919596578 };
+/* Step fractions of the symmetric compositions: one step of size h is `count` steps of the basic
+ * VI or RATTLE step of sizes fraction[k] h (they add up to 1 and read the same backwards). */
+/* the basic step alone: order 2. */
+static const double double_pendulum_plain[1] = {
+    1.0
+};
+/* Yoshida (1990), Phys. Lett. A 150, 262, the triple jump: order 4. */
+static const double double_pendulum_triple_jump[3] = {
+    1.3512071919596578,
+    -1.7024143839193155,
+    1.3512071919596578
+};
+/* Yoshida (1990), Phys. Lett. A 150, 262, order 6, solution A: order 6. */
+static const double double_pendulum_yoshida6[7] = {
+    0.7845136104775573,
+    0.23557321335935813,
+    -1.177679984178871,
+    1.3151863206839112,
+    -1.177679984178871,
+    0.23557321335935813,
+    0.7845136104775573
+};
+/* Kahan and Li (1997), Math. Comp. 66, 1089, s15odr8: order 8. */
+static const double double_pendulum_kahan_li8[15] = {
+    0.741670364350613,
+    -0.4091008258000316,
+    0.1907547102962384,
+    -0.5738624711160822,
+    0.2990641813036559,
+    0.33462491824529816,
+    0.3152930923967666,
+    -0.7968879393529165,
+    0.3152930923967666,
+    0.33462491824529816,
+    0.2990641813036559,
+    -0.5738624711160822,
+    0.1907547102962384,
+    -0.4091008258000316,
+    0.741670364350613
+};
 
-/* VI, its 4th-order composition, or RATTLE from (q0, w0); every `every`-th state is stored.
- * One gradient per substep (the gradient at the new state is reused by the next step).
- * work: g (6), gn (6), a (6), b (6), va (6), vb (6), qk (6), wk (6), q1 (6), w1 (6), f (18), s (2), step (48). */
+/* A geometric method: its basic step (RATTLE or the VI) and its composition. */
+typedef struct {
+    int method, rattle, count;
+    const double *fractions;
+} double_pendulum_scheme;
+
+static const double_pendulum_scheme double_pendulum_schemes[8] = {
+    { DOUBLE_PENDULUM_METHOD_VI, 0, 1, double_pendulum_plain },
+    { DOUBLE_PENDULUM_METHOD_VI4, 0, 3, double_pendulum_triple_jump },
+    { DOUBLE_PENDULUM_METHOD_RATTLE, 1, 1, double_pendulum_plain },
+    { DOUBLE_PENDULUM_METHOD_VI6, 0, 7, double_pendulum_yoshida6 },
+    { DOUBLE_PENDULUM_METHOD_VI8, 0, 15, double_pendulum_kahan_li8 },
+    { DOUBLE_PENDULUM_METHOD_RATTLE4, 1, 3, double_pendulum_triple_jump },
+    { DOUBLE_PENDULUM_METHOD_RATTLE6, 1, 7, double_pendulum_yoshida6 },
+    { DOUBLE_PENDULUM_METHOD_RATTLE8, 1, 15, double_pendulum_kahan_li8 }
+};
+
+/* The scheme of a geometric method, or NULL. */
+static const double_pendulum_scheme *double_pendulum_scheme_of(int method)
+{
+    int i;
+    for (i = 0; i < 8; ++i) {
+        if (double_pendulum_schemes[i].method == method) {
+            return &double_pendulum_schemes[i];
+        }
+    }
+    return NULL;
+}
+
+/* A composition of VI steps or of RATTLE steps from (q0, w0); every `every`-th state is stored.
+ * One gradient per substep (the gradient at the new state is reused by the next substep).
+ * Substeps alternate between the buffers (a, vc) and (b, vd), the last one writes (q1, w1)
+ * (VI) or (q1, vb) (RATTLE, whose velocities v_i = qdot_i persist in va across steps).
+ * work: g (6), gn (6), a (6), b (6), va (6), vb (6), vc (6), vd (6), qk (6), wk (6), q1 (6), w1 (6), f (90), s (30), step (48). */
 static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, const double_pendulum_options *opt,
-        int method, double h, long nsteps, long every, const double *q0, const double *w0,
-        double *q, double *w, double *energy, double *work, double_pendulum_stats *stats)
+        const double_pendulum_scheme *sc, double h, long nsteps, long every, const double *q0,
+        const double *w0, double *q, double *w, double *energy, double *work, double_pendulum_stats *stats)
 {
     double *g = work + 0, *gn = work + 6;
     double *a = work + 12, *b = work + 18;
-    double *fs = work + 60;
+    double *fs = work + 72;
     double *va = work + 24, *vb = work + 30;
-    double *qk = work + 36, *wk = work + 42;
-    double *q1 = work + 48, *w1 = work + 54;
-    double *ss = work + 78;
-    double *rest = work + 80, *tmp;
+    double *vc = work + 36, *vd = work + 42;
+    double *qk = work + 48, *wk = work + 54;
+    double *q1 = work + 60, *w1 = work + 66;
+    double *ss = work + 162;
+    double *rest = work + 192, *tmp;
     long k, e;
     int status = DOUBLE_PENDULUM_OK;
     double_pendulum_copy(qk, q0, DOUBLE_PENDULUM_N3);
     double_pendulum_copy(wk, w0, DOUBLE_PENDULUM_N3);
     double_pendulum_gradient_cx(cx, qk, g);
     stats->gradient_evals += 1;
-    if (method == DOUBLE_PENDULUM_METHOD_RATTLE) {
+    if (sc->rattle) {
         for (e = 0; e < 2; ++e) { /* v = omega x q */
             const double *x = qk + 3 * e, *o = wk + 3 * e;
             va[3 * e] = o[1] * x[2] - o[2] * x[1];
@@ -1480,34 +1550,28 @@ static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, co
         }
     }
     for (k = 0; k < nsteps; ++k) {
-        int iters = 0, total = 0;
-        int sub;
-        if (method == DOUBLE_PENDULUM_METHOD_VI) {
-            status = double_pendulum_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, fs, k > 0, rest,
-                    &iters);
-            total = iters;
+        const double *qs = qk, *vs = sc->rattle ? va : wk;
+        int sub, iters = 0, total = 0;
+        for (sub = 0; sub < sc->count && status == DOUBLE_PENDULUM_OK; ++sub) {
+            const int last = sub == sc->count - 1;
+            double *qd = last ? q1 : (sub % 2 == 0 ? a : b);
+            double *vn = last ? (sc->rattle ? vb : w1) : (sub % 2 == 0 ? vc : vd);
+            if (sc->rattle) {
+                status = double_pendulum_rattle_advance(cx, opt, sc->fractions[sub] * h, qs, vs, g, qd,
+                        vn, gn, ss + sub * 2, k > 0, rest, &iters);
+            } else {
+                status = double_pendulum_vi_advance(cx, opt, sc->fractions[sub] * h, qs, vs, g, qd, vn,
+                        gn, fs + sub * DOUBLE_PENDULUM_N3, k > 0, rest, &iters);
+            }
+            total += iters;
+            qs = qd;
+            vs = vn;
             tmp = g;
             g = gn;
             gn = tmp;
-        } else if (method == DOUBLE_PENDULUM_METHOD_VI4) {
-            const double *qs = qk, *ws = wk;
-            for (sub = 0; sub < 3 && status == DOUBLE_PENDULUM_OK; ++sub) {
-                double *qd = sub == 2 ? q1 : (sub == 0 ? a : b);
-                double *wd = sub == 2 ? w1 : (sub == 0 ? va : vb);
-                status = double_pendulum_vi_advance(cx, opt, double_pendulum_yoshida[sub] * h, qs, ws, g, qd,
-                        wd, gn, fs + sub * DOUBLE_PENDULUM_N3, k > 0, rest, &iters);
-                total += iters;
-                qs = qd;
-                ws = wd;
-                tmp = g;
-                g = gn;
-                gn = tmp;
-                stats->gradient_evals += sub < 2 ? 1 : 0;
-            }
-        } else {
-            status = double_pendulum_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, ss, k > 0, rest,
-                    &iters);
-            total = iters;
+            stats->gradient_evals += last ? 0 : 1;
+        }
+        if (sc->rattle) {
             for (e = 0; e < 2 && status == DOUBLE_PENDULUM_OK; ++e) { /* omega = q x v */
                 const double *x = q1 + 3 * e, *u = vb + 3 * e;
                 w1[3 * e] = x[1] * u[2] - x[2] * u[1];
@@ -1517,9 +1581,6 @@ static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, co
             tmp = va;
             va = vb;
             vb = tmp;
-            tmp = g;
-            g = gn;
-            gn = tmp;
         }
         stats->newton_iters += total;
         if (total > stats->newton_max) {
@@ -1581,7 +1642,7 @@ static int double_pendulum_integrate_fixed(const double_pendulum_ctx *cx, int me
     return DOUBLE_PENDULUM_OK;
 }
 
-/* work: run (162), y0 (12). */
+/* work: run (240), y0 (12). */
 int double_pendulum_integrate(const double *p, const double_pendulum_options *opt, int method, double h,
         long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy,
         double *work, double_pendulum_stats *stats)
@@ -1589,6 +1650,7 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
     double_pendulum_options defaults;
     double_pendulum_stats local;
     double_pendulum_ctx ctx, *cx = &ctx;
+    const double_pendulum_scheme *scheme;
     double *run = work + 0;
     long every, i;
     if (!opt) {
@@ -1624,14 +1686,14 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
     double_pendulum_store(cx, q0, w0, 0, q, w, energy);
     stats->fail_step = 1;
     if (method == DOUBLE_PENDULUM_METHOD_RK45) {
-        double *y0 = work + 162;
+        double *y0 = work + 240;
         double_pendulum_copy(y0, q0, DOUBLE_PENDULUM_N3);
         double_pendulum_copy(y0 + DOUBLE_PENDULUM_N3, w0, DOUBLE_PENDULUM_N3);
         return double_pendulum_rk45(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
     }
-    if (method == DOUBLE_PENDULUM_METHOD_VI || method == DOUBLE_PENDULUM_METHOD_VI4
-            || method == DOUBLE_PENDULUM_METHOD_RATTLE) {
-        return double_pendulum_integrate_geometric(cx, opt, method, h, nsteps, every, q0, w0, q, w,
+    scheme = double_pendulum_scheme_of(method);
+    if (scheme) {
+        return double_pendulum_integrate_geometric(cx, opt, scheme, h, nsteps, every, q0, w0, q, w,
                 energy, run, stats);
     }
     if (method != DOUBLE_PENDULUM_METHOD_RK2 && method != DOUBLE_PENDULUM_METHOD_RK2_PROJ

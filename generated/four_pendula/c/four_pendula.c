@@ -1115,29 +1115,101 @@ static int four_pendula_rk45(const four_pendula_ctx *cx, const four_pendula_opti
     return FOUR_PENDULA_OK;
 }
 
-/* Step fractions of the symmetric compositions of the VI (Yoshida's triple jump: 4th order). */
-static const double four_pendula_yoshida[3] = { 1.3512071919596578, -1.7024143839193155, 1.3512071919596578 };
+/* Step fractions of the symmetric compositions: one step of size h is `count` steps of the basic
+ * VI or RATTLE step of sizes fraction[k] h (they add up to 1 and read the same backwards). */
+/* the basic step alone: order 2. */
+static const double four_pendula_plain[1] = {
+    1.0
+};
+/* Yoshida (1990), Phys. Lett. A 150, 262, the triple jump: order 4. */
+static const double four_pendula_triple_jump[3] = {
+    1.3512071919596578,
+    -1.7024143839193155,
+    1.3512071919596578
+};
+/* Yoshida (1990), Phys. Lett. A 150, 262, order 6, solution A: order 6. */
+static const double four_pendula_yoshida6[7] = {
+    0.7845136104775573,
+    0.23557321335935813,
+    -1.177679984178871,
+    1.3151863206839112,
+    -1.177679984178871,
+    0.23557321335935813,
+    0.7845136104775573
+};
+/* Kahan and Li (1997), Math. Comp. 66, 1089, s15odr8: order 8. */
+static const double four_pendula_kahan_li8[15] = {
+    0.741670364350613,
+    -0.4091008258000316,
+    0.1907547102962384,
+    -0.5738624711160822,
+    0.2990641813036559,
+    0.33462491824529816,
+    0.3152930923967666,
+    -0.7968879393529165,
+    0.3152930923967666,
+    0.33462491824529816,
+    0.2990641813036559,
+    -0.5738624711160822,
+    0.1907547102962384,
+    -0.4091008258000316,
+    0.741670364350613
+};
 
-/* RATTLE from (q0, w0) (the explicit VI has its own driver); every `every`-th state is stored.
- * One gradient per substep (the gradient at the new state is reused by the next step).
- * work: g (12), gn (12), a (12), b (12), va (12), vb (12), qk (12), wk (12), q1 (12), w1 (12), step (12). */
+/* A geometric method: its basic step (RATTLE or the VI) and its composition. */
+typedef struct {
+    int method, rattle, count;
+    const double *fractions;
+} four_pendula_scheme;
+
+static const four_pendula_scheme four_pendula_schemes[8] = {
+    { FOUR_PENDULA_METHOD_VI, 0, 1, four_pendula_plain },
+    { FOUR_PENDULA_METHOD_VI4, 0, 3, four_pendula_triple_jump },
+    { FOUR_PENDULA_METHOD_RATTLE, 1, 1, four_pendula_plain },
+    { FOUR_PENDULA_METHOD_VI6, 0, 7, four_pendula_yoshida6 },
+    { FOUR_PENDULA_METHOD_VI8, 0, 15, four_pendula_kahan_li8 },
+    { FOUR_PENDULA_METHOD_RATTLE4, 1, 3, four_pendula_triple_jump },
+    { FOUR_PENDULA_METHOD_RATTLE6, 1, 7, four_pendula_yoshida6 },
+    { FOUR_PENDULA_METHOD_RATTLE8, 1, 15, four_pendula_kahan_li8 }
+};
+
+/* The scheme of a geometric method, or NULL. */
+static const four_pendula_scheme *four_pendula_scheme_of(int method)
+{
+    int i;
+    for (i = 0; i < 8; ++i) {
+        if (four_pendula_schemes[i].method == method) {
+            return &four_pendula_schemes[i];
+        }
+    }
+    return NULL;
+}
+
+/* A composition of RATTLE steps from (q0, w0) (the explicit VI has its own driver); every
+ * `every`-th state is stored.
+ * One gradient per substep (the gradient at the new state is reused by the next substep).
+ * Substeps alternate between the buffers (a, vc) and (b, vd), the last one writes (q1, w1)
+ * (VI) or (q1, vb) (RATTLE, whose velocities v_i = qdot_i persist in va across steps).
+ * work: g (12), gn (12), a (12), b (12), va (12), vb (12), vc (12), vd (12), qk (12), wk (12), q1 (12), w1 (12), step (12). */
 static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const four_pendula_options *opt,
-        int method, double h, long nsteps, long every, const double *q0, const double *w0,
-        double *q, double *w, double *energy, double *work, four_pendula_stats *stats)
+        const four_pendula_scheme *sc, double h, long nsteps, long every, const double *q0,
+        const double *w0, double *q, double *w, double *energy, double *work, four_pendula_stats *stats)
 {
     double *g = work + 0, *gn = work + 12;
+    double *a = work + 24, *b = work + 36;
     double *va = work + 48, *vb = work + 60;
-    double *qk = work + 72, *wk = work + 84;
-    double *q1 = work + 96, *w1 = work + 108;
-    double *ss = work + 120;
-    double *rest = work + 120, *tmp;
+    double *vc = work + 72, *vd = work + 84;
+    double *qk = work + 96, *wk = work + 108;
+    double *q1 = work + 120, *w1 = work + 132;
+    double *ss = work + 144;
+    double *rest = work + 144, *tmp;
     long k, e;
     int status = FOUR_PENDULA_OK;
     four_pendula_copy(qk, q0, FOUR_PENDULA_N3);
     four_pendula_copy(wk, w0, FOUR_PENDULA_N3);
     four_pendula_gradient_cx(cx, qk, g);
     stats->gradient_evals += 1;
-    if (method == FOUR_PENDULA_METHOD_RATTLE) {
+    if (sc->rattle) {
         for (e = 0; e < 4; ++e) { /* v = omega x q */
             const double *x = qk + 3 * e, *o = wk + 3 * e;
             va[3 * e] = o[1] * x[2] - o[2] * x[1];
@@ -1146,11 +1218,25 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
         }
     }
     for (k = 0; k < nsteps; ++k) {
-        int iters = 0, total = 0;
-        {
-            status = four_pendula_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, ss, k > 0, rest,
-                    &iters);
-            total = iters;
+        const double *qs = qk, *vs = sc->rattle ? va : wk;
+        int sub, iters = 0, total = 0;
+        for (sub = 0; sub < sc->count && status == FOUR_PENDULA_OK; ++sub) {
+            const int last = sub == sc->count - 1;
+            double *qd = last ? q1 : (sub % 2 == 0 ? a : b);
+            double *vn = last ? (sc->rattle ? vb : w1) : (sub % 2 == 0 ? vc : vd);
+            if (sc->rattle) {
+                status = four_pendula_rattle_advance(cx, opt, sc->fractions[sub] * h, qs, vs, g, qd,
+                        vn, gn, ss + sub * 4, k > 0, rest, &iters);
+            }
+            total += iters;
+            qs = qd;
+            vs = vn;
+            tmp = g;
+            g = gn;
+            gn = tmp;
+            stats->gradient_evals += last ? 0 : 1;
+        }
+        if (sc->rattle) {
             for (e = 0; e < 4 && status == FOUR_PENDULA_OK; ++e) { /* omega = q x v */
                 const double *x = q1 + 3 * e, *u = vb + 3 * e;
                 w1[3 * e] = x[1] * u[2] - x[2] * u[1];
@@ -1160,9 +1246,6 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
             tmp = va;
             va = vb;
             vb = tmp;
-            tmp = g;
-            g = gn;
-            gn = tmp;
         }
         stats->newton_iters += total;
         if (total > stats->newton_max) {
@@ -1191,11 +1274,11 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
     return status;
 }
 
-/* The explicit VI or its 4th-order composition from (q0, w0), on component-major copies of the
- * state (see vi_explicit); every `every`-th state is stored, body-major. One gradient per
- * substep (the gradient at the new state is reused by the next step).
+/* A composition of explicit VI steps from (q0, w0), on component-major copies of the state
+ * (see vi_explicit); every `every`-th state is stored, body-major. One gradient per substep
+ * (the gradient at the new state is reused by the next substep).
  * work: x (12), v (12), gx (12), xn (12), vn (12), gn (12), s (4), bridge (24). */
-static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, int method, double h,
+static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, const four_pendula_scheme *sc, double h,
         long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
         double *energy, double *work, four_pendula_stats *stats)
 {
@@ -1204,7 +1287,6 @@ static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, int metho
     double *vn = work + 48, *gn = work + 60;
     double *sv = work + 72, *bridge = work + 76;
     double *tmp;
-    const int subs = method == FOUR_PENDULA_METHOD_VI4 ? 3 : 1;
     long k;
     int sub, status = FOUR_PENDULA_OK;
     four_pendula_to_soa(q0, x);
@@ -1212,9 +1294,9 @@ static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, int metho
     four_pendula_gradient_soa(cx, x, gx, bridge);
     stats->gradient_evals += 1;
     for (k = 0; k < nsteps; ++k) {
-        for (sub = 0; sub < subs && status == FOUR_PENDULA_OK; ++sub) {
-            const double hs = subs == 1 ? h : four_pendula_yoshida[sub] * h;
-            status = four_pendula_vi_explicit(cx, hs, x, v, gx, xn, vn, gn, sv, bridge);
+        for (sub = 0; sub < sc->count && status == FOUR_PENDULA_OK; ++sub) {
+            status = four_pendula_vi_explicit(cx, sc->fractions[sub] * h, x, v, gx, xn, vn, gn, sv,
+                    bridge);
             tmp = x;
             x = xn;
             xn = tmp;
@@ -1229,7 +1311,7 @@ static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, int metho
         if (status != FOUR_PENDULA_OK) {
             return status;
         }
-        stats->gradient_evals += subs;
+        stats->gradient_evals += sc->count;
         stats->steps += 1;
         if ((k + 1) % every == 0) {
             const long s = (k + 1) / every;
@@ -1286,6 +1368,7 @@ int four_pendula_integrate(const double *p, const four_pendula_options *opt, int
     four_pendula_options defaults;
     four_pendula_stats local;
     four_pendula_ctx ctx, *cx = &ctx;
+    const four_pendula_scheme *scheme;
     double *run = work + 0;
     long every, i;
     if (!opt) {
@@ -1326,13 +1409,13 @@ int four_pendula_integrate(const double *p, const four_pendula_options *opt, int
         four_pendula_copy(y0 + FOUR_PENDULA_N3, w0, FOUR_PENDULA_N3);
         return four_pendula_rk45(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
     }
-    if (method == FOUR_PENDULA_METHOD_VI || method == FOUR_PENDULA_METHOD_VI4) {
-        return four_pendula_integrate_explicit(cx, method, h, nsteps, every, q0, w0, q, w, energy,
+    scheme = four_pendula_scheme_of(method);
+    if (scheme && !scheme->rattle) {
+        return four_pendula_integrate_explicit(cx, scheme, h, nsteps, every, q0, w0, q, w, energy,
                 run, stats);
     }
-    if (method == FOUR_PENDULA_METHOD_VI || method == FOUR_PENDULA_METHOD_VI4
-            || method == FOUR_PENDULA_METHOD_RATTLE) {
-        return four_pendula_integrate_geometric(cx, opt, method, h, nsteps, every, q0, w0, q, w,
+    if (scheme) {
+        return four_pendula_integrate_geometric(cx, opt, scheme, h, nsteps, every, q0, w0, q, w,
                 energy, run, stats);
     }
     if (method != FOUR_PENDULA_METHOD_RK2 && method != FOUR_PENDULA_METHOD_RK2_PROJ

@@ -1155,29 +1155,101 @@ static int lj_cutoff_rk45(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
     return LJ_CUTOFF_OK;
 }
 
-/* Step fractions of the symmetric compositions of the VI (Yoshida's triple jump: 4th order). */
-static const double lj_cutoff_yoshida[3] = { 1.3512071919596578, -1.7024143839193155, 1.3512071919596578 };
+/* Step fractions of the symmetric compositions: one step of size h is `count` steps of the basic
+ * VI or RATTLE step of sizes fraction[k] h (they add up to 1 and read the same backwards). */
+/* the basic step alone: order 2. */
+static const double lj_cutoff_plain[1] = {
+    1.0
+};
+/* Yoshida (1990), Phys. Lett. A 150, 262, the triple jump: order 4. */
+static const double lj_cutoff_triple_jump[3] = {
+    1.3512071919596578,
+    -1.7024143839193155,
+    1.3512071919596578
+};
+/* Yoshida (1990), Phys. Lett. A 150, 262, order 6, solution A: order 6. */
+static const double lj_cutoff_yoshida6[7] = {
+    0.7845136104775573,
+    0.23557321335935813,
+    -1.177679984178871,
+    1.3151863206839112,
+    -1.177679984178871,
+    0.23557321335935813,
+    0.7845136104775573
+};
+/* Kahan and Li (1997), Math. Comp. 66, 1089, s15odr8: order 8. */
+static const double lj_cutoff_kahan_li8[15] = {
+    0.741670364350613,
+    -0.4091008258000316,
+    0.1907547102962384,
+    -0.5738624711160822,
+    0.2990641813036559,
+    0.33462491824529816,
+    0.3152930923967666,
+    -0.7968879393529165,
+    0.3152930923967666,
+    0.33462491824529816,
+    0.2990641813036559,
+    -0.5738624711160822,
+    0.1907547102962384,
+    -0.4091008258000316,
+    0.741670364350613
+};
 
-/* RATTLE from (q0, w0) (the explicit VI has its own driver); every `every`-th state is stored.
- * One gradient per substep (the gradient at the new state is reused by the next step).
- * work: g (24), gn (24), a (24), b (24), va (24), vb (24), qk (24), wk (24), q1 (24), w1 (24), step (24). */
+/* A geometric method: its basic step (RATTLE or the VI) and its composition. */
+typedef struct {
+    int method, rattle, count;
+    const double *fractions;
+} lj_cutoff_scheme;
+
+static const lj_cutoff_scheme lj_cutoff_schemes[8] = {
+    { LJ_CUTOFF_METHOD_VI, 0, 1, lj_cutoff_plain },
+    { LJ_CUTOFF_METHOD_VI4, 0, 3, lj_cutoff_triple_jump },
+    { LJ_CUTOFF_METHOD_RATTLE, 1, 1, lj_cutoff_plain },
+    { LJ_CUTOFF_METHOD_VI6, 0, 7, lj_cutoff_yoshida6 },
+    { LJ_CUTOFF_METHOD_VI8, 0, 15, lj_cutoff_kahan_li8 },
+    { LJ_CUTOFF_METHOD_RATTLE4, 1, 3, lj_cutoff_triple_jump },
+    { LJ_CUTOFF_METHOD_RATTLE6, 1, 7, lj_cutoff_yoshida6 },
+    { LJ_CUTOFF_METHOD_RATTLE8, 1, 15, lj_cutoff_kahan_li8 }
+};
+
+/* The scheme of a geometric method, or NULL. */
+static const lj_cutoff_scheme *lj_cutoff_scheme_of(int method)
+{
+    int i;
+    for (i = 0; i < 8; ++i) {
+        if (lj_cutoff_schemes[i].method == method) {
+            return &lj_cutoff_schemes[i];
+        }
+    }
+    return NULL;
+}
+
+/* A composition of RATTLE steps from (q0, w0) (the explicit VI has its own driver); every
+ * `every`-th state is stored.
+ * One gradient per substep (the gradient at the new state is reused by the next substep).
+ * Substeps alternate between the buffers (a, vc) and (b, vd), the last one writes (q1, w1)
+ * (VI) or (q1, vb) (RATTLE, whose velocities v_i = qdot_i persist in va across steps).
+ * work: g (24), gn (24), a (24), b (24), va (24), vb (24), vc (24), vd (24), qk (24), wk (24), q1 (24), w1 (24), step (24). */
 static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
-        int method, double h, long nsteps, long every, const double *q0, const double *w0,
-        double *q, double *w, double *energy, double *work, lj_cutoff_stats *stats)
+        const lj_cutoff_scheme *sc, double h, long nsteps, long every, const double *q0,
+        const double *w0, double *q, double *w, double *energy, double *work, lj_cutoff_stats *stats)
 {
     double *g = work + 0, *gn = work + 24;
+    double *a = work + 48, *b = work + 72;
     double *va = work + 96, *vb = work + 120;
-    double *qk = work + 144, *wk = work + 168;
-    double *q1 = work + 192, *w1 = work + 216;
-    double *ss = work + 240;
-    double *rest = work + 240, *tmp;
+    double *vc = work + 144, *vd = work + 168;
+    double *qk = work + 192, *wk = work + 216;
+    double *q1 = work + 240, *w1 = work + 264;
+    double *ss = work + 288;
+    double *rest = work + 288, *tmp;
     long k, e;
     int status = LJ_CUTOFF_OK;
     lj_cutoff_copy(qk, q0, LJ_CUTOFF_N3);
     lj_cutoff_copy(wk, w0, LJ_CUTOFF_N3);
     lj_cutoff_gradient_cx(cx, qk, g);
     stats->gradient_evals += 1;
-    if (method == LJ_CUTOFF_METHOD_RATTLE) {
+    if (sc->rattle) {
         for (e = 0; e < 8; ++e) { /* v = omega x q */
             const double *x = qk + 3 * e, *o = wk + 3 * e;
             va[3 * e] = o[1] * x[2] - o[2] * x[1];
@@ -1186,11 +1258,25 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
         }
     }
     for (k = 0; k < nsteps; ++k) {
-        int iters = 0, total = 0;
-        {
-            status = lj_cutoff_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, ss, k > 0, rest,
-                    &iters);
-            total = iters;
+        const double *qs = qk, *vs = sc->rattle ? va : wk;
+        int sub, iters = 0, total = 0;
+        for (sub = 0; sub < sc->count && status == LJ_CUTOFF_OK; ++sub) {
+            const int last = sub == sc->count - 1;
+            double *qd = last ? q1 : (sub % 2 == 0 ? a : b);
+            double *vn = last ? (sc->rattle ? vb : w1) : (sub % 2 == 0 ? vc : vd);
+            if (sc->rattle) {
+                status = lj_cutoff_rattle_advance(cx, opt, sc->fractions[sub] * h, qs, vs, g, qd,
+                        vn, gn, ss + sub * 8, k > 0, rest, &iters);
+            }
+            total += iters;
+            qs = qd;
+            vs = vn;
+            tmp = g;
+            g = gn;
+            gn = tmp;
+            stats->gradient_evals += last ? 0 : 1;
+        }
+        if (sc->rattle) {
             for (e = 0; e < 8 && status == LJ_CUTOFF_OK; ++e) { /* omega = q x v */
                 const double *x = q1 + 3 * e, *u = vb + 3 * e;
                 w1[3 * e] = x[1] * u[2] - x[2] * u[1];
@@ -1200,9 +1286,6 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
             tmp = va;
             va = vb;
             vb = tmp;
-            tmp = g;
-            g = gn;
-            gn = tmp;
         }
         stats->newton_iters += total;
         if (total > stats->newton_max) {
@@ -1231,11 +1314,11 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
     return status;
 }
 
-/* The explicit VI or its 4th-order composition from (q0, w0), on component-major copies of the
- * state (see vi_explicit); every `every`-th state is stored, body-major. One gradient per
- * substep (the gradient at the new state is reused by the next step).
+/* A composition of explicit VI steps from (q0, w0), on component-major copies of the state
+ * (see vi_explicit); every `every`-th state is stored, body-major. One gradient per substep
+ * (the gradient at the new state is reused by the next substep).
  * work: x (24), v (24), gx (24), xn (24), vn (24), gn (24), s (8), bridge (48). */
-static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, int method, double h,
+static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, const lj_cutoff_scheme *sc, double h,
         long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
         double *energy, double *work, lj_cutoff_stats *stats)
 {
@@ -1244,7 +1327,6 @@ static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, int method, dou
     double *vn = work + 96, *gn = work + 120;
     double *sv = work + 144, *bridge = work + 152;
     double *tmp;
-    const int subs = method == LJ_CUTOFF_METHOD_VI4 ? 3 : 1;
     long k;
     int sub, status = LJ_CUTOFF_OK;
     lj_cutoff_to_soa(q0, x);
@@ -1252,9 +1334,9 @@ static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, int method, dou
     lj_cutoff_gradient_soa(cx, x, gx, bridge);
     stats->gradient_evals += 1;
     for (k = 0; k < nsteps; ++k) {
-        for (sub = 0; sub < subs && status == LJ_CUTOFF_OK; ++sub) {
-            const double hs = subs == 1 ? h : lj_cutoff_yoshida[sub] * h;
-            status = lj_cutoff_vi_explicit(cx, hs, x, v, gx, xn, vn, gn, sv, bridge);
+        for (sub = 0; sub < sc->count && status == LJ_CUTOFF_OK; ++sub) {
+            status = lj_cutoff_vi_explicit(cx, sc->fractions[sub] * h, x, v, gx, xn, vn, gn, sv,
+                    bridge);
             tmp = x;
             x = xn;
             xn = tmp;
@@ -1269,7 +1351,7 @@ static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, int method, dou
         if (status != LJ_CUTOFF_OK) {
             return status;
         }
-        stats->gradient_evals += subs;
+        stats->gradient_evals += sc->count;
         stats->steps += 1;
         if ((k + 1) % every == 0) {
             const long s = (k + 1) / every;
@@ -1326,6 +1408,7 @@ int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int metho
     lj_cutoff_options defaults;
     lj_cutoff_stats local;
     lj_cutoff_ctx ctx, *cx = &ctx;
+    const lj_cutoff_scheme *scheme;
     double *run = work + 0;
     long every, i;
     if (!opt) {
@@ -1366,13 +1449,13 @@ int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int metho
         lj_cutoff_copy(y0 + LJ_CUTOFF_N3, w0, LJ_CUTOFF_N3);
         return lj_cutoff_rk45(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
     }
-    if (method == LJ_CUTOFF_METHOD_VI || method == LJ_CUTOFF_METHOD_VI4) {
-        return lj_cutoff_integrate_explicit(cx, method, h, nsteps, every, q0, w0, q, w, energy,
+    scheme = lj_cutoff_scheme_of(method);
+    if (scheme && !scheme->rattle) {
+        return lj_cutoff_integrate_explicit(cx, scheme, h, nsteps, every, q0, w0, q, w, energy,
                 run, stats);
     }
-    if (method == LJ_CUTOFF_METHOD_VI || method == LJ_CUTOFF_METHOD_VI4
-            || method == LJ_CUTOFF_METHOD_RATTLE) {
-        return lj_cutoff_integrate_geometric(cx, opt, method, h, nsteps, every, q0, w0, q, w,
+    if (scheme) {
+        return lj_cutoff_integrate_geometric(cx, opt, scheme, h, nsteps, every, q0, w0, q, w,
                 energy, run, stats);
     }
     if (method != LJ_CUTOFF_METHOD_RK2 && method != LJ_CUTOFF_METHOD_RK2_PROJ

@@ -54,7 +54,13 @@ enum {
     LJ_CUTOFF_METHOD_RK2_PROJ = 3, /* explicit midpoint rule, q_i normalized after each step, order 2 */
     LJ_CUTOFF_METHOD_RK4 = 4, /* classical Runge-Kutta, order 4 */
     LJ_CUTOFF_METHOD_VI4 = 5, /* the VI composed by Yoshida's triple jump, order 4 */
-    LJ_CUTOFF_METHOD_RATTLE = 6 /* RATTLE on Cartesian q_i with the constraints |q_i| = 1, order 2 */
+    LJ_CUTOFF_METHOD_RATTLE = 6, /* RATTLE on Cartesian q_i with the constraints |q_i| = 1, order 2 */
+    LJ_CUTOFF_METHOD_VI6 = 7, /* the VI composed by Yoshida's 7-stage solution A, order 6 */
+    LJ_CUTOFF_METHOD_VI8 = 8, /* the VI composed by Kahan and Li's 15 stages, order 8 */
+    LJ_CUTOFF_METHOD_RATTLE4 = 9, /* RATTLE composed by the triple jump, order 4 */
+    LJ_CUTOFF_METHOD_RATTLE6 = 10, /* RATTLE composed by Yoshida's solution A, order 6 */
+    LJ_CUTOFF_METHOD_RATTLE8 = 11, /* RATTLE composed by Kahan and Li's 15 stages, order 8 */
+    LJ_CUTOFF_METHOD_DOP853 = 12 /* Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, steps end on the stored samples, order 8 */
 };
 
 /* RK45 error control: MATLAB ode45's (max norm, weights max(|y|, atol/rtol)) or Hairer's

@@ -45,6 +45,12 @@ METHOD_RK2_PROJ = 3  # explicit midpoint rule, q_i normalized after each step, o
 METHOD_RK4 = 4  # classical Runge-Kutta, order 4
 METHOD_VI4 = 5  # the VI composed by Yoshida's triple jump, order 4
 METHOD_RATTLE = 6  # RATTLE on Cartesian q_i with the constraints |q_i| = 1, order 2
+METHOD_VI6 = 7  # the VI composed by Yoshida's 7-stage solution A, order 6
+METHOD_VI8 = 8  # the VI composed by Kahan and Li's 15 stages, order 8
+METHOD_RATTLE4 = 9  # RATTLE composed by the triple jump, order 4
+METHOD_RATTLE6 = 10  # RATTLE composed by Yoshida's solution A, order 6
+METHOD_RATTLE8 = 11  # RATTLE composed by Kahan and Li's 15 stages, order 8
+METHOD_DOP853 = 12  # Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, steps end on the stored samples, order 8
 CONTROL_MATLAB, CONTROL_HAIRER = range(2)
 EVALS = "gradient_evals"  # the statistics counter of field evaluations
 
@@ -522,36 +528,53 @@ def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
 
 
 # ---- driver -----------------------------------------------------------------------------------------
-YOSHIDA = (1.3512071919596578, -1.7024143839193155, 1.3512071919596578)
+# Step fractions of the symmetric compositions: one step of size h is len(fractions) steps of
+# the basic VI or RATTLE step of sizes fraction * h (they add up to 1, read the same backwards).
+# the basic step alone: order 2.
+PLAIN = (1.0,)
+# Yoshida (1990), Phys. Lett. A 150, 262, the triple jump: order 4.
+TRIPLE_JUMP = (1.3512071919596578, -1.7024143839193155, 1.3512071919596578,)
+# Yoshida (1990), Phys. Lett. A 150, 262, order 6, solution A: order 6.
+YOSHIDA6 = (0.7845136104775573, 0.23557321335935813, -1.177679984178871, 1.3151863206839112, -1.177679984178871, 0.23557321335935813, 0.7845136104775573,)
+# Kahan and Li (1997), Math. Comp. 66, 1089, s15odr8: order 8.
+KAHAN_LI8 = (0.741670364350613, -0.4091008258000316, 0.1907547102962384, -0.5738624711160822, 0.2990641813036559, 0.33462491824529816, 0.3152930923967666, -0.7968879393529165, 0.3152930923967666, 0.33462491824529816, 0.2990641813036559, -0.5738624711160822, 0.1907547102962384, -0.4091008258000316, 0.741670364350613,)
+# Per geometric method: (its basic step is RATTLE's, else the VI's; its composition).
+SCHEMES = {
+    METHOD_VI: (False, PLAIN),
+    METHOD_VI4: (False, TRIPLE_JUMP),
+    METHOD_RATTLE: (True, PLAIN),
+    METHOD_VI6: (False, YOSHIDA6),
+    METHOD_VI8: (False, KAHAN_LI8),
+    METHOD_RATTLE4: (True, TRIPLE_JUMP),
+    METHOD_RATTLE6: (True, YOSHIDA6),
+    METHOD_RATTLE8: (True, KAHAN_LI8),
+}
 
 
 def _geometric(p, method, h, nsteps, every, q0, w0, store, stats, newton_tol, newton_maxiter):
-    """VI, its 4th-order Yoshida composition, or RATTLE (one gradient per substep); every
-    `every`-th state is stored."""
+    """A composition of VI or RATTLE steps (one gradient per substep); every `every`-th state
+    is stored."""
+    rattle, fractions = SCHEMES[method]
+    advance = _rattle_advance if rattle else _vi_advance
     qk, wk = q0, w0
     g = gradient(p, qk)
     stats["gradient_evals"] += 1
     v = numpy.cross(wk, qk)
-    starts = [None] * len(YOSHIDA)  # Newton's starting points: each substep's previous solution
+    starts = [None] * len(fractions)  # Newton's starting points: each substep's previous solution
     for k in range(nsteps):
         total, status = 0, OK
-        if method == METHOD_VI4:
-            qs, ws = qk, wk
-            for sub, gamma in enumerate(YOSHIDA):
-                status, qs, ws, g, iters, starts[sub] = _vi_advance(
-                    p, gamma * h, qs, ws, g, newton_tol, newton_maxiter, starts[sub])
-                total += iters
-                if status != OK:
-                    break
-            qn, wn = qs, ws
-            stats["gradient_evals"] += 2
-        elif method == METHOD_RATTLE:
-            status, qn, v, g, total, starts[0] = _rattle_advance(
-                p, h, qk, v, g, newton_tol, newton_maxiter, starts[0])
+        qs, vs = qk, (v if rattle else wk)
+        for sub, gamma in enumerate(fractions):
+            status, qs, vs, g, iters, starts[sub] = advance(
+                p, gamma * h, qs, vs, g, newton_tol, newton_maxiter, starts[sub])
+            total += iters
+            if status != OK:
+                break
+        stats["gradient_evals"] += len(fractions) - 1
+        qn, wn = qs, vs
+        if rattle:
+            v = vs
             wn = None if status != OK else numpy.cross(qn, v)
-        else:
-            status, qn, wn, g, total, starts[0] = _vi_advance(
-                p, h, qk, wk, g, newton_tol, newton_maxiter, starts[0])
         stats["newton_iters"] += total
         stats["newton_max"] = max(stats["newton_max"], total)
         if status == OK and not _finite(qn, wn):
@@ -640,7 +663,7 @@ def _integrate(p, method, h, nsteps, q0, w0, rtol, atol, control, hmax, newton_t
 
         y0 = numpy.concatenate([q0, w0])
         status = _rk45(p, h, nsteps, y0, sample, rtol, atol, control, hmax, stats, [None, None])
-    elif method in (METHOD_VI, METHOD_VI4, METHOD_RATTLE):
+    elif method in SCHEMES:
         status = _geometric(p, method, h, nsteps, every, q0, w0, store, stats, newton_tol,
                             newton_maxiter)
     elif method in (METHOD_RK2, METHOD_RK2_PROJ, METHOD_RK4):
