@@ -41,6 +41,10 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     rk_fixed = layout("rk_fixed", ("k1", ns), ("k2", ns), ("acc", ns), ("field", field.size))
     rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("rk", rk_fixed.size))
     rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
+    # DOP853: 12 stages and the field at the new state
+    dop853 = layout(
+        "dop853", ("k", 13 * ns), ("y", ns), ("yt", ns), ("yn", ns), ("field", field.size)
+    )
     if coupled:
         vi = layout("vi_advance", ("d", m3), ("r", m3), ("jm", m3 * m3))
         rattle = layout(
@@ -78,9 +82,10 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     )
     fixed = layout("fixed", *state, ("step", rk_step.size))
     vi_step = layout("vi_step", ("g", m3), ("gn", m3), ("f", m3), ("step", vi.size))
-    run = max(geometric.size, rk45.size, fixed.size, *(lay.size for lay in extra))
+    run = max(geometric.size, rk45.size, dop853.size, fixed.size, *(lay.size for lay in extra))
     integrate = layout("integrate", ("run", run), ("y0", ns))
-    layouts = [field, rk_fixed, rk_step, rk45, vi, rattle, geometric, fixed, vi_step, integrate]
+    layouts = [field, rk_fixed, rk_step, rk45, dop853, vi, rattle, geometric, fixed, vi_step]
+    layouts.append(integrate)
     layouts += extra
     return layouts, max(lay.size for lay in layouts)
 

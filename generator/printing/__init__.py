@@ -34,6 +34,8 @@ from s2gen.printing.c import (
     rows,
 )
 from s2gen.printing.numpy import py_call, py_kernel, py_term_setup
+from s2gen.printing.tableau import print_tableau
+from s2gen.tableaus import DOP853
 from s2gen.version import __version__
 
 __all__ = ["PrintedKernel", "PrintedModule", "PrintedTerm", "print_module"]
@@ -147,6 +149,7 @@ class PrintedModule:
     passes: tuple[PassRecord, ...]
     compositions: tuple[dict[str, Any], ...]  # name, source, order, count, fractions (literals)
     schemes: tuple[dict[str, Any], ...]  # per geometric method: c_name, rattle, count, table
+    dop853: dict[str, Any]  # DOP853's stage sums (s2gen.printing.tableau)
     evals: str  # the statistics counter of vector-field / gradient evaluations
     state_doc: str
     py_doc_title: str
@@ -566,6 +569,7 @@ def print_module(module: Module) -> PrintedModule:
         passes=module.passes,
         compositions=_compositions(),
         schemes=_schemes(),
+        dop853=print_tableau(DOP853),
         evals="gradient_evals" if sphere else "rhs_evals",
         state_doc="(q, omega)" if sphere else "(x, xd)",
         py_doc_title=(

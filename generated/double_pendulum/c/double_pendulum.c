@@ -1447,6 +1447,304 @@ static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pend
     return DOUBLE_PENDULUM_OK;
 }
 
+/* ---- adaptive Runge-Kutta (DOP853) ------------------------------------------------------- */
+/* DOP853's error of one trial step from (y, k) to yn (dop853.f): with weights
+ * sk = atol + rtol max(|y|, |yn|), err = |h| e5^2 / sqrt(N (e5^2 + 0.01 e3^2)), e5 and e3 the
+ * weighted 2-norms of the estimates of orders 5 and 3; 1 is the acceptance limit. NaN when the
+ * trial step is not finite. */
+static double double_pendulum_dop853_error(const double_pendulum_options *opt, double h, double *const *k,
+        const double *y, const double *yn)
+{
+    double err5 = 0.0, err3 = 0.0, deno;
+    int e;
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        const double sk = opt->atol + opt->rtol * fmax(fabs(y[e]), fabs(yn[e]));
+        const double d5 = (0.01312004499419488 * k[0][e]
+                - 1.2251564463762044 * k[5][e]
+                - 0.4957589496572502 * k[6][e]
+                + 1.6643771824549864 * k[7][e]
+                - 0.35032884874997366 * k[8][e]
+                + 0.3341791187130175 * k[9][e]
+                + 0.08192320648511571 * k[10][e]
+                - 0.022355307863886294 * k[11][e]) / sk;
+        const double d3 = (-0.18980075407240762 * k[0][e]
+                + 4.450312892752409 * k[5][e]
+                + 1.8915178993145003 * k[6][e]
+                - 5.801203960010585 * k[7][e]
+                - 0.4226823213237919 * k[8][e]
+                - 0.1521609496625161 * k[9][e]
+                + 0.20136540080403034 * k[10][e]
+                + 0.02265179219836082 * k[11][e]) / sk;
+        if (!(isfinite(d5) && isfinite(d3) && isfinite(yn[e]))) {
+            return NAN; /* a non-finite trial step is never accepted */
+        }
+        err5 += d5 * d5;
+        err3 += d3 * d3;
+    }
+    deno = err5 + 0.01 * err3;
+    if (deno <= 0.0) {
+        deno = 1.0;
+    }
+    return fabs(h) * err5 * sqrt(1.0 / (DOUBLE_PENDULUM_NS * deno));
+}
+
+/* DOP853's initial step (dop853.f, HINIT with order 8): h^8 max(|f0|, |f'|) = 0.01 in the
+ * weighted norm, f' from one explicit Euler step; at most 100 times that Euler step and hmax. */
+static double double_pendulum_dop853_h0(const double_pendulum_ctx *cx, const double_pendulum_options *opt, double hmax,
+        const double *y, const double *f0, double *yt, double *ft, double *fw, long *evals)
+{
+    double dnf = 0.0, dny = 0.0, der2 = 0.0, der12, h, h1;
+    int e;
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        const double sk = opt->atol + opt->rtol * fabs(y[e]);
+        dnf += (f0[e] / sk) * (f0[e] / sk);
+        dny += (y[e] / sk) * (y[e] / sk);
+    }
+    h = (dnf <= 1e-10 || dny <= 1e-10) ? 1e-6 : sqrt(dny / dnf) * 0.01;
+    h = fmin(h, hmax);
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        yt[e] = y[e] + h * f0[e];
+    }
+    if (double_pendulum_field(cx, yt, ft, fw)) {
+        return h;
+    }
+    *evals += 1;
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        const double sk = opt->atol + opt->rtol * fabs(y[e]);
+        der2 += ((ft[e] - f0[e]) / sk) * ((ft[e] - f0[e]) / sk);
+    }
+    der2 = sqrt(der2) / h;
+    der12 = fmax(fabs(der2), sqrt(dnf));
+    h1 = der12 <= 1e-15 ? fmax(1e-6, h * 1e-3) : pow(0.01 / der12, 1.0 / 8);
+    return fmin(fmin(100.0 * h, h1), hmax);
+}
+
+/* Adaptive DOP853 from y0 over nsteps output intervals of length hout, the steps ending on
+ * every stride-th grid point. Control as dop853.f: safety 0.9, the step changes by a factor in
+ * [1/3, 6] (no growth right after a rejection), hmax the whole span unless opt->hmax > 0. A step
+ * shortened to end on a sample does not limit the next: that one returns to the step it was cut
+ * from, as far as the shortened step's error allows. work: k (156), y (12), yt (12), yn (12), field (42). */
+static int double_pendulum_dop853(const double_pendulum_ctx *cx, const double_pendulum_options *opt, double hout,
+        long nsteps, long stride, const double *y0, double *q, double *w, double *energy, double *work, double_pendulum_stats *stats)
+{
+    double *k[13], *y = work + 156, *yt = work + 168;
+    double *yn = work + 180, *fw = work + 192, *tmp;
+    const double tend = hout * (double)nsteps;
+    const double hmax = opt->hmax > 0.0 ? opt->hmax : tend;
+    /* h_new / h = 1 / fac lies in [0.333, 6] (fac1, fac2 of dop853.f) */
+    const double fac_max = 1.0 / 0.333, fac_min = 1.0 / 6.0;
+    double t = 0.0, h;
+    long next = stride;
+    int s, e, status, reject = 0;
+    if (!(opt->rtol > 0.0) || !(opt->atol > 0.0)) {
+        return DOUBLE_PENDULUM_ERR_ARGUMENT;
+    }
+    for (s = 0; s <= 12; ++s) {
+        k[s] = work + 0 + s * DOUBLE_PENDULUM_NS;
+    }
+    double_pendulum_copy(y, y0, DOUBLE_PENDULUM_NS);
+    stats->fail_time = 0.0;
+    status = double_pendulum_field(cx, y, k[0], fw);
+    stats->gradient_evals += 1;
+    if (status) {
+        return status;
+    }
+    h = double_pendulum_dop853_h0(cx, opt, hmax, y, k[0], yt, k[1], fw, &stats->gradient_evals);
+    while (next <= nsteps) {
+        const double tout = next == nsteps ? tend : hout * (double)next;
+        const double hmin = 16.0 * (nextafter(t, INFINITY) - t);
+        double err, fac, hprop, hnew, tn;
+        int cut;
+        h = fmin(hmax, fmax(hmin, h));
+        for (;;) {
+            hprop = h;
+            cut = t + 1.01 * h >= tout;
+            tn = cut ? tout : t + h;
+            h = tn - t;
+            for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                yt[e] = y[e] + h * (0.05260015195876773 * k[0][e]);
+            }
+            status = double_pendulum_field(cx, yt, k[1], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                yt[e] = y[e] + h * (0.0197250569845379 * k[0][e]
+                        + 0.0591751709536137 * k[1][e]);
+            }
+            status = double_pendulum_field(cx, yt, k[2], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                yt[e] = y[e] + h * (0.02958758547680685 * k[0][e]
+                        + 0.08876275643042054 * k[2][e]);
+            }
+            status = double_pendulum_field(cx, yt, k[3], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                yt[e] = y[e] + h * (0.2413651341592667 * k[0][e]
+                        - 0.8845494793282861 * k[2][e]
+                        + 0.924834003261792 * k[3][e]);
+            }
+            status = double_pendulum_field(cx, yt, k[4], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                yt[e] = y[e] + h * (0.037037037037037035 * k[0][e]
+                        + 0.17082860872947386 * k[3][e]
+                        + 0.12546768756682242 * k[4][e]);
+            }
+            status = double_pendulum_field(cx, yt, k[5], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                yt[e] = y[e] + h * (0.037109375 * k[0][e]
+                        + 0.17025221101954405 * k[3][e]
+                        + 0.06021653898045596 * k[4][e]
+                        - 0.017578125 * k[5][e]);
+            }
+            status = double_pendulum_field(cx, yt, k[6], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                yt[e] = y[e] + h * (0.03709200011850479 * k[0][e]
+                        + 0.17038392571223998 * k[3][e]
+                        + 0.10726203044637328 * k[4][e]
+                        - 0.015319437748624402 * k[5][e]
+                        + 0.008273789163814023 * k[6][e]);
+            }
+            status = double_pendulum_field(cx, yt, k[7], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                yt[e] = y[e] + h * (0.6241109587160757 * k[0][e]
+                        - 3.3608926294469414 * k[3][e]
+                        - 0.868219346841726 * k[4][e]
+                        + 27.59209969944671 * k[5][e]
+                        + 20.154067550477894 * k[6][e]
+                        - 43.48988418106996 * k[7][e]);
+            }
+            status = double_pendulum_field(cx, yt, k[8], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                yt[e] = y[e] + h * (0.47766253643826434 * k[0][e]
+                        - 2.4881146199716677 * k[3][e]
+                        - 0.590290826836843 * k[4][e]
+                        + 21.230051448181193 * k[5][e]
+                        + 15.279233632882423 * k[6][e]
+                        - 33.28821096898486 * k[7][e]
+                        - 0.020331201708508627 * k[8][e]);
+            }
+            status = double_pendulum_field(cx, yt, k[9], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                yt[e] = y[e] + h * (-0.9371424300859873 * k[0][e]
+                        + 5.186372428844064 * k[3][e]
+                        + 1.0914373489967295 * k[4][e]
+                        - 8.149787010746927 * k[5][e]
+                        - 18.52006565999696 * k[6][e]
+                        + 22.739487099350505 * k[7][e]
+                        + 2.4936055526796523 * k[8][e]
+                        - 3.0467644718982196 * k[9][e]);
+            }
+            status = double_pendulum_field(cx, yt, k[10], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                yt[e] = y[e] + h * (2.273310147516538 * k[0][e]
+                        - 10.53449546673725 * k[3][e]
+                        - 2.0008720582248625 * k[4][e]
+                        - 17.9589318631188 * k[5][e]
+                        + 27.94888452941996 * k[6][e]
+                        - 2.8589982771350235 * k[7][e]
+                        - 8.87285693353063 * k[8][e]
+                        + 12.360567175794303 * k[9][e]
+                        + 0.6433927460157636 * k[10][e]);
+            }
+            status = double_pendulum_field(cx, yt, k[11], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                yn[e] = y[e] + h * (0.054293734116568765 * k[0][e]
+                        + 4.450312892752409 * k[5][e]
+                        + 1.8915178993145003 * k[6][e]
+                        - 5.801203960010585 * k[7][e]
+                        + 0.3111643669578199 * k[8][e]
+                        - 0.1521609496625161 * k[9][e]
+                        + 0.20136540080403034 * k[10][e]
+                        + 0.04471061572777259 * k[11][e]);
+            }
+            err = double_pendulum_dop853_error(opt, h, k, y, yn);
+            fac = pow(err, 1.0 / 8) / 0.9;
+            if (err <= 1.0) {
+                break;
+            }
+            if (!isfinite(err)) {
+                return DOUBLE_PENDULUM_ERR_NONFINITE;
+            }
+            stats->rejected += 1;
+            if (h <= hmin) {
+                return DOUBLE_PENDULUM_ERR_STEPSIZE;
+            }
+            h = fmax(hmin, h / fmin(fac_max, fac));
+            reject = 1;
+        }
+        /* accepted: the field at the new state is the next step's first stage */
+        status = double_pendulum_field(cx, yn, k[12], fw);
+        stats->gradient_evals += 1;
+        if (status) {
+            return status;
+        }
+        stats->steps += 1;
+        hnew = h / fmax(fac_min, fmin(fac_max, fac));
+        if (reject) {
+            hnew = fmin(hnew, h);
+        }
+        if (cut) {
+            hnew = fmax(hnew, fac > 0.0 ? fmin(hprop, h / fmin(fac_max, fac)) : hprop);
+        }
+        reject = 0;
+        h = hnew;
+        t = tn;
+        stats->fail_time = t;
+        double_pendulum_copy(y, yn, DOUBLE_PENDULUM_NS);
+        tmp = k[0];
+        k[0] = k[12];
+        k[12] = tmp;
+        if (tn == tout) {
+            double_pendulum_store(cx, y, y + DOUBLE_PENDULUM_N3, next / stride, q, w, energy);
+            stats->fail_step = next / stride + 1;
+
+            next += stride;
+        }
+    }
+    return DOUBLE_PENDULUM_OK;
+}
+
 /* Step fractions of the symmetric compositions: one step of size h is `count` steps of the basic
  * VI or RATTLE step of sizes fraction[k] h (they add up to 1 and read the same backwards). */
 /* the basic step alone: order 2. */
@@ -1690,6 +1988,12 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
         double_pendulum_copy(y0, q0, DOUBLE_PENDULUM_N3);
         double_pendulum_copy(y0 + DOUBLE_PENDULUM_N3, w0, DOUBLE_PENDULUM_N3);
         return double_pendulum_rk45(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
+    }
+    if (method == DOUBLE_PENDULUM_METHOD_DOP853) {
+        double *y0 = work + 240;
+        double_pendulum_copy(y0, q0, DOUBLE_PENDULUM_N3);
+        double_pendulum_copy(y0 + DOUBLE_PENDULUM_N3, w0, DOUBLE_PENDULUM_N3);
+        return double_pendulum_dop853(cx, opt, h, nsteps, every, y0, q, w, energy, run, stats);
     }
     scheme = double_pendulum_scheme_of(method);
     if (scheme) {

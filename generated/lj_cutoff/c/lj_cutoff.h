@@ -32,8 +32,8 @@ extern "C" {
 #define LJ_CUTOFF_NPARAMS 3 /* parameters in p */
 #define LJ_CUTOFF_NPAIRS 0 /* coupled pairs of M (off-diagonal entries not zero) */
 #define LJ_CUTOFF_NCONST 4 /* constants of the kernels (computed once per call) */
-#define LJ_CUTOFF_WORK_BASE 552 /* workspace doubles before the per-call context */
-#define LJ_CUTOFF_WORK_SIZE 581 /* workspace doubles every `work` must hold */
+#define LJ_CUTOFF_WORK_BASE 840 /* workspace doubles before the per-call context */
+#define LJ_CUTOFF_WORK_SIZE 869 /* workspace doubles every `work` must hold */
 
 /* Status codes returned by the step and integrate functions. */
 enum {
@@ -68,10 +68,10 @@ enum {
 enum { LJ_CUTOFF_CONTROL_MATLAB = 0, LJ_CUTOFF_CONTROL_HAIRER = 1 };
 
 typedef struct {
-    double rtol; /* RK45 relative tolerance (default 1e-3) */
-    double atol; /* RK45 absolute tolerance (default 1e-6) */
-    double hmax; /* RK45 largest step; <= 0 means 0.1 * (final time) */
-    int control; /* LJ_CUTOFF_CONTROL_MATLAB (default) or LJ_CUTOFF_CONTROL_HAIRER */
+    double rtol; /* RK45 and DOP853 relative tolerance (default 1e-3) */
+    double atol; /* RK45 and DOP853 absolute tolerance (default 1e-6) */
+    double hmax; /* RK45 and DOP853 largest step; <= 0 means 0.1 * (final time) for RK45, the final time for DOP853 (as dop853.f) */
+    int control; /* RK45's error control: LJ_CUTOFF_CONTROL_MATLAB (default) or LJ_CUTOFF_CONTROL_HAIRER (DOP853 has its own) */
     long every; /* output stride: integrate() stores every `every`-th sample (default 1; nsteps must be a multiple of it) */
     double newton_tol; /* Newton stops when max|delta f| <= tol * max(1, max|f|) (1e-14) */
     int newton_maxiter; /* Newton iteration limit per step (50) */
@@ -80,12 +80,12 @@ typedef struct {
 
 typedef struct {
     long steps; /* accepted steps */
-    long rejected; /* RK45 rejected steps */
+    long rejected; /* rejected steps (RK45, DOP853) */
     long gradient_evals; /* evaluations of dV/dq */
     long newton_iters; /* Newton iterations, total */
     long newton_max; /* Newton iterations, largest in one step */
     long fail_step; /* on failure: first sample index not computed (samples before it are valid) */
-    double fail_time; /* RK45: time of the last accepted step (where a failure happened) */
+    double fail_time; /* RK45, DOP853: time of the last accepted step (where a failure happened) */
     long fail_body; /* ERR_ARGUMENT: the body (0-based) whose q0 is not a unit vector (else -1) */
 } lj_cutoff_stats;
 
@@ -126,14 +126,14 @@ int lj_cutoff_vi_step(const double *p, const lj_cutoff_options *opt, double h, c
 int lj_cutoff_rk_step(const double *p, int method, double h, const double *q, const double *w,
         double *qn, double *wn, double *work);
 
-/* Integrate nsteps steps of size h (RK45: output spacing h, adaptive steps inside) from (q0,
- * w0) with `method` (METHOD_*). The trajectory keeps every opt->every-th sample, the initial
- * state first: q and w hold (nsteps / every + 1) * NSTATE doubles, energy (nsteps / every + 1)
- * doubles (not evaluated at all when energy is NULL). opt NULL means the defaults of
- * default_options(); stats may be NULL. Returns OK or a status code: ERR_ARGUMENT for h <= 0,
- * nsteps < 0, an every that does not divide nsteps, an unknown method, or a q0_i that is not a
- * unit vector (stats->fail_body names it); on a failed step the samples before
- * stats->fail_step are valid. */
+/* Integrate nsteps steps of size h (RK45 and DOP853: output spacing h, adaptive steps inside;
+ * DOP853's steps end on the kept samples) from (q0, w0) with `method` (METHOD_*). The
+ * trajectory keeps every opt->every-th sample, the initial state first: q and w hold (nsteps /
+ * every + 1) * NSTATE doubles, energy (nsteps / every + 1) doubles (not evaluated at all when
+ * energy is NULL). opt NULL means the defaults of default_options(); stats may be NULL.
+ * Returns OK or a status code: ERR_ARGUMENT for h <= 0, nsteps < 0, an every that does not
+ * divide nsteps, an unknown method, or a q0_i that is not a unit vector (stats->fail_body
+ * names it); on a failed step the samples before stats->fail_step are valid. */
 int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int method, double h,
         long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy,
         double *work, lj_cutoff_stats *stats);

@@ -527,6 +527,204 @@ def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
 
 
 
+# ---- adaptive Runge-Kutta (DOP853) -----------------------------------------------------------
+
+
+def _dop853_error(rtol, atol, h, k, y, yn):
+    """DOP853's error of a trial step (dop853.f); NaN when it is not finite."""
+    sk = atol + rtol * numpy.maximum(numpy.abs(y), numpy.abs(yn))
+    d5 = (0.01312004499419488 * k[0]
+          - 1.2251564463762044 * k[5]
+          - 0.4957589496572502 * k[6]
+          + 1.6643771824549864 * k[7]
+          - 0.35032884874997366 * k[8]
+          + 0.3341791187130175 * k[9]
+          + 0.08192320648511571 * k[10]
+          - 0.022355307863886294 * k[11]) / sk
+    d3 = (-0.18980075407240762 * k[0]
+          + 4.450312892752409 * k[5]
+          + 1.8915178993145003 * k[6]
+          - 5.801203960010585 * k[7]
+          - 0.4226823213237919 * k[8]
+          - 0.1521609496625161 * k[9]
+          + 0.20136540080403034 * k[10]
+          + 0.02265179219836082 * k[11]) / sk
+    if not (numpy.all(numpy.isfinite(d5)) and numpy.all(numpy.isfinite(d3))
+            and numpy.all(numpy.isfinite(yn))):
+        return numpy.nan
+    err5, err3 = float(numpy.sum(d5 * d5)), float(numpy.sum(d3 * d3))
+    deno = err5 + 0.01 * err3
+    if deno <= 0.0:
+        deno = 1.0
+    return abs(h) * err5 * numpy.sqrt(1.0 / (y.size * deno))
+
+
+def _dop853_h0(p, rtol, atol, hmax, y, f0, stats):
+    """DOP853's initial step (dop853.f, HINIT with order 8)."""
+    sk = atol + rtol * numpy.abs(y)
+    dnf, dny = float(numpy.sum((f0 / sk) ** 2)), float(numpy.sum((y / sk) ** 2))
+    h = 1e-6 if (dnf <= 1e-10 or dny <= 1e-10) else numpy.sqrt(dny / dnf) * 0.01
+    h = min(h, hmax)
+    status, f1 = _field(p, y + h * f0)
+    if status != OK:
+        return h
+    stats[EVALS] += 1
+    der2 = numpy.sqrt(float(numpy.sum(((f1 - f0) / sk) ** 2))) / h
+    der12 = max(abs(der2), numpy.sqrt(dnf))
+    h1 = max(1e-6, h * 1e-3) if der12 <= 1e-15 else (0.01 / der12) ** (1.0 / 8)
+    return min(100.0 * h, h1, hmax)
+
+
+def _dop853(p, hout, nsteps, stride, y0, store, rtol, atol, hmax, stats):
+    """Adaptive DOP853 from y0 over nsteps output intervals of length hout, the steps ending on
+    every stride-th grid point, where store(nxt, y) writes sample nxt."""
+    if not (rtol > 0.0 and atol > 0.0):
+        return ERR_ARGUMENT
+    tend = hout * nsteps
+    hmax = hmax if hmax > 0.0 else tend
+    fac_max, fac_min = 1.0 / 0.333, 1.0 / 6.0  # h_new / h = 1 / fac lies in [0.333, 6]
+    y = y0
+    k = [None] * 13
+    status, k[0] = _field(p, y)
+    stats[EVALS] += 1
+    if status != OK:
+        return status
+    h = _dop853_h0(p, rtol, atol, hmax, y, k[0], stats)
+    t, nxt, reject = 0.0, stride, False
+    while nxt <= nsteps:
+        tout = tend if nxt == nsteps else hout * nxt
+        hmin = 16.0 * (numpy.nextafter(t, numpy.inf) - t)
+        h = min(hmax, max(hmin, h))
+        while True:
+            hprop = h
+            cut = t + 1.01 * h >= tout
+            tn = tout if cut else t + h
+            h = tn - t
+            status, k[1] = _field(p, y + h * (0.05260015195876773 * k[0]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[2] = _field(p, y + h * (0.0197250569845379 * k[0]
+                                                + 0.0591751709536137 * k[1]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[3] = _field(p, y + h * (0.02958758547680685 * k[0]
+                                                + 0.08876275643042054 * k[2]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[4] = _field(p, y + h * (0.2413651341592667 * k[0]
+                                                - 0.8845494793282861 * k[2]
+                                                + 0.924834003261792 * k[3]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[5] = _field(p, y + h * (0.037037037037037035 * k[0]
+                                                + 0.17082860872947386 * k[3]
+                                                + 0.12546768756682242 * k[4]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[6] = _field(p, y + h * (0.037109375 * k[0]
+                                                + 0.17025221101954405 * k[3]
+                                                + 0.06021653898045596 * k[4]
+                                                - 0.017578125 * k[5]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[7] = _field(p, y + h * (0.03709200011850479 * k[0]
+                                                + 0.17038392571223998 * k[3]
+                                                + 0.10726203044637328 * k[4]
+                                                - 0.015319437748624402 * k[5]
+                                                + 0.008273789163814023 * k[6]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[8] = _field(p, y + h * (0.6241109587160757 * k[0]
+                                                - 3.3608926294469414 * k[3]
+                                                - 0.868219346841726 * k[4]
+                                                + 27.59209969944671 * k[5]
+                                                + 20.154067550477894 * k[6]
+                                                - 43.48988418106996 * k[7]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[9] = _field(p, y + h * (0.47766253643826434 * k[0]
+                                                - 2.4881146199716677 * k[3]
+                                                - 0.590290826836843 * k[4]
+                                                + 21.230051448181193 * k[5]
+                                                + 15.279233632882423 * k[6]
+                                                - 33.28821096898486 * k[7]
+                                                - 0.020331201708508627 * k[8]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[10] = _field(p, y + h * (-0.9371424300859873 * k[0]
+                                                + 5.186372428844064 * k[3]
+                                                + 1.0914373489967295 * k[4]
+                                                - 8.149787010746927 * k[5]
+                                                - 18.52006565999696 * k[6]
+                                                + 22.739487099350505 * k[7]
+                                                + 2.4936055526796523 * k[8]
+                                                - 3.0467644718982196 * k[9]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[11] = _field(p, y + h * (2.273310147516538 * k[0]
+                                                - 10.53449546673725 * k[3]
+                                                - 2.0008720582248625 * k[4]
+                                                - 17.9589318631188 * k[5]
+                                                + 27.94888452941996 * k[6]
+                                                - 2.8589982771350235 * k[7]
+                                                - 8.87285693353063 * k[8]
+                                                + 12.360567175794303 * k[9]
+                                                + 0.6433927460157636 * k[10]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            yn = y + h * (0.054293734116568765 * k[0]
+                          + 4.450312892752409 * k[5]
+                          + 1.8915178993145003 * k[6]
+                          - 5.801203960010585 * k[7]
+                          + 0.3111643669578199 * k[8]
+                          - 0.1521609496625161 * k[9]
+                          + 0.20136540080403034 * k[10]
+                          + 0.04471061572777259 * k[11])
+            err = _dop853_error(rtol, atol, h, k, y, yn)
+            fac = err ** (1.0 / 8) / 0.9
+            if err <= 1.0:
+                break
+            if not numpy.isfinite(err):
+                return ERR_NONFINITE
+            stats["rejected"] += 1
+            if h <= hmin:
+                return ERR_STEPSIZE
+            h = max(hmin, h / min(fac_max, fac))
+            reject = True
+        status, k[12] = _field(p, yn)
+        stats[EVALS] += 1
+        if status != OK:
+            return status
+        stats["steps"] += 1
+        hnew = h / max(fac_min, min(fac_max, fac))
+        if reject:
+            hnew = min(hnew, h)
+        if cut:
+            hnew = max(hnew, min(hprop, h / min(fac_max, fac)) if fac > 0.0 else hprop)
+        reject = False
+        h = hnew
+        t = tn
+        stats["fail_time"] = t
+        y = yn
+        k[0] = k[12]
+        if tn == tout:
+            store(nxt, y)
+            nxt += stride
+    return OK
+
+
+
 # ---- driver -----------------------------------------------------------------------------------------
 # Step fractions of the symmetric compositions: one step of size h is len(fractions) steps of
 # the basic VI or RATTLE step of sizes fraction * h (they add up to 1, read the same backwards).
@@ -663,6 +861,13 @@ def _integrate(p, method, h, nsteps, q0, w0, rtol, atol, control, hmax, newton_t
 
         y0 = numpy.concatenate([q0, w0])
         status = _rk45(p, h, nsteps, y0, sample, rtol, atol, control, hmax, stats, [None, None])
+    elif method == METHOD_DOP853:
+        y0 = numpy.concatenate([q0, w0])
+
+        def landed(nxt, ys):
+            store(nxt // every, ys[:NBODIES], ys[NBODIES:])
+
+        status = _dop853(p, h, nsteps, every, y0, landed, rtol, atol, hmax, stats)
     elif method in SCHEMES:
         status = _geometric(p, method, h, nsteps, every, q0, w0, store, stats, newton_tol,
                             newton_maxiter)
