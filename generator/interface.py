@@ -229,7 +229,8 @@ _SPHERE = Interface(
             "newton_tol",
             Kind.DOUBLE,
             "1e-14",
-            "Newton stops when max|delta f| <= tol * max(1, max|f|) (1e-14)",
+            "Newton stops when max|delta f|, or the next update predicted by quadratic "
+            "convergence, is <= tol * max(1, max|f|) (1e-14)",
         ),
         Field("newton_maxiter", Kind.INT, "50", "Newton iteration limit per step (50)"),
         Field(

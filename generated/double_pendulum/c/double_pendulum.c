@@ -822,8 +822,9 @@ static int double_pendulum_field(const double_pendulum_ctx *cx, const double *y,
 /* One implicit step. g holds dV/dq at q on entry; gn receives dV/dq at qn. f (DOUBLE_PENDULUM_N3
  * Cayley parameters) holds Newton's starting point on entry when `warm` (the previous step's
  * solution), else the uncoupled guess d_i / (2 M_ii) is used; it receives the solution.
- * Newton stops when max|delta f| <= newton_tol max|f|, or <= 1000 newton_tol max|f| once the
- * update stops shrinking (round-off reached). work: d (6), r (6), jm (36). */
+ * Newton stops when max|delta f| <= newton_tol max|f|, or when the next update predicted by
+ * quadratic convergence, max|delta f|^3 / max|previous delta f|^2, is, or when max|delta f| <=
+ * 1000 newton_tol max|f| once the update stops shrinking (round-off reached). work: d (6), r (6), jm (36). */
 static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const double_pendulum_options *opt,
         double h, const double *q, const double *w, const double *g, double *qn, double *wn,
         double *gn, double *f, int warm, double *work, int *iters)
@@ -901,7 +902,9 @@ static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const doubl
         if (!isfinite(step)) {
             return DOUBLE_PENDULUM_ERR_NONFINITE;
         }
+        /* the update, or the next one predicted by quadratic convergence, is below tolerance */
         converged = step <= opt->newton_tol * size
+                || (it > 1 && step * step * step <= opt->newton_tol * size * previous * previous)
                 || (step <= 1e3 * opt->newton_tol * size && step > 0.5 * previous);
         previous = step;
     }
@@ -1049,7 +1052,9 @@ static int double_pendulum_rattle_advance(const double_pendulum_ctx *cx, const d
         if (!isfinite(step)) {
             return DOUBLE_PENDULUM_ERR_NONFINITE;
         }
+        /* the update, or the next one predicted by quadratic convergence, is below tolerance */
         converged = step <= opt->newton_tol * size
+                || (it > 1 && step * step * step <= opt->newton_tol * size * previous * previous)
                 || (step <= 1e3 * opt->newton_tol * size && step > 0.5 * previous);
         previous = step;
     }

@@ -75,7 +75,7 @@ typedef struct {
     double hmax; /* RK45 and DOP853 largest step; <= 0 means 0.1 * (final time) for RK45, the final time for DOP853 (as dop853.f) */
     int control; /* RK45's error control: DOUBLE_PENDULUM_CONTROL_MATLAB (default) or DOUBLE_PENDULUM_CONTROL_HAIRER (DOP853 has its own) */
     long every; /* output stride: integrate() stores every `every`-th sample (default 1; nsteps must be a multiple of it) */
-    double newton_tol; /* Newton stops when max|delta f| <= tol * max(1, max|f|) (1e-14) */
+    double newton_tol; /* Newton stops when max|delta f|, or the next update predicted by quadratic convergence, is <= tol * max(1, max|f|) (1e-14) */
     int newton_maxiter; /* Newton iteration limit per step (50) */
     double unit_tol; /* integrate() refuses (ERR_ARGUMENT, stats->fail_body) a q0_i with | |q0_i| - 1 | above this (default 1e-12; <= 0: no check) */
 } double_pendulum_options;

@@ -498,8 +498,11 @@ def _vi_advance(p, h, q, w, g, newton_tol, newton_maxiter, start=None):
         if not numpy.isfinite(step):
             return ERR_NONFINITE, None, None, None, iters, None
         size = max(1e-300, float(numpy.max(numpy.abs(f))))
-        converged = step <= newton_tol * size or (
-            step <= 1e3 * newton_tol * size and step > 0.5 * previous
+        # the update, or the next one predicted by quadratic convergence, is below tolerance
+        converged = (
+            step <= newton_tol * size
+            or (iters > 1 and step * step * step <= newton_tol * size * previous * previous)
+            or (step <= 1e3 * newton_tol * size and step > 0.5 * previous)
         )
         previous = step
     if not converged:
@@ -564,7 +567,12 @@ def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter, start=None):
         step = float(numpy.max(numpy.abs(wi @ delta)))
         if not numpy.isfinite(step):
             return ERR_NONFINITE, None, None, None, iters, None
-        converged = step <= newton_tol or (step <= 1e3 * newton_tol and step > 0.5 * previous)
+        # the update, or the next one predicted by quadratic convergence, is below tolerance
+        converged = (
+            step <= newton_tol
+            or (iters > 1 and step * step * step <= newton_tol * previous * previous)
+            or (step <= 1e3 * newton_tol and step > 0.5 * previous)
+        )
         previous = step
     if not converged:
         return ERR_NEWTON, None, None, None, iters, None
