@@ -205,8 +205,7 @@ _SPHERE = Interface(
                 _p("stats", Kind.STATS, True),
             ),
             "Integrate nsteps steps of size h (RK45 and DOP853: output spacing h, adaptive steps "
-            "inside; DOP853's steps end on the kept samples) from (q0, w0) with `method` "
-            "(METHOD_*). The trajectory keeps every opt->every-th "
+            "inside) from (q0, w0) with `method` (METHOD_*). The trajectory keeps every opt->every-th "
             "sample, the initial state first: q and w hold (nsteps / every + 1) * NSTATE "
             "doubles, energy (nsteps / every + 1) doubles (not evaluated at all when energy is "
             "NULL). opt NULL means the defaults of default_options(); stats may be NULL. "

@@ -265,7 +265,8 @@ METHODS: tuple[Method, ...] = (
         False,
         Family.ADAPTIVE_RK,
         _EMITTED,
-        "Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, steps end on the stored samples",
+        "Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order "
+        "continuous extension",
     ),
 )
 

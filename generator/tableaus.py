@@ -2,10 +2,11 @@
 
 Input: nothing. Output: `DOP853`, the explicit Runge-Kutta pair of order 8 with error
 estimators of orders 5 and 3 of E. Hairer, S. P. Norsett and G. Wanner, Solving Ordinary
-Differential Equations I (2nd ed., Springer 1993), Section II.10, with the constants of
-Hairer's code dop853.f (30 digits, as printed there). The printers turn the tableau into the
-stage sums of the emitted C and NumPy (only the non-zero entries), so both languages read the
-same numbers; tests/test_dop853.py checks every order condition of the three weight vectors.
+Differential Equations I (2nd ed., Springer 1993), Section II.10, and its continuous extension
+of order 7 (three more stages), with the constants of Hairer's code dop853.f (30 digits, as
+printed there). The printers turn the tableau into the stage sums of the emitted C and NumPy
+(only the non-zero entries), so both languages read the same numbers; tests/test_dop853.py
+checks every order condition of the three weight vectors and the extension's accuracy.
 
 Example:
     >>> DOP853.stages, len(DOP853.a[11]), sum(DOP853.b)
@@ -28,7 +29,10 @@ class Tableau:
     `a[i]` holds the coefficients of stage i on stages 0..i-1 (`a[0]` is empty), `c` the nodes,
     `b` the weights of the solution (order `order`), `e5` and `e3` the weights of two error
     estimates (b minus weights of orders 5 and 3). The field at the new solution is the next
-    step's first stage.
+    step's first stage (stage s = `stages`). The continuous extension adds stages s+1, s+2, ...
+    with coefficients `dense_a` (on stages 0..s, s+1, ...) and nodes `dense_c`; `dense_d` are
+    the coefficients (on stages 0 .. s + len(dense_a)) of the last four terms of dop853.f's
+    interpolation polynomial.
     """
 
     name: str
@@ -38,6 +42,9 @@ class Tableau:
     b: tuple[float, ...]
     e5: tuple[float, ...]
     e3: tuple[float, ...]
+    dense_a: tuple[tuple[float, ...], ...] = ()
+    dense_c: tuple[float, ...] = ()
+    dense_d: tuple[tuple[float, ...], ...] = ()
 
     @property
     def stages(self) -> int:
@@ -150,13 +157,119 @@ _ER = {
 }
 
 
+# dop853.f: the continuous extension. C14..C16 and A(i, j) of stages 14..16 on stages 1..15
+# (stage 13 is the field at the new solution)
+_C_DENSE = ("0.1e+00", "0.2e+00", "0.777777777777777777777777777778e+00")
+_A_DENSE = {
+    (14, 1): "5.61675022830479523392909219681e-2",
+    (14, 7): "2.53500210216624811088794765333e-1",
+    (14, 8): "-2.46239037470802489917441475441e-1",
+    (14, 9): "-1.24191423263816360469010140626e-1",
+    (14, 10): "1.5329179827876569731206322685e-1",
+    (14, 11): "8.20105229563468988491666602057e-3",
+    (14, 12): "7.56789766054569976138603589584e-3",
+    (14, 13): "-8.298e-3",
+    (15, 1): "3.18346481635021405060768473261e-2",
+    (15, 6): "2.83009096723667755288322961402e-2",
+    (15, 7): "5.35419883074385676223797384372e-2",
+    (15, 8): "-5.49237485713909884646569340306e-2",
+    (15, 11): "-1.08347328697249322858509316994e-4",
+    (15, 12): "3.82571090835658412954920192323e-4",
+    (15, 13): "-3.40465008687404560802977114492e-4",
+    (15, 14): "1.41312443674632500278074618366e-1",
+    (16, 1): "-4.28896301583791923408573538692e-1",
+    (16, 6): "-4.69762141536116384314449447206e0",
+    (16, 7): "7.68342119606259904184240953878e0",
+    (16, 8): "4.06898981839711007970213554331e0",
+    (16, 9): "3.56727187455281109270669543021e-1",
+    (16, 13): "-1.39902416515901462129418009734e-3",
+    (16, 14): "2.9475147891527723389556272149e0",
+    (16, 15): "-9.15095847217987001081870187138e0",
+}
+
+# dop853.f: D4j..D7j, j = 1, 6..16
+_D_DENSE = {
+    4: {
+        1: "-0.84289382761090128651353491142e+01",
+        6: "0.56671495351937776962531783590e+00",
+        7: "-0.30689499459498916912797304727e+01",
+        8: "0.23846676565120698287728149680e+01",
+        9: "0.21170345824450282767155149946e+01",
+        10: "-0.87139158377797299206789907490e+00",
+        11: "0.22404374302607882758541771650e+01",
+        12: "0.63157877876946881815570249290e+00",
+        13: "-0.88990336451333310820698117400e-01",
+        14: "0.18148505520854727256656404962e+02",
+        15: "-0.91946323924783554000451984436e+01",
+        16: "-0.44360363875948939664310572000e+01",
+    },
+    5: {
+        1: "0.10427508642579134603413151009e+02",
+        6: "0.24228349177525818288430175319e+03",
+        7: "0.16520045171727028198505394887e+03",
+        8: "-0.37454675472269020279518312152e+03",
+        9: "-0.22113666853125306036270938578e+02",
+        10: "0.77334326684722638389603898808e+01",
+        11: "-0.30674084731089398182061213626e+02",
+        12: "-0.93321305264302278729567221706e+01",
+        13: "0.15697238121770843886131091075e+02",
+        14: "-0.31139403219565177677282850411e+02",
+        15: "-0.93529243588444783865713862664e+01",
+        16: "0.35816841486394083752465898540e+02",
+    },
+    6: {
+        1: "0.19985053242002433820987653617e+02",
+        6: "-0.38703730874935176555105901742e+03",
+        7: "-0.18917813819516756882830838328e+03",
+        8: "0.52780815920542364900561016686e+03",
+        9: "-0.11573902539959630126141871134e+02",
+        10: "0.68812326946963000169666922661e+01",
+        11: "-0.10006050966910838403183860980e+01",
+        12: "0.77771377980534432092869265740e+00",
+        13: "-0.27782057523535084065932004339e+01",
+        14: "-0.60196695231264120758267380846e+02",
+        15: "0.84320405506677161018159903784e+02",
+        16: "0.11992291136182789328035130030e+02",
+    },
+    7: {
+        1: "-0.25693933462703749003312586129e+02",
+        6: "-0.15418974869023643374053993627e+03",
+        7: "-0.23152937917604549567536039109e+03",
+        8: "0.35763911791061412378285349910e+03",
+        9: "0.93405324183624310003907691704e+02",
+        10: "-0.37458323136451633156875139351e+02",
+        11: "0.10409964950896230045147246184e+03",
+        12: "0.29840293426660503123344363579e+02",
+        13: "-0.43533456590011143754432175058e+02",
+        14: "0.96324553959188282948394950600e+02",
+        15: "-0.39177261675615439165231486172e+02",
+        16: "-0.14972683625798562581422125276e+03",
+    },
+}
+
+
 def _dop853() -> Tableau:
     s = 12
     a = tuple(tuple(_f(_A.get((i + 1, j + 1), "0")) for j in range(i)) for i in range(s))
     b = tuple(_f(_B.get(i + 1, "0")) for i in range(s))
     e5 = tuple(_f(_ER.get(i + 1, "0")) for i in range(s))
     e3 = tuple(b[i] - _f(_BHH.get(i + 1, "0")) for i in range(s))
-    return Tableau("dop853", 8, a, tuple(_f(x) for x in _C), b, e5, e3)
+    dense_a = tuple(
+        tuple(_f(_A_DENSE.get((i, j + 1), "0")) for j in range(i - 1)) for i in (14, 15, 16)
+    )
+    dense_d = tuple(tuple(_f(_D_DENSE[r].get(j + 1, "0")) for j in range(16)) for r in (4, 5, 6, 7))
+    return Tableau(
+        "dop853",
+        8,
+        a,
+        tuple(_f(x) for x in _C),
+        b,
+        e5,
+        e3,
+        dense_a,
+        tuple(_f(x) for x in _C_DENSE),
+        dense_d,
+    )
 
 
 #: Dormand and Prince's 8(5,3) pair as in dop853.f.

@@ -84,9 +84,9 @@ def final_state(tr) -> np.ndarray:
     return np.concatenate([tr.q[-1].ravel(), tr.omega[-1].ravel()])
 
 
-def reference_final(system: System, T: float, tol: float = 3e-14) -> np.ndarray:
-    """(q, omega)(T) by scipy's DOP853 at rtol = atol = tol on the reference backend's field
-    (s2gen.reference, written independently of the emitted code)."""
+def reference_path(system: System, T: float, times, tol: float = 3e-14) -> np.ndarray:
+    """(q, omega) at `times` (rows) by scipy's DOP853 at rtol = atol = tol on the reference
+    backend's field (s2gen.reference, written independently of the emitted code)."""
     from scipy.integrate import solve_ivp
 
     from s2gen.reference import continuous_rhs, problem_from_system
@@ -99,9 +99,14 @@ def reference_final(system: System, T: float, tol: float = 3e-14) -> np.ndarray:
 
     assert system.q0 is not None and system.omega0 is not None
     y0 = np.concatenate([system.q0.ravel(), system.omega0.ravel()])
-    sol = solve_ivp(fun, (0.0, T), y0, method="DOP853", rtol=tol, atol=tol)
+    sol = solve_ivp(fun, (0.0, T), y0, method="DOP853", t_eval=times, rtol=tol, atol=tol)
     assert sol.success
-    return sol.y[:, -1]
+    return sol.y.T
+
+
+def reference_final(system: System, T: float, tol: float = 3e-14) -> np.ndarray:
+    """(q, omega)(T), flat, as `reference_path`."""
+    return reference_path(system, T, [T], tol)[-1]
 
 
 @pytest.fixture(scope="session", params=sorted(SYSTEMS))

@@ -6,6 +6,7 @@
 - with fixed steps (hmax, loose tolerance) the emitted method has order 8 against a reference
   computed by scipy's DOP853 on the independent reference field;
 - adaptive, it agrees with scipy's DOP853 to the tolerance and takes about as many steps;
+- its continuous extension gives samples as accurate as the steps, without changing them;
 - C and NumPy take the same steps; a non-finite trial step is reported as ERR_NONFINITE with
   the samples before it kept; the counters and options behave as documented.
 """
@@ -17,7 +18,7 @@ from functools import cache
 
 import numpy as np
 import pytest
-from conftest import SYSTEMS, final_state, reference_final
+from conftest import SYSTEMS, final_state, reference_final, reference_path
 
 from s2gen import metrics
 from s2gen.experiments import peers
@@ -146,18 +147,28 @@ def test_c_and_numpy_take_the_same_steps(system) -> None:
     assert np.max(np.abs(c.q - n.q)) < 1e-10
 
 
-def test_counters_and_landing_on_the_samples() -> None:
-    """12 evaluations per accepted step, 11 per rejected one, 2 to start; every stored sample
-    is a step's end, so storing fewer samples takes fewer steps, with the same result to the
+def test_counters_and_the_continuous_extension() -> None:
+    """12 evaluations per accepted step, 11 per rejected one, 2 to start, and 3 more in a step
+    with a sample inside it; the steps do not depend on the samples kept (the final state is
+    the same to the bit), and the samples from the extension agree with the reference to the
     tolerance."""
     s = builtin("double_pendulum")
-    opts = Options(rtol=1e-6, atol=1e-6)
-    every = {k: simulate(s, "dop853", "c", h=0.01, T=2.0, options=opts, every=k) for k in (1, 200)}
-    for tr in every.values():
-        st = tr.stats
-        assert st["gradient_evals"] == 2 + 12 * st["steps"] + 11 * st["rejected"]
-    assert every[1].stats["steps"] >= 200 > every[200].stats["steps"]
-    assert np.max(np.abs(every[1].q[-1] - every[200].q[-1])) < 1e-5
+    T, tol = 4.0, 1e-9
+    opts = Options(rtol=tol, atol=tol)
+    alone = simulate(s, "dop853", "c", h=T, T=T, options=opts)
+    sampled = simulate(s, "dop853", "c", h=0.01, T=T, options=opts)
+    st = alone.stats
+    assert st["gradient_evals"] == 2 + 12 * st["steps"] + 11 * st["rejected"]
+    for key in ("steps", "rejected"):
+        assert sampled.stats[key] == st[key]
+    extra = sampled.stats["gradient_evals"] - st["gradient_evals"]
+    assert extra % 3 == 0 and 0 < extra <= 3 * st["steps"]
+    assert np.array_equal(sampled.q[-1], alone.q[-1])
+    ref = reference_path(s, T, sampled.t)
+    got = np.concatenate(
+        [sampled.q.reshape(len(sampled.t), -1), sampled.omega.reshape(len(sampled.t), -1)], axis=1
+    )
+    assert np.max(np.abs(got - ref)) < 30 * tol
 
 
 def test_hmax_is_honoured() -> None:

@@ -20,6 +20,7 @@ from dataclasses import replace
 
 from s2gen.ir import Buffer, Layout, LoopKind, Module, ModuleKind
 from s2gen.methods import METHODS
+from s2gen.tableaus import DOP853
 
 __all__ = ["CONTEXT", "layout", "workspace_pass"]
 
@@ -41,9 +42,15 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     rk_fixed = layout("rk_fixed", ("k1", ns), ("k2", ns), ("acc", ns), ("field", field.size))
     rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("rk", rk_fixed.size))
     rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
-    # DOP853: 12 stages and the field at the new state
+    # DOP853: its stages, the field at the new state and the stages of its dense output
     dop853 = layout(
-        "dop853", ("k", 13 * ns), ("y", ns), ("yt", ns), ("yn", ns), ("field", field.size)
+        "dop853",
+        ("k", (DOP853.stages + 1 + len(DOP853.dense_a)) * ns),
+        ("y", ns),
+        ("yt", ns),
+        ("yn", ns),
+        ("ys", ns),
+        ("field", field.size),
     )
     if coupled:
         vi = layout("vi_advance", ("d", m3), ("r", m3), ("jm", m3 * m3))

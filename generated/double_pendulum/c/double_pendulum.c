@@ -1524,27 +1524,28 @@ static double double_pendulum_dop853_h0(const double_pendulum_ctx *cx, const dou
     return fmin(fmin(100.0 * h, h1), hmax);
 }
 
-/* Adaptive DOP853 from y0 over nsteps output intervals of length hout, the steps ending on
- * every stride-th grid point. Control as dop853.f: safety 0.9, the step changes by a factor in
- * [1/3, 6] (no growth right after a rejection), hmax the whole span unless opt->hmax > 0. A step
- * shortened to end on a sample does not limit the next: that one returns to the step it was cut
- * from, as far as the shortened step's error allows. work: k (156), y (12), yt (12), yn (12), field (42). */
+/* Adaptive DOP853 from y0 over nsteps output intervals of length hout. Control as dop853.f:
+ * safety 0.9, the step changes by a factor in [1/3, 6] and does not grow right after a
+ * rejection, hmax the whole span unless opt->hmax > 0. Samples inside a step come from the
+ * continuous extension of order 7 (three more field evaluations in a step that has one).
+ * work: k (192), y (12), yt (12), yn (12), ys (12), field (42). */
 static int double_pendulum_dop853(const double_pendulum_ctx *cx, const double_pendulum_options *opt, double hout,
-        long nsteps, long stride, const double *y0, double *q, double *w, double *energy, double *work, double_pendulum_stats *stats)
+        long nsteps, const double *y0, long every, double *q, double *w, double *energy, double *work, double_pendulum_stats *stats)
 {
-    double *k[13], *y = work + 156, *yt = work + 168;
-    double *yn = work + 180, *fw = work + 192, *tmp;
+    double *k[16], *y = work + 192, *yt = work + 204;
+    double *yn = work + 216, *ys = work + 228;
+    double *fw = work + 240, *tmp;
     const double tend = hout * (double)nsteps;
     const double hmax = opt->hmax > 0.0 ? opt->hmax : tend;
     /* h_new / h = 1 / fac lies in [0.333, 6] (fac1, fac2 of dop853.f) */
     const double fac_max = 1.0 / 0.333, fac_min = 1.0 / 6.0;
     double t = 0.0, h;
-    long next = stride;
+    long next = 1;
     int s, e, status, reject = 0;
     if (!(opt->rtol > 0.0) || !(opt->atol > 0.0)) {
         return DOUBLE_PENDULUM_ERR_ARGUMENT;
     }
-    for (s = 0; s <= 12; ++s) {
+    for (s = 0; s < 16; ++s) {
         k[s] = work + 0 + s * DOUBLE_PENDULUM_NS;
     }
     double_pendulum_copy(y, y0, DOUBLE_PENDULUM_NS);
@@ -1556,15 +1557,15 @@ static int double_pendulum_dop853(const double_pendulum_ctx *cx, const double_pe
     }
     h = double_pendulum_dop853_h0(cx, opt, hmax, y, k[0], yt, k[1], fw, &stats->gradient_evals);
     while (next <= nsteps) {
-        const double tout = next == nsteps ? tend : hout * (double)next;
         const double hmin = 16.0 * (nextafter(t, INFINITY) - t);
-        double err, fac, hprop, hnew, tn;
-        int cut;
+        double err, fac, hnew, tn;
+        int dense = 0;
         h = fmin(hmax, fmax(hmin, h));
+        if (t + 1.01 * h >= tend) {
+            h = tend - t;
+        }
         for (;;) {
-            hprop = h;
-            cut = t + 1.01 * h >= tout;
-            tn = cut ? tout : t + h;
+            tn = (h == tend - t) ? tend : t + h;
             h = tn - t;
             for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
                 yt[e] = y[e] + h * (0.05260015195876773 * k[0][e]);
@@ -1725,12 +1726,127 @@ static int double_pendulum_dop853(const double_pendulum_ctx *cx, const double_pe
             return status;
         }
         stats->steps += 1;
+        /* samples in (t, tn]: the new state, or the continuous extension (dop853.f's CONTD8) */
+        while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            if (!(next % every == 0)) {
+                next += 1;
+                continue;
+            }
+            if (next == nsteps || hout * (double)next == tn) {
+                double_pendulum_copy(ys, yn, DOUBLE_PENDULUM_NS);
+            } else {
+                const double th = (hout * (double)next - t) / h, th1 = 1.0 - th;
+                if (!dense) { /* the continuous extension's stages, once per step */
+                    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                        yt[e] = y[e] + h * (0.056167502283047954 * k[0][e]
+                                + 0.25350021021662483 * k[6][e]
+                                - 0.2462390374708025 * k[7][e]
+                                - 0.12419142326381637 * k[8][e]
+                                + 0.15329179827876568 * k[9][e]
+                                + 0.00820105229563469 * k[10][e]
+                                + 0.007567897660545699 * k[11][e]
+                                - 0.008298 * k[12][e]);
+                    }
+                    status = double_pendulum_field(cx, yt, k[13], fw);
+                    stats->gradient_evals += 1;
+                    if (status) {
+                        return status;
+                    }
+                    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                        yt[e] = y[e] + h * (0.03183464816350214 * k[0][e]
+                                + 0.028300909672366776 * k[5][e]
+                                + 0.053541988307438566 * k[6][e]
+                                - 0.05492374857139099 * k[7][e]
+                                - 0.00010834732869724932 * k[10][e]
+                                + 0.0003825710908356584 * k[11][e]
+                                - 0.00034046500868740456 * k[12][e]
+                                + 0.1413124436746325 * k[13][e]);
+                    }
+                    status = double_pendulum_field(cx, yt, k[14], fw);
+                    stats->gradient_evals += 1;
+                    if (status) {
+                        return status;
+                    }
+                    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                        yt[e] = y[e] + h * (-0.42889630158379194 * k[0][e]
+                                - 4.697621415361164 * k[5][e]
+                                + 7.683421196062599 * k[6][e]
+                                + 4.06898981839711 * k[7][e]
+                                + 0.3567271874552811 * k[8][e]
+                                - 0.0013990241651590145 * k[12][e]
+                                + 2.9475147891527724 * k[13][e]
+                                - 9.15095847217987 * k[14][e]);
+                    }
+                    status = double_pendulum_field(cx, yt, k[15], fw);
+                    stats->gradient_evals += 1;
+                    if (status) {
+                        return status;
+                    }
+                    dense = 1;
+                }
+                for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+                    const double dy = yn[e] - y[e], bspl = h * k[0][e] - dy;
+                    const double c3 = dy - h * k[12][e] - bspl;
+                    const double d4 = h * (-8.428938276109013 * k[0][e]
+                            + 0.5667149535193777 * k[5][e]
+                            - 3.0689499459498917 * k[6][e]
+                            + 2.38466765651207 * k[7][e]
+                            + 2.117034582445028 * k[8][e]
+                            - 0.871391583777973 * k[9][e]
+                            + 2.2404374302607883 * k[10][e]
+                            + 0.6315787787694688 * k[11][e]
+                            - 0.08899033645133331 * k[12][e]
+                            + 18.148505520854727 * k[13][e]
+                            - 9.194632392478356 * k[14][e]
+                            - 4.436036387594894 * k[15][e]);
+                    const double d5 = h * (10.427508642579134 * k[0][e]
+                            + 242.28349177525817 * k[5][e]
+                            + 165.20045171727028 * k[6][e]
+                            - 374.5467547226902 * k[7][e]
+                            - 22.113666853125306 * k[8][e]
+                            + 7.733432668472264 * k[9][e]
+                            - 30.674084731089398 * k[10][e]
+                            - 9.332130526430229 * k[11][e]
+                            + 15.697238121770845 * k[12][e]
+                            - 31.139403219565178 * k[13][e]
+                            - 9.35292435884448 * k[14][e]
+                            + 35.81684148639408 * k[15][e]);
+                    const double d6 = h * (19.985053242002433 * k[0][e]
+                            - 387.0373087493518 * k[5][e]
+                            - 189.17813819516758 * k[6][e]
+                            + 527.8081592054236 * k[7][e]
+                            - 11.57390253995963 * k[8][e]
+                            + 6.8812326946963 * k[9][e]
+                            - 1.0006050966910838 * k[10][e]
+                            + 0.7777137798053443 * k[11][e]
+                            - 2.778205752353508 * k[12][e]
+                            - 60.19669523126412 * k[13][e]
+                            + 84.32040550667716 * k[14][e]
+                            + 11.99229113618279 * k[15][e]);
+                    const double d7 = h * (-25.69393346270375 * k[0][e]
+                            - 154.18974869023643 * k[5][e]
+                            - 231.5293791760455 * k[6][e]
+                            + 357.6391179106141 * k[7][e]
+                            + 93.40532418362432 * k[8][e]
+                            - 37.45832313645163 * k[9][e]
+                            + 104.0996495089623 * k[10][e]
+                            + 29.8402934266605 * k[11][e]
+                            - 43.53345659001114 * k[12][e]
+                            + 96.32455395918828 * k[13][e]
+                            - 39.17726167561544 * k[14][e]
+                            - 149.72683625798564 * k[15][e]);
+                    const double conv = d4 + th * (d5 + th1 * (d6 + th * d7));
+                    ys[e] = y[e] + th * (dy + th1 * (bspl + th * (c3 + th1 * conv)));
+                }
+            }
+            double_pendulum_store(cx, ys, ys + DOUBLE_PENDULUM_N3, next / every, q, w, energy);
+            stats->fail_step = next / every + 1;
+
+            next += 1;
+        }
         hnew = h / fmax(fac_min, fmin(fac_max, fac));
         if (reject) {
             hnew = fmin(hnew, h);
-        }
-        if (cut) {
-            hnew = fmax(hnew, fac > 0.0 ? fmin(hprop, h / fmin(fac_max, fac)) : hprop);
         }
         reject = 0;
         h = hnew;
@@ -1740,12 +1856,6 @@ static int double_pendulum_dop853(const double_pendulum_ctx *cx, const double_pe
         tmp = k[0];
         k[0] = k[12];
         k[12] = tmp;
-        if (tn == tout) {
-            double_pendulum_store(cx, y, y + DOUBLE_PENDULUM_N3, next / stride, q, w, energy);
-            stats->fail_step = next / stride + 1;
-
-            next += stride;
-        }
     }
     return DOUBLE_PENDULUM_OK;
 }
@@ -1945,7 +2055,7 @@ static int double_pendulum_integrate_fixed(const double_pendulum_ctx *cx, int me
     return DOUBLE_PENDULUM_OK;
 }
 
-/* work: run (240), y0 (12). */
+/* work: run (282), y0 (12). */
 int double_pendulum_integrate(const double *p, const double_pendulum_options *opt, int method, double h,
         long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy,
         double *work, double_pendulum_stats *stats)
@@ -1989,16 +2099,16 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
     double_pendulum_store(cx, q0, w0, 0, q, w, energy);
     stats->fail_step = 1;
     if (method == DOUBLE_PENDULUM_METHOD_RK45) {
-        double *y0 = work + 240;
+        double *y0 = work + 282;
         double_pendulum_copy(y0, q0, DOUBLE_PENDULUM_N3);
         double_pendulum_copy(y0 + DOUBLE_PENDULUM_N3, w0, DOUBLE_PENDULUM_N3);
         return double_pendulum_rk45(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
     }
     if (method == DOUBLE_PENDULUM_METHOD_DOP853) {
-        double *y0 = work + 240;
+        double *y0 = work + 282;
         double_pendulum_copy(y0, q0, DOUBLE_PENDULUM_N3);
         double_pendulum_copy(y0 + DOUBLE_PENDULUM_N3, w0, DOUBLE_PENDULUM_N3);
-        return double_pendulum_dop853(cx, opt, h, nsteps, every, y0, q, w, energy, run, stats);
+        return double_pendulum_dop853(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
     }
     scheme = double_pendulum_scheme_of(method);
     if (scheme) {

@@ -34,8 +34,8 @@ extern "C" {
 #define DOUBLE_PENDULUM_NPARAMS 5 /* parameters in p */
 #define DOUBLE_PENDULUM_NPAIRS 1 /* coupled pairs of M (off-diagonal entries not zero) */
 #define DOUBLE_PENDULUM_NCONST 5 /* constants of the kernels (computed once per call) */
-#define DOUBLE_PENDULUM_WORK_BASE 252 /* workspace doubles before the per-call context */
-#define DOUBLE_PENDULUM_WORK_SIZE 264 /* workspace doubles every `work` must hold */
+#define DOUBLE_PENDULUM_WORK_BASE 294 /* workspace doubles before the per-call context */
+#define DOUBLE_PENDULUM_WORK_SIZE 306 /* workspace doubles every `work` must hold */
 
 /* Status codes returned by the step and integrate functions. */
 enum {
@@ -62,7 +62,7 @@ enum {
     DOUBLE_PENDULUM_METHOD_RATTLE4 = 9, /* RATTLE composed by the triple jump, order 4 */
     DOUBLE_PENDULUM_METHOD_RATTLE6 = 10, /* RATTLE composed by Yoshida's solution A, order 6 */
     DOUBLE_PENDULUM_METHOD_RATTLE8 = 11, /* RATTLE composed by Kahan and Li's 15 stages, order 8 */
-    DOUBLE_PENDULUM_METHOD_DOP853 = 12 /* Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, steps end on the stored samples, order 8 */
+    DOUBLE_PENDULUM_METHOD_DOP853 = 12 /* Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order continuous extension, order 8 */
 };
 
 /* RK45 error control: MATLAB ode45's (max norm, weights max(|y|, atol/rtol)) or Hairer's
@@ -129,14 +129,14 @@ int double_pendulum_vi_step(const double *p, const double_pendulum_options *opt,
 int double_pendulum_rk_step(const double *p, int method, double h, const double *q, const double *w,
         double *qn, double *wn, double *work);
 
-/* Integrate nsteps steps of size h (RK45 and DOP853: output spacing h, adaptive steps inside;
- * DOP853's steps end on the kept samples) from (q0, w0) with `method` (METHOD_*). The
- * trajectory keeps every opt->every-th sample, the initial state first: q and w hold (nsteps /
- * every + 1) * NSTATE doubles, energy (nsteps / every + 1) doubles (not evaluated at all when
- * energy is NULL). opt NULL means the defaults of default_options(); stats may be NULL.
- * Returns OK or a status code: ERR_ARGUMENT for h <= 0, nsteps < 0, an every that does not
- * divide nsteps, an unknown method, or a q0_i that is not a unit vector (stats->fail_body
- * names it); on a failed step the samples before stats->fail_step are valid. */
+/* Integrate nsteps steps of size h (RK45 and DOP853: output spacing h, adaptive steps inside)
+ * from (q0, w0) with `method` (METHOD_*). The trajectory keeps every opt->every-th sample, the
+ * initial state first: q and w hold (nsteps / every + 1) * NSTATE doubles, energy (nsteps /
+ * every + 1) doubles (not evaluated at all when energy is NULL). opt NULL means the defaults
+ * of default_options(); stats may be NULL. Returns OK or a status code: ERR_ARGUMENT for h <=
+ * 0, nsteps < 0, an every that does not divide nsteps, an unknown method, or a q0_i that is
+ * not a unit vector (stats->fail_body names it); on a failed step the samples before
+ * stats->fail_step are valid. */
 int double_pendulum_integrate(const double *p, const double_pendulum_options *opt, int method,
         double h, long nsteps, const double *q0, const double *w0, double *q, double *w,
         double *energy, double *work, double_pendulum_stats *stats);

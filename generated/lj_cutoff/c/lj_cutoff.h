@@ -32,8 +32,8 @@ extern "C" {
 #define LJ_CUTOFF_NPARAMS 3 /* parameters in p */
 #define LJ_CUTOFF_NPAIRS 0 /* coupled pairs of M (off-diagonal entries not zero) */
 #define LJ_CUTOFF_NCONST 4 /* constants of the kernels (computed once per call) */
-#define LJ_CUTOFF_WORK_BASE 840 /* workspace doubles before the per-call context */
-#define LJ_CUTOFF_WORK_SIZE 869 /* workspace doubles every `work` must hold */
+#define LJ_CUTOFF_WORK_BASE 1032 /* workspace doubles before the per-call context */
+#define LJ_CUTOFF_WORK_SIZE 1061 /* workspace doubles every `work` must hold */
 
 /* Status codes returned by the step and integrate functions. */
 enum {
@@ -60,7 +60,7 @@ enum {
     LJ_CUTOFF_METHOD_RATTLE4 = 9, /* RATTLE composed by the triple jump, order 4 */
     LJ_CUTOFF_METHOD_RATTLE6 = 10, /* RATTLE composed by Yoshida's solution A, order 6 */
     LJ_CUTOFF_METHOD_RATTLE8 = 11, /* RATTLE composed by Kahan and Li's 15 stages, order 8 */
-    LJ_CUTOFF_METHOD_DOP853 = 12 /* Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, steps end on the stored samples, order 8 */
+    LJ_CUTOFF_METHOD_DOP853 = 12 /* Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order continuous extension, order 8 */
 };
 
 /* RK45 error control: MATLAB ode45's (max norm, weights max(|y|, atol/rtol)) or Hairer's
@@ -126,14 +126,14 @@ int lj_cutoff_vi_step(const double *p, const lj_cutoff_options *opt, double h, c
 int lj_cutoff_rk_step(const double *p, int method, double h, const double *q, const double *w,
         double *qn, double *wn, double *work);
 
-/* Integrate nsteps steps of size h (RK45 and DOP853: output spacing h, adaptive steps inside;
- * DOP853's steps end on the kept samples) from (q0, w0) with `method` (METHOD_*). The
- * trajectory keeps every opt->every-th sample, the initial state first: q and w hold (nsteps /
- * every + 1) * NSTATE doubles, energy (nsteps / every + 1) doubles (not evaluated at all when
- * energy is NULL). opt NULL means the defaults of default_options(); stats may be NULL.
- * Returns OK or a status code: ERR_ARGUMENT for h <= 0, nsteps < 0, an every that does not
- * divide nsteps, an unknown method, or a q0_i that is not a unit vector (stats->fail_body
- * names it); on a failed step the samples before stats->fail_step are valid. */
+/* Integrate nsteps steps of size h (RK45 and DOP853: output spacing h, adaptive steps inside)
+ * from (q0, w0) with `method` (METHOD_*). The trajectory keeps every opt->every-th sample, the
+ * initial state first: q and w hold (nsteps / every + 1) * NSTATE doubles, energy (nsteps /
+ * every + 1) doubles (not evaluated at all when energy is NULL). opt NULL means the defaults
+ * of default_options(); stats may be NULL. Returns OK or a status code: ERR_ARGUMENT for h <=
+ * 0, nsteps < 0, an every that does not divide nsteps, an unknown method, or a q0_i that is
+ * not a unit vector (stats->fail_body names it); on a failed step the samples before
+ * stats->fail_step are valid. */
 int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int method, double h,
         long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy,
         double *work, lj_cutoff_stats *stats);

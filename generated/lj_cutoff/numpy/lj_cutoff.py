@@ -50,7 +50,7 @@ METHOD_VI8 = 8  # the VI composed by Kahan and Li's 15 stages, order 8
 METHOD_RATTLE4 = 9  # RATTLE composed by the triple jump, order 4
 METHOD_RATTLE6 = 10  # RATTLE composed by Yoshida's solution A, order 6
 METHOD_RATTLE8 = 11  # RATTLE composed by Kahan and Li's 15 stages, order 8
-METHOD_DOP853 = 12  # Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, steps end on the stored samples, order 8
+METHOD_DOP853 = 12  # Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order continuous extension, order 8
 CONTROL_MATLAB, CONTROL_HAIRER = range(2)
 EVALS = "gradient_evals"  # the statistics counter of field evaluations
 
@@ -575,30 +575,31 @@ def _dop853_h0(p, rtol, atol, hmax, y, f0, stats):
     return min(100.0 * h, h1, hmax)
 
 
-def _dop853(p, hout, nsteps, stride, y0, store, rtol, atol, hmax, stats):
-    """Adaptive DOP853 from y0 over nsteps output intervals of length hout, the steps ending on
-    every stride-th grid point, where store(nxt, y) writes sample nxt."""
+def _dop853(p, hout, nsteps, every, y0, store, rtol, atol, hmax, stats, state):
+    """Adaptive DOP853 from y0 over nsteps output intervals of length hout; store(nxt, ys)
+    writes sample nxt for every `every`-th grid point (from the continuous extension inside a
+    step). For failure reports state[0] holds the last accepted y."""
     if not (rtol > 0.0 and atol > 0.0):
         return ERR_ARGUMENT
     tend = hout * nsteps
     hmax = hmax if hmax > 0.0 else tend
     fac_max, fac_min = 1.0 / 0.333, 1.0 / 6.0  # h_new / h = 1 / fac lies in [0.333, 6]
     y = y0
-    k = [None] * 13
+    state[0] = y
+    k = [None] * 16
     status, k[0] = _field(p, y)
     stats[EVALS] += 1
     if status != OK:
         return status
     h = _dop853_h0(p, rtol, atol, hmax, y, k[0], stats)
-    t, nxt, reject = 0.0, stride, False
+    t, nxt, reject = 0.0, 1, False
     while nxt <= nsteps:
-        tout = tend if nxt == nsteps else hout * nxt
         hmin = 16.0 * (numpy.nextafter(t, numpy.inf) - t)
         h = min(hmax, max(hmin, h))
+        if t + 1.01 * h >= tend:
+            h = tend - t
         while True:
-            hprop = h
-            cut = t + 1.01 * h >= tout
-            tn = tout if cut else t + h
+            tn = tend if h == tend - t else t + h
             h = tn - t
             status, k[1] = _field(p, y + h * (0.05260015195876773 * k[0]))
             stats[EVALS] += 1
@@ -707,20 +708,116 @@ def _dop853(p, hout, nsteps, stride, y0, store, rtol, atol, hmax, stats):
         if status != OK:
             return status
         stats["steps"] += 1
+        dense = False
+        while nxt <= nsteps and (tn >= tend if nxt == nsteps else hout * nxt <= tn):
+            if nxt % every != 0:
+                nxt += 1
+                continue
+            if nxt == nsteps or hout * nxt == tn:
+                ys = yn
+            else:
+                if not dense:  # the continuous extension's stages, once per step
+                    status, k[13] = _field(p, y + h * (0.056167502283047954 * k[0]
+                                                        + 0.25350021021662483 * k[6]
+                                                        - 0.2462390374708025 * k[7]
+                                                        - 0.12419142326381637 * k[8]
+                                                        + 0.15329179827876568 * k[9]
+                                                        + 0.00820105229563469 * k[10]
+                                                        + 0.007567897660545699 * k[11]
+                                                        - 0.008298 * k[12]))
+                    stats[EVALS] += 1
+                    if status != OK:
+                        return status
+                    status, k[14] = _field(p, y + h * (0.03183464816350214 * k[0]
+                                                        + 0.028300909672366776 * k[5]
+                                                        + 0.053541988307438566 * k[6]
+                                                        - 0.05492374857139099 * k[7]
+                                                        - 0.00010834732869724932 * k[10]
+                                                        + 0.0003825710908356584 * k[11]
+                                                        - 0.00034046500868740456 * k[12]
+                                                        + 0.1413124436746325 * k[13]))
+                    stats[EVALS] += 1
+                    if status != OK:
+                        return status
+                    status, k[15] = _field(p, y + h * (-0.42889630158379194 * k[0]
+                                                        - 4.697621415361164 * k[5]
+                                                        + 7.683421196062599 * k[6]
+                                                        + 4.06898981839711 * k[7]
+                                                        + 0.3567271874552811 * k[8]
+                                                        - 0.0013990241651590145 * k[12]
+                                                        + 2.9475147891527724 * k[13]
+                                                        - 9.15095847217987 * k[14]))
+                    stats[EVALS] += 1
+                    if status != OK:
+                        return status
+                    dense = True
+                th = (hout * nxt - t) / h
+                th1 = 1.0 - th
+                dy = yn - y
+                bspl = h * k[0] - dy
+                c3 = dy - h * k[12] - bspl
+                d4 = h * (-8.428938276109013 * k[0]
+                          + 0.5667149535193777 * k[5]
+                          - 3.0689499459498917 * k[6]
+                          + 2.38466765651207 * k[7]
+                          + 2.117034582445028 * k[8]
+                          - 0.871391583777973 * k[9]
+                          + 2.2404374302607883 * k[10]
+                          + 0.6315787787694688 * k[11]
+                          - 0.08899033645133331 * k[12]
+                          + 18.148505520854727 * k[13]
+                          - 9.194632392478356 * k[14]
+                          - 4.436036387594894 * k[15])
+                d5 = h * (10.427508642579134 * k[0]
+                          + 242.28349177525817 * k[5]
+                          + 165.20045171727028 * k[6]
+                          - 374.5467547226902 * k[7]
+                          - 22.113666853125306 * k[8]
+                          + 7.733432668472264 * k[9]
+                          - 30.674084731089398 * k[10]
+                          - 9.332130526430229 * k[11]
+                          + 15.697238121770845 * k[12]
+                          - 31.139403219565178 * k[13]
+                          - 9.35292435884448 * k[14]
+                          + 35.81684148639408 * k[15])
+                d6 = h * (19.985053242002433 * k[0]
+                          - 387.0373087493518 * k[5]
+                          - 189.17813819516758 * k[6]
+                          + 527.8081592054236 * k[7]
+                          - 11.57390253995963 * k[8]
+                          + 6.8812326946963 * k[9]
+                          - 1.0006050966910838 * k[10]
+                          + 0.7777137798053443 * k[11]
+                          - 2.778205752353508 * k[12]
+                          - 60.19669523126412 * k[13]
+                          + 84.32040550667716 * k[14]
+                          + 11.99229113618279 * k[15])
+                d7 = h * (-25.69393346270375 * k[0]
+                          - 154.18974869023643 * k[5]
+                          - 231.5293791760455 * k[6]
+                          + 357.6391179106141 * k[7]
+                          + 93.40532418362432 * k[8]
+                          - 37.45832313645163 * k[9]
+                          + 104.0996495089623 * k[10]
+                          + 29.8402934266605 * k[11]
+                          - 43.53345659001114 * k[12]
+                          + 96.32455395918828 * k[13]
+                          - 39.17726167561544 * k[14]
+                          - 149.72683625798564 * k[15])
+                conv = d4 + th * (d5 + th1 * (d6 + th * d7))
+                ys = y + th * (dy + th1 * (bspl + th * (c3 + th1 * conv)))
+            store(nxt, ys)
+            nxt += 1
         hnew = h / max(fac_min, min(fac_max, fac))
         if reject:
             hnew = min(hnew, h)
-        if cut:
-            hnew = max(hnew, min(hprop, h / min(fac_max, fac)) if fac > 0.0 else hprop)
         reject = False
         h = hnew
         t = tn
         stats["fail_time"] = t
         y = yn
+        state[0] = y
         k[0] = k[12]
-        if tn == tout:
-            store(nxt, y)
-            nxt += stride
     return OK
 
 
@@ -862,12 +959,12 @@ def _integrate(p, method, h, nsteps, q0, w0, rtol, atol, control, hmax, newton_t
         y0 = numpy.concatenate([q0, w0])
         status = _rk45(p, h, nsteps, y0, sample, rtol, atol, control, hmax, stats, [None, None])
     elif method == METHOD_DOP853:
-        y0 = numpy.concatenate([q0, w0])
 
-        def landed(nxt, ys):
+        def kept(nxt, ys):
             store(nxt // every, ys[:NBODIES], ys[NBODIES:])
 
-        status = _dop853(p, h, nsteps, every, y0, landed, rtol, atol, hmax, stats)
+        y0 = numpy.concatenate([q0, w0])
+        status = _dop853(p, h, nsteps, every, y0, kept, rtol, atol, hmax, stats, [None])
     elif method in SCHEMES:
         status = _geometric(p, method, h, nsteps, every, q0, w0, store, stats, newton_tol,
                             newton_maxiter)
