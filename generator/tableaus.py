@@ -9,7 +9,7 @@ printed there). The printers turn the tableau into the stage sums of the emitted
 checks every order condition of the three weight vectors and the extension's accuracy.
 
 Example:
-    >>> DOP853.stages, len(DOP853.a[11]), sum(DOP853.b)
+    >>> DOP853.stages, len(DOP853.a[11]), round(sum(DOP853.b), 12)
     (12, 11, 1.0)
     >>> [i for i, e in enumerate(DOP853.e3) if e]
     [0, 5, 6, 7, 8, 9, 10, 11]
