@@ -320,8 +320,9 @@ def markdown_table() -> str:
     ]
     for m in METHODS:
         evals = "adaptive" if m.evals == 0 else str(m.evals)
+        summary = m.summary.replace("|", "\\|")  # a bar would end the cell
         rows.append(
             f"| `{m.name}` | {m.order} | {evals} | {'yes' if m.implicit else 'no'} | "
-            f"{', '.join(m.backends)} | {m.summary} |"
+            f"{', '.join(m.backends)} | {summary} |"
         )
     return "\n".join(rows)

@@ -151,3 +151,10 @@ def test_a_damaged_cache_entry_is_derived_again() -> None:
     victim.write_text(victim.read_text()[:100])
     assert emit(system, "c") == good
     assert victim.read_text() == good["double_pendulum.c"]
+
+
+def test_readme_method_table_is_the_methods_table() -> None:
+    from s2gen.methods import markdown_table
+
+    readme = (Path(__file__).parent.parent / "README.md").read_text()
+    assert markdown_table() in readme

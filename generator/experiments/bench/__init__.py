@@ -16,8 +16,8 @@ error controls and DOP853. Outside peers (`peers.py`) run in the same process: s
 
 Definitions (repeated in bench.md):
 - state error: the 2-norm of (q, omega)(T) - (q, omega)_ref(T) over all 6n components, the
-  reference being our C DOP853 (rtol = atol = 3e-14), cross-checked against vi8 at two small
-  steps (the smaller discrepancy is the reference's stated accuracy);
+  reference being our C DOP853 (rtol = atol = 3e-14), cross-checked against vi8 and rattle8 at
+  three small steps (the smallest discrepancy is the reference's stated accuracy);
 - energy error: max |E - E0| over every step (fixed-step methods) or over T/200-spaced
   samples (adaptive methods and peers), also divided by the largest kinetic energy along the
   reference ("relative"); for our methods from a second run that keeps those samples (the

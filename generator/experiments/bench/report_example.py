@@ -252,7 +252,7 @@ def _md_pydy(ex: ExampleBench) -> list[str]:
 def _md_example(ex: ExampleBench, out: Path) -> list[str]:
     ref = ex.reference
     intro = (
-        f"Reference: our C DOP853 (tol {REF_RTOL:g}); vi8 at small steps agrees "
+        f"Reference: our C DOP853 (tol {REF_RTOL:g}); vi8 or rattle8 at small steps agrees "
         f"to {ref.accuracy:.2e} (state norm). Largest kinetic energy along it "
         f"{ref.kinetic_scale:.4g} (divides energy errors). ![work-precision](wp_{ex.name}.png)"
     )

@@ -31,11 +31,13 @@ from .model import FIXED, REF_RTOL, SAMPLES, ExampleBench, Reference, WPRow
 from .per_step import per_step_times
 
 #: Horizons (full, quick) of the work-precision sweeps, chosen so the reference is trustworthy.
-HORIZONS = {"double_pendulum": (10.0, 2.0), "three_bodies": (10.0, 1.0), "dipoles": (10.0, 1.0)}
+HORIZONS = {"double_pendulum": (10.0, 2.0), "three_bodies": (10.0, 1.0), "dipoles": (1.0, 0.25)}
 
 
 def reference(system: System, T: float, log: Log = _print) -> Reference:
-    """C DOP853 (rtol = atol = 3e-14) cross-checked against vi8 at two small steps.
+    """C DOP853 (rtol = atol = 3e-14) cross-checked against vi8 and rattle8 (the same discrete
+    flow, solved two ways with different round-off) at three small steps around the system's
+    own h; the smallest discrepancy is the reference's stated accuracy.
 
     Example:
         >>> ref = reference(example_system("double_pendulum"), 1.0, log=lambda s: None)
@@ -47,15 +49,17 @@ def reference(system: System, T: float, log: Log = _print) -> Reference:
     state = _state(tr)
     h0 = system.run.h or T / 1000
     n_check = max(64, 2 ** math.ceil(math.log2(T / h0)))
-    gaps = []
-    for n in (n_check, 2 * n_check):
-        chk = simulate(system, "vi8", "c", h=T / n, T=T, every=n)
-        gaps.append(float(np.linalg.norm(_state(chk) - state)))
-    acc = min(gaps)
+    gaps = {}
+    for method in ("vi8", "rattle8"):
+        for n in (n_check // 2, n_check, 2 * n_check):
+            chk = simulate(system, method, "c", h=T / n, T=T, every=n)
+            gaps[(method, n)] = float(np.linalg.norm(_state(chk) - state))
+    (method, n), acc = min(gaps.items(), key=lambda kv: kv[1])
     kin = float(np.max(kinetic_energy(system, tr.q, tr.omega)))
     log(
         f"  reference: dop853 (tol {REF_RTOL:g}) over T = {T:g}: {tr.stats['steps']} steps; "
-        f"vi8 at h = T/{n_check}, T/{2 * n_check} agrees to {acc:.2e}"
+        f"{method} at h = T/{n} agrees to {acc:.2e} (closest of vi8 and rattle8 at h = "
+        f"T/{n_check // 2}, T/{n_check}, T/{2 * n_check})"
     )
     return Reference(system, T, state, acc, kin, float(tr.energy[0]), tr.wall_time)
 
