@@ -95,6 +95,7 @@ class ExampleBench:
     reference: Reference
     rows: list[WPRow] = field(default_factory=list)
     per_step: list[dict[str, Any]] = field(default_factory=list)
+    newton: dict[str, float] = field(default_factory=dict)  # iterations per substep, own h
     pydy: dict[str, Any] = field(default_factory=dict)
     long: list[LongSeries] = field(default_factory=list)
     long_notes: list[str] = field(default_factory=list)

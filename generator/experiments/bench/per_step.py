@@ -1,12 +1,15 @@
-"""Time per step of the emitted C, the emitted NumPy and the NumPy reference, side by side.
+"""Time per step of the emitted C, the emitted NumPy and the NumPy reference, side by side;
+Newton's iterations per substep of the VI family.
 
 Input: a system, a horizon T and `quick`. Output: one dict per method of `PER_STEP_METHODS`
 with microseconds per step on each backend (``c_us``, ``numpy_us``, ``reference_us``) and
-the ratios to C (``numpy_over_c``, ``reference_over_c``); written to ``per_step.csv``.
+the ratios to C (``numpy_over_c``, ``reference_over_c``), written to ``per_step.csv``; and
+(`newton_per_substep`) the Newton iterations per substep of every VI-family method at the
+system's own step.
 
 Example:
     >>> PER_STEP_METHODS
-    ('vi', 'vi4', 'vi8', 'rattle', 'rattle8', 'rk4', 'rk45', 'dop853')
+    ('vi', 'vi4', 'rattle', 'rk4', 'rk45', 'dop853')
 """
 
 from __future__ import annotations
@@ -19,8 +22,11 @@ from s2gen.runtime import IntegrationError, Options, simulate
 from s2gen.system import System
 
 from .common import Log, _best_wall, _fmt, _print, _why
+from .model import VI_FAMILY
 
-PER_STEP_METHODS = ("vi", "vi4", "vi8", "rattle", "rattle8", "rk4", "rk45", "dop853")
+PER_STEP_METHODS = ("vi", "vi4", "rattle", "rk4", "rk45", "dop853")
+#: Steps of the system's own h over which Newton's iterations are counted.
+NEWTON_STEPS = 2000
 
 
 def per_step_times(
@@ -69,3 +75,30 @@ def _seconds_per_step(system: System, method: str, backend: str, h: float, n: in
         return full.wall_time / max(int(full.stats.get("steps", n)), 1)
     one = _best_wall(partial(simulate, system, method, backend, h=h, T=h, options=opts), k)
     return max(full.wall_time - one.wall_time, 0.0) / (n - 1)
+
+
+def newton_per_substep(system: System, log: Log = _print) -> dict[str, float]:
+    """Newton iterations per substep of every VI-family method over `NEWTON_STEPS` steps of the
+    system's own h on the emitted C (0 when M is diagonal: explicit steps, closed forms).
+
+    Example:
+        >>> from s2gen.experiments.bench import example_system
+        >>> its = newton_per_substep(example_system("double_pendulum"), lambda s: None)
+        >>> 1.5 < its["vi"] < 3 and 1.5 < its["rattle8"] < 3
+        True
+    """
+    h = system.run.h or 0.01
+    out = {}
+    for method in VI_FAMILY:
+        try:
+            tr = simulate(system, method, "c", h=h, T=NEWTON_STEPS * h, every=NEWTON_STEPS)
+        except IntegrationError as exc:
+            log(f"    Newton {method}: {_why(exc)}")
+            continue
+        subs = method_record(method).evals
+        out[method] = tr.stats["newton_iters"] / tr.stats["steps"] / subs
+    log(
+        f"    Newton iterations per substep (h = {h:g}): "
+        + ", ".join(f"{m} {v:.2f}" for m, v in out.items())
+    )
+    return out

@@ -22,6 +22,7 @@ import numpy as np
 
 from .common import _fmt, _ms, _table, _times
 from .model import FIXED, ORDERS, REF_RTOL, RK_C, VI_FAMILY, ExampleBench, WPRow
+from .per_step import NEWTON_STEPS
 from .report_long import _md_long
 from .sweeps import fitted_orders
 
@@ -228,7 +229,18 @@ def _md_per_step(ex: ExampleBench) -> list[str]:
         "side by side in this run; (best of N steps − best of 1 step)/(N − 1), so the per-call "
         "overhead is excluded (rk45: tol 1e-8, best wall / accepted steps):"
     )
-    return [title, "", *_table(head, rows)]
+    lines = [title, "", *_table(head, rows)]
+    if ex.newton:
+        its = ", ".join(f"{m} {v:.2f}" for m, v in ex.newton.items())
+        h = ex.system.run.h or 0.01
+        lines += [
+            "",
+            (
+                f"Newton iterations per substep (emitted C, the system's own h = {h:g}, "
+                f"{NEWTON_STEPS} steps; 0: explicit steps): {its}."
+            ),
+        ]
+    return lines
 
 
 def _md_pydy(ex: ExampleBench) -> list[str]:

@@ -28,7 +28,7 @@ from s2gen.system import System
 
 from .common import Log, _best_wall, _err, _ms, _print, _state, _why, example_system, kinetic_energy
 from .model import FIXED, REF_RTOL, SAMPLES, ExampleBench, Reference, WPRow
-from .per_step import per_step_times
+from .per_step import newton_per_substep, per_step_times
 
 #: Horizons (full, quick) of the work-precision sweeps, chosen so the reference is trustworthy.
 HORIZONS = {"double_pendulum": (10.0, 2.0), "three_bodies": (10.0, 1.0), "dipoles": (1.0, 0.25)}
@@ -286,6 +286,7 @@ def work_precision(
         ex.pydy = {"status": f"the PyDy peer models the double pendulum only; not run on {name}"}
     ex.call_overhead = _call_overhead(system, T)
     ex.per_step = per_step_times(system, T, quick, log)
+    ex.newton = newton_per_substep(system, log)
     return ex
 
 
