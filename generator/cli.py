@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from s2gen.methods import BACKENDS, CONTROLS, LANGUAGES, NAMES
+from s2gen.methods import method as method_record
 
 __all__ = ["main"]
 
@@ -67,10 +68,12 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("spec", metavar="SPEC")
     s.add_argument("--method", choices=NAMES, help="integrator (default: spec's [run], or vi)")
     s.add_argument("--backend", choices=BACKENDS, default="c", help="default c")
-    s.add_argument("--h", type=float, help="step size (RK45: output spacing); default [run] h")
+    s.add_argument(
+        "--h", type=float, help="step size (RK45, DOP853: output spacing); default [run] h"
+    )
     s.add_argument("--T", type=float, help="final time; default [run] T")
-    s.add_argument("--rtol", type=float, help="RK45 relative tolerance (default 1e-3)")
-    s.add_argument("--atol", type=float, help="RK45 absolute tolerance (default 1e-6)")
+    s.add_argument("--rtol", type=float, help="RK45/DOP853 relative tolerance (default 1e-3)")
+    s.add_argument("--atol", type=float, help="RK45/DOP853 absolute tolerance (default 1e-6)")
     s.add_argument(
         "--control",
         choices=CONTROLS,
@@ -150,7 +153,7 @@ def _report(name: str, tr: Any, out: Path) -> None:
 
     c = stat_counts(tr.stats, tr.method)
     m = metrics.summary(tr.q, tr.energy)
-    rejected = f" (+{c['rejected']} rejected)" if tr.method == "rk45" else ""
+    rejected = f" (+{c['rejected']} rejected)" if method_record(tr.method).adaptive else ""
     grads = "uncounted" if c["gradient_evals"] is None else str(c["gradient_evals"])
     print(
         f"{name}: {tr.method} on {tr.backend}, {c['steps']} steps{rejected}, "

@@ -101,6 +101,24 @@ _OPTIONS_RK45 = (
     Field("control", Kind.INT, "CONTROL_MATLAB", "CONTROL_MATLAB (default) or CONTROL_HAIRER"),
 )
 
+_OPTIONS_ADAPTIVE = (
+    Field("rtol", Kind.DOUBLE, "1e-3", "RK45 and DOP853 relative tolerance (default 1e-3)"),
+    Field("atol", Kind.DOUBLE, "1e-6", "RK45 and DOP853 absolute tolerance (default 1e-6)"),
+    Field(
+        "hmax",
+        Kind.DOUBLE,
+        "0.0",
+        "RK45 and DOP853 largest step; <= 0 means 0.1 * (final time) for RK45, the final time "
+        "for DOP853 (as dop853.f)",
+    ),
+    Field(
+        "control",
+        Kind.INT,
+        "CONTROL_MATLAB",
+        "RK45's error control: CONTROL_MATLAB (default) or CONTROL_HAIRER (DOP853 has its own)",
+    ),
+)
+
 _SPHERE = Interface(
     functions=(
         Function("default_params", Kind.VOID, (_p("p", _A),), "The spec's parameter values."),
@@ -186,8 +204,8 @@ _SPHERE = Interface(
                 _p("work", _A),
                 _p("stats", Kind.STATS, True),
             ),
-            "Integrate nsteps steps of size h (RK45: output spacing h, adaptive steps inside) "
-            "from (q0, w0) with `method` (METHOD_*). The trajectory keeps every opt->every-th "
+            "Integrate nsteps steps of size h (RK45 and DOP853: output spacing h, adaptive steps "
+            "inside) from (q0, w0) with `method` (METHOD_*). The trajectory keeps every opt->every-th "
             "sample, the initial state first: q and w hold (nsteps / every + 1) * NSTATE "
             "doubles, energy (nsteps / every + 1) doubles (not evaluated at all when energy is "
             "NULL). opt NULL means the defaults of default_options(); stats may be NULL. "
@@ -198,7 +216,7 @@ _SPHERE = Interface(
         ),
     ),
     options=(
-        *_OPTIONS_RK45,
+        *_OPTIONS_ADAPTIVE,
         Field(
             "every",
             Kind.LONG,
@@ -210,7 +228,8 @@ _SPHERE = Interface(
             "newton_tol",
             Kind.DOUBLE,
             "1e-14",
-            "Newton stops when max|delta f| <= tol * max(1, max|f|) (1e-14)",
+            "Newton stops when max|delta f|, or the next update predicted by quadratic "
+            "convergence, is <= tol * max(1, max|f|) (1e-14)",
         ),
         Field("newton_maxiter", Kind.INT, "50", "Newton iteration limit per step (50)"),
         Field(
@@ -223,7 +242,7 @@ _SPHERE = Interface(
     ),
     stats=(
         Field("steps", Kind.LONG, "0", "accepted steps"),
-        Field("rejected", Kind.LONG, "0", "RK45 rejected steps"),
+        Field("rejected", Kind.LONG, "0", "rejected steps (RK45, DOP853)"),
         Field("gradient_evals", Kind.LONG, "0", "evaluations of dV/dq"),
         Field("newton_iters", Kind.LONG, "0", "Newton iterations, total"),
         Field("newton_max", Kind.LONG, "0", "Newton iterations, largest in one step"),
@@ -237,7 +256,7 @@ _SPHERE = Interface(
             "fail_time",
             Kind.DOUBLE,
             "0.0",
-            "RK45: time of the last accepted step (where a failure happened)",
+            "RK45, DOP853: time of the last accepted step (where a failure happened)",
         ),
         Field(
             "fail_body",

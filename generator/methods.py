@@ -20,14 +20,21 @@ Example:
 from __future__ import annotations
 
 import enum
+import math
 from dataclasses import dataclass
 
 __all__ = [
     "BACKENDS",
+    "COMPOSITIONS",
     "CONTROLS",
+    "KAHAN_LI8",
     "LANGUAGES",
     "METHODS",
     "NAMES",
+    "PLAIN",
+    "TRIPLE_JUMP",
+    "YOSHIDA6",
+    "Composition",
     "Family",
     "Method",
     "Status",
@@ -92,12 +99,83 @@ _MESSAGES = {
 
 
 @dataclass(frozen=True)
+class Composition:
+    """A symmetric composition: one step of size h is `len(fractions)` steps of the basic
+    (second-order, symmetric) method of sizes gamma_k h, sum gamma_k = 1, gamma_k = gamma_{s+1-k}.
+
+    `name` is a C identifier suffix, `order` the order of the composed method, `source` where the
+    coefficients come from.
+    """
+
+    name: str
+    order: int
+    source: str
+    fractions: tuple[float, ...]
+
+
+def _symmetric(outer: tuple[float, ...]) -> tuple[float, ...]:
+    """The palindrome outer + (middle,) + reversed(outer), the middle making the sum 1."""
+    middle = 1.0 - 2.0 * math.fsum(outer)
+    return (*outer, middle, *reversed(outer))
+
+
+def _triple_jump() -> tuple[float, float, float]:
+    """Yoshida's triple jump: g1 = 1/(2 - 2^(1/3)), g2 = 1 - 2 g1 (the steps add up to h)."""
+    g1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
+    return g1, 1.0 - 2.0 * g1, g1
+
+
+#: The basic step itself.
+PLAIN = Composition("plain", 2, "the basic step alone", (1.0,))
+#: H. Yoshida, Construction of higher order symplectic integrators, Phys. Lett. A 150 (1990)
+#: 262-268: the triple jump, order 4.
+TRIPLE_JUMP = Composition(
+    "triple_jump", 4, "Yoshida (1990), Phys. Lett. A 150, 262, the triple jump", _triple_jump()
+)
+#: Yoshida (1990), order 6, solution A (m = 3): w3, w2, w1, w0, w1, w2, w3. The paper prints 15
+#: digits; these are the root of the order conditions near them to 25 digits (Newton's method
+#: from the printed values in 40-digit arithmetic; tests/test_compositions.py solves the order
+#: conditions again from the printed values and checks the defects).
+YOSHIDA6 = Composition(
+    "yoshida6",
+    6,
+    "Yoshida (1990), Phys. Lett. A 150, 262, order 6, solution A",
+    _symmetric(
+        (0.7845136104775572638194976, 0.2355732133593581336847932, -1.177679984178871006946416)
+    ),
+)
+#: W. Kahan and R.-C. Li, Composition constants for raising the orders of unconventional
+#: schemes for ordinary differential equations, Math. Comp. 66 (1997) 1089-1099, the
+#: 15-stage order-8 scheme s15odr8 (its seven outer constants, 26 digits as printed; the
+#: middle one makes the sum 1).
+KAHAN_LI8 = Composition(
+    "kahan_li8",
+    8,
+    "Kahan and Li (1997), Math. Comp. 66, 1089, s15odr8",
+    _symmetric(
+        (
+            0.74167036435061295344822780,
+            -0.40910082580003159399730010,
+            0.19075471029623837995387626,
+            -0.57386247111608226665638773,
+            0.29906418130365592384446354,
+            0.33462491824529818378495798,
+            0.31529309239676659663205666,
+        )
+    ),
+)
+#: Every composition, in the order their tables are emitted.
+COMPOSITIONS: tuple[Composition, ...] = (PLAIN, TRIPLE_JUMP, YOSHIDA6, KAHAN_LI8)
+
+
+@dataclass(frozen=True)
 class Method:
     """One integration method.
 
     `code` is its value in the emitted METHOD enums; `evals` the gradient evaluations per step
     (0 when adaptive); `implicit` means an iteration (Newton) runs when M is coupled;
-    `substeps` are the step fractions of a symmetric composition (empty for a plain method).
+    `composition` the symmetric composition of the basic VI or RATTLE step that makes one step
+    (geometric methods only).
     """
 
     name: str
@@ -108,7 +186,7 @@ class Method:
     family: Family
     backends: tuple[str, ...]
     summary: str
-    substeps: tuple[float, ...] = ()
+    composition: Composition | None = None
 
     @property
     def c_name(self) -> str:
@@ -120,19 +198,32 @@ class Method:
         """True for the structure-preserving methods (VI family and RATTLE)."""
         return self.family in (Family.VI, Family.RATTLE)
 
+    @property
+    def adaptive(self) -> bool:
+        """True for the adaptive Runge-Kutta methods (h is the output spacing)."""
+        return self.family is Family.ADAPTIVE_RK
 
-def _triple_jump() -> tuple[float, float, float]:
-    """Yoshida's triple jump: g1 = 1/(2 - 2^(1/3)), g2 = 1 - 2 g1 (the steps add up to h)."""
-    g1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
-    return g1, 1.0 - 2.0 * g1, g1
+    @property
+    def substeps(self) -> tuple[float, ...]:
+        """Step fractions of the composition (empty for a plain or non-geometric method)."""
+        c = self.composition
+        return () if c is None or c is PLAIN else c.fractions
 
 
 _ALL = ("c", "numpy", "reference")
 _EMITTED = ("c", "numpy")
 
+
+def _geometric(name: str, code: int, family: Family, comp: Composition, summary: str) -> Method:
+    backends = _ALL if comp is PLAIN and family is Family.VI else _EMITTED
+    return Method(
+        name, code, comp.order, len(comp.fractions), True, family, backends, summary, comp
+    )
+
+
 #: Every method, in the order of their codes.
 METHODS: tuple[Method, ...] = (
-    Method("vi", 0, 2, 1, True, Family.VI, _ALL, "the paper's variational integrator"),
+    _geometric("vi", 0, Family.VI, PLAIN, "the paper's variational integrator"),
     Method(
         "rk45",
         1,
@@ -155,26 +246,27 @@ METHODS: tuple[Method, ...] = (
         "explicit midpoint rule, q_i normalized after each step",
     ),
     Method("rk4", 4, 4, 4, False, Family.FIXED_RK, _ALL, "classical Runge-Kutta"),
-    Method(
-        "vi4",
-        5,
-        4,
-        3,
-        True,
-        Family.VI,
-        _EMITTED,
-        "the VI composed by Yoshida's triple jump",
-        _triple_jump(),
+    _geometric("vi4", 5, Family.VI, TRIPLE_JUMP, "the VI composed by Yoshida's triple jump"),
+    _geometric(
+        "rattle", 6, Family.RATTLE, PLAIN, "RATTLE on Cartesian q_i with the constraints |q_i| = 1"
+    ),
+    _geometric("vi6", 7, Family.VI, YOSHIDA6, "the VI composed by Yoshida's 7-stage solution A"),
+    _geometric("vi8", 8, Family.VI, KAHAN_LI8, "the VI composed by Kahan and Li's 15 stages"),
+    _geometric("rattle4", 9, Family.RATTLE, TRIPLE_JUMP, "RATTLE composed by the triple jump"),
+    _geometric("rattle6", 10, Family.RATTLE, YOSHIDA6, "RATTLE composed by Yoshida's solution A"),
+    _geometric(
+        "rattle8", 11, Family.RATTLE, KAHAN_LI8, "RATTLE composed by Kahan and Li's 15 stages"
     ),
     Method(
-        "rattle",
-        6,
-        2,
-        1,
-        True,
-        Family.RATTLE,
+        "dop853",
+        12,
+        8,
+        0,
+        False,
+        Family.ADAPTIVE_RK,
         _EMITTED,
-        "RATTLE on Cartesian q_i with the constraints |q_i| = 1",
+        "Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order "
+        "continuous extension",
     ),
 )
 
@@ -228,8 +320,9 @@ def markdown_table() -> str:
     ]
     for m in METHODS:
         evals = "adaptive" if m.evals == 0 else str(m.evals)
+        summary = m.summary.replace("|", "\\|")  # a bar would end the cell
         rows.append(
             f"| `{m.name}` | {m.order} | {evals} | {'yes' if m.implicit else 'no'} | "
-            f"{', '.join(m.backends)} | {m.summary} |"
+            f"{', '.join(m.backends)} | {summary} |"
         )
     return "\n".join(rows)

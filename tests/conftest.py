@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from s2gen.system import System
@@ -78,6 +79,36 @@ def lennard_jones_ring(n: int = 12) -> System:
         initial_omega=w.tolist(),
         run={"h": 0.01, "T": 1.0},
     )
+
+
+def final_state(tr) -> np.ndarray:
+    """(q, omega) at the last sample of a trajectory, flat."""
+    return np.concatenate([tr.q[-1].ravel(), tr.omega[-1].ravel()])
+
+
+def reference_path(system: System, T: float, times, tol: float = 3e-14) -> np.ndarray:
+    """(q, omega) at `times` (rows) by scipy's DOP853 at rtol = atol = tol on the reference
+    backend's field (s2gen.reference, written independently of the emitted code)."""
+    from scipy.integrate import solve_ivp
+
+    from s2gen.reference import continuous_rhs, problem_from_system
+
+    problem, n = problem_from_system(system), system.n
+
+    def fun(t: float, y: np.ndarray) -> np.ndarray:
+        dq, dw = continuous_rhs(problem, y[: 3 * n].reshape(n, 3), y[3 * n :].reshape(n, 3))
+        return np.concatenate([dq.ravel(), dw.ravel()])
+
+    assert system.q0 is not None and system.omega0 is not None
+    y0 = np.concatenate([system.q0.ravel(), system.omega0.ravel()])
+    sol = solve_ivp(fun, (0.0, T), y0, method="DOP853", t_eval=times, rtol=tol, atol=tol)
+    assert sol.success
+    return sol.y.T
+
+
+def reference_final(system: System, T: float, tol: float = 3e-14) -> np.ndarray:
+    """(q, omega)(T), flat, as `reference_path`."""
+    return reference_path(system, T, [T], tol)[-1]
 
 
 @pytest.fixture(scope="session", params=sorted(SYSTEMS))

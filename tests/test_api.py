@@ -163,3 +163,10 @@ def test_native_flags_give_the_same_motion() -> None:
     assert np.max(np.abs(native.q - portable.q)) < 1e-12
     with pytest.raises(ValueError, match="C backend"):
         s2gen.compile(system, "numpy", opt="native")
+
+
+def test_readme_method_table_is_the_methods_table() -> None:
+    from s2gen.methods import markdown_table
+
+    readme = (Path(__file__).parent.parent / "README.md").read_text()
+    assert markdown_table() in readme

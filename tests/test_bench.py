@@ -16,7 +16,14 @@ import pytest
 
 from s2gen.experiments import bench, peers
 
-EXPECTED_ORDERS = {"vi": (2.0, 0.1), "rattle": (2.0, 0.1), "vi4": (4.0, 0.2), "rk4": (4.0, 0.2)}
+EXPECTED_ORDERS = {
+    "vi": (2.0, 0.1),
+    "rattle": (2.0, 0.1),
+    "vi4": (4.0, 0.2),
+    "vi6": (6.0, 0.3),
+    "rattle6": (6.0, 0.3),
+    "rk4": (4.0, 0.2),
+}
 
 
 @pytest.fixture(scope="module")
@@ -38,11 +45,11 @@ def test_quick_bench_writes_csv_markdown_and_plots(quick: bench.BenchReport) -> 
         rows = list(csv.DictReader(fh))
     assert len(rows) == len(_rows(quick))
     methods = {r["method"] for r in rows}
-    assert (
-        set(bench.FIXED) | {"rk45-hairer", "rk45-matlab", "scipy-RK45", "scipy-DOP853"} <= methods
-    )
+    ours = {"rk45-hairer", "rk45-matlab", "dop853", "scipy-RK45", "scipy-DOP853"}
+    assert set(bench.FIXED) | ours <= methods
     text = (quick.out / "bench.md").read_text()
     assert "Winners per accuracy" in text and "Where the VI loses and where it wins" in text
+    assert "The VI family against Runge-Kutta (emitted C)" in text
     assert "NumPy / C" in text and "s2gen bench double_pendulum --quick" in text
 
 
@@ -88,15 +95,24 @@ def test_pydy_peer_maps_angles_back_and_converges(quick: bench.BenchReport) -> N
     assert np.allclose(q, q0, atol=1e-14) and np.allclose(w, w0, atol=1e-13)
 
 
-def test_crossover_cases() -> None:
-    t = [1.0, 10.0, 100.0]
-    vi = bench.LongSeries("x", "vi", "vi", 0.1, 0.0, t, [3e-7] * 3)
-    below = bench.LongSeries("x", "rk", "rk45", 0.0, 0.0, t, [1e-10, 1e-9, 1e-8])
-    above = bench.LongSeries("x", "rk", "rk45", 0.0, 0.0, t, [1e-6, 1e-5, 1e-4])
-    assert bench.crossover(above, vi) == (1.0, "before the first window")
-    when, kind = bench.crossover(below, vi)
-    assert kind == "extrapolated" and when == pytest.approx(100.0 * 30.0)
-    assert below.slope() == pytest.approx(1.0)
+def test_crossover_horizon_takes_the_rk_runs_as_cheap_as_the_vi() -> None:
+    """(tolerance, cost per unit time, time the error exceeded the target): of the runs that
+    cost less than the VI, the one that keeps the error longest decides."""
+    runs = [(1e-6, 2.0, 50.0), (1e-7, 3.0, 400.0), (1e-8, 9.0, 5000.0)]
+    assert bench.crossover_horizon(runs, 5.0) == (1e-7, 400.0)
+    assert bench.crossover_horizon(runs, 10.0) == (1e-8, 5000.0)
+    tol, when = bench.crossover_horizon(runs, 1.0)  # no RK run is as cheap: the VI wins at once
+    assert np.isnan(tol) and np.isnan(when)
+    tol, when = bench.crossover_horizon([(1e-7, 3.0, float("inf"))], 5.0)
+    assert tol == 1e-7 and when == float("inf")  # never exceeded within the chase
+
+
+def test_crossover_notes_say_what_was_measured() -> None:
+    c = bench.Crossover("x", 1e-6, "dop853", "rattle8", 0.1, 4e-5, 1e-9, 3e-5, 800.0, 900.0)
+    c.vi_reached, c.vi_max = 800.0, 4e-7
+    assert "exceeds it at t = 800 (crossover)" in c.note()
+    c.horizon = float("nan")
+    assert "not within" in c.note()
 
 
 def test_windows_cover_the_run() -> None:
@@ -114,11 +130,14 @@ def test_parser_and_unknown_example(tmp_path: Path, capsys: pytest.CaptureFixtur
 
 @pytest.mark.slow
 def test_long_time_vi_energy_stays_bounded(tmp_path: Path) -> None:
-    series, notes = bench.long_time("double_pendulum", 200000, log=lambda line: None)
-    by_label = {s.method: s for s in series[:6]}
+    series, notes, found = bench.long_time(
+        "double_pendulum", 200000, log=lambda line: None, crossover_steps=10**6, targets=(1e-6,)
+    )
+    by_label = {s.method: s for s in series[:11]}
     assert abs(by_label["vi"].slope()) < 0.2
     assert by_label["vi"].status == "ok" and max(by_label["vi"].unit) < 1e-12
-    assert len(notes) >= 4
+    assert [c.rk for c in found] == ["rk45", "dop853"] and len(notes) == 2
+    assert all(c.status == "ok" and c.vi_max <= c.target for c in found), notes
 
 
 @pytest.mark.slow

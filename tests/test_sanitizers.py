@@ -32,7 +32,8 @@ ENV = {
     "UBSAN_OPTIONS": "halt_on_error=1:print_stacktrace=1",
 }
 REPORTS = ("AddressSanitizer", "LeakSanitizer", "runtime error:", "UndefinedBehaviorSanitizer")
-#: Steps per method: a few hundred; molecular (642 bodies, all pairs) a few.
+#: Steps per method: a few hundred; molecular (642 bodies, all pairs) a few. A composition of
+#: s substeps runs 1/s of them (at least 5 steps), so each method evaluates as many gradients.
 STEPS = {"molecular": 10}
 #: The systems valgrind runs (slow suite).
 VALGRIND_SUITE = ("double_pendulum", "four_pendula")
@@ -47,7 +48,8 @@ def _doubles(values: object) -> str:
 
 
 def driver_source(system: System) -> str:
-    """A C program that integrates `system` with each method code given on its command line."""
+    """A C program that integrates `system` with step h (argv[1]) by each method code given on
+    its command line, each followed by its number of steps."""
     name, up = system.name, system.name.upper()
     return f"""#include <math.h>
 #include <stdio.h>
@@ -67,8 +69,8 @@ static double *exactly(size_t count)
 
 int main(int argc, char **argv)
 {{
-    long nsteps = atol(argv[1]), k;
-    double h = atof(argv[2]);
+    long nsteps, k;
+    double h = atof(argv[1]);
     int i, bad = 0;
     double *p = exactly({up}_NPARAMS > 0 ? {up}_NPARAMS : 1);
     double *q0 = exactly({up}_NSTATE), *w0 = exactly({up}_NSTATE);
@@ -77,9 +79,11 @@ int main(int argc, char **argv)
     {name}_default_options(&opt);
     memcpy(q0, q_init, sizeof q_init);
     memcpy(w0, w_init, sizeof w_init);
-    for (i = 3; i < argc; ++i) {{
+    for (i = 2; i + 1 < argc; i += 2) {{
         int method = atoi(argv[i]);
-        size_t samples = (size_t)nsteps + 1;
+        size_t samples;
+        nsteps = atol(argv[i + 1]);
+        samples = (size_t)nsteps + 1;
         double *q = exactly(samples * {up}_NSTATE), *w = exactly(samples * {up}_NSTATE);
         double *en = exactly(samples), *work = exactly({up}_WORK_SIZE);
         {name}_stats st;
@@ -116,7 +120,9 @@ def build_driver(
 def _args(system: System) -> list[str]:
     h = system.run.h
     assert h is not None
-    return [str(STEPS.get(system.name, 300)), repr(h), *(str(m.code) for m in C_METHODS)]
+    steps = STEPS.get(system.name, 300)
+    runs = [(m.code, max(5, steps // len(m.substeps or (1.0,)))) for m in C_METHODS]
+    return [repr(h), *(str(x) for run in runs for x in run)]
 
 
 def _check_output(proc: subprocess.CompletedProcess[str], tool: str) -> None:
@@ -166,7 +172,7 @@ def test_a_sanitizer_report_fails_the_check(tmp_path: Path) -> None:
     """The check is live: a driver whose workspace is one double short is caught."""
     exe = build_driver(builtin("double_pendulum"), tmp_path, ["-O1", *SANITIZE], _one_short)
     proc = subprocess.run(
-        [str(exe), "5", "0.01", "0"], capture_output=True, text=True, check=False,
+        [str(exe), "0.01", "0", "5"], capture_output=True, text=True, check=False,
         env={**os.environ, **ENV},
     )  # fmt: skip
     with pytest.raises(AssertionError, match="sanitizer report"):
@@ -195,5 +201,5 @@ def test_valgrind_memcheck(name: str, tmp_path: Path) -> None:
 @pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind not installed")
 def test_valgrind_report_fails_the_check(tmp_path: Path) -> None:
     exe = build_driver(builtin("double_pendulum"), tmp_path, ["-O1"], _one_short)
-    proc = _memcheck(exe, ["5", "0.01", "0"])
+    proc = _memcheck(exe, ["0.01", "0", "5"])
     assert proc.returncode == 1 and "Invalid" in proc.stderr

@@ -2,10 +2,11 @@
  *
  * Usage: integrate INITIAL METHOD H NSTEPS [RTOL ATOL]
  *   INITIAL  a text file: q (NSTATE numbers, body-major), then omega (NSTATE numbers)
- *   METHOD   vi, vi4, rattle, rk45, rk2, rk2-proj or rk4
- *   H        step size (rk45: spacing of the output samples; its steps are adaptive)
+ *   METHOD   vi, vi4, vi6, vi8, rattle, rattle4, rattle6, rattle8, rk45, dop853, rk2, rk2-proj
+ *            or rk4
+ *   H        step size (rk45, dop853: spacing of the output samples; their steps are adaptive)
  *   NSTEPS   number of steps (the trajectory holds NSTEPS + 1 samples)
- *   RTOL, ATOL  rk45 tolerances (default: the header's default options)
+ *   RTOL, ATOL  rk45 and dop853 tolerances (default: the header's default options)
  * Prints the final sample (t, q, omega, energy) with %.17g, then the integrator's counts.
  * Exit status: 0 on success, 1 if the integration failed (the last valid sample is printed),
  * 2 on bad arguments.
@@ -39,9 +40,12 @@ static const struct {
     const char *name;
     int code;
 } methods[] = {
-    {"vi", SYS_MACRO(_METHOD_VI)},         {"vi4", SYS_MACRO(_METHOD_VI4)},
-    {"rattle", SYS_MACRO(_METHOD_RATTLE)}, {"rk45", SYS_MACRO(_METHOD_RK45)},
-    {"rk2", SYS_MACRO(_METHOD_RK2)},       {"rk2-proj", SYS_MACRO(_METHOD_RK2_PROJ)},
+    {"vi", SYS_MACRO(_METHOD_VI)},           {"vi4", SYS_MACRO(_METHOD_VI4)},
+    {"vi6", SYS_MACRO(_METHOD_VI6)},         {"vi8", SYS_MACRO(_METHOD_VI8)},
+    {"rattle", SYS_MACRO(_METHOD_RATTLE)},   {"rattle4", SYS_MACRO(_METHOD_RATTLE4)},
+    {"rattle6", SYS_MACRO(_METHOD_RATTLE6)}, {"rattle8", SYS_MACRO(_METHOD_RATTLE8)},
+    {"rk45", SYS_MACRO(_METHOD_RK45)},       {"dop853", SYS_MACRO(_METHOD_DOP853)},
+    {"rk2", SYS_MACRO(_METHOD_RK2)},         {"rk2-proj", SYS_MACRO(_METHOD_RK2_PROJ)},
     {"rk4", SYS_MACRO(_METHOD_RK4)},
 };
 

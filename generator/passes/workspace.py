@@ -21,6 +21,8 @@ from dataclasses import replace
 
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Band, Buffer, Layout, LoopKind, Module, ModuleKind
+from s2gen.methods import METHODS
+from s2gen.tableaus import DOP853
 
 __all__ = ["CONTEXT", "band", "bands", "layout", "padded", "workspace_pass"]
 
@@ -120,6 +122,16 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     rk_fixed = layout("rk_fixed", ("k1", ns), ("k2", ns), ("acc", ns), ("field", field.size))
     rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("rk", rk_fixed.size))
     rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
+    # DOP853: its stages, the field at the new state and the stages of its dense output
+    dop853 = layout(
+        "dop853",
+        ("k", (DOP853.stages + 1 + len(DOP853.dense_a)) * ns),
+        ("y", ns),
+        ("yt", ns),
+        ("yn", ns),
+        ("ys", ns),
+        ("field", field.size),
+    )
     if structured:
         pass  # laid out above
     elif coupled:
@@ -145,20 +157,23 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     step = max(vi.size, rattle.size) if coupled else rattle.size
     state = [(b, m3) for b in ("qk", "wk", "q1", "w1")]  # the current and the next state
     # Newton's starting points: each substep's Cayley parameters (VI) or multipliers (RATTLE)
-    # from the previous step
-    starts = [("f", 3 * m3 if coupled else 0), ("s", n if coupled else 0)]
+    # from the previous step, for the longest composition
+    subs = max(len(m.composition.fractions) for m in METHODS if m.composition is not None)
+    starts = [("f", subs * m3 if coupled else 0), ("s", subs * n if coupled else 0)]
+    # substeps alternate between (a, vc) and (b, vd); va, vb carry RATTLE's velocities
     geometric = layout(
         "geometric",
-        *((b, m3) for b in ("g", "gn", "a", "b", "va", "vb")),
+        *((b, m3) for b in ("g", "gn", "a", "b", "va", "vb", "vc", "vd")),
         *state,
         *starts,
         ("step", step),
     )
     fixed = layout("fixed", *state, ("step", rk_step.size))
     vi_step = layout("vi_step", ("g", m3), ("gn", m3), ("f", m3), ("step", vi.size))
-    run = max(geometric.size, rk45.size, fixed.size, *(lay.size for lay in extra))
+    run = max(geometric.size, rk45.size, dop853.size, fixed.size, *(lay.size for lay in extra))
     integrate = layout("integrate", ("run", run), ("y0", ns))
-    layouts = [field, rk_fixed, rk_step, rk45, vi, rattle, geometric, fixed, vi_step, integrate]
+    layouts = [field, rk_fixed, rk_step, rk45, dop853, vi, rattle, geometric, fixed, vi_step]
+    layouts.append(integrate)
     layouts += extra
     return layouts, max(lay.size for lay in layouts)
 

@@ -21,7 +21,7 @@ from typing import Any
 from s2gen.inertia import InertiaKind
 from s2gen.interface import interface
 from s2gen.ir import Kernel, LoopKind, Module, ModuleKind, PassRecord, TermLoop
-from s2gen.methods import METHODS, Status, method
+from s2gen.methods import COMPOSITIONS, METHODS, Family, Status
 from s2gen.passes.opcount import kernel_profile
 from s2gen.passes.workspace import CONTEXT, padded
 from s2gen.printing.c import (
@@ -36,6 +36,8 @@ from s2gen.printing.c import (
     rows,
 )
 from s2gen.printing.numpy import py_call, py_kernel, py_term_setup
+from s2gen.printing.tableau import print_tableau
+from s2gen.tableaus import DOP853
 from s2gen.version import __version__
 
 __all__ = ["PrintedKernel", "PrintedModule", "PrintedTerm", "print_module"]
@@ -149,7 +151,9 @@ class PrintedModule:
     statuses: tuple[tuple[str, int, str], ...]
     methods: tuple[tuple[str, int, str], ...]
     passes: tuple[PassRecord, ...]
-    yoshida: tuple[str, ...]
+    compositions: tuple[dict[str, Any], ...]  # name, source, order, count, fractions (literals)
+    schemes: tuple[dict[str, Any], ...]  # per geometric method: c_name, rattle, count, table
+    dop853: dict[str, Any]  # DOP853's stage sums (s2gen.printing.tableau)
     evals: str  # the statistics counter of vector-field / gradient evaluations
     state_doc: str
     py_doc_title: str
@@ -479,6 +483,37 @@ def _bands(module: Module) -> dict[str, dict[str, int]]:
     }
 
 
+def _compositions() -> tuple[dict[str, Any], ...]:
+    """The step fractions of every composition a geometric method uses, as literals."""
+    used = {m.composition for m in METHODS if m.composition is not None}
+    return tuple(
+        {
+            "name": c.name,
+            "source": c.source,
+            "order": c.order,
+            "count": len(c.fractions),
+            "fractions": tuple(repr(g) for g in c.fractions),
+        }
+        for c in COMPOSITIONS
+        if c in used
+    )
+
+
+def _schemes() -> tuple[dict[str, Any], ...]:
+    """Per geometric method: its enum constant, whether its basic step is RATTLE's (else the
+    VI's), and its composition's table and length."""
+    return tuple(
+        {
+            "c_name": m.c_name,
+            "rattle": int(m.family is Family.RATTLE),
+            "count": len(m.composition.fractions),
+            "table": m.composition.name,
+        }
+        for m in METHODS
+        if m.composition is not None
+    )
+
+
 def print_module(module: Module) -> PrintedModule:
     """Print every part of a lowered module for both languages."""
     name, upper = module.name, module.name.upper()
@@ -607,7 +642,9 @@ def print_module(module: Module) -> PrintedModule:
         statuses=statuses,
         methods=meths,
         passes=module.passes,
-        yoshida=tuple(repr(g) for g in method("vi4").substeps),
+        compositions=_compositions(),
+        schemes=_schemes(),
+        dop853=print_tableau(DOP853),
         evals="gradient_evals" if sphere else "rhs_evals",
         state_doc="(q, omega)" if sphere else "(x, xd)",
         py_doc_title=(

@@ -29,6 +29,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from s2gen.methods import BACKENDS, CONTROLS, NAMES, Status, check_method
+from s2gen.methods import method as method_record
 from s2gen.runtime.options import Options
 from s2gen.runtime.trajectory import IntegrationError, Trajectory
 from s2gen.system import System
@@ -235,7 +236,7 @@ def run(
 def _metadata(system: System, method: str, opts: Options) -> dict[str, Any]:
     """The Trajectory metadata of a run: system, spec hash and, when adaptive, tolerances."""
     meta: dict[str, Any] = {"system": system.name, "spec_hash": system.spec_hash()}
-    if method == "rk45":
+    if method_record(method).adaptive:
         meta.update(rtol=opts.rtol, atol=opts.atol, control=opts.control)
     return meta
 

@@ -30,6 +30,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from s2gen.methods import NAMES
+from s2gen.methods import method as method_record
 from s2gen.version import __version__
 
 if TYPE_CHECKING:
@@ -73,7 +75,7 @@ def stat_counts(stats: dict[str, int], method: str = "") -> dict[str, int | None
     if "rhs_evaluations" in stats and "gradient_evals" not in stats:
         for old, new in _REFERENCE_NAMES.items():
             named[new] = named.pop(old, None)
-        if method in ("vi", "vi4", "rattle"):
+        if method in NAMES and method_record(method).geometric:
             named["gradient_evals"] = None
     keys = ("steps", "rejected", "gradient_evals", "newton_iters")
     return {k: named.get(k, 0) if k != "gradient_evals" else named.get(k) for k in keys}

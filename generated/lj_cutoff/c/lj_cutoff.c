@@ -1166,29 +1166,509 @@ static int lj_cutoff_rk45(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
     return LJ_CUTOFF_OK;
 }
 
-/* Step fractions of the symmetric compositions of the VI (Yoshida's triple jump: 4th order). */
-static const double lj_cutoff_yoshida[3] = { 1.3512071919596578, -1.7024143839193155, 1.3512071919596578 };
+/* ---- adaptive Runge-Kutta (DOP853) ------------------------------------------------------- */
+/* DOP853's error of one trial step from (y, k) to yn (dop853.f): with weights
+ * sk = atol + rtol max(|y|, |yn|), err = |h| e5^2 / sqrt(N (e5^2 + 0.01 e3^2)), e5 and e3 the
+ * weighted 2-norms of the estimates of orders 5 and 3; 1 is the acceptance limit. NaN when the
+ * trial step is not finite. */
+static double lj_cutoff_dop853_error(const lj_cutoff_options *opt, double h, double *const *k,
+        const double *y, const double *yn)
+{
+    double err5 = 0.0, err3 = 0.0, deno;
+    int e;
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        const double sk = opt->atol + opt->rtol * fmax(fabs(y[e]), fabs(yn[e]));
+        const double d5 = (0.01312004499419488 * k[0][e]
+                - 1.2251564463762044 * k[5][e]
+                - 0.4957589496572502 * k[6][e]
+                + 1.6643771824549864 * k[7][e]
+                - 0.35032884874997366 * k[8][e]
+                + 0.3341791187130175 * k[9][e]
+                + 0.08192320648511571 * k[10][e]
+                - 0.022355307863886294 * k[11][e]) / sk;
+        const double d3 = (-0.18980075407240762 * k[0][e]
+                + 4.450312892752409 * k[5][e]
+                + 1.8915178993145003 * k[6][e]
+                - 5.801203960010585 * k[7][e]
+                - 0.4226823213237919 * k[8][e]
+                - 0.1521609496625161 * k[9][e]
+                + 0.20136540080403034 * k[10][e]
+                + 0.02265179219836082 * k[11][e]) / sk;
+        if (!(isfinite(d5) && isfinite(d3) && isfinite(yn[e]))) {
+            return NAN; /* a non-finite trial step is never accepted */
+        }
+        err5 += d5 * d5;
+        err3 += d3 * d3;
+    }
+    deno = err5 + 0.01 * err3;
+    if (deno <= 0.0) {
+        deno = 1.0;
+    }
+    return fabs(h) * err5 * sqrt(1.0 / (LJ_CUTOFF_NS * deno));
+}
 
-/* RATTLE from (q0, w0) (the explicit VI has its own driver); every `every`-th state is stored.
- * One gradient per substep (the gradient at the new state is reused by the next step).
- * work: g (24), gn (24), a (24), b (24), va (24), vb (24), qk (24), wk (24), q1 (24), w1 (24), step (24). */
+/* DOP853's initial step (dop853.f, HINIT with order 8): h^8 max(|f0|, |f'|) = 0.01 in the
+ * weighted norm, f' from one explicit Euler step; at most 100 times that Euler step and hmax. */
+static double lj_cutoff_dop853_h0(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt, double hmax,
+        const double *y, const double *f0, double *yt, double *ft, double *fw, long *evals)
+{
+    double dnf = 0.0, dny = 0.0, der2 = 0.0, der12, h, h1;
+    int e;
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        const double sk = opt->atol + opt->rtol * fabs(y[e]);
+        dnf += (f0[e] / sk) * (f0[e] / sk);
+        dny += (y[e] / sk) * (y[e] / sk);
+    }
+    h = (dnf <= 1e-10 || dny <= 1e-10) ? 1e-6 : sqrt(dny / dnf) * 0.01;
+    h = fmin(h, hmax);
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        yt[e] = y[e] + h * f0[e];
+    }
+    if (lj_cutoff_field(cx, yt, ft, fw)) {
+        return h;
+    }
+    *evals += 1;
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        const double sk = opt->atol + opt->rtol * fabs(y[e]);
+        der2 += ((ft[e] - f0[e]) / sk) * ((ft[e] - f0[e]) / sk);
+    }
+    der2 = sqrt(der2) / h;
+    der12 = fmax(fabs(der2), sqrt(dnf));
+    h1 = der12 <= 1e-15 ? fmax(1e-6, h * 1e-3) : pow(0.01 / der12, 1.0 / 8);
+    return fmin(fmin(100.0 * h, h1), hmax);
+}
+
+/* Adaptive DOP853 from y0 over nsteps output intervals of length hout. Control as dop853.f:
+ * safety 0.9, the step changes by a factor in [1/3, 6] and does not grow right after a
+ * rejection, hmax the whole span unless opt->hmax > 0. Samples inside a step come from the
+ * continuous extension of order 7 (three more field evaluations in a step that has one).
+ * work: k (768), y (48), yt (48), yn (48), ys (48), field (24). */
+static int lj_cutoff_dop853(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt, double hout,
+        long nsteps, const double *y0, long every, double *q, double *w, double *energy, double *work, lj_cutoff_stats *stats)
+{
+    double *k[16], *y = work + 768, *yt = work + 816;
+    double *yn = work + 864, *ys = work + 912;
+    double *fw = work + 960, *tmp;
+    const double tend = hout * (double)nsteps;
+    const double hmax = opt->hmax > 0.0 ? opt->hmax : tend;
+    /* h_new / h = 1 / fac lies in [0.333, 6] (fac1, fac2 of dop853.f) */
+    const double fac_max = 1.0 / 0.333, fac_min = 1.0 / 6.0;
+    double t = 0.0, h;
+    long next = 1;
+    int s, e, status, reject = 0;
+    if (!(opt->rtol > 0.0) || !(opt->atol > 0.0)) {
+        return LJ_CUTOFF_ERR_ARGUMENT;
+    }
+    for (s = 0; s < 16; ++s) {
+        k[s] = work + 0 + s * LJ_CUTOFF_NS;
+    }
+    lj_cutoff_copy(y, y0, LJ_CUTOFF_NS);
+    stats->fail_time = 0.0;
+    status = lj_cutoff_field(cx, y, k[0], fw);
+    stats->gradient_evals += 1;
+    if (status) {
+        return status;
+    }
+    h = lj_cutoff_dop853_h0(cx, opt, hmax, y, k[0], yt, k[1], fw, &stats->gradient_evals);
+    while (next <= nsteps) {
+        const double hmin = 16.0 * (nextafter(t, INFINITY) - t);
+        double err, fac, hnew, tn;
+        int dense = 0;
+        h = fmin(hmax, fmax(hmin, h));
+        if (t + 1.01 * h >= tend) {
+            h = tend - t;
+        }
+        for (;;) {
+            tn = (h == tend - t) ? tend : t + h;
+            h = tn - t;
+            for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                yt[e] = y[e] + h * (0.05260015195876773 * k[0][e]);
+            }
+            status = lj_cutoff_field(cx, yt, k[1], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                yt[e] = y[e] + h * (0.0197250569845379 * k[0][e]
+                        + 0.0591751709536137 * k[1][e]);
+            }
+            status = lj_cutoff_field(cx, yt, k[2], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                yt[e] = y[e] + h * (0.02958758547680685 * k[0][e]
+                        + 0.08876275643042054 * k[2][e]);
+            }
+            status = lj_cutoff_field(cx, yt, k[3], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                yt[e] = y[e] + h * (0.2413651341592667 * k[0][e]
+                        - 0.8845494793282861 * k[2][e]
+                        + 0.924834003261792 * k[3][e]);
+            }
+            status = lj_cutoff_field(cx, yt, k[4], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                yt[e] = y[e] + h * (0.037037037037037035 * k[0][e]
+                        + 0.17082860872947386 * k[3][e]
+                        + 0.12546768756682242 * k[4][e]);
+            }
+            status = lj_cutoff_field(cx, yt, k[5], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                yt[e] = y[e] + h * (0.037109375 * k[0][e]
+                        + 0.17025221101954405 * k[3][e]
+                        + 0.06021653898045596 * k[4][e]
+                        - 0.017578125 * k[5][e]);
+            }
+            status = lj_cutoff_field(cx, yt, k[6], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                yt[e] = y[e] + h * (0.03709200011850479 * k[0][e]
+                        + 0.17038392571223998 * k[3][e]
+                        + 0.10726203044637328 * k[4][e]
+                        - 0.015319437748624402 * k[5][e]
+                        + 0.008273789163814023 * k[6][e]);
+            }
+            status = lj_cutoff_field(cx, yt, k[7], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                yt[e] = y[e] + h * (0.6241109587160757 * k[0][e]
+                        - 3.3608926294469414 * k[3][e]
+                        - 0.868219346841726 * k[4][e]
+                        + 27.59209969944671 * k[5][e]
+                        + 20.154067550477894 * k[6][e]
+                        - 43.48988418106996 * k[7][e]);
+            }
+            status = lj_cutoff_field(cx, yt, k[8], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                yt[e] = y[e] + h * (0.47766253643826434 * k[0][e]
+                        - 2.4881146199716677 * k[3][e]
+                        - 0.590290826836843 * k[4][e]
+                        + 21.230051448181193 * k[5][e]
+                        + 15.279233632882423 * k[6][e]
+                        - 33.28821096898486 * k[7][e]
+                        - 0.020331201708508627 * k[8][e]);
+            }
+            status = lj_cutoff_field(cx, yt, k[9], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                yt[e] = y[e] + h * (-0.9371424300859873 * k[0][e]
+                        + 5.186372428844064 * k[3][e]
+                        + 1.0914373489967295 * k[4][e]
+                        - 8.149787010746927 * k[5][e]
+                        - 18.52006565999696 * k[6][e]
+                        + 22.739487099350505 * k[7][e]
+                        + 2.4936055526796523 * k[8][e]
+                        - 3.0467644718982196 * k[9][e]);
+            }
+            status = lj_cutoff_field(cx, yt, k[10], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                yt[e] = y[e] + h * (2.273310147516538 * k[0][e]
+                        - 10.53449546673725 * k[3][e]
+                        - 2.0008720582248625 * k[4][e]
+                        - 17.9589318631188 * k[5][e]
+                        + 27.94888452941996 * k[6][e]
+                        - 2.8589982771350235 * k[7][e]
+                        - 8.87285693353063 * k[8][e]
+                        + 12.360567175794303 * k[9][e]
+                        + 0.6433927460157636 * k[10][e]);
+            }
+            status = lj_cutoff_field(cx, yt, k[11], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                yn[e] = y[e] + h * (0.054293734116568765 * k[0][e]
+                        + 4.450312892752409 * k[5][e]
+                        + 1.8915178993145003 * k[6][e]
+                        - 5.801203960010585 * k[7][e]
+                        + 0.3111643669578199 * k[8][e]
+                        - 0.1521609496625161 * k[9][e]
+                        + 0.20136540080403034 * k[10][e]
+                        + 0.04471061572777259 * k[11][e]);
+            }
+            err = lj_cutoff_dop853_error(opt, h, k, y, yn);
+            fac = pow(err, 1.0 / 8) / 0.9;
+            if (err <= 1.0) {
+                break;
+            }
+            if (!isfinite(err)) {
+                return LJ_CUTOFF_ERR_NONFINITE;
+            }
+            stats->rejected += 1;
+            if (h <= hmin) {
+                return LJ_CUTOFF_ERR_STEPSIZE;
+            }
+            h = fmax(hmin, h / fmin(fac_max, fac));
+            reject = 1;
+        }
+        /* accepted: the field at the new state is the next step's first stage */
+        status = lj_cutoff_field(cx, yn, k[12], fw);
+        stats->gradient_evals += 1;
+        if (status) {
+            return status;
+        }
+        stats->steps += 1;
+        /* samples in (t, tn]: the new state, or the continuous extension (dop853.f's CONTD8) */
+        while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            if (!(next % every == 0)) {
+                next += 1;
+                continue;
+            }
+            if (next == nsteps || hout * (double)next == tn) {
+                lj_cutoff_copy(ys, yn, LJ_CUTOFF_NS);
+            } else {
+                const double th = (hout * (double)next - t) / h, th1 = 1.0 - th;
+                if (!dense) { /* the continuous extension's stages, once per step */
+                    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                        yt[e] = y[e] + h * (0.056167502283047954 * k[0][e]
+                                + 0.25350021021662483 * k[6][e]
+                                - 0.2462390374708025 * k[7][e]
+                                - 0.12419142326381637 * k[8][e]
+                                + 0.15329179827876568 * k[9][e]
+                                + 0.00820105229563469 * k[10][e]
+                                + 0.007567897660545699 * k[11][e]
+                                - 0.008298 * k[12][e]);
+                    }
+                    status = lj_cutoff_field(cx, yt, k[13], fw);
+                    stats->gradient_evals += 1;
+                    if (status) {
+                        return status;
+                    }
+                    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                        yt[e] = y[e] + h * (0.03183464816350214 * k[0][e]
+                                + 0.028300909672366776 * k[5][e]
+                                + 0.053541988307438566 * k[6][e]
+                                - 0.05492374857139099 * k[7][e]
+                                - 0.00010834732869724932 * k[10][e]
+                                + 0.0003825710908356584 * k[11][e]
+                                - 0.00034046500868740456 * k[12][e]
+                                + 0.1413124436746325 * k[13][e]);
+                    }
+                    status = lj_cutoff_field(cx, yt, k[14], fw);
+                    stats->gradient_evals += 1;
+                    if (status) {
+                        return status;
+                    }
+                    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                        yt[e] = y[e] + h * (-0.42889630158379194 * k[0][e]
+                                - 4.697621415361164 * k[5][e]
+                                + 7.683421196062599 * k[6][e]
+                                + 4.06898981839711 * k[7][e]
+                                + 0.3567271874552811 * k[8][e]
+                                - 0.0013990241651590145 * k[12][e]
+                                + 2.9475147891527724 * k[13][e]
+                                - 9.15095847217987 * k[14][e]);
+                    }
+                    status = lj_cutoff_field(cx, yt, k[15], fw);
+                    stats->gradient_evals += 1;
+                    if (status) {
+                        return status;
+                    }
+                    dense = 1;
+                }
+                for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+                    const double dy = yn[e] - y[e], bspl = h * k[0][e] - dy;
+                    const double c3 = dy - h * k[12][e] - bspl;
+                    const double d4 = h * (-8.428938276109013 * k[0][e]
+                            + 0.5667149535193777 * k[5][e]
+                            - 3.0689499459498917 * k[6][e]
+                            + 2.38466765651207 * k[7][e]
+                            + 2.117034582445028 * k[8][e]
+                            - 0.871391583777973 * k[9][e]
+                            + 2.2404374302607883 * k[10][e]
+                            + 0.6315787787694688 * k[11][e]
+                            - 0.08899033645133331 * k[12][e]
+                            + 18.148505520854727 * k[13][e]
+                            - 9.194632392478356 * k[14][e]
+                            - 4.436036387594894 * k[15][e]);
+                    const double d5 = h * (10.427508642579134 * k[0][e]
+                            + 242.28349177525817 * k[5][e]
+                            + 165.20045171727028 * k[6][e]
+                            - 374.5467547226902 * k[7][e]
+                            - 22.113666853125306 * k[8][e]
+                            + 7.733432668472264 * k[9][e]
+                            - 30.674084731089398 * k[10][e]
+                            - 9.332130526430229 * k[11][e]
+                            + 15.697238121770845 * k[12][e]
+                            - 31.139403219565178 * k[13][e]
+                            - 9.35292435884448 * k[14][e]
+                            + 35.81684148639408 * k[15][e]);
+                    const double d6 = h * (19.985053242002433 * k[0][e]
+                            - 387.0373087493518 * k[5][e]
+                            - 189.17813819516758 * k[6][e]
+                            + 527.8081592054236 * k[7][e]
+                            - 11.57390253995963 * k[8][e]
+                            + 6.8812326946963 * k[9][e]
+                            - 1.0006050966910838 * k[10][e]
+                            + 0.7777137798053443 * k[11][e]
+                            - 2.778205752353508 * k[12][e]
+                            - 60.19669523126412 * k[13][e]
+                            + 84.32040550667716 * k[14][e]
+                            + 11.99229113618279 * k[15][e]);
+                    const double d7 = h * (-25.69393346270375 * k[0][e]
+                            - 154.18974869023643 * k[5][e]
+                            - 231.5293791760455 * k[6][e]
+                            + 357.6391179106141 * k[7][e]
+                            + 93.40532418362432 * k[8][e]
+                            - 37.45832313645163 * k[9][e]
+                            + 104.0996495089623 * k[10][e]
+                            + 29.8402934266605 * k[11][e]
+                            - 43.53345659001114 * k[12][e]
+                            + 96.32455395918828 * k[13][e]
+                            - 39.17726167561544 * k[14][e]
+                            - 149.72683625798564 * k[15][e]);
+                    const double conv = d4 + th * (d5 + th1 * (d6 + th * d7));
+                    ys[e] = y[e] + th * (dy + th1 * (bspl + th * (c3 + th1 * conv)));
+                }
+            }
+            lj_cutoff_store(cx, ys, ys + LJ_CUTOFF_N3, next / every, q, w, energy);
+            stats->fail_step = next / every + 1;
+
+            next += 1;
+        }
+        hnew = h / fmax(fac_min, fmin(fac_max, fac));
+        if (reject) {
+            hnew = fmin(hnew, h);
+        }
+        reject = 0;
+        h = hnew;
+        t = tn;
+        stats->fail_time = t;
+        lj_cutoff_copy(y, yn, LJ_CUTOFF_NS);
+        tmp = k[0];
+        k[0] = k[12];
+        k[12] = tmp;
+    }
+    return LJ_CUTOFF_OK;
+}
+
+/* Step fractions of the symmetric compositions: one step of size h is `count` steps of the basic
+ * VI or RATTLE step of sizes fraction[k] h (they add up to 1 and read the same backwards). */
+/* the basic step alone: order 2. */
+static const double lj_cutoff_plain[1] = {
+    1.0
+};
+/* Yoshida (1990), Phys. Lett. A 150, 262, the triple jump: order 4. */
+static const double lj_cutoff_triple_jump[3] = {
+    1.3512071919596578,
+    -1.7024143839193155,
+    1.3512071919596578
+};
+/* Yoshida (1990), Phys. Lett. A 150, 262, order 6, solution A: order 6. */
+static const double lj_cutoff_yoshida6[7] = {
+    0.7845136104775573,
+    0.23557321335935813,
+    -1.177679984178871,
+    1.3151863206839112,
+    -1.177679984178871,
+    0.23557321335935813,
+    0.7845136104775573
+};
+/* Kahan and Li (1997), Math. Comp. 66, 1089, s15odr8: order 8. */
+static const double lj_cutoff_kahan_li8[15] = {
+    0.741670364350613,
+    -0.4091008258000316,
+    0.1907547102962384,
+    -0.5738624711160822,
+    0.2990641813036559,
+    0.33462491824529816,
+    0.3152930923967666,
+    -0.7968879393529165,
+    0.3152930923967666,
+    0.33462491824529816,
+    0.2990641813036559,
+    -0.5738624711160822,
+    0.1907547102962384,
+    -0.4091008258000316,
+    0.741670364350613
+};
+
+/* A geometric method: its basic step (RATTLE or the VI) and its composition. */
+typedef struct {
+    int method, rattle, count;
+    const double *fractions;
+} lj_cutoff_scheme;
+
+static const lj_cutoff_scheme lj_cutoff_schemes[8] = {
+    { LJ_CUTOFF_METHOD_VI, 0, 1, lj_cutoff_plain },
+    { LJ_CUTOFF_METHOD_VI4, 0, 3, lj_cutoff_triple_jump },
+    { LJ_CUTOFF_METHOD_RATTLE, 1, 1, lj_cutoff_plain },
+    { LJ_CUTOFF_METHOD_VI6, 0, 7, lj_cutoff_yoshida6 },
+    { LJ_CUTOFF_METHOD_VI8, 0, 15, lj_cutoff_kahan_li8 },
+    { LJ_CUTOFF_METHOD_RATTLE4, 1, 3, lj_cutoff_triple_jump },
+    { LJ_CUTOFF_METHOD_RATTLE6, 1, 7, lj_cutoff_yoshida6 },
+    { LJ_CUTOFF_METHOD_RATTLE8, 1, 15, lj_cutoff_kahan_li8 }
+};
+
+/* The scheme of a geometric method, or NULL. */
+static const lj_cutoff_scheme *lj_cutoff_scheme_of(int method)
+{
+    int i;
+    for (i = 0; i < 8; ++i) {
+        if (lj_cutoff_schemes[i].method == method) {
+            return &lj_cutoff_schemes[i];
+        }
+    }
+    return NULL;
+}
+
+/* A composition of RATTLE steps from (q0, w0) (the explicit VI has its own driver); every
+ * `every`-th state is stored.
+ * One gradient per substep (the gradient at the new state is reused by the next substep).
+ * Substeps alternate between the buffers (a, vc) and (b, vd), the last one writes (q1, w1)
+ * (VI) or (q1, vb) (RATTLE, whose velocities v_i = qdot_i persist in va across steps).
+ * work: g (24), gn (24), a (24), b (24), va (24), vb (24), vc (24), vd (24), qk (24), wk (24), q1 (24), w1 (24), step (24). */
 static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
-        int method, double h, long nsteps, long every, const double *q0, const double *w0,
-        double *q, double *w, double *energy, double *work, lj_cutoff_stats *stats)
+        const lj_cutoff_scheme *sc, double h, long nsteps, long every, const double *q0,
+        const double *w0, double *q, double *w, double *energy, double *work, lj_cutoff_stats *stats)
 {
     double *g = work + 0, *gn = work + 24;
+    double *a = work + 48, *b = work + 72;
     double *va = work + 96, *vb = work + 120;
-    double *qk = work + 144, *wk = work + 168;
-    double *q1 = work + 192, *w1 = work + 216;
-    double *ss = work + 240;
-    double *rest = work + 240, *tmp;
+    double *vc = work + 144, *vd = work + 168;
+    double *qk = work + 192, *wk = work + 216;
+    double *q1 = work + 240, *w1 = work + 264;
+    double *ss = work + 288;
+    double *rest = work + 288, *tmp;
     long k, e;
     int status = LJ_CUTOFF_OK;
     lj_cutoff_copy(qk, q0, LJ_CUTOFF_N3);
     lj_cutoff_copy(wk, w0, LJ_CUTOFF_N3);
     lj_cutoff_gradient_cx(cx, qk, g);
     stats->gradient_evals += 1;
-    if (method == LJ_CUTOFF_METHOD_RATTLE) {
+    if (sc->rattle) {
         for (e = 0; e < 8; ++e) { /* v = omega x q */
             const double *x = qk + 3 * e, *o = wk + 3 * e;
             va[3 * e] = o[1] * x[2] - o[2] * x[1];
@@ -1197,11 +1677,25 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
         }
     }
     for (k = 0; k < nsteps; ++k) {
-        int iters = 0, total = 0;
-        {
-            status = lj_cutoff_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, ss, k > 0, rest,
-                    &iters);
-            total = iters;
+        const double *qs = qk, *vs = sc->rattle ? va : wk;
+        int sub, iters = 0, total = 0;
+        for (sub = 0; sub < sc->count && status == LJ_CUTOFF_OK; ++sub) {
+            const int last = sub == sc->count - 1;
+            double *qd = last ? q1 : (sub % 2 == 0 ? a : b);
+            double *vn = last ? (sc->rattle ? vb : w1) : (sub % 2 == 0 ? vc : vd);
+            if (sc->rattle) {
+                status = lj_cutoff_rattle_advance(cx, opt, sc->fractions[sub] * h, qs, vs, g, qd,
+                        vn, gn, ss + sub * 8, k > 0, rest, &iters);
+            }
+            total += iters;
+            qs = qd;
+            vs = vn;
+            tmp = g;
+            g = gn;
+            gn = tmp;
+            stats->gradient_evals += last ? 0 : 1;
+        }
+        if (sc->rattle) {
             for (e = 0; e < 8 && status == LJ_CUTOFF_OK; ++e) { /* omega = q x v */
                 const double *x = q1 + 3 * e, *u = vb + 3 * e;
                 w1[3 * e] = x[1] * u[2] - x[2] * u[1];
@@ -1211,9 +1705,6 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
             tmp = va;
             va = vb;
             vb = tmp;
-            tmp = g;
-            g = gn;
-            gn = tmp;
         }
         stats->newton_iters += total;
         if (total > stats->newton_max) {
@@ -1242,11 +1733,11 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
     return status;
 }
 
-/* The explicit VI or its 4th-order composition from (q0, w0), on component-major copies of the
- * state (see vi_explicit); every `every`-th state is stored, body-major. One gradient per
- * substep (the gradient at the new state is reused by the next step).
+/* A composition of explicit VI steps from (q0, w0), on component-major copies of the state
+ * (see vi_explicit); every `every`-th state is stored, body-major. One gradient per substep
+ * (the gradient at the new state is reused by the next substep).
  * work: x (24), v (24), gx (24), xn (24), vn (24), gn (24), s (8), bridge (48). */
-static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, int method, double h,
+static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, const lj_cutoff_scheme *sc, double h,
         long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
         double *energy, double *work, lj_cutoff_stats *stats)
 {
@@ -1255,7 +1746,6 @@ static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, int method, dou
     double *vn = work + 96, *gn = work + 120;
     double *sv = work + 144, *bridge = work + 152;
     double *tmp;
-    const int subs = method == LJ_CUTOFF_METHOD_VI4 ? 3 : 1;
     long k;
     int sub, status = LJ_CUTOFF_OK;
     lj_cutoff_to_soa(q0, x);
@@ -1263,9 +1753,9 @@ static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, int method, dou
     lj_cutoff_gradient_soa(cx, x, gx, bridge);
     stats->gradient_evals += 1;
     for (k = 0; k < nsteps; ++k) {
-        for (sub = 0; sub < subs && status == LJ_CUTOFF_OK; ++sub) {
-            const double hs = subs == 1 ? h : lj_cutoff_yoshida[sub] * h;
-            status = lj_cutoff_vi_explicit(cx, hs, x, v, gx, xn, vn, gn, sv, bridge);
+        for (sub = 0; sub < sc->count && status == LJ_CUTOFF_OK; ++sub) {
+            status = lj_cutoff_vi_explicit(cx, sc->fractions[sub] * h, x, v, gx, xn, vn, gn, sv,
+                    bridge);
             tmp = x;
             x = xn;
             xn = tmp;
@@ -1280,7 +1770,7 @@ static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, int method, dou
         if (status != LJ_CUTOFF_OK) {
             return status;
         }
-        stats->gradient_evals += subs;
+        stats->gradient_evals += sc->count;
         stats->steps += 1;
         if ((k + 1) % every == 0) {
             const long s = (k + 1) / every;
@@ -1329,7 +1819,7 @@ static int lj_cutoff_integrate_fixed(const lj_cutoff_ctx *cx, int method, double
     return LJ_CUTOFF_OK;
 }
 
-/* work: run (504), y0 (48). */
+/* work: run (984), y0 (48). */
 int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int method, double h,
         long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy,
         double *work, lj_cutoff_stats *stats)
@@ -1337,6 +1827,7 @@ int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int metho
     lj_cutoff_options defaults;
     lj_cutoff_stats local;
     lj_cutoff_ctx ctx, *cx = &ctx;
+    const lj_cutoff_scheme *scheme;
     double *run = work + 0;
     long every, i;
     if (!opt) {
@@ -1372,18 +1863,24 @@ int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int metho
     lj_cutoff_store(cx, q0, w0, 0, q, w, energy);
     stats->fail_step = 1;
     if (method == LJ_CUTOFF_METHOD_RK45) {
-        double *y0 = work + 504;
+        double *y0 = work + 984;
         lj_cutoff_copy(y0, q0, LJ_CUTOFF_N3);
         lj_cutoff_copy(y0 + LJ_CUTOFF_N3, w0, LJ_CUTOFF_N3);
         return lj_cutoff_rk45(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
     }
-    if (method == LJ_CUTOFF_METHOD_VI || method == LJ_CUTOFF_METHOD_VI4) {
-        return lj_cutoff_integrate_explicit(cx, method, h, nsteps, every, q0, w0, q, w, energy,
+    if (method == LJ_CUTOFF_METHOD_DOP853) {
+        double *y0 = work + 984;
+        lj_cutoff_copy(y0, q0, LJ_CUTOFF_N3);
+        lj_cutoff_copy(y0 + LJ_CUTOFF_N3, w0, LJ_CUTOFF_N3);
+        return lj_cutoff_dop853(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
+    }
+    scheme = lj_cutoff_scheme_of(method);
+    if (scheme && !scheme->rattle) {
+        return lj_cutoff_integrate_explicit(cx, scheme, h, nsteps, every, q0, w0, q, w, energy,
                 run, stats);
     }
-    if (method == LJ_CUTOFF_METHOD_VI || method == LJ_CUTOFF_METHOD_VI4
-            || method == LJ_CUTOFF_METHOD_RATTLE) {
-        return lj_cutoff_integrate_geometric(cx, opt, method, h, nsteps, every, q0, w0, q, w,
+    if (scheme) {
+        return lj_cutoff_integrate_geometric(cx, opt, scheme, h, nsteps, every, q0, w0, q, w,
                 energy, run, stats);
     }
     if (method != LJ_CUTOFF_METHOD_RK2 && method != LJ_CUTOFF_METHOD_RK2_PROJ

@@ -32,8 +32,8 @@ extern "C" {
 #define LJ_CUTOFF_NPARAMS 3 /* parameters in p */
 #define LJ_CUTOFF_NPAIRS 0 /* coupled pairs of M (off-diagonal entries not zero) */
 #define LJ_CUTOFF_NCONST 4 /* constants of the kernels (computed once per call) */
-#define LJ_CUTOFF_WORK_BASE 552 /* workspace doubles before the per-call context */
-#define LJ_CUTOFF_WORK_SIZE 581 /* workspace doubles every `work` must hold */
+#define LJ_CUTOFF_WORK_BASE 1032 /* workspace doubles before the per-call context */
+#define LJ_CUTOFF_WORK_SIZE 1061 /* workspace doubles every `work` must hold */
 
 /* Status codes returned by the step and integrate functions. */
 enum {
@@ -54,7 +54,13 @@ enum {
     LJ_CUTOFF_METHOD_RK2_PROJ = 3, /* explicit midpoint rule, q_i normalized after each step, order 2 */
     LJ_CUTOFF_METHOD_RK4 = 4, /* classical Runge-Kutta, order 4 */
     LJ_CUTOFF_METHOD_VI4 = 5, /* the VI composed by Yoshida's triple jump, order 4 */
-    LJ_CUTOFF_METHOD_RATTLE = 6 /* RATTLE on Cartesian q_i with the constraints |q_i| = 1, order 2 */
+    LJ_CUTOFF_METHOD_RATTLE = 6, /* RATTLE on Cartesian q_i with the constraints |q_i| = 1, order 2 */
+    LJ_CUTOFF_METHOD_VI6 = 7, /* the VI composed by Yoshida's 7-stage solution A, order 6 */
+    LJ_CUTOFF_METHOD_VI8 = 8, /* the VI composed by Kahan and Li's 15 stages, order 8 */
+    LJ_CUTOFF_METHOD_RATTLE4 = 9, /* RATTLE composed by the triple jump, order 4 */
+    LJ_CUTOFF_METHOD_RATTLE6 = 10, /* RATTLE composed by Yoshida's solution A, order 6 */
+    LJ_CUTOFF_METHOD_RATTLE8 = 11, /* RATTLE composed by Kahan and Li's 15 stages, order 8 */
+    LJ_CUTOFF_METHOD_DOP853 = 12 /* Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order continuous extension, order 8 */
 };
 
 /* RK45 error control: MATLAB ode45's (max norm, weights max(|y|, atol/rtol)) or Hairer's
@@ -62,24 +68,24 @@ enum {
 enum { LJ_CUTOFF_CONTROL_MATLAB = 0, LJ_CUTOFF_CONTROL_HAIRER = 1 };
 
 typedef struct {
-    double rtol; /* RK45 relative tolerance (default 1e-3) */
-    double atol; /* RK45 absolute tolerance (default 1e-6) */
-    double hmax; /* RK45 largest step; <= 0 means 0.1 * (final time) */
-    int control; /* LJ_CUTOFF_CONTROL_MATLAB (default) or LJ_CUTOFF_CONTROL_HAIRER */
+    double rtol; /* RK45 and DOP853 relative tolerance (default 1e-3) */
+    double atol; /* RK45 and DOP853 absolute tolerance (default 1e-6) */
+    double hmax; /* RK45 and DOP853 largest step; <= 0 means 0.1 * (final time) for RK45, the final time for DOP853 (as dop853.f) */
+    int control; /* RK45's error control: LJ_CUTOFF_CONTROL_MATLAB (default) or LJ_CUTOFF_CONTROL_HAIRER (DOP853 has its own) */
     long every; /* output stride: integrate() stores every `every`-th sample (default 1; nsteps must be a multiple of it) */
-    double newton_tol; /* Newton stops when max|delta f| <= tol * max(1, max|f|) (1e-14) */
+    double newton_tol; /* Newton stops when max|delta f|, or the next update predicted by quadratic convergence, is <= tol * max(1, max|f|) (1e-14) */
     int newton_maxiter; /* Newton iteration limit per step (50) */
     double unit_tol; /* integrate() refuses (ERR_ARGUMENT, stats->fail_body) a q0_i with | |q0_i| - 1 | above this (default 1e-12; <= 0: no check) */
 } lj_cutoff_options;
 
 typedef struct {
     long steps; /* accepted steps */
-    long rejected; /* RK45 rejected steps */
+    long rejected; /* rejected steps (RK45, DOP853) */
     long gradient_evals; /* evaluations of dV/dq */
     long newton_iters; /* Newton iterations, total */
     long newton_max; /* Newton iterations, largest in one step */
     long fail_step; /* on failure: first sample index not computed (samples before it are valid) */
-    double fail_time; /* RK45: time of the last accepted step (where a failure happened) */
+    double fail_time; /* RK45, DOP853: time of the last accepted step (where a failure happened) */
     long fail_body; /* ERR_ARGUMENT: the body (0-based) whose q0 is not a unit vector (else -1) */
 } lj_cutoff_stats;
 
@@ -120,13 +126,13 @@ int lj_cutoff_vi_step(const double *p, const lj_cutoff_options *opt, double h, c
 int lj_cutoff_rk_step(const double *p, int method, double h, const double *q, const double *w,
         double *qn, double *wn, double *work);
 
-/* Integrate nsteps steps of size h (RK45: output spacing h, adaptive steps inside) from (q0,
- * w0) with `method` (METHOD_*). The trajectory keeps every opt->every-th sample, the initial
- * state first: q and w hold (nsteps / every + 1) * NSTATE doubles, energy (nsteps / every + 1)
- * doubles (not evaluated at all when energy is NULL). opt NULL means the defaults of
- * default_options(); stats may be NULL. Returns OK or a status code: ERR_ARGUMENT for h <= 0,
- * nsteps < 0, an every that does not divide nsteps, an unknown method, or a q0_i that is not a
- * unit vector (stats->fail_body names it); on a failed step the samples before
+/* Integrate nsteps steps of size h (RK45 and DOP853: output spacing h, adaptive steps inside)
+ * from (q0, w0) with `method` (METHOD_*). The trajectory keeps every opt->every-th sample, the
+ * initial state first: q and w hold (nsteps / every + 1) * NSTATE doubles, energy (nsteps /
+ * every + 1) doubles (not evaluated at all when energy is NULL). opt NULL means the defaults
+ * of default_options(); stats may be NULL. Returns OK or a status code: ERR_ARGUMENT for h <=
+ * 0, nsteps < 0, an every that does not divide nsteps, an unknown method, or a q0_i that is
+ * not a unit vector (stats->fail_body names it); on a failed step the samples before
  * stats->fail_step are valid. */
 int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int method, double h,
         long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy,

@@ -45,6 +45,12 @@ METHOD_RK2_PROJ = 3  # explicit midpoint rule, q_i normalized after each step, o
 METHOD_RK4 = 4  # classical Runge-Kutta, order 4
 METHOD_VI4 = 5  # the VI composed by Yoshida's triple jump, order 4
 METHOD_RATTLE = 6  # RATTLE on Cartesian q_i with the constraints |q_i| = 1, order 2
+METHOD_VI6 = 7  # the VI composed by Yoshida's 7-stage solution A, order 6
+METHOD_VI8 = 8  # the VI composed by Kahan and Li's 15 stages, order 8
+METHOD_RATTLE4 = 9  # RATTLE composed by the triple jump, order 4
+METHOD_RATTLE6 = 10  # RATTLE composed by Yoshida's solution A, order 6
+METHOD_RATTLE8 = 11  # RATTLE composed by Kahan and Li's 15 stages, order 8
+METHOD_DOP853 = 12  # Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order continuous extension, order 8
 CONTROL_MATLAB, CONTROL_HAIRER = range(2)
 EVALS = "gradient_evals"  # the statistics counter of field evaluations
 
@@ -521,37 +527,349 @@ def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
 
 
 
+# ---- adaptive Runge-Kutta (DOP853) -----------------------------------------------------------
+
+
+def _dop853_error(rtol, atol, h, k, y, yn):
+    """DOP853's error of a trial step (dop853.f); NaN when it is not finite."""
+    sk = atol + rtol * numpy.maximum(numpy.abs(y), numpy.abs(yn))
+    d5 = (0.01312004499419488 * k[0]
+          - 1.2251564463762044 * k[5]
+          - 0.4957589496572502 * k[6]
+          + 1.6643771824549864 * k[7]
+          - 0.35032884874997366 * k[8]
+          + 0.3341791187130175 * k[9]
+          + 0.08192320648511571 * k[10]
+          - 0.022355307863886294 * k[11]) / sk
+    d3 = (-0.18980075407240762 * k[0]
+          + 4.450312892752409 * k[5]
+          + 1.8915178993145003 * k[6]
+          - 5.801203960010585 * k[7]
+          - 0.4226823213237919 * k[8]
+          - 0.1521609496625161 * k[9]
+          + 0.20136540080403034 * k[10]
+          + 0.02265179219836082 * k[11]) / sk
+    if not (numpy.all(numpy.isfinite(d5)) and numpy.all(numpy.isfinite(d3))
+            and numpy.all(numpy.isfinite(yn))):
+        return numpy.nan
+    err5, err3 = float(numpy.sum(d5 * d5)), float(numpy.sum(d3 * d3))
+    deno = err5 + 0.01 * err3
+    if deno <= 0.0:
+        deno = 1.0
+    return abs(h) * err5 * numpy.sqrt(1.0 / (y.size * deno))
+
+
+def _dop853_h0(p, rtol, atol, hmax, y, f0, stats):
+    """DOP853's initial step (dop853.f, HINIT with order 8)."""
+    sk = atol + rtol * numpy.abs(y)
+    dnf, dny = float(numpy.sum((f0 / sk) ** 2)), float(numpy.sum((y / sk) ** 2))
+    h = 1e-6 if (dnf <= 1e-10 or dny <= 1e-10) else numpy.sqrt(dny / dnf) * 0.01
+    h = min(h, hmax)
+    status, f1 = _field(p, y + h * f0)
+    if status != OK:
+        return h
+    stats[EVALS] += 1
+    der2 = numpy.sqrt(float(numpy.sum(((f1 - f0) / sk) ** 2))) / h
+    der12 = max(abs(der2), numpy.sqrt(dnf))
+    h1 = max(1e-6, h * 1e-3) if der12 <= 1e-15 else (0.01 / der12) ** (1.0 / 8)
+    return min(100.0 * h, h1, hmax)
+
+
+def _dop853(p, hout, nsteps, every, y0, store, rtol, atol, hmax, stats, state):
+    """Adaptive DOP853 from y0 over nsteps output intervals of length hout; store(nxt, ys)
+    writes sample nxt for every `every`-th grid point (from the continuous extension inside a
+    step). For failure reports state[0] holds the last accepted y."""
+    if not (rtol > 0.0 and atol > 0.0):
+        return ERR_ARGUMENT
+    tend = hout * nsteps
+    hmax = hmax if hmax > 0.0 else tend
+    fac_max, fac_min = 1.0 / 0.333, 1.0 / 6.0  # h_new / h = 1 / fac lies in [0.333, 6]
+    y = y0
+    state[0] = y
+    k = [None] * 16
+    status, k[0] = _field(p, y)
+    stats[EVALS] += 1
+    if status != OK:
+        return status
+    h = _dop853_h0(p, rtol, atol, hmax, y, k[0], stats)
+    t, nxt, reject = 0.0, 1, False
+    while nxt <= nsteps:
+        hmin = 16.0 * (numpy.nextafter(t, numpy.inf) - t)
+        h = min(hmax, max(hmin, h))
+        if t + 1.01 * h >= tend:
+            h = tend - t
+        while True:
+            tn = tend if h == tend - t else t + h
+            h = tn - t
+            status, k[1] = _field(p, y + h * (0.05260015195876773 * k[0]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[2] = _field(p, y + h * (0.0197250569845379 * k[0]
+                                                + 0.0591751709536137 * k[1]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[3] = _field(p, y + h * (0.02958758547680685 * k[0]
+                                                + 0.08876275643042054 * k[2]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[4] = _field(p, y + h * (0.2413651341592667 * k[0]
+                                                - 0.8845494793282861 * k[2]
+                                                + 0.924834003261792 * k[3]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[5] = _field(p, y + h * (0.037037037037037035 * k[0]
+                                                + 0.17082860872947386 * k[3]
+                                                + 0.12546768756682242 * k[4]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[6] = _field(p, y + h * (0.037109375 * k[0]
+                                                + 0.17025221101954405 * k[3]
+                                                + 0.06021653898045596 * k[4]
+                                                - 0.017578125 * k[5]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[7] = _field(p, y + h * (0.03709200011850479 * k[0]
+                                                + 0.17038392571223998 * k[3]
+                                                + 0.10726203044637328 * k[4]
+                                                - 0.015319437748624402 * k[5]
+                                                + 0.008273789163814023 * k[6]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[8] = _field(p, y + h * (0.6241109587160757 * k[0]
+                                                - 3.3608926294469414 * k[3]
+                                                - 0.868219346841726 * k[4]
+                                                + 27.59209969944671 * k[5]
+                                                + 20.154067550477894 * k[6]
+                                                - 43.48988418106996 * k[7]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[9] = _field(p, y + h * (0.47766253643826434 * k[0]
+                                                - 2.4881146199716677 * k[3]
+                                                - 0.590290826836843 * k[4]
+                                                + 21.230051448181193 * k[5]
+                                                + 15.279233632882423 * k[6]
+                                                - 33.28821096898486 * k[7]
+                                                - 0.020331201708508627 * k[8]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[10] = _field(p, y + h * (-0.9371424300859873 * k[0]
+                                                + 5.186372428844064 * k[3]
+                                                + 1.0914373489967295 * k[4]
+                                                - 8.149787010746927 * k[5]
+                                                - 18.52006565999696 * k[6]
+                                                + 22.739487099350505 * k[7]
+                                                + 2.4936055526796523 * k[8]
+                                                - 3.0467644718982196 * k[9]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            status, k[11] = _field(p, y + h * (2.273310147516538 * k[0]
+                                                - 10.53449546673725 * k[3]
+                                                - 2.0008720582248625 * k[4]
+                                                - 17.9589318631188 * k[5]
+                                                + 27.94888452941996 * k[6]
+                                                - 2.8589982771350235 * k[7]
+                                                - 8.87285693353063 * k[8]
+                                                + 12.360567175794303 * k[9]
+                                                + 0.6433927460157636 * k[10]))
+            stats[EVALS] += 1
+            if status != OK:
+                return status
+            yn = y + h * (0.054293734116568765 * k[0]
+                          + 4.450312892752409 * k[5]
+                          + 1.8915178993145003 * k[6]
+                          - 5.801203960010585 * k[7]
+                          + 0.3111643669578199 * k[8]
+                          - 0.1521609496625161 * k[9]
+                          + 0.20136540080403034 * k[10]
+                          + 0.04471061572777259 * k[11])
+            err = _dop853_error(rtol, atol, h, k, y, yn)
+            fac = err ** (1.0 / 8) / 0.9
+            if err <= 1.0:
+                break
+            if not numpy.isfinite(err):
+                return ERR_NONFINITE
+            stats["rejected"] += 1
+            if h <= hmin:
+                return ERR_STEPSIZE
+            h = max(hmin, h / min(fac_max, fac))
+            reject = True
+        status, k[12] = _field(p, yn)
+        stats[EVALS] += 1
+        if status != OK:
+            return status
+        stats["steps"] += 1
+        dense = False
+        while nxt <= nsteps and (tn >= tend if nxt == nsteps else hout * nxt <= tn):
+            if nxt % every != 0:
+                nxt += 1
+                continue
+            if nxt == nsteps or hout * nxt == tn:
+                ys = yn
+            else:
+                if not dense:  # the continuous extension's stages, once per step
+                    status, k[13] = _field(p, y + h * (0.056167502283047954 * k[0]
+                                                        + 0.25350021021662483 * k[6]
+                                                        - 0.2462390374708025 * k[7]
+                                                        - 0.12419142326381637 * k[8]
+                                                        + 0.15329179827876568 * k[9]
+                                                        + 0.00820105229563469 * k[10]
+                                                        + 0.007567897660545699 * k[11]
+                                                        - 0.008298 * k[12]))
+                    stats[EVALS] += 1
+                    if status != OK:
+                        return status
+                    status, k[14] = _field(p, y + h * (0.03183464816350214 * k[0]
+                                                        + 0.028300909672366776 * k[5]
+                                                        + 0.053541988307438566 * k[6]
+                                                        - 0.05492374857139099 * k[7]
+                                                        - 0.00010834732869724932 * k[10]
+                                                        + 0.0003825710908356584 * k[11]
+                                                        - 0.00034046500868740456 * k[12]
+                                                        + 0.1413124436746325 * k[13]))
+                    stats[EVALS] += 1
+                    if status != OK:
+                        return status
+                    status, k[15] = _field(p, y + h * (-0.42889630158379194 * k[0]
+                                                        - 4.697621415361164 * k[5]
+                                                        + 7.683421196062599 * k[6]
+                                                        + 4.06898981839711 * k[7]
+                                                        + 0.3567271874552811 * k[8]
+                                                        - 0.0013990241651590145 * k[12]
+                                                        + 2.9475147891527724 * k[13]
+                                                        - 9.15095847217987 * k[14]))
+                    stats[EVALS] += 1
+                    if status != OK:
+                        return status
+                    dense = True
+                th = (hout * nxt - t) / h
+                th1 = 1.0 - th
+                dy = yn - y
+                bspl = h * k[0] - dy
+                c3 = dy - h * k[12] - bspl
+                d4 = h * (-8.428938276109013 * k[0]
+                          + 0.5667149535193777 * k[5]
+                          - 3.0689499459498917 * k[6]
+                          + 2.38466765651207 * k[7]
+                          + 2.117034582445028 * k[8]
+                          - 0.871391583777973 * k[9]
+                          + 2.2404374302607883 * k[10]
+                          + 0.6315787787694688 * k[11]
+                          - 0.08899033645133331 * k[12]
+                          + 18.148505520854727 * k[13]
+                          - 9.194632392478356 * k[14]
+                          - 4.436036387594894 * k[15])
+                d5 = h * (10.427508642579134 * k[0]
+                          + 242.28349177525817 * k[5]
+                          + 165.20045171727028 * k[6]
+                          - 374.5467547226902 * k[7]
+                          - 22.113666853125306 * k[8]
+                          + 7.733432668472264 * k[9]
+                          - 30.674084731089398 * k[10]
+                          - 9.332130526430229 * k[11]
+                          + 15.697238121770845 * k[12]
+                          - 31.139403219565178 * k[13]
+                          - 9.35292435884448 * k[14]
+                          + 35.81684148639408 * k[15])
+                d6 = h * (19.985053242002433 * k[0]
+                          - 387.0373087493518 * k[5]
+                          - 189.17813819516758 * k[6]
+                          + 527.8081592054236 * k[7]
+                          - 11.57390253995963 * k[8]
+                          + 6.8812326946963 * k[9]
+                          - 1.0006050966910838 * k[10]
+                          + 0.7777137798053443 * k[11]
+                          - 2.778205752353508 * k[12]
+                          - 60.19669523126412 * k[13]
+                          + 84.32040550667716 * k[14]
+                          + 11.99229113618279 * k[15])
+                d7 = h * (-25.69393346270375 * k[0]
+                          - 154.18974869023643 * k[5]
+                          - 231.5293791760455 * k[6]
+                          + 357.6391179106141 * k[7]
+                          + 93.40532418362432 * k[8]
+                          - 37.45832313645163 * k[9]
+                          + 104.0996495089623 * k[10]
+                          + 29.8402934266605 * k[11]
+                          - 43.53345659001114 * k[12]
+                          + 96.32455395918828 * k[13]
+                          - 39.17726167561544 * k[14]
+                          - 149.72683625798564 * k[15])
+                conv = d4 + th * (d5 + th1 * (d6 + th * d7))
+                ys = y + th * (dy + th1 * (bspl + th * (c3 + th1 * conv)))
+            store(nxt, ys)
+            nxt += 1
+        hnew = h / max(fac_min, min(fac_max, fac))
+        if reject:
+            hnew = min(hnew, h)
+        reject = False
+        h = hnew
+        t = tn
+        stats["fail_time"] = t
+        y = yn
+        state[0] = y
+        k[0] = k[12]
+    return OK
+
+
+
 # ---- driver -----------------------------------------------------------------------------------------
-YOSHIDA = (1.3512071919596578, -1.7024143839193155, 1.3512071919596578)
+# Step fractions of the symmetric compositions: one step of size h is len(fractions) steps of
+# the basic VI or RATTLE step of sizes fraction * h (they add up to 1, read the same backwards).
+# the basic step alone: order 2.
+PLAIN = (1.0,)
+# Yoshida (1990), Phys. Lett. A 150, 262, the triple jump: order 4.
+TRIPLE_JUMP = (1.3512071919596578, -1.7024143839193155, 1.3512071919596578,)
+# Yoshida (1990), Phys. Lett. A 150, 262, order 6, solution A: order 6.
+YOSHIDA6 = (0.7845136104775573, 0.23557321335935813, -1.177679984178871, 1.3151863206839112, -1.177679984178871, 0.23557321335935813, 0.7845136104775573,)
+# Kahan and Li (1997), Math. Comp. 66, 1089, s15odr8: order 8.
+KAHAN_LI8 = (0.741670364350613, -0.4091008258000316, 0.1907547102962384, -0.5738624711160822, 0.2990641813036559, 0.33462491824529816, 0.3152930923967666, -0.7968879393529165, 0.3152930923967666, 0.33462491824529816, 0.2990641813036559, -0.5738624711160822, 0.1907547102962384, -0.4091008258000316, 0.741670364350613,)
+# Per geometric method: (its basic step is RATTLE's, else the VI's; its composition).
+SCHEMES = {
+    METHOD_VI: (False, PLAIN),
+    METHOD_VI4: (False, TRIPLE_JUMP),
+    METHOD_RATTLE: (True, PLAIN),
+    METHOD_VI6: (False, YOSHIDA6),
+    METHOD_VI8: (False, KAHAN_LI8),
+    METHOD_RATTLE4: (True, TRIPLE_JUMP),
+    METHOD_RATTLE6: (True, YOSHIDA6),
+    METHOD_RATTLE8: (True, KAHAN_LI8),
+}
 
 
 def _geometric(p, method, h, nsteps, every, q0, w0, store, stats, newton_tol, newton_maxiter):
-    """VI, its 4th-order Yoshida composition, or RATTLE (one gradient per substep); every
-    `every`-th state is stored."""
+    """A composition of VI or RATTLE steps (one gradient per substep); every `every`-th state
+    is stored."""
+    rattle, fractions = SCHEMES[method]
+    advance = _rattle_advance if rattle else _vi_advance
     qk, wk = q0, w0
     g = gradient(p, qk)
     stats["gradient_evals"] += 1
     v = numpy.cross(wk, qk)
-    starts = [None] * len(YOSHIDA)  # Newton's starting points: each substep's previous solution
+    starts = [None] * len(fractions)  # Newton's starting points: each substep's previous solution
     for k in range(nsteps):
         total, status = 0, OK
-        if method == METHOD_VI4:
-            qs, ws = qk, wk
-            for sub, gamma in enumerate(YOSHIDA):
-                status, qs, ws, g, iters, starts[sub] = _vi_advance(
-                    p, gamma * h, qs, ws, g, newton_tol, newton_maxiter, starts[sub])
-                total += iters
-                if status != OK:
-                    break
-            qn, wn = qs, ws
-            stats["gradient_evals"] += 2
-        elif method == METHOD_RATTLE:
-            status, qn, v, g, total, starts[0] = _rattle_advance(
-                p, h, qk, v, g, newton_tol, newton_maxiter, starts[0])
+        qs, vs = qk, (v if rattle else wk)
+        for sub, gamma in enumerate(fractions):
+            status, qs, vs, g, iters, starts[sub] = advance(
+                p, gamma * h, qs, vs, g, newton_tol, newton_maxiter, starts[sub])
+            total += iters
+            if status != OK:
+                break
+        stats["gradient_evals"] += len(fractions) - 1
+        qn, wn = qs, vs
+        if rattle:
+            v = vs
             wn = None if status != OK else numpy.cross(qn, v)
-        else:
-            status, qn, wn, g, total, starts[0] = _vi_advance(
-                p, h, qk, wk, g, newton_tol, newton_maxiter, starts[0])
         stats["newton_iters"] += total
         stats["newton_max"] = max(stats["newton_max"], total)
         if status == OK and not _finite(qn, wn):
@@ -640,7 +958,14 @@ def _integrate(p, method, h, nsteps, q0, w0, rtol, atol, control, hmax, newton_t
 
         y0 = numpy.concatenate([q0, w0])
         status = _rk45(p, h, nsteps, y0, sample, rtol, atol, control, hmax, stats, [None, None])
-    elif method in (METHOD_VI, METHOD_VI4, METHOD_RATTLE):
+    elif method == METHOD_DOP853:
+
+        def kept(nxt, ys):
+            store(nxt // every, ys[:NBODIES], ys[NBODIES:])
+
+        y0 = numpy.concatenate([q0, w0])
+        status = _dop853(p, h, nsteps, every, y0, kept, rtol, atol, hmax, stats, [None])
+    elif method in SCHEMES:
         status = _geometric(p, method, h, nsteps, every, q0, w0, store, stats, newton_tol,
                             newton_maxiter)
     elif method in (METHOD_RK2, METHOD_RK2_PROJ, METHOD_RK4):

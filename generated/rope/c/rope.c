@@ -943,8 +943,9 @@ static int rope_field(const rope_ctx *cx, const double *y, double *dy, double *w
  * receives dV/dq at qn. f (ROPE_N3 Cayley parameters) holds Newton's starting point
  * on entry when `warm` (the previous step's solution), else the uncoupled guess
  * d_i / (2 M_ii) is used; it receives the solution. Newton stops when
- * max|delta f| <= newton_tol max|f|, or <= 1000 newton_tol max|f| once the update stops
- * shrinking (round-off reached). work: d (60), r (60), u (60), z (60), e (180), hb (180), kb (180), solve (2400). */
+ * max|delta f| <= newton_tol max|f|, or when the next update predicted by quadratic
+ * convergence, max|delta f|^3 / max|previous delta f|^2, is, or when max|delta f| <= 1000
+ * newton_tol max|f| once the update stops shrinking (round-off reached). work: d (60), r (60), u (60), z (60), e (180), hb (180), kb (180), solve (2400). */
 static int rope_vi_advance(const rope_ctx *cx, const rope_options *opt,
         double h, const double *q, const double *w, const double *g, double *qn, double *wn,
         double *gn, double *f, int warm, double *work, int *iters)
@@ -998,7 +999,9 @@ static int rope_vi_advance(const rope_ctx *cx, const rope_options *opt,
             step = moved > step ? moved : step;
             size = now > size ? now : size;
         }
+        /* the update, or the next one predicted by quadratic convergence, is below tolerance */
         converged = step <= opt->newton_tol * size
+                || (it > 1 && step * step * step <= opt->newton_tol * size * previous * previous)
                 || (step <= 1e3 * opt->newton_tol * size && step > 0.5 * previous);
         previous = step;
     }
@@ -1133,7 +1136,9 @@ static int rope_rattle_advance(const rope_ctx *cx, const rope_options *opt,
         if (!isfinite(step)) {
             return ROPE_ERR_NONFINITE;
         }
+        /* the update, or the next one predicted by quadratic convergence, is below tolerance */
         converged = step <= opt->newton_tol * size
+                || (it > 1 && step * step * step <= opt->newton_tol * size * previous * previous)
                 || (step <= 1e3 * opt->newton_tol * size && step > 0.5 * previous);
         previous = step;
     }
@@ -1525,31 +1530,509 @@ static int rope_rk45(const rope_ctx *cx, const rope_options *opt, double hout,
     return ROPE_OK;
 }
 
-/* Step fractions of the symmetric compositions of the VI (Yoshida's triple jump: 4th order). */
-static const double rope_yoshida[3] = { 1.3512071919596578, -1.7024143839193155, 1.3512071919596578 };
+/* ---- adaptive Runge-Kutta (DOP853) ------------------------------------------------------- */
+/* DOP853's error of one trial step from (y, k) to yn (dop853.f): with weights
+ * sk = atol + rtol max(|y|, |yn|), err = |h| e5^2 / sqrt(N (e5^2 + 0.01 e3^2)), e5 and e3 the
+ * weighted 2-norms of the estimates of orders 5 and 3; 1 is the acceptance limit. NaN when the
+ * trial step is not finite. */
+static double rope_dop853_error(const rope_options *opt, double h, double *const *k,
+        const double *y, const double *yn)
+{
+    double err5 = 0.0, err3 = 0.0, deno;
+    int e;
+    for (e = 0; e < ROPE_NS; ++e) {
+        const double sk = opt->atol + opt->rtol * fmax(fabs(y[e]), fabs(yn[e]));
+        const double d5 = (0.01312004499419488 * k[0][e]
+                - 1.2251564463762044 * k[5][e]
+                - 0.4957589496572502 * k[6][e]
+                + 1.6643771824549864 * k[7][e]
+                - 0.35032884874997366 * k[8][e]
+                + 0.3341791187130175 * k[9][e]
+                + 0.08192320648511571 * k[10][e]
+                - 0.022355307863886294 * k[11][e]) / sk;
+        const double d3 = (-0.18980075407240762 * k[0][e]
+                + 4.450312892752409 * k[5][e]
+                + 1.8915178993145003 * k[6][e]
+                - 5.801203960010585 * k[7][e]
+                - 0.4226823213237919 * k[8][e]
+                - 0.1521609496625161 * k[9][e]
+                + 0.20136540080403034 * k[10][e]
+                + 0.02265179219836082 * k[11][e]) / sk;
+        if (!(isfinite(d5) && isfinite(d3) && isfinite(yn[e]))) {
+            return NAN; /* a non-finite trial step is never accepted */
+        }
+        err5 += d5 * d5;
+        err3 += d3 * d3;
+    }
+    deno = err5 + 0.01 * err3;
+    if (deno <= 0.0) {
+        deno = 1.0;
+    }
+    return fabs(h) * err5 * sqrt(1.0 / (ROPE_NS * deno));
+}
 
-/* VI, its 4th-order composition, or RATTLE from (q0, w0); every `every`-th state is stored.
- * One gradient per substep (the gradient at the new state is reused by the next step).
- * work: g (60), gn (60), a (60), b (60), va (60), vb (60), qk (60), wk (60), q1 (60), w1 (60), f (180), s (20), step (3860). */
+/* DOP853's initial step (dop853.f, HINIT with order 8): h^8 max(|f0|, |f'|) = 0.01 in the
+ * weighted norm, f' from one explicit Euler step; at most 100 times that Euler step and hmax. */
+static double rope_dop853_h0(const rope_ctx *cx, const rope_options *opt, double hmax,
+        const double *y, const double *f0, double *yt, double *ft, double *fw, long *evals)
+{
+    double dnf = 0.0, dny = 0.0, der2 = 0.0, der12, h, h1;
+    int e;
+    for (e = 0; e < ROPE_NS; ++e) {
+        const double sk = opt->atol + opt->rtol * fabs(y[e]);
+        dnf += (f0[e] / sk) * (f0[e] / sk);
+        dny += (y[e] / sk) * (y[e] / sk);
+    }
+    h = (dnf <= 1e-10 || dny <= 1e-10) ? 1e-6 : sqrt(dny / dnf) * 0.01;
+    h = fmin(h, hmax);
+    for (e = 0; e < ROPE_NS; ++e) {
+        yt[e] = y[e] + h * f0[e];
+    }
+    if (rope_field(cx, yt, ft, fw)) {
+        return h;
+    }
+    *evals += 1;
+    for (e = 0; e < ROPE_NS; ++e) {
+        const double sk = opt->atol + opt->rtol * fabs(y[e]);
+        der2 += ((ft[e] - f0[e]) / sk) * ((ft[e] - f0[e]) / sk);
+    }
+    der2 = sqrt(der2) / h;
+    der12 = fmax(fabs(der2), sqrt(dnf));
+    h1 = der12 <= 1e-15 ? fmax(1e-6, h * 1e-3) : pow(0.01 / der12, 1.0 / 8);
+    return fmin(fmin(100.0 * h, h1), hmax);
+}
+
+/* Adaptive DOP853 from y0 over nsteps output intervals of length hout. Control as dop853.f:
+ * safety 0.9, the step changes by a factor in [1/3, 6] and does not grow right after a
+ * rejection, hmax the whole span unless opt->hmax > 0. Samples inside a step come from the
+ * continuous extension of order 7 (three more field evaluations in a step that has one).
+ * work: k (1920), y (120), yt (120), yn (120), ys (120), field (3120). */
+static int rope_dop853(const rope_ctx *cx, const rope_options *opt, double hout,
+        long nsteps, const double *y0, long every, double *q, double *w, double *energy, double *work, rope_stats *stats)
+{
+    double *k[16], *y = work + 1920, *yt = work + 2040;
+    double *yn = work + 2160, *ys = work + 2280;
+    double *fw = work + 2400, *tmp;
+    const double tend = hout * (double)nsteps;
+    const double hmax = opt->hmax > 0.0 ? opt->hmax : tend;
+    /* h_new / h = 1 / fac lies in [0.333, 6] (fac1, fac2 of dop853.f) */
+    const double fac_max = 1.0 / 0.333, fac_min = 1.0 / 6.0;
+    double t = 0.0, h;
+    long next = 1;
+    int s, e, status, reject = 0;
+    if (!(opt->rtol > 0.0) || !(opt->atol > 0.0)) {
+        return ROPE_ERR_ARGUMENT;
+    }
+    for (s = 0; s < 16; ++s) {
+        k[s] = work + 0 + s * ROPE_NS;
+    }
+    rope_copy(y, y0, ROPE_NS);
+    stats->fail_time = 0.0;
+    status = rope_field(cx, y, k[0], fw);
+    stats->gradient_evals += 1;
+    if (status) {
+        return status;
+    }
+    h = rope_dop853_h0(cx, opt, hmax, y, k[0], yt, k[1], fw, &stats->gradient_evals);
+    while (next <= nsteps) {
+        const double hmin = 16.0 * (nextafter(t, INFINITY) - t);
+        double err, fac, hnew, tn;
+        int dense = 0;
+        h = fmin(hmax, fmax(hmin, h));
+        if (t + 1.01 * h >= tend) {
+            h = tend - t;
+        }
+        for (;;) {
+            tn = (h == tend - t) ? tend : t + h;
+            h = tn - t;
+            for (e = 0; e < ROPE_NS; ++e) {
+                yt[e] = y[e] + h * (0.05260015195876773 * k[0][e]);
+            }
+            status = rope_field(cx, yt, k[1], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < ROPE_NS; ++e) {
+                yt[e] = y[e] + h * (0.0197250569845379 * k[0][e]
+                        + 0.0591751709536137 * k[1][e]);
+            }
+            status = rope_field(cx, yt, k[2], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < ROPE_NS; ++e) {
+                yt[e] = y[e] + h * (0.02958758547680685 * k[0][e]
+                        + 0.08876275643042054 * k[2][e]);
+            }
+            status = rope_field(cx, yt, k[3], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < ROPE_NS; ++e) {
+                yt[e] = y[e] + h * (0.2413651341592667 * k[0][e]
+                        - 0.8845494793282861 * k[2][e]
+                        + 0.924834003261792 * k[3][e]);
+            }
+            status = rope_field(cx, yt, k[4], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < ROPE_NS; ++e) {
+                yt[e] = y[e] + h * (0.037037037037037035 * k[0][e]
+                        + 0.17082860872947386 * k[3][e]
+                        + 0.12546768756682242 * k[4][e]);
+            }
+            status = rope_field(cx, yt, k[5], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < ROPE_NS; ++e) {
+                yt[e] = y[e] + h * (0.037109375 * k[0][e]
+                        + 0.17025221101954405 * k[3][e]
+                        + 0.06021653898045596 * k[4][e]
+                        - 0.017578125 * k[5][e]);
+            }
+            status = rope_field(cx, yt, k[6], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < ROPE_NS; ++e) {
+                yt[e] = y[e] + h * (0.03709200011850479 * k[0][e]
+                        + 0.17038392571223998 * k[3][e]
+                        + 0.10726203044637328 * k[4][e]
+                        - 0.015319437748624402 * k[5][e]
+                        + 0.008273789163814023 * k[6][e]);
+            }
+            status = rope_field(cx, yt, k[7], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < ROPE_NS; ++e) {
+                yt[e] = y[e] + h * (0.6241109587160757 * k[0][e]
+                        - 3.3608926294469414 * k[3][e]
+                        - 0.868219346841726 * k[4][e]
+                        + 27.59209969944671 * k[5][e]
+                        + 20.154067550477894 * k[6][e]
+                        - 43.48988418106996 * k[7][e]);
+            }
+            status = rope_field(cx, yt, k[8], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < ROPE_NS; ++e) {
+                yt[e] = y[e] + h * (0.47766253643826434 * k[0][e]
+                        - 2.4881146199716677 * k[3][e]
+                        - 0.590290826836843 * k[4][e]
+                        + 21.230051448181193 * k[5][e]
+                        + 15.279233632882423 * k[6][e]
+                        - 33.28821096898486 * k[7][e]
+                        - 0.020331201708508627 * k[8][e]);
+            }
+            status = rope_field(cx, yt, k[9], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < ROPE_NS; ++e) {
+                yt[e] = y[e] + h * (-0.9371424300859873 * k[0][e]
+                        + 5.186372428844064 * k[3][e]
+                        + 1.0914373489967295 * k[4][e]
+                        - 8.149787010746927 * k[5][e]
+                        - 18.52006565999696 * k[6][e]
+                        + 22.739487099350505 * k[7][e]
+                        + 2.4936055526796523 * k[8][e]
+                        - 3.0467644718982196 * k[9][e]);
+            }
+            status = rope_field(cx, yt, k[10], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < ROPE_NS; ++e) {
+                yt[e] = y[e] + h * (2.273310147516538 * k[0][e]
+                        - 10.53449546673725 * k[3][e]
+                        - 2.0008720582248625 * k[4][e]
+                        - 17.9589318631188 * k[5][e]
+                        + 27.94888452941996 * k[6][e]
+                        - 2.8589982771350235 * k[7][e]
+                        - 8.87285693353063 * k[8][e]
+                        + 12.360567175794303 * k[9][e]
+                        + 0.6433927460157636 * k[10][e]);
+            }
+            status = rope_field(cx, yt, k[11], fw);
+            stats->gradient_evals += 1;
+            if (status) {
+                return status;
+            }
+            for (e = 0; e < ROPE_NS; ++e) {
+                yn[e] = y[e] + h * (0.054293734116568765 * k[0][e]
+                        + 4.450312892752409 * k[5][e]
+                        + 1.8915178993145003 * k[6][e]
+                        - 5.801203960010585 * k[7][e]
+                        + 0.3111643669578199 * k[8][e]
+                        - 0.1521609496625161 * k[9][e]
+                        + 0.20136540080403034 * k[10][e]
+                        + 0.04471061572777259 * k[11][e]);
+            }
+            err = rope_dop853_error(opt, h, k, y, yn);
+            fac = pow(err, 1.0 / 8) / 0.9;
+            if (err <= 1.0) {
+                break;
+            }
+            if (!isfinite(err)) {
+                return ROPE_ERR_NONFINITE;
+            }
+            stats->rejected += 1;
+            if (h <= hmin) {
+                return ROPE_ERR_STEPSIZE;
+            }
+            h = fmax(hmin, h / fmin(fac_max, fac));
+            reject = 1;
+        }
+        /* accepted: the field at the new state is the next step's first stage */
+        status = rope_field(cx, yn, k[12], fw);
+        stats->gradient_evals += 1;
+        if (status) {
+            return status;
+        }
+        stats->steps += 1;
+        /* samples in (t, tn]: the new state, or the continuous extension (dop853.f's CONTD8) */
+        while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            if (!(next % every == 0)) {
+                next += 1;
+                continue;
+            }
+            if (next == nsteps || hout * (double)next == tn) {
+                rope_copy(ys, yn, ROPE_NS);
+            } else {
+                const double th = (hout * (double)next - t) / h, th1 = 1.0 - th;
+                if (!dense) { /* the continuous extension's stages, once per step */
+                    for (e = 0; e < ROPE_NS; ++e) {
+                        yt[e] = y[e] + h * (0.056167502283047954 * k[0][e]
+                                + 0.25350021021662483 * k[6][e]
+                                - 0.2462390374708025 * k[7][e]
+                                - 0.12419142326381637 * k[8][e]
+                                + 0.15329179827876568 * k[9][e]
+                                + 0.00820105229563469 * k[10][e]
+                                + 0.007567897660545699 * k[11][e]
+                                - 0.008298 * k[12][e]);
+                    }
+                    status = rope_field(cx, yt, k[13], fw);
+                    stats->gradient_evals += 1;
+                    if (status) {
+                        return status;
+                    }
+                    for (e = 0; e < ROPE_NS; ++e) {
+                        yt[e] = y[e] + h * (0.03183464816350214 * k[0][e]
+                                + 0.028300909672366776 * k[5][e]
+                                + 0.053541988307438566 * k[6][e]
+                                - 0.05492374857139099 * k[7][e]
+                                - 0.00010834732869724932 * k[10][e]
+                                + 0.0003825710908356584 * k[11][e]
+                                - 0.00034046500868740456 * k[12][e]
+                                + 0.1413124436746325 * k[13][e]);
+                    }
+                    status = rope_field(cx, yt, k[14], fw);
+                    stats->gradient_evals += 1;
+                    if (status) {
+                        return status;
+                    }
+                    for (e = 0; e < ROPE_NS; ++e) {
+                        yt[e] = y[e] + h * (-0.42889630158379194 * k[0][e]
+                                - 4.697621415361164 * k[5][e]
+                                + 7.683421196062599 * k[6][e]
+                                + 4.06898981839711 * k[7][e]
+                                + 0.3567271874552811 * k[8][e]
+                                - 0.0013990241651590145 * k[12][e]
+                                + 2.9475147891527724 * k[13][e]
+                                - 9.15095847217987 * k[14][e]);
+                    }
+                    status = rope_field(cx, yt, k[15], fw);
+                    stats->gradient_evals += 1;
+                    if (status) {
+                        return status;
+                    }
+                    dense = 1;
+                }
+                for (e = 0; e < ROPE_NS; ++e) {
+                    const double dy = yn[e] - y[e], bspl = h * k[0][e] - dy;
+                    const double c3 = dy - h * k[12][e] - bspl;
+                    const double d4 = h * (-8.428938276109013 * k[0][e]
+                            + 0.5667149535193777 * k[5][e]
+                            - 3.0689499459498917 * k[6][e]
+                            + 2.38466765651207 * k[7][e]
+                            + 2.117034582445028 * k[8][e]
+                            - 0.871391583777973 * k[9][e]
+                            + 2.2404374302607883 * k[10][e]
+                            + 0.6315787787694688 * k[11][e]
+                            - 0.08899033645133331 * k[12][e]
+                            + 18.148505520854727 * k[13][e]
+                            - 9.194632392478356 * k[14][e]
+                            - 4.436036387594894 * k[15][e]);
+                    const double d5 = h * (10.427508642579134 * k[0][e]
+                            + 242.28349177525817 * k[5][e]
+                            + 165.20045171727028 * k[6][e]
+                            - 374.5467547226902 * k[7][e]
+                            - 22.113666853125306 * k[8][e]
+                            + 7.733432668472264 * k[9][e]
+                            - 30.674084731089398 * k[10][e]
+                            - 9.332130526430229 * k[11][e]
+                            + 15.697238121770845 * k[12][e]
+                            - 31.139403219565178 * k[13][e]
+                            - 9.35292435884448 * k[14][e]
+                            + 35.81684148639408 * k[15][e]);
+                    const double d6 = h * (19.985053242002433 * k[0][e]
+                            - 387.0373087493518 * k[5][e]
+                            - 189.17813819516758 * k[6][e]
+                            + 527.8081592054236 * k[7][e]
+                            - 11.57390253995963 * k[8][e]
+                            + 6.8812326946963 * k[9][e]
+                            - 1.0006050966910838 * k[10][e]
+                            + 0.7777137798053443 * k[11][e]
+                            - 2.778205752353508 * k[12][e]
+                            - 60.19669523126412 * k[13][e]
+                            + 84.32040550667716 * k[14][e]
+                            + 11.99229113618279 * k[15][e]);
+                    const double d7 = h * (-25.69393346270375 * k[0][e]
+                            - 154.18974869023643 * k[5][e]
+                            - 231.5293791760455 * k[6][e]
+                            + 357.6391179106141 * k[7][e]
+                            + 93.40532418362432 * k[8][e]
+                            - 37.45832313645163 * k[9][e]
+                            + 104.0996495089623 * k[10][e]
+                            + 29.8402934266605 * k[11][e]
+                            - 43.53345659001114 * k[12][e]
+                            + 96.32455395918828 * k[13][e]
+                            - 39.17726167561544 * k[14][e]
+                            - 149.72683625798564 * k[15][e]);
+                    const double conv = d4 + th * (d5 + th1 * (d6 + th * d7));
+                    ys[e] = y[e] + th * (dy + th1 * (bspl + th * (c3 + th1 * conv)));
+                }
+            }
+            rope_store(cx, ys, ys + ROPE_N3, next / every, q, w, energy);
+            stats->fail_step = next / every + 1;
+
+            next += 1;
+        }
+        hnew = h / fmax(fac_min, fmin(fac_max, fac));
+        if (reject) {
+            hnew = fmin(hnew, h);
+        }
+        reject = 0;
+        h = hnew;
+        t = tn;
+        stats->fail_time = t;
+        rope_copy(y, yn, ROPE_NS);
+        tmp = k[0];
+        k[0] = k[12];
+        k[12] = tmp;
+    }
+    return ROPE_OK;
+}
+
+/* Step fractions of the symmetric compositions: one step of size h is `count` steps of the basic
+ * VI or RATTLE step of sizes fraction[k] h (they add up to 1 and read the same backwards). */
+/* the basic step alone: order 2. */
+static const double rope_plain[1] = {
+    1.0
+};
+/* Yoshida (1990), Phys. Lett. A 150, 262, the triple jump: order 4. */
+static const double rope_triple_jump[3] = {
+    1.3512071919596578,
+    -1.7024143839193155,
+    1.3512071919596578
+};
+/* Yoshida (1990), Phys. Lett. A 150, 262, order 6, solution A: order 6. */
+static const double rope_yoshida6[7] = {
+    0.7845136104775573,
+    0.23557321335935813,
+    -1.177679984178871,
+    1.3151863206839112,
+    -1.177679984178871,
+    0.23557321335935813,
+    0.7845136104775573
+};
+/* Kahan and Li (1997), Math. Comp. 66, 1089, s15odr8: order 8. */
+static const double rope_kahan_li8[15] = {
+    0.741670364350613,
+    -0.4091008258000316,
+    0.1907547102962384,
+    -0.5738624711160822,
+    0.2990641813036559,
+    0.33462491824529816,
+    0.3152930923967666,
+    -0.7968879393529165,
+    0.3152930923967666,
+    0.33462491824529816,
+    0.2990641813036559,
+    -0.5738624711160822,
+    0.1907547102962384,
+    -0.4091008258000316,
+    0.741670364350613
+};
+
+/* A geometric method: its basic step (RATTLE or the VI) and its composition. */
+typedef struct {
+    int method, rattle, count;
+    const double *fractions;
+} rope_scheme;
+
+static const rope_scheme rope_schemes[8] = {
+    { ROPE_METHOD_VI, 0, 1, rope_plain },
+    { ROPE_METHOD_VI4, 0, 3, rope_triple_jump },
+    { ROPE_METHOD_RATTLE, 1, 1, rope_plain },
+    { ROPE_METHOD_VI6, 0, 7, rope_yoshida6 },
+    { ROPE_METHOD_VI8, 0, 15, rope_kahan_li8 },
+    { ROPE_METHOD_RATTLE4, 1, 3, rope_triple_jump },
+    { ROPE_METHOD_RATTLE6, 1, 7, rope_yoshida6 },
+    { ROPE_METHOD_RATTLE8, 1, 15, rope_kahan_li8 }
+};
+
+/* The scheme of a geometric method, or NULL. */
+static const rope_scheme *rope_scheme_of(int method)
+{
+    int i;
+    for (i = 0; i < 8; ++i) {
+        if (rope_schemes[i].method == method) {
+            return &rope_schemes[i];
+        }
+    }
+    return NULL;
+}
+
+/* A composition of VI steps or of RATTLE steps from (q0, w0); every `every`-th state is stored.
+ * One gradient per substep (the gradient at the new state is reused by the next substep).
+ * Substeps alternate between the buffers (a, vc) and (b, vd), the last one writes (q1, w1)
+ * (VI) or (q1, vb) (RATTLE, whose velocities v_i = qdot_i persist in va across steps).
+ * work: g (60), gn (60), a (60), b (60), va (60), vb (60), vc (60), vd (60), qk (60), wk (60), q1 (60), w1 (60), f (900), s (300), step (3860). */
 static int rope_integrate_geometric(const rope_ctx *cx, const rope_options *opt,
-        int method, double h, long nsteps, long every, const double *q0, const double *w0,
-        double *q, double *w, double *energy, double *work, rope_stats *stats)
+        const rope_scheme *sc, double h, long nsteps, long every, const double *q0,
+        const double *w0, double *q, double *w, double *energy, double *work, rope_stats *stats)
 {
     double *g = work + 0, *gn = work + 60;
     double *a = work + 120, *b = work + 180;
-    double *fs = work + 600;
+    double *fs = work + 720;
     double *va = work + 240, *vb = work + 300;
-    double *qk = work + 360, *wk = work + 420;
-    double *q1 = work + 480, *w1 = work + 540;
-    double *ss = work + 780;
-    double *rest = work + 800, *tmp;
+    double *vc = work + 360, *vd = work + 420;
+    double *qk = work + 480, *wk = work + 540;
+    double *q1 = work + 600, *w1 = work + 660;
+    double *ss = work + 1620;
+    double *rest = work + 1920, *tmp;
     long k, e;
     int status = ROPE_OK;
     rope_copy(qk, q0, ROPE_N3);
     rope_copy(wk, w0, ROPE_N3);
     rope_gradient_cx(cx, qk, g);
     stats->gradient_evals += 1;
-    if (method == ROPE_METHOD_RATTLE) {
+    if (sc->rattle) {
         for (e = 0; e < 20; ++e) { /* v = omega x q */
             const double *x = qk + 3 * e, *o = wk + 3 * e;
             va[3 * e] = o[1] * x[2] - o[2] * x[1];
@@ -1558,34 +2041,28 @@ static int rope_integrate_geometric(const rope_ctx *cx, const rope_options *opt,
         }
     }
     for (k = 0; k < nsteps; ++k) {
-        int iters = 0, total = 0;
-        int sub;
-        if (method == ROPE_METHOD_VI) {
-            status = rope_vi_advance(cx, opt, h, qk, wk, g, q1, w1, gn, fs, k > 0, rest,
-                    &iters);
-            total = iters;
+        const double *qs = qk, *vs = sc->rattle ? va : wk;
+        int sub, iters = 0, total = 0;
+        for (sub = 0; sub < sc->count && status == ROPE_OK; ++sub) {
+            const int last = sub == sc->count - 1;
+            double *qd = last ? q1 : (sub % 2 == 0 ? a : b);
+            double *vn = last ? (sc->rattle ? vb : w1) : (sub % 2 == 0 ? vc : vd);
+            if (sc->rattle) {
+                status = rope_rattle_advance(cx, opt, sc->fractions[sub] * h, qs, vs, g, qd,
+                        vn, gn, ss + sub * 20, k > 0, rest, &iters);
+            } else {
+                status = rope_vi_advance(cx, opt, sc->fractions[sub] * h, qs, vs, g, qd, vn,
+                        gn, fs + sub * ROPE_N3, k > 0, rest, &iters);
+            }
+            total += iters;
+            qs = qd;
+            vs = vn;
             tmp = g;
             g = gn;
             gn = tmp;
-        } else if (method == ROPE_METHOD_VI4) {
-            const double *qs = qk, *ws = wk;
-            for (sub = 0; sub < 3 && status == ROPE_OK; ++sub) {
-                double *qd = sub == 2 ? q1 : (sub == 0 ? a : b);
-                double *wd = sub == 2 ? w1 : (sub == 0 ? va : vb);
-                status = rope_vi_advance(cx, opt, rope_yoshida[sub] * h, qs, ws, g, qd,
-                        wd, gn, fs + sub * ROPE_N3, k > 0, rest, &iters);
-                total += iters;
-                qs = qd;
-                ws = wd;
-                tmp = g;
-                g = gn;
-                gn = tmp;
-                stats->gradient_evals += sub < 2 ? 1 : 0;
-            }
-        } else {
-            status = rope_rattle_advance(cx, opt, h, qk, va, g, q1, vb, gn, ss, k > 0, rest,
-                    &iters);
-            total = iters;
+            stats->gradient_evals += last ? 0 : 1;
+        }
+        if (sc->rattle) {
             for (e = 0; e < 20 && status == ROPE_OK; ++e) { /* omega = q x v */
                 const double *x = q1 + 3 * e, *u = vb + 3 * e;
                 w1[3 * e] = x[1] * u[2] - x[2] * u[1];
@@ -1595,9 +2072,6 @@ static int rope_integrate_geometric(const rope_ctx *cx, const rope_options *opt,
             tmp = va;
             va = vb;
             vb = tmp;
-            tmp = g;
-            g = gn;
-            gn = tmp;
         }
         stats->newton_iters += total;
         if (total > stats->newton_max) {
@@ -1659,7 +2133,7 @@ static int rope_integrate_fixed(const rope_ctx *cx, int method, double h,
     return ROPE_OK;
 }
 
-/* work: run (4660), y0 (120). */
+/* work: run (5780), y0 (120). */
 int rope_integrate(const double *p, const rope_options *opt, int method, double h,
         long nsteps, const double *q0, const double *w0, double *q, double *w, double *energy,
         double *work, rope_stats *stats)
@@ -1667,6 +2141,7 @@ int rope_integrate(const double *p, const rope_options *opt, int method, double 
     rope_options defaults;
     rope_stats local;
     rope_ctx ctx, *cx = &ctx;
+    const rope_scheme *scheme;
     double *run = work + 0;
     long every, i;
     if (!opt) {
@@ -1702,14 +2177,20 @@ int rope_integrate(const double *p, const rope_options *opt, int method, double 
     rope_store(cx, q0, w0, 0, q, w, energy);
     stats->fail_step = 1;
     if (method == ROPE_METHOD_RK45) {
-        double *y0 = work + 4660;
+        double *y0 = work + 5780;
         rope_copy(y0, q0, ROPE_N3);
         rope_copy(y0 + ROPE_N3, w0, ROPE_N3);
         return rope_rk45(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
     }
-    if (method == ROPE_METHOD_VI || method == ROPE_METHOD_VI4
-            || method == ROPE_METHOD_RATTLE) {
-        return rope_integrate_geometric(cx, opt, method, h, nsteps, every, q0, w0, q, w,
+    if (method == ROPE_METHOD_DOP853) {
+        double *y0 = work + 5780;
+        rope_copy(y0, q0, ROPE_N3);
+        rope_copy(y0 + ROPE_N3, w0, ROPE_N3);
+        return rope_dop853(cx, opt, h, nsteps, y0, every, q, w, energy, run, stats);
+    }
+    scheme = rope_scheme_of(method);
+    if (scheme) {
+        return rope_integrate_geometric(cx, opt, scheme, h, nsteps, every, q0, w0, q, w,
                 energy, run, stats);
     }
     if (method != ROPE_METHOD_RK2 && method != ROPE_METHOD_RK2_PROJ

@@ -17,8 +17,9 @@ from typing import Any
 
 __all__ = ["DEFAULT_EXAMPLES", "add_parser", "command_line"]
 
-#: The systems `s2gen bench` measures when none are named.
-DEFAULT_EXAMPLES = ("double_pendulum", "three_bodies")
+#: The systems `s2gen bench` measures when none are named: coupled M, and two diagonal M with
+#: pair potentials (cotangent; dipole-dipole).
+DEFAULT_EXAMPLES = ("double_pendulum", "three_bodies", "dipoles")
 
 
 def add_parser(subparsers: Any) -> None:
@@ -49,6 +50,12 @@ def add_parser(subparsers: Any) -> None:
     b.add_argument("--long", action="store_true", help="long-time runs (energy drift, crossover)")
     b.add_argument("--steps", type=int, help="steps of the long runs (default 1e6; quick 1e5)")
     b.add_argument(
+        "--crossover-steps",
+        type=int,
+        help="most steps of a VI-family run chasing its crossover with a tight RK (default "
+        "1e7; quick 1e5)",
+    )
+    b.add_argument(
         "--tight",
         type=float,
         default=1e-10,
@@ -69,9 +76,9 @@ def command_line(args: argparse.Namespace) -> str:
     parts = ["s2gen", "bench", *args.examples, "--out", str(args.out)]
     flags = ("quick", "no_sweeps", "long", "stability", "scaling")
     parts += [f"--{f.replace('_', '-')}" for f in flags if getattr(args, f)]
-    for key in ("T", "steps"):
+    for key in ("T", "steps", "crossover_steps"):
         if getattr(args, key) is not None:
-            parts += [f"--{key}", str(getattr(args, key))]
+            parts += [f"--{key.replace('_', '-')}", str(getattr(args, key))]
     if args.tight != 1e-10:
         parts += ["--tight", str(args.tight)]
     if args.pydy_generator != "auto":

@@ -45,6 +45,7 @@ def bench(
     sweeps: bool = True,
     long: bool = False,
     steps: int | None = None,
+    crossover_steps: int | None = None,
     tight: float = 1e-10,
     stability_envelope: bool = False,
     scale: bool = False,
@@ -73,7 +74,8 @@ def bench(
             ex = ExampleBench(name, system, Reference(system, 0.0, np.zeros(0), 0, 1, 0, 0))
         if long:
             n = steps or (10**5 if quick else 10**6)
-            ex.long, ex.long_notes = long_time(name, n, tight, log)
+            most = crossover_steps or (10**5 if quick else 10**7)
+            ex.long, ex.long_notes, ex.crossovers = long_time(name, n, tight, log, most)
         ex.name = ex.system.name  # a TOML path names its files and sections by the spec's name
         report.examples.append(ex)
     if stability_envelope:
@@ -99,6 +101,7 @@ def run(args: argparse.Namespace) -> int:
             sweeps=not args.no_sweeps,
             long=args.long,
             steps=args.steps,
+            crossover_steps=args.crossover_steps,
             tight=args.tight,
             stability_envelope=args.stability,
             scale=args.scaling,

@@ -25,22 +25,32 @@ from .model import FIXED, VI_FAMILY, BenchReport, ExampleBench, ScaleRow, StabRo
 _COLORS = {
     "vi": "C0",
     "vi4": "C1",
+    "vi6": "#1f4e79",
+    "vi8": "#0b2545",
     "rattle": "C2",
+    "rattle4": "#7fbf7f",
+    "rattle6": "#2e7d32",
+    "rattle8": "#0d3b12",
     "rk4": "C3",
     "rk2": "C4",
     "rk2-proj": "C5",
     "rk45-hairer": "C6",
     "rk45-matlab": "C7",
+    "dop853": "#b8860b",
     "scipy-RK45": "C8",
     "scipy-DOP853": "C9",
 }
 
+#: Our adaptive methods on the emitted C (rows named by method, or rk45-<control>).
+_OUR_ADAPTIVE = ("rk45", "dop853")
+
 
 def _style(method: str) -> dict[str, Any]:
     color = _COLORS.get(method, "k" if "lsoda" in method else "0.5")
-    ls = "-" if method in FIXED or method.startswith("rk45") else "--"
+    ours = method.startswith(_OUR_ADAPTIVE)
+    ls = "-" if method in FIXED or ours else "--"
     lw = 2.2 if method in VI_FAMILY else 1.2
-    marker = "o" if method in FIXED else "s" if method.startswith("rk45") else "^"
+    marker = "o" if method in FIXED else "s" if ours else "^"
     return {"color": color, "ls": ls, "lw": lw, "marker": marker, "ms": 4}
 
 
@@ -92,7 +102,7 @@ def _plot_wp(ex: ExampleBench, path: Path) -> Path:
             ax.axhline(ex.reference.accuracy, color="0.6", lw=0.8, ls=":")
         _label(ax, labels[x], labels[y])
     handles, names = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, names, loc="lower center", ncol=6, fontsize=8)
+    fig.legend(handles, names, loc="lower center", ncol=8, fontsize=8)
     fig.suptitle(
         f"{ex.name}: work-precision over T = {ex.reference.T:g} (dotted: reference accuracy)"
     )
@@ -114,7 +124,10 @@ def _plot_long(ex: ExampleBench, path: Path) -> Path:
             t = np.asarray(s.t)
             good = np.isfinite(y) & (y > 0)
             if good.any():
-                ax.loglog(t[good], y[good], label=s.label, lw=2 if s.method == "vi" else 1.2)
+                lw = 2 if s.method in VI_FAMILY else 1.2
+                ls = "--" if "(=" in s.label else "-"  # an equal-cost run
+                style = {"lw": lw, "ls": ls, "color": _COLORS.get(s.method)}
+                ax.loglog(t[good], y[good], label=s.label, **style)
         _label(ax, "t", label)
     axes[0, 0].legend(fontsize=7)
     fig.suptitle(f"{ex.name}: long-time behaviour")

@@ -3,8 +3,9 @@
 Input: a `LongSetup` (system, state, conserved momentum components), a method with its step
 or tolerance, and the window ends. Output: a `LongSeries` per run with the window maxima of
 |E − E0|, | |q_i| − 1 |, |q_i · ω_i| and |L − L0| (conserved components), the steps, gradient
-evaluations and wall time. Fixed-step methods and RK45 run on the emitted C; DOP853 is
-scipy's `solve_ivp` on the emitted C right-hand side. Progress lines go to `log`.
+evaluations and wall time. Every run is on the emitted C (RK45 under Hairer's control,
+DOP853); a run can be continued to a later horizon from where it stopped. Progress lines go
+to `log`.
 
 Example:
     >>> _windows(1000)
@@ -20,7 +21,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from s2gen.experiments import peers
 from s2gen.runtime import IntegrationError, Options, Trajectory, get_backend, simulate
 from s2gen.system import System
 
@@ -110,11 +110,16 @@ class _Progress:
             )
 
 
-def _long_fixed(tr: _Tracker, h: float, total_steps: int, log: Log) -> LongSeries:
+def _long_fixed(tr: _Tracker, h: float, more_steps: int, log: Log) -> LongSeries:
+    """`more_steps` steps of h from where the run stopped (windows doubling from 64 steps, or
+    from half the steps done when continuing)."""
     s = tr.series
-    prog = _Progress(s.label, total_steps * h, log)
-    done = 0
-    for n in _windows(total_steps):
+    done = s.steps
+    prog = _Progress(s.label, (done + more_steps) * h, log)
+    first = 64 if done == 0 else min(2**17, max(64, done // 2))
+    for n in _windows(more_steps, first):
+        if s.status != "ok":
+            break
         try:
             out = tr.run(s.method, h, n * h)
         except IntegrationError as exc:
@@ -127,45 +132,23 @@ def _long_fixed(tr: _Tracker, h: float, total_steps: int, log: Log) -> LongSerie
     return s
 
 
-def _long_rk45(tr: _Tracker, ends: Sequence[float], log: Log) -> LongSeries:
+def _long_adaptive(tr: _Tracker, ends: Sequence[float], log: Log) -> LongSeries:
+    """The run's adaptive method (RK45 under Hairer's control, or DOP853) at its tolerance,
+    one call per window up to each of `ends` beyond where it stopped, 32 samples a window."""
     s = tr.series
     prog = _Progress(s.label, ends[-1], log)
     opts = Options(rtol=s.rtol, atol=s.rtol, control="hairer")
     for t_end in ends:
         span = t_end - tr.t
+        if s.status != "ok" or span <= 0:
+            continue
         try:
-            out = tr.run("rk45", span / 32, span, opts)
+            out = tr.run(s.method, span / 32, span, opts)
         except IntegrationError as exc:
             s.status = f"{_why(exc)} in the window ending at t = {t_end:g}"
             break
         s.steps += int(out.stats.get("steps", 0))
         tr.add(t_end, out)
-        prog(t_end)
-    return s
-
-
-def _long_dop853(tr: _Tracker, ends: Sequence[float], log: Log) -> LongSeries:
-    from scipy.integrate import solve_ivp
-
-    s = tr.series
-    n = tr.system.n
-    f = peers.c_field(tr.system, tr.params)
-    be = get_backend(tr.system, "c")
-    prog = _Progress(s.label, ends[-1], log)
-    for t_end in ends:
-        y0 = np.concatenate([tr.q.ravel(), tr.w.ravel()])
-        t_eval = np.linspace(tr.t, t_end, 33)
-        start = time.perf_counter()
-        sol = solve_ivp(f, (tr.t, t_end), y0, "DOP853", t_eval, rtol=s.rtol, atol=s.rtol)
-        s.wall += time.perf_counter() - start
-        if not sol.success or not np.all(np.isfinite(sol.y)):
-            s.status = f"failed ({sol.message}) in the window ending at t = {t_end:g}"
-            break
-        s.evals += int(sol.nfev)
-        y = sol.y.T
-        q, w = y[:, : 3 * n].reshape(-1, n, 3), y[:, 3 * n :].reshape(-1, n, 3)
-        energy = np.array([be.energy(q[i], w[i], tr.params) for i in range(len(q))])
-        tr.window(t_end, q, w, energy)
         prog(t_end)
     return s
 

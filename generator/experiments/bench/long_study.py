@@ -1,15 +1,16 @@
 """Long-time behaviour of one example: drift of the invariants and the crossover with RK.
 
-Input: an example name, a number of steps and the tolerance of the tight adaptive runs.
-Output: the `LongSeries` of vi, vi4, RATTLE and RK4 at the system's h, of RK45 and DOP853 at
-the tolerance, and of vi/vi4 at equal cost with each tight RK, plus notes: the setup (a
-replacement initial state when the example's own collides) and where the VI's energy error
-becomes the smaller (`crossover`).
+Input: an example name, a number of steps, the tolerance of the tight adaptive runs and the
+most steps a crossover run may take. Output: the `LongSeries` of the VI family (the VI, RATTLE
+and their compositions) and RK4 at the system's h, and of RK45 and DOP853 (emitted C) at the
+tolerance; the crossovers with RK45 and DOP853 at equal energy error (`crossover.py`), with the
+runs that decided them; notes: the setup (a replacement initial state when the example's own
+collides) and one per crossover.
 
 Example:
-    >>> series, notes = long_time("double_pendulum", 2000, log=lambda s: None)  # doctest: +SKIP
-    >>> len(series)  # doctest: +SKIP
-    10
+    >>> series, notes, found = long_time("double_pendulum", 2000, log=lambda s: None)  # doctest: +SKIP
+    >>> [c.rk for c in found]  # doctest: +SKIP
+    ['rk45', 'rk45', 'dop853', 'dop853']
 """
 
 from __future__ import annotations
@@ -23,8 +24,14 @@ from s2gen.runtime import IntegrationError, Options, get_backend, simulate
 from s2gen.system import System
 
 from .common import Log, _fmt, _print, _why, example_system
-from .long_runs import _long_dop853, _long_fixed, _long_rk45, _tracker, _windows
-from .model import LongSeries, LongSetup
+from .crossover import CROSSOVER_TARGETS, Crossover, crossovers
+from .long_runs import _long_adaptive, _long_fixed, _tracker, _windows
+from .model import VI_FAMILY, LongSeries, LongSetup
+
+#: Methods of the long runs at the system's step.
+LONG_FIXED = (*VI_FAMILY, "rk4")
+#: The tight adaptive runs the VI family is measured against.
+LONG_ADAPTIVE = ("rk45", "dop853")
 
 
 def conserved_components(
@@ -99,16 +106,23 @@ def long_setup(name: str, steps: int, log: Log = _print) -> LongSetup:
 
 
 def long_time(
-    name: str, steps: int, tight: float = 1e-10, log: Log = _print
-) -> tuple[list[LongSeries], list[str]]:
-    """Long runs (VI, vi4, RATTLE, RK4 at the system's h; RK45 and DOP853 at tolerance `tight`),
-    then vi and vi4 at equal cost with each tight RK; returns the series and notes (setup,
-    crossovers).
+    name: str,
+    steps: int,
+    tight: float = 1e-10,
+    log: Log = _print,
+    crossover_steps: int = 10**7,
+    targets: tuple[float, ...] = CROSSOVER_TARGETS,
+) -> tuple[list[LongSeries], list[str], list[Crossover]]:
+    """Long runs (the VI family and RK4 at the system's h; RK45 and DOP853 at tolerance
+    `tight`), then the crossovers with RK45 and DOP853 at each relative energy error of
+    `targets` (VI-family runs of at most `crossover_steps` steps); returns the series (the
+    crossovers' deciding runs included), notes and crossovers.
 
     Example:
-        >>> series, notes = long_time("double_pendulum", 2000, log=lambda s: None)
-        >>> [s.method for s in series][:4]
-        ['vi', 'vi4', 'rattle', 'rk4']
+        >>> series, notes, found = long_time("double_pendulum", 2000, log=lambda s: None,
+        ...                                  targets=())
+        >>> [s.method for s in series][:5]
+        ['vi', 'vi4', 'vi6', 'vi8', 'rattle']
     """
     setup = long_setup(name, steps, log)
     h = setup.h
@@ -117,115 +131,29 @@ def long_time(
         f"components {[c + 1 for c in setup.conserved]}"
     )
     out: list[LongSeries] = []
-    for method in ("vi", "vi4", "rattle", "rk4"):
+    for method in LONG_FIXED:
         out.append(
             _long_fixed(_tracker(setup, f"{method} h={h:g}", method, h, math.nan), h, steps, log)
         )
         log(_long_line(out[-1]))
     ends = list(np.cumsum(_windows(steps)) * h)
-    out.append(
-        _long_rk45(_tracker(setup, f"rk45 tol={tight:g}", "rk45", math.nan, tight), ends, log)
-    )
-    log(_long_line(out[-1]))
-    out.append(
-        _long_dop853(_tracker(setup, f"DOP853 tol={tight:g}", "DOP853", math.nan, tight), ends, log)
-    )
-    log(_long_line(out[-1]))
+    for method in LONG_ADAPTIVE:
+        tr = _tracker(setup, f"{method} tol={tight:g}", method, math.nan, tight)
+        out.append(_long_adaptive(tr, ends, log))
+        log(_long_line(out[-1]))
     notes = [setup.note] if setup.note else []
-    notes += _equal_cost_runs(setup, out, log)
-    return out, notes
+    found: list[Crossover] = []
+    if targets:
+        for rk in LONG_ADAPTIVE:
+            found += crossovers(setup, rk, targets, crossover_steps, log)
+    out += [run for c in found for run in c.runs]
+    notes += [c.note() for c in found]
+    return out, notes, found
 
 
 def _long_line(s: LongSeries) -> str:
     final = s.running_max()[-1] if s.dE else math.nan
     return (
-        f"    {s.label:22s} {s.steps:>9d} steps {s.evals:>10d} evals {s.wall:8.2f} s  "
+        f"    {s.label:30s} {s.steps:>9d} steps {s.evals:>10d} evals {s.wall:8.2f} s  "
         f"max|dE| {final:.2e}  slope {_fmt(s.slope(), '.2f')}  {s.status}"
     )
-
-
-def _equal_cost_runs(setup: LongSetup, out: list[LongSeries], log: Log) -> list[str]:
-    """vi and vi4 runs whose cost per unit time equals the tight RK45's (wall time, both emitted
-    C) and DOP853's (gradient evaluations: scipy drives it from Python), and the crossover time
-    after which the VI's energy error is the smaller."""
-    base = {s.method: s for s in out[:2]}
-    rks = [(s, "wall" if s.method == "rk45" else "evals") for s in out[4:6]]
-    notes = []
-    for rk, basis in rks:
-        if rk.status != "ok" or not rk.t:
-            notes.append(f"{rk.label} did not finish ({rk.status}): no crossover")
-            continue
-        for method, vi in base.items():
-            per_step = vi.wall / max(vi.steps, 1) if basis == "wall" else vi.evals / vi.steps
-            cost = (rk.wall if basis == "wall" else rk.evals) / rk.t[-1]
-            h_eq = per_step / cost
-            label = f"{method} h={h_eq:.3g} (= {rk.method} {basis})"
-            eq = _long_fixed(
-                _tracker(setup, label, method, h_eq, math.nan),
-                h_eq,
-                max(1, int(setup.T / h_eq)),
-                log,
-            )
-            out.append(eq)
-            log(_long_line(eq))
-            notes.append(_crossover_note(rk, eq, basis))
-            log(f"    {notes[-1]}")
-    return notes
-
-
-def crossover(rk: LongSeries, vi: LongSeries) -> tuple[float, str]:
-    """First window end after which the RK's running max |E - E0| stays above the VI's.
-
-    Returns (time, kind): kind "measured", "before the first window", or "extrapolated" (from
-    the RK's fitted drift slope, when it is still below the VI's at the end), or "none".
-
-    Example:
-        >>> rk = LongSeries("x", "rk", "rk45", 0, 0, [1.0, 10.0, 100.0], [1e-8, 1e-7, 1e-6])
-        >>> vi = LongSeries("x", "vi", "vi", 0, 0, [1.0, 10.0, 100.0], [3e-7, 3e-7, 3e-7])
-        >>> crossover(rk, vi)
-        (100.0, 'measured')
-    """
-    t = np.asarray(rk.t)
-    rk_max = rk.running_max()
-    vi_t, vi_max = np.asarray(vi.t), vi.running_max()
-    if not len(t) or not len(vi_t):
-        return math.nan, "none"
-    idx = np.clip(np.searchsorted(vi_t, t, side="right") - 1, 0, len(vi_t) - 1)
-    above = rk_max > vi_max[idx]
-    if above.all():
-        return float(t[0]), "before the first window"
-    if above[-1]:
-        last_below = int(np.nonzero(~above)[0][-1])
-        return float(t[last_below + 1]), "measured"
-    slope = rk.slope()
-    if not slope > 0:
-        return math.nan, "none"
-    return float(t[-1] * (vi_max[-1] / rk_max[-1]) ** (1.0 / slope)), "extrapolated"
-
-
-def _crossover_note(rk: LongSeries, vi: LongSeries, basis: str) -> str:
-    t, kind = crossover(rk, vi)
-    cost = "wall time" if basis == "wall" else "gradient evaluations"
-    vi_err = vi.running_max()[-1] if vi.dE else math.nan
-    horizon = vi.t[-1] if vi.t else math.nan
-    head = (
-        f"at equal {cost} per unit time, {vi.method} (h = {vi.h:.3g}) keeps max |E − E0| at "
-        f"{vi_err:.2e} over T = {horizon:.4g}; {rk.label} "
-    )
-    if kind == "measured":
-        return head + f"exceeds it from t = {t:.4g} on (measured crossover)"
-    if kind == "before the first window":
-        return (
-            head + f"already exceeds it by the first window (t = {t:.4g}): the VI wins throughout"
-        )
-    if kind == "extrapolated" and t <= 1000 * horizon:
-        return head + (
-            f"stays below it over the run; its fitted drift slope {rk.slope():.2f} puts the "
-            f"crossover at t ≈ {t:.3g} (extrapolated)"
-        )
-    if kind == "extrapolated":
-        return head + (
-            f"stays below it over the run, and its fitted drift slope {rk.slope():.2f} puts the "
-            f"crossover beyond 1000× this horizon (t ≈ {t:.2g}, extrapolated): the RK wins here"
-        )
-    return head + "stays below it with no growth to extrapolate: no crossover, the RK wins here"

@@ -1,7 +1,8 @@
 """The records of `s2gen bench` and the constants that describe its methods.
 
-Input: nothing (definitions only). Output: the method lists (`FIXED`, `VI_FAMILY`), their
-expected orders and gradient evaluations per step, and the dataclasses every other module of
+Input: nothing (definitions only). Output: the method lists (`FIXED`, `VI_FAMILY`, `RK_C`),
+their expected orders and gradient evaluations per step (from `s2gen.methods`), and the
+dataclasses every other module of
 the package passes around: `WPRow` (one work-precision run), `Reference`, `ExampleBench`
 (everything measured on one example), `LongSeries`/`LongSetup` (long-time runs),
 `StabilityCase`/`StabRow` (stability envelope), `ScaleRow` (scaling) and `BenchReport`.
@@ -21,14 +22,24 @@ from typing import Any
 
 import numpy as np
 
+from s2gen.methods import METHODS, Family, method
 from s2gen.system import System
 
-FIXED = ("vi", "vi4", "rattle", "rk4", "rk2", "rk2-proj")
-VI_FAMILY = ("vi", "vi4")
-ORDERS = {"vi": 2.0, "vi4": 4.0, "rattle": 2.0, "rk4": 4.0, "rk2": 2.0, "rk2-proj": 2.0}
+#: The structure-preserving methods (the VI, RATTLE and their compositions), VI first, by order.
+VI_FAMILY = tuple(
+    m.name
+    for m in sorted(METHODS, key=lambda m: (m.family is Family.RATTLE, m.order))
+    if m.geometric and "c" in m.backends
+)
+#: Every fixed-step method of the emitted C: the VI family, then the fixed-step Runge-Kutta.
+FIXED = (*VI_FAMILY, "rk4", "rk2", "rk2-proj")
+#: The Runge-Kutta runs on the emitted C that the VI family is measured against (by row name).
+RK_C = ("rk4", "rk45-hairer", "rk45-matlab", "dop853")
+ORDERS = {m: float(method(m).order) for m in FIXED}
 #: Gradient evaluations per step of the fixed-step methods.
-EVALS_PER_STEP = {"vi": 1, "vi4": 3, "rattle": 1, "rk4": 4, "rk2": 2, "rk2-proj": 2}
-REF_RTOL = 1e-13
+EVALS_PER_STEP = {m: method(m).evals for m in FIXED}
+#: Tolerance of the reference runs (C DOP853).
+REF_RTOL = 3e-14
 SAMPLES = 200
 
 
@@ -84,9 +95,11 @@ class ExampleBench:
     reference: Reference
     rows: list[WPRow] = field(default_factory=list)
     per_step: list[dict[str, Any]] = field(default_factory=list)
+    newton: dict[str, float] = field(default_factory=dict)  # iterations per substep, own h
     pydy: dict[str, Any] = field(default_factory=dict)
     long: list[LongSeries] = field(default_factory=list)
     long_notes: list[str] = field(default_factory=list)
+    crossovers: list[Any] = field(default_factory=list)  # crossover.Crossover records
     call_overhead: float = math.nan
 
 

@@ -1,9 +1,10 @@
 """The Markdown sections of one example in ``bench.md``, generated from its measured rows.
 
 Input: an `ExampleBench`. Output: lists of Markdown lines: the winners per accuracy target,
-generated findings (where a VI wins, loses or ties), fitted orders, time to an energy error
-against scipy's DOP853, time per step per backend, PyDy's derivation cost, every run, and
-the long-time table with its crossover notes.
+the VI family against the Runge-Kutta methods of the emitted C, generated findings (where a VI
+wins, loses or ties), fitted orders, time to an energy error against scipy's DOP853, time per
+step per backend, PyDy's derivation cost, every run, and the long-time table with its
+crossover notes (`report_long.py`).
 
 Example:
     >>> a = WPRow("x", "vi", "s2gen", 0.1, 0, 1, 10, 10, 0, 0.5, 1e-3, 0, 0)
@@ -21,7 +22,9 @@ import numpy as np
 
 from .common import _fmt, _ms, _table, _times
 from .kernels import md_kernel_ops
-from .model import FIXED, ORDERS, REF_RTOL, VI_FAMILY, ExampleBench, WPRow
+from .model import FIXED, ORDERS, REF_RTOL, RK_C, VI_FAMILY, ExampleBench, WPRow
+from .per_step import NEWTON_STEPS
+from .report_long import _md_long
 from .sweeps import fitted_orders
 
 
@@ -67,13 +70,52 @@ def _winner_rows(ex: ExampleBench, metric: str) -> list[list[str]]:
     return out
 
 
+def _versus_rk(ex: ExampleBench, metric: str) -> list[list[str]]:
+    """Per target of `metric`: the cheapest VI-family run, the cheapest Runge-Kutta run of the
+    emitted C (`RK_C`) and the ratio of their wall times."""
+    out = []
+    for target in _targets(ex, metric):
+        vi = cheapest([r for r in ex.rows if r.method in VI_FAMILY], metric, target)
+        rk = cheapest([r for r in ex.rows if r.method in RK_C], metric, target)
+        if vi is None and rk is None:
+            continue
+        out.append(
+            [
+                f"≤ {target:.0e}",
+                f"{vi.method} ({vi.setting}): {_ms(vi.wall)}" if vi else "not reached",
+                f"{rk.method} ({rk.setting}): {_ms(rk.wall)}" if rk else "not reached",
+                _fmt(vi.wall / rk.wall, ".2f") + "×" if vi and rk else "—",
+            ]
+        )
+    return out
+
+
+def _md_versus_rk(ex: ExampleBench) -> list[str]:
+    head = ("{}", "best VI family", "best RK (emitted C)", "VI family / RK")
+    title = (
+        "The VI family (VI, RATTLE and their compositions) against the Runge-Kutta methods of "
+        "the emitted C (rk4, rk45 under both controls, dop853): the cheapest run of each that "
+        "reaches the target, wall time of the call keeping only the final state."
+    )
+    return [
+        "### The VI family against Runge-Kutta (emitted C)",
+        "",
+        title,
+        "",
+        *_table((head[0].format("state error"), *head[1:]), _versus_rk(ex, "state_err")),
+        "",
+        *_table((head[0].format("rel. energy error"), *head[1:]), _versus_rk(ex, "rel_dE")),
+        "",
+    ]
+
+
 #: Wall-time ratios within this factor of 1 are reported as ties (timing noise).
 TIE = 1.15
 
 
 def findings(ex: ExampleBench, metric: str) -> list[str]:
-    """Generated sentences: at each accuracy target, whether a VI (vi, vi4) is the cheapest in
-    wall time, and by how much it wins or loses against the cheapest other method (a ratio
+    """Generated sentences: at each accuracy target, whether the VI family (`VI_FAMILY`) is the
+    cheapest in wall time, and by how much it wins or loses against the cheapest other method (a ratio
     within `TIE` of 1 is a tie)."""
     what = "state error" if metric == "state_err" else "relative energy error"
     lines = []
@@ -188,7 +230,18 @@ def _md_per_step(ex: ExampleBench) -> list[str]:
         "side by side in this run; (best of N steps − best of 1 step)/(N − 1), so the per-call "
         "overhead is excluded (rk45: tol 1e-8, best wall / accepted steps):"
     )
-    return [title, "", *_table(head, rows)]
+    lines = [title, "", *_table(head, rows)]
+    if ex.newton:
+        its = ", ".join(f"{m} {v:.2f}" for m, v in ex.newton.items())
+        h = ex.system.run.h or 0.01
+        lines += [
+            "",
+            (
+                f"Newton iterations per substep (emitted C, the system's own h = {h:g}, "
+                f"{NEWTON_STEPS} steps; 0: explicit steps): {its}."
+            ),
+        ]
+    return lines
 
 
 def _md_pydy(ex: ExampleBench) -> list[str]:
@@ -212,7 +265,7 @@ def _md_pydy(ex: ExampleBench) -> list[str]:
 def _md_example(ex: ExampleBench, out: Path) -> list[str]:
     ref = ex.reference
     intro = (
-        f"Reference: our C RK45 (Hairer control, tol {REF_RTOL:g}); vi4 at small steps agrees "
+        f"Reference: our C DOP853 (tol {REF_RTOL:g}); vi8 or rattle8 at small steps agrees "
         f"to {ref.accuracy:.2e} (state norm). Largest kinetic energy along it "
         f"{ref.kinetic_scale:.4g} (divides energy errors). ![work-precision](wp_{ex.name}.png)"
     )
@@ -235,6 +288,7 @@ def _md_example(ex: ExampleBench, out: Path) -> list[str]:
         lines += ["### Winners per accuracy", "", *_table(head, _winner_rows(ex, "state_err")), ""]
         head2 = ("rel. energy error", *head[1:])
         lines += [*_table(head2, _winner_rows(ex, "rel_dE")), ""]
+        lines += _md_versus_rk(ex)
         lines += ["### Where the VI loses and where it wins (generated from the rows above)", ""]
         lines += findings(ex, "state_err") + findings(ex, "rel_dE")
         lines += [_vi_vs_rattle(ex), ""]
@@ -276,55 +330,3 @@ def _md_all_runs(ex: ExampleBench) -> list[str]:
         "status",
     )
     return ["<details><summary>All runs</summary>", "", *_table(head, rows), "", "</details>", ""]
-
-
-def _md_long(ex: ExampleBench) -> list[str]:
-    rows = []
-    for s in ex.long:
-        final = s.running_max()[-1] if s.dE else math.nan
-        rows.append(
-            [
-                s.label,
-                str(s.steps or "—"),
-                str(s.evals),
-                f"{s.wall:.2f} s",
-                _fmt(final, ".2e"),
-                _fmt(s.slope(), ".2f"),
-                _fmt(max(s.unit, default=math.nan), ".1e"),
-                _fmt(max(s.qw, default=math.nan), ".1e"),
-                _fmt(np.nanmax(s.dL) if s.dL else math.nan, ".1e"),
-                s.status,
-            ]
-        )
-    head = (
-        "run",
-        "steps",
-        "grad evals",
-        "wall",
-        "max abs dE",
-        "drift slope",
-        "max unit err",
-        "max q.w",
-        "max dL",
-        "status",
-    )
-    return [
-        f"### Long time ({ex.name}) ![long](long_{ex.name}.png)",
-        "",
-        (
-            "Drift slope: least-squares slope of log(running max |E − E0|) against log t over the "
-            "last two decades of time (0: bounded; 1: linear drift). dL: conserved components only. "
-            "Runs go in windows that double in length (each continues from the last state); the "
-            "table keeps window maxima. rk45: our C, Hairer control. DOP853: scipy's `solve_ivp` "
-            "on the emitted C right-hand side through ctypes, so its wall time is mostly Python's "
-            "and its equal-cost comparison counts gradient evaluations (the VI's Newton iterations "
-            "are not counted there; the wall-time comparison with rk45 includes them)."
-        ),
-        "",
-        *_table(head, rows),
-        "",
-        "Crossover:",
-        "",
-        *[f"- {n}" for n in ex.long_notes],
-        "",
-    ]

@@ -2,9 +2,11 @@
 
 Input: an example name, `quick`, an optional horizon T and PyDy's code generator. Output: an
 `ExampleBench` whose `rows` hold one `WPRow` per run (fixed-step methods over h = T/N, RK45
-under both error controls, scipy's RK45/DOP853 and PyDy over tolerances), measured against a
-converged `reference`; also the per-call overhead and the per-step timings (`per_step.py`).
-`fitted_orders` turns the rows into convergence orders.
+under both error controls and DOP853 on the emitted C, scipy's RK45/DOP853 and PyDy over
+tolerances), measured against a converged `reference`; also the per-call overhead and the
+per-step timings (`per_step.py`). `fitted_orders` turns the rows into convergence orders.
+The full sweeps step h by 2^(1/4) and the tolerance by 10^(1/4), so that the cheapest run
+below an error target is close to it; the quick ones by 2 and 100.
 
 Example:
     >>> ex = work_precision("double_pendulum", quick=True, log=lambda s: None)  # doctest: +SKIP
@@ -26,51 +28,75 @@ from s2gen.system import System
 
 from .common import Log, _best_wall, _err, _ms, _print, _state, _why, example_system, kinetic_energy
 from .model import FIXED, REF_RTOL, SAMPLES, ExampleBench, Reference, WPRow
-from .per_step import per_step_times
+from .per_step import newton_per_substep, per_step_times
 
 #: Horizons (full, quick) of the work-precision sweeps, chosen so the reference is trustworthy.
-HORIZONS = {"double_pendulum": (10.0, 2.0), "three_bodies": (2.0, 1.0)}
+HORIZONS = {"double_pendulum": (10.0, 2.0), "three_bodies": (10.0, 1.0), "dipoles": (1.0, 0.25)}
 
 
 def reference(system: System, T: float, log: Log = _print) -> Reference:
-    """C RK45 (Hairer, rtol = atol = 1e-13) cross-checked against vi4 at two small steps.
+    """C DOP853 (rtol = atol = 3e-14) cross-checked against vi8 and rattle8 (the same discrete
+    flow, solved two ways with different round-off) at three small steps around the system's
+    own h; the smallest discrepancy is the reference's stated accuracy.
 
     Example:
         >>> ref = reference(example_system("double_pendulum"), 1.0, log=lambda s: None)
-        >>> ref.accuracy < 1e-9
+        >>> ref.accuracy < 1e-11
         True
     """
-    opts = Options(rtol=REF_RTOL, atol=REF_RTOL, control="hairer")
-    tr = simulate(system, "rk45", "c", h=T / SAMPLES, T=T, options=opts)
+    opts = Options(rtol=REF_RTOL, atol=REF_RTOL)
+    tr = simulate(system, "dop853", "c", h=T / SAMPLES, T=T, options=opts)
     state = _state(tr)
     h0 = system.run.h or T / 1000
-    n_check = max(64, 2 ** math.ceil(math.log2(T / h0)) * 8)
-    gaps = []
-    for n in (n_check, 2 * n_check):
-        chk = simulate(system, "vi4", "c", h=T / n, T=T)
-        gaps.append(float(np.linalg.norm(_state(chk) - state)))
-    acc = min(gaps)
+    n_check = max(64, 2 ** math.ceil(math.log2(T / h0)))
+    gaps = {}
+    for method in ("vi8", "rattle8"):
+        for n in (n_check // 2, n_check, 2 * n_check):
+            chk = simulate(system, method, "c", h=T / n, T=T, every=n)
+            gaps[(method, n)] = float(np.linalg.norm(_state(chk) - state))
+    (method, n), acc = min(gaps.items(), key=lambda kv: kv[1])
     kin = float(np.max(kinetic_energy(system, tr.q, tr.omega)))
     log(
-        f"  reference: rk45 (hairer, tol {REF_RTOL:g}) over T = {T:g}: {tr.stats['steps']} steps; "
-        f"vi4 at h = T/{n_check}, T/{2 * n_check} agrees to {acc:.2e}"
+        f"  reference: dop853 (tol {REF_RTOL:g}) over T = {T:g}: {tr.stats['steps']} steps; "
+        f"{method} at h = T/{n} agrees to {acc:.2e} (closest of vi8 and rattle8 at h = "
+        f"T/{n_check // 2}, T/{n_check}, T/{2 * n_check})"
     )
     return Reference(system, T, state, acc, kin, float(tr.energy[0]), tr.wall_time)
 
 
 def _sweep_steps(system: System, T: float, quick: bool) -> list[int]:
-    """Step counts (h = T/N) from coarse to fine, doubling."""
+    """Step counts (h = T/N) from coarse to fine: doubling (quick) or by 2^(1/4), over 12
+    octaves (7 quick)."""
     h0 = system.run.h or T / 1000
     n0 = max(8, 2 ** round(math.log2(T / (16 * h0))))
-    return [n0 * 2**k for k in range(7 if quick else 12)]
+    if quick:
+        return [n0 * 2**k for k in range(7)]
+    return sorted({round(n0 * 2 ** (k / 4)) for k in range(45)})
+
+
+def _runs(
+    system: System, method: str, h: float, T: float, k: int, options: Options | None = None
+) -> tuple[Trajectory, Trajectory]:
+    """The timed run (best of k, keeping only the final state and no energy, so that storing
+    and energy evaluations cost nothing) and the sampled run (every step, or every h for the
+    adaptive methods, with its energy)."""
+    n = round(T / h)
+    timed = partial(simulate, system, method, "c", h=h, T=T, options=options, every=n, energy=False)
+    return _best_wall(timed, k), simulate(system, method, "c", h=h, T=T, options=options)
 
 
 def _our_row(
-    name: str, method: str, tr: Trajectory, ref: Reference, rtol: float = float("nan")
+    name: str,
+    method: str,
+    runs: tuple[Trajectory, Trajectory],
+    ref: Reference,
+    rtol: float = float("nan"),
 ) -> WPRow:
+    tr, sampled = runs
     steps = int(tr.stats.get("steps", len(tr.t) - 1))
     newton = tr.stats.get("newton_iters", 0) / max(steps, 1)
-    dE = float(np.max(np.abs(tr.energy - tr.energy[0])))
+    assert sampled.energy is not None
+    dE = float(np.max(np.abs(sampled.energy - sampled.energy[0])))
     return WPRow(
         name,
         method,
@@ -102,15 +128,15 @@ def _fixed_sweep(
     for n in steps:
         h = ref.T / n
         try:
-            tr = _best_wall(partial(simulate, ref.system, method, "c", h=h, T=ref.T), k)
+            runs = _runs(ref.system, method, h, ref.T, k)
         except IntegrationError as exc:
             rows.append(_failed_row(name, method, "s2gen", h, math.nan, ref.T, _why(exc)))
             continue
-        row = _our_row(name, method, tr, ref)
+        row = _our_row(name, method, runs, ref)
         rows.append(row)
-        if row.state_err < 30 * ref.accuracy or tr.wall_time > budget:
+        if row.state_err < 30 * ref.accuracy or row.wall > budget:
             break
-    log(f"    {method:9s} {_sweep_line(rows)}")
+    log(f"    {method:11s} {_sweep_line(rows)}")
     return rows
 
 
@@ -125,24 +151,30 @@ def _sweep_line(rows: Sequence[WPRow]) -> str:
     )
 
 
-def _tolerances(quick: bool) -> list[float]:
-    return [10.0**-k for k in (range(3, 11, 2) if quick else range(3, 13))]
+def _tolerances(quick: bool, fine: bool = False) -> list[float]:
+    """Tolerances from 1e-3 down: 1e-3, 1e-5, ..., 1e-9 (quick); 1e-3 ... 1e-12 by decades
+    (peers) or by 10^(1/4) down to 1e-13 (`fine`: our adaptive methods)."""
+    if quick:
+        return [10.0**-k for k in range(3, 11, 2)]
+    if fine:
+        return [10.0 ** (-k / 4) for k in range(12, 53)]
+    return [10.0**-k for k in range(3, 13)]
 
 
-def _rk45_sweep(
-    name: str, control: str, ref: Reference, quick: bool, k: int, log: Log
+def _adaptive_sweep(
+    name: str, method: str, control: str, ref: Reference, quick: bool, k: int, log: Log
 ) -> list[WPRow]:
+    """RK45 (rows named rk45-<control>) or DOP853 over tolerances, samples every T/SAMPLES."""
+    label = f"rk45-{control}" if method == "rk45" else method
     rows: list[WPRow] = []
-    for tol in _tolerances(quick):
+    for tol in _tolerances(quick, fine=True):
         opts = Options(rtol=tol, atol=tol, control=control)
-        run = partial(simulate, ref.system, "rk45", "c", h=ref.T / SAMPLES, T=ref.T, options=opts)
         try:
-            rows.append(_our_row(name, f"rk45-{control}", _best_wall(run, k), ref, tol))
+            runs = _runs(ref.system, method, ref.T / SAMPLES, ref.T, k, opts)
+            rows.append(_our_row(name, label, runs, ref, tol))
         except IntegrationError as exc:
-            rows.append(
-                _failed_row(name, f"rk45-{control}", "s2gen", math.nan, tol, ref.T, _why(exc))
-            )
-    log(f"    rk45-{control:6s} {_sweep_line(rows)}")
+            rows.append(_failed_row(name, label, "s2gen", math.nan, tol, ref.T, _why(exc)))
+    log(f"    {label:11s} {_sweep_line(rows)}")
     return rows
 
 
@@ -244,7 +276,8 @@ def work_precision(
     for method in FIXED:
         ex.rows += _fixed_sweep(name, method, ref, steps, budget, k, log)
     for control in ("hairer", "matlab"):
-        ex.rows += _rk45_sweep(name, control, ref, quick, k, log)
+        ex.rows += _adaptive_sweep(name, "rk45", control, ref, quick, k, log)
+    ex.rows += _adaptive_sweep(name, "dop853", "hairer", ref, quick, k, log)
     ex.rows += _scipy_sweep(name, ref, quick, 2 if quick else 3, log)
     if system.parameter_names == ("m1", "m2", "l1", "l2", "g") and system.n == 2:
         gen = "lambdify" if quick and pydy_generator == "auto" else pydy_generator
@@ -253,6 +286,7 @@ def work_precision(
         ex.pydy = {"status": f"the PyDy peer models the double pendulum only; not run on {name}"}
     ex.call_overhead = _call_overhead(system, T)
     ex.per_step = per_step_times(system, T, quick, log)
+    ex.newton = newton_per_substep(system, log)
     return ex
 
 

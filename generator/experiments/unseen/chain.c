@@ -10,8 +10,10 @@
  *   D_j   = F_j q_j - q_j = 2 (f_j x q_j - |f_j|^2 q_j) / (1 + |f_j|^2)
  * is solved for the Cayley parameters f by Newton's method (dense LU with partial pivoting of
  * the 3n x 3n Jacobian), started from the previous step's f (the first step from
- * d_i / (2 M_ii)) and stopped when max|delta f| <= 1e-14 max|f|, or <= 1e-11 max|f| once the
- * update stops shrinking (it is more than half the previous one). Then q_i+ = F_i q_i and
+ * d_i / (2 M_ii)) and stopped when max|delta f| <= 1e-14 max|f|, or when the next update
+ * that quadratic convergence predicts (max|delta f|^3 / max|previous delta f|^2) is, or when
+ * max|delta f| <= 1e-11 max|f| once the update stops shrinking (it is more than half the
+ * previous one). Then q_i+ = F_i q_i and
  *   A(q+) w+ = c,  c_i = (1/h) [2 M_ii (q_i . q_i) f_i / (1 + |f_i|^2) + q_i+ x sum_{j != i} M_ij D_j]
  *                      - (h/2) q_i+ x g_i(q+),
  *   A_ii = M_ii (q_i+ . q_i+) I,  A_ij = -M_ij hat(q_i+) hat(q_j+),
@@ -324,6 +326,7 @@ static int step(double h, const double *q, const double *w, const double *g, dou
             return 1;
         }
         converged = stepmax <= NEWTON_TOL * size
+                    || (it > 1 && stepmax * stepmax * stepmax <= NEWTON_TOL * size * prev * prev)
                     || (stepmax <= 1e3 * NEWTON_TOL * size && stepmax > 0.5 * prev);
         prev = stepmax;
     }
