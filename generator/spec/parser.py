@@ -16,6 +16,7 @@ import ast
 import math
 import operator
 import re
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, TypeAlias
@@ -44,9 +45,16 @@ _Q_NAME = re.compile(r"q([0-9]+)")
 _Q_RESERVED = re.compile(r"q[0-9]+(_[0-9]+)?")
 #: The own vectors of term expressions: q (one-body terms), qi and qj (pair terms).
 _ROLES = ("q", "qi", "qj")
-_MAX_LENGTH = 100_000
-_MAX_DIGITS = 1000
+#: Limits of the language, each stated in the error that enforces it.
+_MAX_LENGTH = 100_000  # characters of one expression
+_MAX_DIGITS = 1000  # decimal digits of an exact number (numerator and denominator together)
+_MAX_LITERAL_DIGITS = 400  # digits of one number as written
+#: The largest finite double: every number, as written or computed, must stay within it.
+DOUBLE_MAX = sys.float_info.max
 _NON_FINITE = (sp.zoo, sp.oo, sp.S.NegativeInfinity, sp.nan)
+#: Characters an expression may contain: printable ASCII and line breaks, but no '#'.
+_ALLOWED = frozenset(chr(c) for c in range(0x20, 0x7F)) | {"\t", "\n", "\r"}
+_LONG_DIGITS = re.compile(f"[0-9_]{{{_MAX_LITERAL_DIGITS + 1},}}")
 
 _OPERATORS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**"}
 _LEFT_ASSOCIATIVE = (ast.Add, ast.Sub, ast.Mult, ast.Div)
@@ -226,6 +234,8 @@ def parse_expression(
             f"the expression {ctx.token(tree.body)!r} is a vector, but a scalar is required "
             "(use dot(a, b) or a component such as q1[2])",
         )
+    if result.is_extended_real is False:
+        raise ctx.fail(tree.body, f"the expression {ctx.token(tree.body)!r} is not real")
     return result
 
 
@@ -265,7 +275,8 @@ def _parse(text: str, where: str, names: _Names) -> tuple[_Context, ast.Expressi
     if not isinstance(text, str):
         raise SpecError(f"{where}: expected an expression string, got {text!r}")
     if len(text) > _MAX_LENGTH:
-        raise SpecError(f"{where}: expression longer than {_MAX_LENGTH} characters")
+        raise SpecError(f"{where}: expression longer than the limit of {_MAX_LENGTH} characters")
+    _check_characters(text, where)
     body = text.lstrip()
     if not body.strip():
         raise SpecError(f"{where}: empty expression")
@@ -293,6 +304,35 @@ def _parse(text: str, where: str, names: _Names) -> tuple[_Context, ast.Expressi
     raise SpecError(f"{where}: syntax error ({error.msg}) at {at}")
 
 
+def _check_characters(text: str, where: str) -> None:
+    """Refuse what Python's tokenizer would read differently from the language: '#' (a
+    comment that silently drops the rest of the line), characters outside printable ASCII
+    (identifiers are NFKC-normalized, so a full-width 'ｍ' would read as 'm') and numbers too
+    long to be a double (Python refuses to convert more than 4300 digits)."""
+    bad = next((k for k, ch in enumerate(text) if ch == "#" or ch not in _ALLOWED), None)
+    if bad is not None:
+        ch = text[bad]
+        if ch == "#":
+            why = "'#' is not allowed (expressions have no comments; it would end the expression)"
+        else:
+            why = f"character {ch!r} (U+{ord(ch):04X}) is not allowed (expressions are ASCII)"
+        raise SpecError(f"{where}: {why} at {_text_position(text, bad)}")
+    long = _LONG_DIGITS.search(text)
+    if long is not None:
+        raise SpecError(
+            f"{where}: number {long.group()[:12] + '...'!r} has more than the limit of "
+            f"{_MAX_LITERAL_DIGITS} digits (a double is at most about 1.8e308) at "
+            f"{_text_position(text, long.start())}"
+        )
+
+
+def _text_position(text: str, index: int) -> str:
+    """'column C' or 'line L, column C' (1-based) of `text[index]`, lines split as ast does."""
+    lines = re.split(r"\r\n|\r|\n", text[:index])
+    line, col = len(lines), len(lines[-1])
+    return f"column {col + 1}" if line == 1 else f"line {line}, column {col + 1}"
+
+
 def _ast_parse(ctx: _Context) -> ast.Expression:
     try:
         return ast.parse(ctx.body, mode="eval")
@@ -309,10 +349,67 @@ def _eval(ctx: _Context, node: ast.AST) -> Value:
 
 
 def _finite(ctx: _Context, node: ast.AST, value: Value) -> Value:
+    """`value` if every number in it can be a double; else an error located at `node`."""
     entries = value if isinstance(value, sp.MatrixBase) else [value]
-    if any(e.has(*_NON_FINITE) for e in entries):
-        raise ctx.fail(node, f"{ctx.token(node)!r} is not finite (division by zero?)")
+    for entry in entries:
+        problem = _number_problem(entry)
+        if problem is not None:
+            raise ctx.fail(node, f"{ctx.token(node)!r} {problem}")
     return value
+
+
+def _number_problem(expr: sp.Expr) -> str | None:
+    """Why `expr` cannot be computed in doubles as C, NumPy and the reference do (None if it
+    can): a non-finite number, an exact number too long to handle, a number beyond the range
+    of a double, or a constant that is not real."""
+    symbolic = False
+    for atom in expr.atoms(sp.Number, sp.Symbol, type(sp.zoo)):
+        if isinstance(atom, sp.Symbol):
+            symbolic = True
+        elif atom in _NON_FINITE:
+            return "is not finite (division by zero?)"
+        elif isinstance(atom, sp.Rational) and _digits(atom) > _MAX_DIGITS:
+            return f"holds an exact number of more than the limit of {_MAX_DIGITS} digits"
+        elif abs(atom) > DOUBLE_MAX:
+            return f"holds the number {_short(atom)}, beyond the range of a double ({_RANGE})"
+    if symbolic or isinstance(expr, sp.Number):
+        return None
+    value = expr.evalf(17)
+    if value.has(sp.I):
+        return f"is not real (it is {_short(value)})"
+    if isinstance(value, sp.Float) and abs(value) > DOUBLE_MAX:
+        return f"is about {_short(value)}, beyond the range of a double ({_RANGE})"
+    return None
+
+
+_RANGE = "magnitude at most about 1.8e308"
+_LOG10_2 = math.log10(2.0)
+
+
+def _short(value: sp.Expr) -> str:
+    """A number for a message: a few significant digits, never thousands."""
+    if isinstance(value, (sp.Integer, sp.Float)):
+        return str(sp.Float(value, 4)) if abs(value) >= 1e6 else str(value)
+    return str(sp.N(value, 4))
+
+
+def _digits(value: sp.Expr) -> float:
+    """About how many decimal digits SymPy computes exactly when it raises `value` to the
+    power 1 (an upper bound of the work of `value**e` is |e| times this): the digits of exact
+    numbers, including those SymPy distributes a power over (products and powers of powers);
+    0 for floats (mpmath powers are cheap) and for what SymPy leaves unevaluated."""
+    if isinstance(value, sp.Rational):
+        return (_log10(abs(int(value.p))) + _log10(int(value.q))) or 0.0
+    if isinstance(value, sp.Mul):
+        return sum(_digits(arg) for arg in value.args)
+    if isinstance(value, sp.Pow) and isinstance(value.exp, sp.Number):
+        return abs(float(value.exp)) * _digits(value.base)
+    return 0.0
+
+
+def _log10(n: int) -> float:
+    """A lower bound of log10(n) for n >= 1 (0 for 0 and 1), without converting n to float."""
+    return max(n.bit_length() - 1, 0) * _LOG10_2
 
 
 def _constant(ctx: _Context, node: ast.Constant) -> Value:
@@ -417,15 +514,17 @@ def _check(ctx: _Context, node: ast.BinOp, op: str, a: Value, b: Value) -> None:
 
 
 def _check_power_size(ctx: _Context, node: ast.BinOp, base: sp.Expr, exponent: sp.Expr) -> None:
-    """Refuse numeric powers whose exact value would have more than _MAX_DIGITS digits."""
-    if not (isinstance(base, sp.Number) and isinstance(exponent, sp.Number)) or base == 0:
+    """Refuse numeric powers whose exact value SymPy would compute with more than _MAX_DIGITS
+    digits (before SymPy computes it: sqrt(3)**(10**8) is 3**(5*10**7), which takes minutes)."""
+    if not isinstance(exponent, sp.Number):
         return
-    if isinstance(base, sp.Rational):
-        size = abs(math.log10(abs(int(base.p)))) + math.log10(int(base.q))
-    else:
-        size = abs(math.log10(abs(float(base))))
-    if abs(float(exponent)) * size > _MAX_DIGITS:
-        raise ctx.fail(ctx.operator(node), f"power {ctx.token(node)!r} is too large")
+    size = abs(float(exponent)) * _digits(base)
+    if size > _MAX_DIGITS:
+        raise ctx.fail(
+            ctx.operator(node),
+            f"power {ctx.token(node)!r} is too large: its exact value would have about "
+            f"{size:.2g} digits, more than the limit of {_MAX_DIGITS}",
+        )
 
 
 def _call(ctx: _Context, node: ast.Call) -> Value:
