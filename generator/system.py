@@ -30,9 +30,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
-from s2gen.symbols import local_vector, q_symbol, q_symbols
+from s2gen.symbols import local_vector, q_symbol
 
 __all__ = [
+    "MAX_BODIES",
+    "MAX_NAME_LENGTH",
     "UNIT_LENGTH_TOLERANCE",
     "RunSettings",
     "SpecError",
@@ -45,7 +47,13 @@ __all__ = [
 #: A q_i further than this from unit length is an error; closer ones are normalized (warning).
 UNIT_LENGTH_TOLERANCE = 1e-3
 
-_C_IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+#: The largest number of bodies a system may have (a larger one is refused before anything
+#: is allocated; the emitted code's cost and the derivation's grow with n).
+MAX_BODIES = 10**6
+#: The longest system name: it prefixes every emitted symbol and names the emitted files.
+MAX_NAME_LENGTH = 64
+
+_C_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _C_RESERVED = frozenset(
     [
         "auto",
@@ -203,6 +211,7 @@ def _validate_term(term: Term, n: int, psyms: set[sp.Symbol], where: str) -> Non
         if not (np.isfinite(term.cutoff) and 0.0 < term.cutoff):
             raise SpecError(f"{at}: cutoff must be a positive distance, got {term.cutoff!r}")
     count = term.count(n)
+    _check_data_names(term, at)
     for d in term.data:
         if term.select == "all" and term.kind == "pair":
             raise SpecError(
@@ -229,6 +238,87 @@ def _validate_term(term: Term, n: int, psyms: set[sp.Symbol], where: str) -> Non
     if extra:
         bad = ", ".join(sorted(str(s) for s in extra))
         raise SpecError(f"{at}: depends on {bad}, which is not a position, datum or parameter")
+    _check_real(term.expr, f"{at} V")
+
+
+#: Names of a term's emitted member tables: C `NAME_t<k>_i`, `_j`; NumPy `T<k>_I`, `_J` (data
+#: tables are `NAME_t<k>_<name>` and `T<k>_<NAME>`, upper-cased, in the same namespaces).
+_MEMBER_TABLES = frozenset({"I", "J"})
+
+
+def _check_data_names(term: Term, at: str) -> None:
+    """Data names must not clash with the emitted member tables of their term or the kernels'
+    temporaries, nor with each other once upper-cased (the NumPy module's table names): k and
+    K would share one table."""
+    seen: dict[str, str] = {}
+    for d in term.data:
+        if not isinstance(d.name, str) or not _C_IDENTIFIER.fullmatch(d.name):
+            raise SpecError(f"{at} data.{d.name}: {d.name!r} is not an identifier")
+        if d.width == 1 and _TEMPORARY.fullmatch(d.name):  # a vector's symbols are x0_0..
+            raise SpecError(f"{at} data.{d.name}: the name {d.name!r} {_TEMPORARY_CLASH}")
+        upper = d.name.upper()
+        if upper in _MEMBER_TABLES:
+            raise SpecError(
+                f"{at} data.{d.name}: the name {d.name!r} is taken by the term's table of member "
+                f"bodies in the emitted code (rename the datum)"
+            )
+        if upper in seen:
+            raise SpecError(
+                f"{at} data.{d.name}: the names {seen[upper]!r} and {d.name!r} differ only in "
+                "case, and the emitted NumPy module names its tables in upper case (rename one)"
+            )
+        seen[upper] = d.name
+
+
+def _check_name(name: object, where: str) -> None:
+    """The system name prefixes every emitted symbol and macro and names the files."""
+    if not isinstance(name, str) or not _C_IDENTIFIER.fullmatch(name):
+        raise SpecError(f"{where}: key 'name': {name!r} is not a C identifier")
+    if len(name) > MAX_NAME_LENGTH:
+        raise SpecError(
+            f"{where}: key 'name': {name[:16]!r}... has {len(name)} characters, more than the "
+            f"limit of {MAX_NAME_LENGTH}"
+        )
+    if name.startswith("_"):
+        raise SpecError(
+            f"{where}: key 'name': {name!r} starts with '_' (C reserves such names, and the "
+            f"header guard {name.upper()}_H could clash with a system header's)"
+        )
+    if name in _C_RESERVED or keyword.iskeyword(name):
+        raise SpecError(f"{where}: key 'name': {name!r} is a reserved word in C or Python")
+
+
+def _is_position(symbol: sp.Symbol, n: int) -> bool:
+    """True for the position symbols q{i}_{c} of bodies 1..n (without building all 3n)."""
+    match = _POSITION.fullmatch(symbol.name)
+    return (
+        match is not None
+        and 1 <= int(match.group(1)) <= n
+        and symbol == q_symbol(int(match.group(1)), int(match.group(2)))
+    )
+
+
+_POSITION = re.compile(r"q([1-9][0-9]*)_([0-2])")
+#: The names of the emitted kernels' common-subexpression temporaries (`passes.cse`): real
+#: symbols x0, x1, ... that a parameter or scalar datum of the same name would be taken for.
+_TEMPORARY = re.compile(r"x[0-9]+")
+_TEMPORARY_CLASH = "is reserved (the emitted code names its temporaries x0, x1, ...)"
+
+
+def _check_real(expr: sp.Expr, where: str) -> None:
+    """Refuse an expression that holds a complex number (sqrt(-1), log(-2), (-8)**(1/3)) or
+    that SymPy knows is not real: the emitted code computes in real doubles."""
+    bad: sp.Expr | None = sp.I if expr.has(sp.I) else None
+    if bad is None:
+        for atom in expr.atoms(sp.Pow, sp.Function):
+            if not atom.free_symbols and atom.evalf(15).has(sp.I):
+                bad = atom
+                break
+    if bad is None and expr.is_extended_real is False:
+        bad = expr
+    if bad is not None:
+        shown = str(bad) if len(str(bad)) <= 40 else str(bad)[:37] + "..."
+        raise SpecError(f"{where}: is not real ({shown} is complex); the potential must be real")
 
 
 @dataclass(frozen=True)
@@ -264,20 +354,23 @@ class System:
     ) -> System:
         """Validate the pieces and return a frozen System (raises SpecError)."""
         where = origin
-        if not isinstance(name, str) or not _C_IDENTIFIER.match(name):
-            raise SpecError(f"{where}: key 'name': {name!r} is not a C identifier")
-        if name in _C_RESERVED or keyword.iskeyword(name):
-            raise SpecError(f"{where}: key 'name': {name!r} is a reserved word in C or Python")
+        _check_name(name, where)
         if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
             raise SpecError(f"{where}: key 'bodies': expected a positive integer, got {n!r}")
+        if n > MAX_BODIES:
+            raise SpecError(
+                f"{where}: key 'bodies': {n} bodies is more than the limit of {MAX_BODIES}"
+            )
         n = int(n)
         names = tuple(parameters.keys())
         values: list[float] = []
         for pname in names:
-            if not _C_IDENTIFIER.match(pname):
+            if not isinstance(pname, str) or not _C_IDENTIFIER.fullmatch(pname):
                 raise SpecError(f"{where}: [parameters]: {pname!r} is not an identifier")
             if re.fullmatch(r"q[0-9]+_[0-9]+", pname):
                 raise SpecError(f"{where}: [parameters]: {pname!r} clashes with a position symbol")
+            if _TEMPORARY.fullmatch(pname):
+                raise SpecError(f"{where}: [parameters]: {pname!r} {_TEMPORARY_CLASH}")
             try:
                 v = float(parameters[pname])
             except (TypeError, ValueError):
@@ -325,8 +418,7 @@ class System:
         V = sp.sympify(potential)
         if not isinstance(V, sp.Expr):
             raise SpecError(f"{where}: [potential] V: must be a scalar expression, got {V!r}")
-        qs = set(q_symbols(n))
-        extra = V.free_symbols - qs - psyms
+        extra = {s for s in V.free_symbols - psyms if not _is_position(s, n)}
         if extra:
             bad = ", ".join(sorted(str(s) for s in extra))
             raise SpecError(
@@ -335,6 +427,7 @@ class System:
             )
         if V.has(sp.Derivative, sp.Integral):
             raise SpecError(f"{where}: [potential] V: must not contain derivatives or integrals")
+        _check_real(V, f"{where}: [potential] V")
 
         for term in terms:
             _validate_term(term, n, psyms, where)
