@@ -4,8 +4,12 @@ Input: a `System`, a method (see `s2gen.methods`), a backend ("c": emitted C com
 loaded with ctypes; "numpy": the emitted NumPy module; "reference": the independent
 `s2gen.reference`), step size, horizon and options. Output: a `Trajectory` (t, q, omega,
 energy, statistics, wall time). A failure raises `IntegrationError`, which names the step and
-why and keeps the trajectory computed so far (`.partial`). A method a backend does not have is
-refused before anything runs.
+why and keeps the trajectory computed so far (`.partial`); a stored sample whose energy is not
+finite while its state is counts as such a failure (status NONFINITE). Bad arguments raise
+ValueError before anything runs: a method a backend does not have, h or T not positive and
+finite, more than `MAX_STEPS` steps, samples that would take more than half of the machine's
+memory, parameters of the wrong count or not finite, an initial state of the wrong shape or not
+unit, and options out of range (RK45 tolerances below `RTOL_FLOOR` = 100 eps and `ATOL_FLOOR`).
 
 Example:
     >>> from s2gen.systems import builtin
@@ -17,6 +21,9 @@ Example:
 from __future__ import annotations
 
 import functools
+import math
+import numbers
+import os
 import time
 from typing import Any, Protocol
 
@@ -28,9 +35,12 @@ from s2gen.runtime.trajectory import IntegrationError, Trajectory
 from s2gen.system import System
 
 __all__ = [
+    "ATOL_FLOOR",
     "BACKENDS",
     "CONTROLS",
+    "MAX_STEPS",
     "METHODS",
+    "RTOL_FLOOR",
     "Backend",
     "IntegrationError",
     "Options",
@@ -42,6 +52,15 @@ __all__ = [
 
 #: Method names (the table is `s2gen.methods.METHODS`).
 METHODS = NAMES
+#: The smallest RK45 relative tolerance (100 eps, as MATLAB's ode45): below it the error
+#: estimate is round-off and the step size shrinks without end.
+RTOL_FLOOR = 100 * float(np.finfo(float).eps)
+#: The smallest RK45 absolute tolerance: below it, round-off in components that should stay 0
+#: drives the step size toward 0 (four pendula at rtol = RTOL_FLOOR over T = 1: 4,600 steps
+#: at atol = 1e-20, 2.3 million at 1e-40; at 1e-300 it never finished).
+ATOL_FLOOR = 1e-20
+#: The most steps one run may take (the emitted C counts them in a long).
+MAX_STEPS = 2**62
 
 
 class Backend(Protocol):
@@ -117,8 +136,14 @@ def _initial_state(
     system: System, q0: np.ndarray | None, omega0: np.ndarray | None, unit_tol: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """The initial state (given or the spec's), checked: shapes, finite values, unit q_i."""
-    q = system.q0 if q0 is None else np.asarray(q0, dtype=float)
-    w = system.omega0 if omega0 is None else np.asarray(omega0, dtype=float)
+    q, w = system.q0, system.omega0
+    try:
+        q = q if q0 is None else np.asarray(q0, dtype=float)
+        w = w if omega0 is None else np.asarray(omega0, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"q0 and omega0 must be arrays of shape ({system.n}, 3) of numbers"
+        ) from None
     if q is None or w is None:
         raise ValueError(f"{system.origin}: no initial state ([initial] q and omega)")
     for name, a in (("q0", q), ("omega0", w)):
@@ -136,6 +161,100 @@ def _initial_state(
                 f"{unit_tol:g} (normalize it, or set Options.unit_tol)"
             )
     return q, w
+
+
+def _positive_number(value: Any, what: str) -> float:
+    """`value` as a finite positive float (ValueError naming `what` otherwise)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{what} must be a positive number, got {value!r}")  # noqa: TRY004
+    number = float(value)
+    if not (math.isfinite(number) and number > 0.0):
+        raise ValueError(f"{what} must be a positive finite number, got {value!r}")
+    return number
+
+
+def _check_options(opts: Options) -> None:
+    """Integrator options within their documented ranges (ValueError naming the field)."""
+    if not isinstance(opts, Options):
+        raise ValueError(  # noqa: TRY004 (bad input is a ValueError: the CLI reports those)
+            f"options must be an s2gen.Options, got {type(opts).__name__}"
+        )
+    rtol = _positive_number(opts.rtol, "Options.rtol")
+    atol = _positive_number(opts.atol, "Options.atol")
+    if rtol < RTOL_FLOOR:
+        raise ValueError(
+            f"Options.rtol = {rtol:g} is below the floor {RTOL_FLOOR:.3g} (100 eps): RK45 "
+            "cannot meet it in double precision"
+        )
+    if atol < ATOL_FLOOR:
+        raise ValueError(
+            f"Options.atol = {atol:g} is below the floor {ATOL_FLOOR:g}: round-off would drive "
+            "the RK45 step size toward 0"
+        )
+    if opts.control not in CONTROLS:
+        raise ValueError(f"Options.control = {opts.control!r} is not one of {', '.join(CONTROLS)}")
+    hmax = opts.hmax
+    if not (isinstance(hmax, numbers.Real) and math.isfinite(float(hmax)) and float(hmax) >= 0):
+        raise ValueError(f"Options.hmax must be a finite number >= 0 (0: T/10), got {opts.hmax!r}")
+    _positive_number(opts.newton_tol, "Options.newton_tol")
+    maxiter = opts.newton_maxiter
+    if isinstance(maxiter, bool) or not isinstance(maxiter, numbers.Integral) or maxiter < 1:
+        raise ValueError(f"Options.newton_maxiter must be a positive integer, got {maxiter!r}")
+    if not (isinstance(opts.unit_tol, numbers.Real) and not math.isnan(opts.unit_tol)):
+        raise ValueError(
+            f"Options.unit_tol must be a number (<= 0: no check), got {opts.unit_tol!r}"
+        )
+
+
+def _parameter_values(system: System, params: Any) -> np.ndarray:
+    """The parameter vector (given or the spec's), checked: its length and finite values."""
+    names = system.parameter_names
+    try:
+        p = np.array(system.parameter_values if params is None else params, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{system.name}: parameter values must be {len(names)} numbers "
+            f"({', '.join(names) or 'none'}), got {params!r}"
+        ) from None
+    if p.shape != (len(names),):
+        raise ValueError(
+            f"{system.name}: expected {len(names)} parameter values "
+            f"({', '.join(names) or 'none'}), got {p.size}"
+        )
+    bad = np.flatnonzero(~np.isfinite(p))
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(f"{system.name}: parameter {names[k]} = {p[k]} is not finite")
+    return p
+
+
+def _memory_limit() -> int:
+    """Bytes a trajectory may take: half of the machine's physical memory."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
+    except (ValueError, OSError, AttributeError):
+        return 8 * 2**30
+
+
+def _check_size(system: System, nsteps: int, every: int, energy: bool) -> None:
+    """Refuse a run whose stored samples would not fit in memory (before allocating them)."""
+    samples = nsteps // every + 1
+    size = samples * (6 * system.n + (1 if energy else 0)) * 8
+    limit = _memory_limit()
+    if size > limit:
+        raise ValueError(
+            f"{system.name}: {samples} samples of {system.n} bodies take {size / 2**30:.3g} GiB, "
+            f"more than the limit of {limit / 2**30:.3g} GiB (half of this machine's memory); "
+            "store fewer samples with every=..."
+        )
+
+
+def _first_nonfinite_energy(en: np.ndarray | None, valid: int) -> int | None:
+    """The first of the `valid` samples whose energy is not finite (None: all finite)."""
+    if en is None:
+        return None
+    bad = np.flatnonzero(~np.isfinite(en[:valid]))
+    return int(bad[0]) if bad.size else None
 
 
 def run(
@@ -157,30 +276,43 @@ def run(
     T = T if T is not None else system.run.T
     if h is None or T is None:
         raise ValueError(f"{system.origin}: no step size h or final time T given (spec [run])")
-    if not (h > 0 and T > 0):
-        raise ValueError(f"h and T must be positive (got h={h}, T={T})")
+    h, T = _positive_number(h, "the step size h"), _positive_number(T, "the final time T")
+    if T / h > MAX_STEPS:
+        raise ValueError(f"T/h = {T / h:.3g} steps is more than the limit of {MAX_STEPS:.3g}")
     nsteps = round(T / h)
-    if abs(nsteps * h - T) > 1e-9 * T:
+    if nsteps < 1 or abs(nsteps * h - T) > 1e-9 * T:
         raise ValueError(f"T={T} is not a whole number of steps h={h}")
-    if not (isinstance(every, int) and every >= 1 and nsteps % every == 0):
+    if (
+        isinstance(every, bool)
+        or not isinstance(every, numbers.Integral)
+        or every < 1
+        or nsteps % every != 0
+    ):
         raise ValueError(f"every={every!r} must be a positive divisor of the {nsteps} steps")
-    opts = options or Options()
+    every = int(every)
+    opts = Options() if options is None else options
+    _check_options(opts)
     q0, omega0 = _initial_state(system, q0, omega0, opts.unit_tol)
-    p = np.array(system.parameter_values if params is None else params, dtype=float)
-    if p.shape != (len(system.parameter_names),):
-        raise ValueError(
-            f"{system.name}: expected {len(system.parameter_names)} parameter values "
-            f"({', '.join(system.parameter_names)}), got {p.size}"
-        )
+    p = _parameter_values(system, params)
+    _check_size(system, nsteps, every, energy)
     start = time.perf_counter()
     status, q, w, en, stats = be.integrate(method, h, nsteps, q0, omega0, p, opts, every, energy)
     wall = time.perf_counter() - start
     t = h * every * np.arange(nsteps // every + 1)
+    k = int(stats.get("fail_step", 0)) if status != 0 else len(t)
+    why = Status(status).message if status in Status._value2member_map_ else str(status)
+    bad_energy = _first_nonfinite_energy(en, k)
+    if bad_energy is not None:  # the state is finite there (else the backend had stopped)
+        k, status = bad_energy, int(Status.NONFINITE)
+        why = (
+            f"the energy is not finite at t = {t[k]:.6g} while the state is (the potential or "
+            "the kinetic energy is undefined there or beyond the range of a double: check V "
+            "and the parameters)"
+        )
+        stats = {**stats, "fail_step": k}
     if status != 0:
-        k = int(stats.get("fail_step", 0))
         kept = None if en is None else en[:k]
         partial = Trajectory(t[:k], q[:k], w[:k], kept, method, backend, h, stats, wall)
-        why = Status(status).message if status in Status._value2member_map_ else status
         last = f"after t = {t[k - 1]:.6g}" if k else "at the initial state"
         raise IntegrationError(
             f"{method} ({backend}) failed {last}: {why}; the {k} valid samples are kept",
