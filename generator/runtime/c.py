@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.build import BuildError, compile_shared, header_macro
+from s2gen.build import BuildError, header_macro, load_library
 from s2gen.emit import emit
 from s2gen.interface import Field, Interface, Kind, interface
 from s2gen.ir import ModuleKind
@@ -61,8 +61,7 @@ class CLibrary:
 
     def __init__(self, files: dict[str, str], kind: ModuleKind, prefix: str) -> None:
         self.api: Interface = interface(kind)
-        self.build = compile_shared(files)
-        self.lib = ctypes.CDLL(str(self.build.path))
+        self.lib, self.build = load_library(files)
         self.work = np.zeros(max(1, header_macro(files[f"{prefix}.h"], "WORK_SIZE")))
         self.Options = _struct("Options", self.api.options)
         self.Stats = _struct("Stats", self.api.stats)
