@@ -26,12 +26,16 @@ import sympy as sp
 from s2gen.methods import NAMES
 from s2gen.spec.parser import _Q_RESERVED, _ROLES, RESERVED_NAMES, parse_expression
 from s2gen.symbols import local_vector
-from s2gen.system import RunSettings, SpecError, Term, TermData
+from s2gen.system import MAX_BODIES, RunSettings, SpecError, Term, TermData
 
 
 def _bodies(bodies: Any, origin: str) -> int:
     if isinstance(bodies, bool) or not isinstance(bodies, numbers.Integral) or bodies < 1:
         raise SpecError(f"{origin}: key 'bodies': expected a positive integer, got {bodies!r}")
+    if bodies > MAX_BODIES:  # before anything sized by it is read
+        raise SpecError(
+            f"{origin}: key 'bodies': {bodies} bodies is more than the limit of {MAX_BODIES}"
+        )
     return int(bodies)
 
 
