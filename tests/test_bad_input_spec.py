@@ -413,6 +413,18 @@ API_CASES: list[tuple[str, Callable[[], object], list[str]]] = [
         ["[parameters]: 'm\\n' is not an identifier"],
     ),
     (
+        "parameter name with a line break (found by the fuzzer)",
+        lambda: _pendulum(parameters={"m": 1.0, "a\rb": 2.0}),
+        ["[parameters] 'a\\rb': 'a\\rb' is not an identifier"],
+    ),
+    (
+        "datum name with a line break",
+        lambda: _pendulum(
+            pair_terms=[{"V": "dot(qi, qj)", "pairs": "chain", "data": {"c\n": [1.0]}}]
+        ),
+        ["[[potential.pair]] #1 data.'c\\n': data name 'c\\n' is not an identifier"],
+    ),
+    (
         "datum I through the API",
         lambda: _pendulum(
             pair_terms=[{"V": "I*dot(qi, qj)", "pairs": "chain", "data": {"I": [1.0]}}]

@@ -44,7 +44,7 @@ def _parameters(parameters: Any, origin: str) -> dict[str, float]:
         raise SpecError(f"{origin}: [parameters]: expected a table of name = number")
     values: dict[str, float] = {}
     for pname, value in parameters.items():
-        where = f"{origin}: [parameters] {pname}"
+        where = f"{origin}: [parameters] {_key(pname)}"
         _check_parameter_name(pname, where)
         if isinstance(value, bool) or not isinstance(value, numbers.Real):
             raise SpecError(f"{where}: expected a number, got {value!r}")
@@ -52,6 +52,12 @@ def _parameters(parameters: Any, origin: str) -> dict[str, float]:
             raise SpecError(f"{where}: value {value!r} is not finite")
         values[pname] = float(value)
     return values
+
+
+def _key(name: Any) -> str:
+    """A user's key as it appears in a location: as written if it is an identifier, else its
+    repr (a name with a line break or other oddities must not break the one-line message)."""
+    return name if isinstance(name, str) and name.isidentifier() and name.isascii() else repr(name)
 
 
 def _check_parameter_name(pname: Any, where: str) -> None:
@@ -269,7 +275,7 @@ def _term_data(
     if not isinstance(data, Mapping):
         raise SpecError(f"{where} data: expected a table of name = list of values, got {data!r}")
     return tuple(
-        _datum(name, values, kind, select, count, params, f"{where} data.{name}")
+        _datum(name, values, kind, select, count, params, f"{where} data.{_key(name)}")
         for name, values in data.items()
     )
 
