@@ -37,9 +37,11 @@ from s2gen.version import __version__
 
 __all__ = [
     "DEFAULT_FLAGS",
+    "FLAG_SETS",
     "STRICT_FLAGS",
     "BuildError",
     "BuildResult",
+    "build_flags",
     "cache_dir",
     "cache_key",
     "compile_shared",
@@ -53,6 +55,33 @@ GENERATOR_VERSION = __version__
 #: Flags of the cached shared library. -std=c99 (ISO mode) keeps gcc from contracting a*b+c
 #: into fused multiply-adds, so results match NumPy's operation order closely.
 DEFAULT_FLAGS: tuple[str, ...] = ("-std=c99", "-O2", "-fPIC", "-shared")
+#: Flag sets the runtime builds with, by name (S2GEN_OPT selects one; see `build_flags`):
+#: "portable" runs on any x86-64 (or other) machine the library is copied to, "native" uses
+#: every instruction set of this machine's processor (the library may not run elsewhere).
+#: -fno-math-errno lets sqrt be one instruction (no errno on negative input: the emitted code
+#: checks its inputs itself); -fopenmp-simd honours the emitted loops' SIMD hints.
+FLAG_SETS: dict[str, tuple[str, ...]] = {
+    "portable": DEFAULT_FLAGS,
+    "native": (
+        "-std=c99",
+        "-O3",
+        "-march=native",
+        "-fno-math-errno",
+        "-fopenmp-simd",
+        "-fPIC",
+        "-shared",
+    ),
+}
+
+
+def build_flags(name: str | None = None) -> tuple[str, ...]:
+    """The flags of flag set `name` (default: the environment's S2GEN_OPT, else "portable")."""
+    name = name or os.environ.get("S2GEN_OPT", "portable")
+    if name not in FLAG_SETS:
+        raise ValueError(f"S2GEN_OPT={name!r}: choose one of {', '.join(FLAG_SETS)}")
+    return FLAG_SETS[name]
+
+
 #: Flags every emitted file must pass (tests use them).
 STRICT_FLAGS: tuple[str, ...] = ("-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
 

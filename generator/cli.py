@@ -1,8 +1,10 @@
 """Command line: parse arguments, call the public API, report.
 
-Input: argv. Output: files (emitted code, trajectories) and a short report on stdout; errors
-in the spec or the run are printed as one clear line with exit status 2 (1 for a failed
-integration, whose partial trajectory is still saved).
+Input: argv. Output: files (emitted code, trajectories) and a short report on stdout. Bad
+input (a spec, an option, an output path, a request the machine cannot serve) is one line on
+stderr naming what is wrong, with exit status 2, found before any integration starts; a failed
+integration is one line with exit status 1, and its partial trajectory is still saved. Files
+are written through a temporary file moved into place, never through a symbolic link.
 
 Only the standard library and the method table are imported up front; each subcommand imports
 what it needs (SymPy, NumPy, an experiment) when it runs, so `s2gen --help` stays fast.
@@ -19,23 +21,35 @@ Example:
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from s2gen.methods import BACKENDS, CONTROLS, LANGUAGES, NAMES
 
 __all__ = ["main"]
 
+#: Seconds a `simulate` run goes before its progress bar appears.
+PROGRESS_DELAY = 2.0
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with its errors as one line on stderr (status 2), not usage plus error."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"error: {self.prog}: {message} (see {self.prog} --help)\n")
+
 
 def _parser() -> argparse.ArgumentParser:
     from s2gen.experiments.bench.command import add_parser as add_bench
     from s2gen.experiments.compare_angles.command import add_parser as add_compare
+    from s2gen.experiments.ensemble.command import add_parser as add_ensemble
     from s2gen.experiments.reproduce.command import add_parser as add_reproduce
 
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="s2gen",
         description="Equations, variational integrators and C/NumPy code for mechanics on "
         "(S^2)^n. SPEC is a TOML file or the name of a built-in system (s2gen list).",
@@ -62,16 +76,33 @@ def _parser() -> argparse.ArgumentParser:
         default="matlab",
         help="RK45 error control: MATLAB ode45's (default) or Hairer's/scipy's",
     )
-    s.add_argument("--out", required=True, help="trajectory file (.npz: t, q, omega, energy)")
+    s.add_argument(
+        "--out",
+        required=True,
+        help="trajectory file, written exactly as named (.npz format: t, q, omega, energy, "
+        "angular_momentum, metadata; see s2gen.Trajectory.load)",
+    )
+    s.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help=f"progress bar on stderr for runs longer than {PROGRESS_DELAY:g} s (default: on "
+        "when stderr is a terminal)",
+    )
 
     sub.add_parser("list", help="list the built-in systems")
 
     r = sub.add_parser("regen", help="rewrite the emitted code kept in generated/")
-    r.add_argument("--out", default="generated", help="folder (default generated)")
+    r.add_argument(
+        "--out",
+        default="generated",
+        help="the generated/ folder of an s2gen checkout (default generated)",
+    )
 
     add_reproduce(sub)
     add_compare(sub)
     add_bench(sub)
+    add_ensemble(sub)
     return p
 
 
@@ -83,31 +114,82 @@ def _version() -> str:
 
 def _generate(args: argparse.Namespace) -> int:
     from s2gen.emit import emit, write_files
+    from s2gen.paths import OutputPathError
     from s2gen.systems import resolve
 
     system = resolve(args.spec)
     start = time.perf_counter()
-    paths = write_files(emit(system, args.lang), args.out)
+    try:
+        paths = write_files(emit(system, args.lang), args.out)
+    except OutputPathError as exc:
+        raise ValueError(f"--out {exc}") from None
     print(f"{system.name}: {len(paths)} file(s) in {time.perf_counter() - start:.2f} s")
     for path in paths:
         print(f"  {path}  ({path.stat().st_size} bytes)")
     return 0
 
 
-def _report(name: str, method: str, backend: str, tr: Any) -> None:
+def _report(name: str, tr: Any, out: Path) -> None:
+    """Integrator counts, energy and unit-length errors, and the file written."""
     from s2gen import metrics
+    from s2gen.runtime.trajectory import stat_counts
 
+    c = stat_counts(tr.stats, tr.method)
     m = metrics.summary(tr.q, tr.energy)
-    print(f"{name}: {method} on {backend}, {len(tr.t) - 1} steps in {tr.wall_time:.3f} s")
+    rejected = f" (+{c['rejected']} rejected)" if tr.method == "rk45" else ""
+    grads = "uncounted" if c["gradient_evals"] is None else str(c["gradient_evals"])
+    print(
+        f"{name}: {tr.method} on {tr.backend}, {c['steps']} steps{rejected}, "
+        f"{grads} gradient evaluations, {c['newton_iters']} Newton iterations, "
+        f"in {tr.wall_time:.3f} s"
+    )
     print(f"  |E - E0|          mean {m['mean_dE']:.4e}   max {m['max_dE']:.4e}")
     print(f"  | |q| - 1 |       mean {m['mean_norm']:.4e}   max {m['max_norm']:.4e}")
     print(f"  | q.q - 1 |       mean {m['mean_dot']:.4e}   max {m['max_dot']:.4e}")
+    print(f"  saved {out} ({len(tr.t)} samples: t, q, omega, energy, angular_momentum)")
+
+
+def _progress_on(args: argparse.Namespace) -> bool:
+    """--progress / --no-progress, else on when stderr is a terminal."""
+    if args.progress is not None:
+        return bool(args.progress)
+    return bool(getattr(sys.stderr, "isatty", lambda: False)())
+
+
+def _integrate(be: Any, method: str, h: float, T: float, opts: Any, show: bool) -> Any:
+    """One run; when `show`, a progress bar (steps, rate, time left) on stderr once the run
+    has gone `PROGRESS_DELAY` seconds. The run is one call either way: the bar only reads
+    how far it has come."""
+    from s2gen.runtime import run
+
+    if not show:
+        return run(be, method, h, T, opts)
+    from tqdm import tqdm
+
+    steps = round(T / h)
+    with tqdm(
+        total=steps, desc=f"{be.system.name} {method}", unit="step", unit_scale=True,
+        file=sys.stderr, delay=PROGRESS_DELAY, leave=False,
+    ) as bar:  # fmt: skip
+
+        def progress(fraction: float) -> None:
+            bar.update(int(steps * fraction) - bar.n)
+
+        return run(be, method, h, T, opts, progress=progress)
+
+
+def _output_file(path: str) -> Path:
+    """--out checked before any work: a writable regular file, not through a symlink."""
+    from s2gen.paths import OutputPathError, check_output_file
+
+    try:
+        return check_output_file(path)
+    except OutputPathError as exc:
+        raise ValueError(f"--out {exc}") from None
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from s2gen.runtime import IntegrationError, Options, simulate
+    from s2gen.runtime import IntegrationError, Options, check_run, get_backend
     from s2gen.systems import resolve
 
     system = resolve(args.spec)
@@ -119,21 +201,26 @@ def _simulate(args: argparse.Namespace) -> int:
     )
     h = args.h if args.h is not None else system.run.h
     T = args.T if args.T is not None else system.run.T
+    if h is None or T is None:
+        raise ValueError(f"{system.origin}: no step size h or final time T (give --h and --T)")
+    from s2gen.methods import check_method
+
+    check_method(method, args.backend)
+    check_run(system, method, h, T, opts)  # a request the machine cannot serve: refused now
+    out = _output_file(args.out)  # and so is a file that could not be written
+    be = get_backend(system, args.backend)
     print(
         f"{system.name}: integrating with {method} on {args.backend} (h={h}, T={T}) ...", flush=True
     )
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     try:
-        tr = simulate(system, method, args.backend, h=h, T=T, options=opts)
+        tr = _integrate(be, method, h, T, opts, _progress_on(args))
     except IntegrationError as exc:
-        p = exc.partial
-        np.savez(out, t=p.t, q=p.q, omega=p.omega, energy=p.energy)
-        print(f"error: {exc}\n  partial trajectory saved to {out}", file=sys.stderr)
+        exc.partial.save(out)
+        print(f"error: {exc}; saved them to {out}", file=sys.stderr)
         return 1
-    np.savez(out, t=tr.t, q=tr.q, omega=tr.omega, energy=tr.energy)
-    _report(system.name, method, args.backend, tr)
-    print(f"  saved {out} (t, q, omega, energy; {len(tr.t)} samples)")
+    tr = tr.with_momentum(tr.angular_momentum(system))
+    written = tr.save(out)
+    _report(system.name, tr, written)
     return 0
 
 
@@ -147,10 +234,30 @@ def _list(args: argparse.Namespace) -> int:
     return 0
 
 
+def _checkout_root(target: Path) -> Path | None:
+    """The s2gen checkout that `target` is the generated/ folder of, or None."""
+    if target.name != "generated" or not target.is_dir():
+        return None
+    root = target.resolve().parent
+    project = root / "pyproject.toml"
+    try:
+        text = project.read_text(encoding="utf-8")
+    except OSError:
+        return None
+    return root if 'name = "s2gen"' in text else None
+
+
 def _regen(args: argparse.Namespace) -> int:
     from s2gen.emit import regenerate
 
-    paths = regenerate(args.out)
+    target = Path(args.out)
+    if _checkout_root(target) is None:
+        raise ValueError(
+            f"regen: {target} is not the generated/ folder of an s2gen checkout (a folder "
+            "'generated' beside the checkout's pyproject.toml); run it from the repository "
+            "root or give --out CHECKOUT/generated"
+        )
+    paths = regenerate(target)
     print(f"rewrote {len(paths)} files under {args.out}/")
     return 0
 
@@ -173,6 +280,12 @@ def _bench(args: argparse.Namespace) -> int:
     return run(args)
 
 
+def _ensemble(args: argparse.Namespace) -> int:
+    from s2gen.experiments.ensemble.driver import run
+
+    return run(args)
+
+
 _COMMANDS = {
     "generate": _generate,
     "simulate": _simulate,
@@ -181,6 +294,7 @@ _COMMANDS = {
     "reproduce": _reproduce,
     "compare-angles": _compare_angles,
     "bench": _bench,
+    "ensemble": _ensemble,
 }
 
 
@@ -196,15 +310,44 @@ def _show_warning(
     print(f"warning: {message}", file=sys.stderr)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point of the `s2gen` command."""
-    warnings.showwarning = _show_warning
-    args = _parser().parse_args(argv)
+def _check_cache() -> None:
+    """The build cache folder must be a folder a file can be created in (ValueError)."""
+    from s2gen.paths import OutputPathError, check_output_file
+
+    root = os.environ.get("S2GEN_CACHE", str(Path.home() / ".cache" / "s2gen"))
     try:
+        check_output_file(Path(root) / "probe")
+    except OutputPathError as exc:
+        raise ValueError(f"build cache S2GEN_CACHE={root} is unusable: {exc}") from None
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the `s2gen` command: the exit status (0 ok, 1 failed integration,
+    2 bad input), every error one line on stderr.
+
+    Example:
+        >>> main(["simulate", "double_pendulum", "--h", "0", "--out", "x.npz"])
+        2
+    """
+    warnings.showwarning = _show_warning
+    try:
+        args = _parser().parse_args(argv)
+    except SystemExit as exc:  # --help, --version, or a usage error already printed
+        return exc.code if isinstance(exc.code, int) else 2
+    try:
+        if args.command != "list":
+            _check_cache()
         return _COMMANDS[args.command](args)
     except ValueError as exc:  # SpecError is a ValueError: bad input, one line, status 2
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # a file or folder the command needed, named by the OS
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -132,26 +132,24 @@ def emit_angles(
     return _emit(system, lang, "angles-simplified" if simplify else "angles", cache)
 
 
-#: Modules kept in the repository's generated/ folder, one of each kind (folder, spec, form):
-#: coupled inertia, diagonal inertia with term loops, a cutoff term, and an angle-form module.
-#: Specs are built-in names or paths relative to the repository.
+#: Modules kept in the repository's generated/ folder, one of each kind (folder, built-in,
+#: form): coupled inertia, diagonal inertia with term loops and a quadratic term, a cutoff
+#: term, and an angle-form module.
 GENERATED = (
     ("double_pendulum", "double_pendulum", "sphere"),
     ("four_pendula", "four_pendula", "sphere"),
-    ("lj_cutoff", "tests/specs/lj_cutoff.toml", "sphere"),
+    ("lj_cutoff", "lj_cutoff", "sphere"),
     ("double_pendulum_angles", "double_pendulum", "angles"),
 )
 
 
-def regenerate(out: str | Path, root: str | Path = ".") -> list[Path]:
-    """Write the C and NumPy code of `GENERATED` under out/<folder>/<lang>/ (specs that are
-    paths are read relative to `root`)."""
-    from s2gen.systems import resolve
+def regenerate(out: str | Path) -> list[Path]:
+    """Write the C and NumPy code of `GENERATED` under out/<folder>/<lang>/."""
+    from s2gen.systems import builtin
 
     paths: list[Path] = []
-    for folder, spec, form in GENERATED:
-        path = Path(root) / spec
-        system = resolve(str(path) if path.suffix == ".toml" else spec)
+    for folder, name, form in GENERATED:
+        system = builtin(name)
         for lang in LANGUAGES:
             files = emit(system, lang) if form == "sphere" else emit_angles(system, lang)
             paths += write_files(files, Path(out) / folder / lang)
@@ -197,12 +195,11 @@ def _write_cached(folder: Path, files: dict[str, str]) -> None:
 
 
 def write_files(files: dict[str, str], out_dir: str | Path) -> list[Path]:
-    """Write files into out_dir (created if needed); returns the paths written."""
+    """Write files into out_dir (created if needed); returns the paths written. Every target
+    is checked before any is written, and each is written atomically; a symbolic link at a
+    target is refused, never followed (`s2gen.paths.OutputPathError`)."""
+    from s2gen.paths import check_output_file, write_text_atomic
+
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for name in sorted(files):
-        path = out / name
-        path.write_text(files[name])
-        paths.append(path)
-    return paths
+    targets = [check_output_file(out / name) for name in sorted(files)]
+    return [write_text_atomic(path, files[path.name]) for path in targets]

@@ -61,6 +61,7 @@ class Argument:
     name: str
     symbols: tuple[sp.Symbol, ...]
     scalar: bool = False
+    shared: bool = False  # one array for all members (not vectorized over them in NumPy)
 
     @property
     def size(self) -> int:
@@ -93,6 +94,10 @@ class KernelDef:
     inputs: tuple[Argument, ...]
     outputs: tuple[Output, ...]
     system: bool = False
+    #: (input name, stage) of the inputs that are constant per call: 0 parameters, 1 a member's
+    #: data; the `hoist` pass computes what depends only on them once per call. None: the
+    #: kernel does not take part (the generic kernels of the equations).
+    stages: tuple[tuple[str, int], ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -116,6 +121,7 @@ class Kernel:
     ops_before: int
     ops_after: int
     system: bool = False
+    stages: tuple[tuple[str, int], ...] | None = None
 
     @property
     def temporaries(self) -> int:
@@ -176,6 +182,11 @@ class TermLoop:
     data: tuple[tuple[str, int, tuple[float, ...]], ...]
     value: str  # kernel names
     gradient: str
+    table: int = 0  # slots per member of the term's table (see the `hoist` pass)
+    #: (slot, row, column) of the member's coefficients in the term's quadratic form, when the
+    #: `quadratic` pass put it into the module's matrix (column -1: linear; row -1: constant)
+    quadratic: tuple[tuple[int, int, int], ...] = ()
+    rows: bool = False  # all pairs as vectorisable rows on structure-of-arrays copies (`layout`)
 
 
 @dataclass(frozen=True)
@@ -221,10 +232,12 @@ class Layout:
 
 @dataclass(frozen=True)
 class PassRecord:
-    """A lowering pass that ran, with the total operations of all kernels after it."""
+    """A lowering pass that ran, with the operations of all kernels after it (total, and by
+    kind as `passes.opcount.Ops` prints them)."""
 
     name: str
     ops: int
+    profile: str = ""
 
 
 @dataclass(frozen=True)
@@ -253,6 +266,8 @@ class Module:
     layouts: tuple[Layout, ...] = ()
     work_base: int = 0  # doubles used by the functions; the per-call context follows
     work_size: int = 0
+    constants: int = 0  # context constants (see the `hoist` pass)
+    quadratic: int = 0  # order of the quadratic terms' matrix K (3n, or 0 without one)
     facts: tuple[tuple[str, bool | int | float | str], ...] = ()
     field_calls: tuple[tuple[str, int], ...] = ()  # (kernel, calls) per vector-field evaluation
     passes: tuple[PassRecord, ...] = ()
@@ -267,6 +282,14 @@ class Module:
     def fact(self, name: str) -> bool | int | float | str:
         """The value of fact `name` (KeyError if absent)."""
         return dict(self.facts)[name]
+
+    @property
+    def body_major_terms(self) -> bool:
+        """True when part of the potential has only a body-major gradient (q[3 i + c]): a
+        general potential, or a term neither in K nor laid out as rows. The component-major
+        gradient of the explicit VI then passes through body-major copies for that part."""
+        general = bool(dict(self.facts).get("general", False))
+        return general or any(not (t.quadratic or t.rows) for t in self.terms)
 
     def layout(self, name: str) -> Layout:
         """The workspace layout of function `name` (KeyError if absent)."""

@@ -25,7 +25,7 @@ def test_generated_folder_is_reproducible(tmp_path: Path) -> None:
     one module of each kind (coupled, diagonal with term loops, cutoff, angle form). Every
     cache is cleared first; a mismatch shows a unified diff."""
     clear_caches()
-    regenerate(tmp_path, root=REPO)
+    regenerate(tmp_path)
     fresh = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p.is_file())
     kept = sorted(
         p.relative_to(REPO / "generated") for p in (REPO / "generated").rglob("*") if p.is_file()

@@ -62,3 +62,31 @@ def test_cli_failed_run_exits_1_and_keeps_partial(tmp_path, capsys) -> None:
     assert "infeasible" in capsys.readouterr().err
     saved = np.load(out)
     assert saved["q"].shape[0] == saved["t"].shape[0] >= 1
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
+def test_rk45_stops_at_a_potential_that_becomes_non_finite() -> None:
+    """V = 0.01 sqrt(z + 1/2) is not real below z = -1/2, where a body spinning about x goes.
+    A trial step there is never accepted (its error estimate is NaN): every backend stops at
+    the same sample with NONFINITE and keeps only finite samples."""
+    from s2gen.spec import define_system
+
+    s = define_system(
+        name="sqrt_wall",
+        bodies=1,
+        parameters={"m": 1.0},
+        diagonal=["m"],
+        potential="0.01*sqrt(q1[2] + 0.5)",
+        initial_q=[[0, 0, 1]],
+        initial_omega=[[1, 0, 0]],
+    )
+    stops = {}
+    for backend in ("c", "numpy", "reference"):
+        with pytest.raises(IntegrationError) as info:
+            simulate(s, "rk45", backend, h=0.01, T=10.0)
+        assert info.value.status == 3, backend
+        _check_partial(info.value, 1)
+        # the last sample is before z = -1/2 (a quarter turn past the equator, t < 2.1)
+        assert info.value.partial.q[-1, 0, 2] > -0.5
+        stops[backend] = info.value.step
+    assert stops["c"] == stops["numpy"] == stops["reference"], stops

@@ -1,4 +1,4 @@
-"""`s2gen reproduce`: tables, figures, chunked integration, failures, and (slow) the paper's values.
+"""`s2gen reproduce`: tables, figures, progress lines, failures, and (slow) the paper's values.
 
 The default tests run the quick double pendulum; `-m slow` runs every example's full reproduction
 and compares with the paper's printed values.
@@ -17,7 +17,7 @@ from s2gen.cli import main
 from s2gen.experiments.reproduce import runner as rp
 from s2gen.experiments.reproduce.figures import face_kinetic_energy
 from s2gen.experiments.reproduce.paper import EXAMPLES, Example, PaperRun
-from s2gen.runtime import simulate
+from s2gen.runtime import Options, simulate
 from s2gen.systems import builtin
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -102,27 +102,22 @@ def test_quick_figures_are_png(quick_out: tuple[Path, int, str]) -> None:
         assert p.stat().st_size > 30_000  # three panels with curves, not an empty canvas
 
 
-def test_chunked_integration_is_exact(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Chunks continue from the last state: bit-for-bit the one-call trajectory for the
-    explicit methods; the implicit ones (the coupled double pendulum's VI and its composition)
-    start each chunk's first Newton solve cold instead of from the previous step, which moves
-    the trajectory by round-off only."""
-    monkeypatch.setattr(rp, "_FIRST_CHUNK", 7)
-    monkeypatch.setattr(rp, "_MIN_CHUNK", 5)
+def test_progress_lines_do_not_change_the_run(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Long runs report progress while the emitted C runs; the run is one call either way,
+    bit for bit the run without progress, for every method."""
     monkeypatch.setattr(rp, "PROGRESS_SECONDS", 1e-9)
+    monkeypatch.setattr("s2gen.runtime.c.POLL_SECONDS", 1e-3)
     lines: list[str] = []
     system = builtin("double_pendulum")
-    for method in rp.CHUNKED:
-        run = PaperRun(method, 0.01, 1.0)
-        chunked = rp.integrate(system, run, log=lines.append)
-        whole = simulate(system, method, "c", h=0.01, T=1.0)
-        implicit = method in ("vi", "vi4")
-        tol = 1e-13 if implicit else 0.0
-        np.testing.assert_allclose(chunked.q, whole.q, rtol=0, atol=tol)
-        np.testing.assert_allclose(chunked.omega, whole.omega, rtol=0, atol=10 * tol)
-        np.testing.assert_allclose(chunked.energy, whole.energy, rtol=tol, atol=0)
-        np.testing.assert_allclose(chunked.t, whole.t, rtol=0, atol=1e-12)
-    assert any("t = " in line for line in lines)  # progress lines between chunks
+    for method in ("vi", "vi4", "rattle", "rk4", "rk45"):
+        run = PaperRun(method, 0.01, 20.0, rtol=1e-8, atol=1e-10)
+        reported = rp.integrate(system, run, log=lines.append)
+        opts = Options(rtol=1e-8, atol=1e-10)
+        whole = simulate(system, method, "c", h=0.01, T=20.0, options=opts)
+        np.testing.assert_array_equal(reported.q, whole.q)
+        np.testing.assert_array_equal(reported.omega, whole.omega)
+        np.testing.assert_array_equal(reported.energy, whole.energy)
+    assert any("t = " in line and "%" in line for line in lines)
 
 
 def test_failures_are_reported_and_others_kept(

@@ -92,20 +92,21 @@ def explicit_kernels() -> list[KernelDef]:
     a = H * w + d_grad / M_II
     s = 1 - dot(a, a)
     qnew = a.cross(q) + sp.sqrt(s) * q
-    wnew = a / H - H / (2 * M_II) * qn.cross(gn)
+    # the half-step velocity a/h = omega - h/(2M_ii) q x g: omega+ = a/h - h/(2M_ii) q+ x g+
+    wh = vector("wh")
     return [
         KernelDef(
             "vi_pos",
             "explicit VI position update: a = h omega - h^2/(2M_ii) q x g, "
-            "q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0)",
+            "q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0), wh = a/h",
             (_s(H), _s(M_II), _a("q", q), _a("w", w), _a("g", g)),
-            (_o("qn", qnew), Output("s", (s,), scalar=True)),
+            (_o("qn", qnew), _o("wh", a / H), Output("s", (s,), scalar=True)),
         ),
         KernelDef(
             "vi_vel",
-            "explicit VI velocity update: omega+ = omega - h/(2M_ii)(q x g + q+ x g+)",
-            (_s(H), _s(M_II), _a("q", q), _a("w", w), _a("g", g), _a("qn", qn), _a("gn", gn)),
-            (_o("wn", wnew),),
+            "explicit VI velocity update: omega+ = wh - h/(2M_ii) q+ x g+",
+            (_s(H), _s(M_II), _a("wh", wh), _a("qn", qn), _a("gn", gn)),
+            (_o("wn", wh - H / (2 * M_II) * qn.cross(gn)),),
         ),
     ]
 

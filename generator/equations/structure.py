@@ -69,6 +69,7 @@ def system_kernels(system: System) -> list[KernelDef]:
                 (p, q),
                 (Output("v", (V,), scalar=True),),
                 system=True,
+                stages=(("p", 0),),
             ),
             KernelDef(
                 "gradient",
@@ -76,6 +77,7 @@ def system_kernels(system: System) -> list[KernelDef]:
                 (p, q),
                 (Output("g", grad),),
                 system=True,
+                stages=(("p", 0),),
             ),
         ]
     return kernels
@@ -88,6 +90,7 @@ def term_kernels(system: System, index: int, term: Term) -> tuple[KernelDef, Ker
     # data arguments are prefixed so that no datum name can clash with p, q, v, g, ...
     data = [Argument(f"d_{d.name}", d.symbols(), scalar=d.width == 1) for d in term.data]
     inputs = (p, *positions, *data)
+    stages = (("p", 0), *((a.name, 1) for a in data))
     where = f"{term.label}: {'sum over bodies' if term.kind == 'body' else 'sum over pairs'}"
     grads = tuple(
         Output(f"g{role[1:]}" if role != "q" else "g", tuple(sp.diff(term.expr, s) for s in pos))
@@ -99,6 +102,9 @@ def term_kernels(system: System, index: int, term: Term) -> tuple[KernelDef, Ker
             f"{where} ({term.select}), value",
             inputs,
             (Output("v", (term.expr,), scalar=True),),
+            stages=stages,
         ),
-        KernelDef(f"t{index}_gradient", f"{where} ({term.select}), gradient", inputs, grads),
+        KernelDef(
+            f"t{index}_gradient", f"{where} ({term.select}), gradient", inputs, grads, stages=stages
+        ),
     )

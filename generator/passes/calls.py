@@ -8,12 +8,12 @@ argument order always follows the kernel as derived and no template spells it ou
 
 Binding rules, C (loop variables: i the body; k the pair, i0 and j0 its bodies; m the member
 of a term, i and j its bodies):
-- body: `h` -> h, `m` -> md[i], any other array `x` -> x + 3 * i, a scalar output `s` -> &s;
+- body: `h` -> h, `m` -> md[i], `mi` -> cx->mi[i] (inverse masses), any other array `x` -> x + 3 * i, a scalar output `s` -> &s;
 - pair: `h` -> h, `mij` -> mp[k], an array `xi` / `xj` -> x + 3 * i0 / x + 3 * j0, outputs
   are the site's local arrays (named as the outputs);
 - system: arrays by name, a scalar output `s` -> &s;
 - term: `q`, `qi` -> q + 3 * i, `qj` -> q + 3 * j, data from the term's tables at member m.
-NumPy calls take the inputs only and vectorize: body arrays whole, `m` -> md, pair arrays
+NumPy calls take the inputs only and vectorize: body arrays whole, `m` -> md, `mi` -> 1/md, pair arrays
 indexed by PAIR_I / PAIR_J, `mij` -> mp, term positions indexed by the term's index arrays.
 
 Example:
@@ -61,6 +61,8 @@ def _c_default(arg: Argument | Output, output: bool, context: Context) -> str:
             return "h"
         if name == "m":
             return "md[i]"
+        if name == "mi":
+            return "cx->mi[i]"
         return f"&{name}" if scalar else f"{name} + 3 * i"
     if name == "h":
         return "h"
@@ -76,7 +78,7 @@ def _c_default(arg: Argument | Output, output: bool, context: Context) -> str:
 def _py_default(arg: Argument, context: Context) -> str:
     name = arg.name
     if context is Context.BODY:
-        return "md" if name == "m" else name
+        return {"m": "md", "mi": "(1.0 / md)"}.get(name, name)
     if context is Context.PAIR:
         if name == "mij":
             return "mp"
@@ -94,17 +96,20 @@ def resolve(site: Site, kernel: Kernel | KernelDef) -> Call:
 
 
 _B, _P, _S = Context.BODY, Context.PAIR, Context.SYSTEM
+#: Sites reading the masses from the context (their functions keep no local copy)
+_MASSES = {"m": "cx->md[i]"}
 
 #: Call sites of the (S^2)^n module; a site whose kernel the module lacks is skipped.
 SPHERE_SITES = (
+    Site("context", "context", _S, {"cc": "cx->cc"}),
     Site("inertia", "inertia", _S, {"mdiag": "md", "mpair": "mp"}),
-    Site("potential", "potential", _S, {"v": "&total"}),
-    Site("gradient", "gradient", _S),
+    Site("potential", "potential", _S, {"v": "&total", "cc": "cx->cc"}),
+    Site("gradient", "gradient", _S, {"cc": "cx->cc"}),
     Site("kin_body", "kin_body", _B),
     Site("kin_pair", "kin_pair", _P),
     Site("mom_body", "mom_body", _B, {"j": "t"}),
     Site("mom_pair", "mom_pair", _P, {"j": "t"}),
-    Site("rhs_diag", "rhs_diag", _B),
+    Site("rhs_diag", "rhs_diag", _B, _MASSES),
     Site("rhs_body", "rhs_body", _B, {"b": "dw + 3 * i"}),
     Site("rhs_pair", "rhs_pair", _P),
     Site("a_pair", "a_pair", _P, {"a": "blk"}),
@@ -116,10 +121,10 @@ SPHERE_SITES = (
     Site("c_body", "c_body", _B, {"c": "wn + 3 * i"}),
     Site("c_pair", "c_pair", _P),
     Site("a_body", "a_body", _B, {"q": "qn + 3 * i", "a": "&cx->adiag[i]"}, {"q": "qn"}),
-    Site("vi_pos", "vi_pos", _B),
-    Site("vi_vel", "vi_vel", _B),
-    Site("rattle_pos", "rattle_pos", _B),
-    Site("rattle_vel", "rattle_vel", _B),
+    Site("vi_pos", "vi_pos", _B, _MASSES),
+    Site("vi_vel", "vi_vel", _B, _MASSES),
+    Site("rattle_pos", "rattle_pos", _B, _MASSES),
+    Site("rattle_vel", "rattle_vel", _B, _MASSES),
 )
 
 #: Call sites of the angle-form module.
@@ -137,17 +142,31 @@ ANGLE_SITES = (
 
 
 def _term_sites(module: Module, t: TermLoop) -> list[Site]:
-    """The value and gradient sites of one term loop (data read at member m)."""
+    """The value, gradient and table sites of one term loop (data read at member m; the
+    member's table row at `tab`, the context constants at cx->cc)."""
     pre, up = f"{module.name}_t{t.index}", f"T{t.index}"
-    c = {"q": "q + 3 * i", "qi": "q + 3 * i", "qj": "q + 3 * j", "v": "&v", "g": "gb"}
-    py = {"q": f"q[{up}_I]", "qi": f"q[{up}_I]", "qj": f"q[{up}_J]"}
+    c = {
+        "q": "q + 3 * i",
+        "qi": "q + 3 * i",
+        "qj": "q + 3 * j",
+        "v": "&v",
+        "g": "gb",
+        "cc": "cx->cc",
+        "tab": "tab",
+    }
+    py = {"q": f"q[{up}_I]", "qi": f"q[{up}_I]", "qj": f"q[{up}_J]", "tab": f"tab{t.index}"}
     for name, width, _ in t.data:
         c[f"d_{name}"] = f"{pre}_{name}[m]" if width == 1 else f"{pre}_{name} + 3 * m"
         py[f"d_{name}"] = f"{up}_{name.upper()}"
-    return [
+    sites = [
         Site(f"t{t.index}_value", t.value, _S, c, py),
         Site(f"t{t.index}_gradient", t.gradient, _S, c, py),
     ]
+    if t.table:
+        sites.append(Site(f"t{t.index}_table", f"t{t.index}_table", _S, {**c, "tab": "row"}, py))
+    if t.quadratic:
+        sites.append(Site(f"t{t.index}_quad", f"t{t.index}_quad", _S, {**c, "coef": "row"}, py))
+    return sites
 
 
 def calls_pass(module: Module) -> Module:

@@ -29,8 +29,10 @@ __all__ = ["count_ops", "cse_pass", "lower_kernel"]
 
 
 def count_ops(exprs: list[sp.Expr] | tuple[sp.Expr, ...]) -> int:
-    """SymPy's operation count of a list of expressions."""
-    return int(sum(sp.count_ops(e) for e in exprs))
+    """Operations of a list of expressions as printed (see `passes.opcount.profile`)."""
+    from s2gen.passes.opcount import profile
+
+    return profile(exprs).total
 
 
 @functools.lru_cache(maxsize=1024)
@@ -50,6 +52,7 @@ def lower_kernel(kdef: KernelDef) -> Kernel:
         ops_before=count_ops(flat),
         ops_after=-1,
         system=kdef.system,
+        stages=kdef.stages,
     )
 
 

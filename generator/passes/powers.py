@@ -8,7 +8,7 @@ Example:
     >>> import sympy as sp
     >>> x = sp.Symbol("x")
     >>> expand_pow(x**3 + 1)
-    x*x*x + 1
+    1 + x*x*x
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ Example:
     >>> from s2gen.passes import lower_system
     >>> m = lower_system(builtin("double_pendulum"))
     >>> m.layout("field").buffers
-    (Buffer(name='g', size=6, offset=0), Buffer(name='a', size=36, offset=6))
+    (Buffer(name='g', size=6, offset=0), Buffer(name='a', size=48, offset=6))
 """
 
 from __future__ import annotations
@@ -20,7 +20,13 @@ from dataclasses import replace
 
 from s2gen.ir import Buffer, Layout, LoopKind, Module, ModuleKind
 
-__all__ = ["CONTEXT", "layout", "workspace_pass"]
+__all__ = ["CONTEXT", "layout", "padded", "workspace_pass"]
+
+
+def padded(dim: int) -> int:
+    """Row stride of a dim x dim matrix for the dense solvers: dim rounded up to a multiple of
+    4 doubles (one AVX register), so that their row updates have a fixed vector length."""
+    return -(-dim // 4) * 4
 
 
 def layout(name: str, *buffers: tuple[str, int]) -> Layout:
@@ -36,25 +42,32 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     n, m3 = module.n, 3 * module.n
     ns = 2 * m3
     coupled = module.coupling is not None
-    field = layout("field", ("g", m3), ("a", m3 * m3 if coupled else 0))
+    field = layout("field", ("g", m3), ("a", m3 * padded(m3) if coupled else 0))
     rk_fixed = layout("rk_fixed", ("k1", ns), ("k2", ns), ("acc", ns), ("field", field.size))
     rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("rk", rk_fixed.size))
     rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
     if coupled:
-        vi = layout("vi_advance", ("d", m3), ("r", m3), ("jm", m3 * m3))
+        vi = layout("vi_advance", ("d", m3), ("r", m3), ("jm", m3 * padded(m3)))
         rattle = layout(
             "rattle_advance",
             ("wi", n * n),
-            ("jm", n * n),
+            ("jm", n * padded(n)),
             ("y", m3),
             ("gw", m3),
             ("u", m3),
             ("r", n),
         )
+        extra: list[Layout] = []
     else:
-        vi = layout("vi_advance")
+        # the explicit step runs on component-major (SoA) copies, so that its loops over bodies
+        # vectorise; "bridge" holds body-major q and g for terms without an SoA gradient
+        bridge = ("bridge", 2 * m3 if module.body_major_terms else 0)
+        soa = [(b, m3) for b in ("x", "v", "gx", "xn", "vn", "gn")]
+        vi = layout("vi_advance", *soa, ("s", n), bridge)
+        extra = [layout("explicit", *soa, ("s", n), bridge)]
         rattle = layout("rattle_advance", ("vh", m3))
-    step = max(vi.size, rattle.size)
+    # uncoupled, the geometric driver runs RATTLE only (the VI has its own: "explicit")
+    step = max(vi.size, rattle.size) if coupled else rattle.size
     state = [(b, m3) for b in ("qk", "wk", "q1", "w1")]  # the current and the next state
     # Newton's starting points: each substep's Cayley parameters (VI) or multipliers (RATTLE)
     # from the previous step
@@ -68,16 +81,17 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     )
     fixed = layout("fixed", *state, ("step", rk_step.size))
     vi_step = layout("vi_step", ("g", m3), ("gn", m3), ("f", m3), ("step", vi.size))
-    run = max(geometric.size, rk45.size, fixed.size)
+    run = max(geometric.size, rk45.size, fixed.size, *(lay.size for lay in extra))
     integrate = layout("integrate", ("run", run), ("y0", ns))
     layouts = [field, rk_fixed, rk_step, rk45, vi, rattle, geometric, fixed, vi_step, integrate]
+    layouts += extra
     return layouts, max(lay.size for lay in layouts)
 
 
 def _angles(module: Module) -> tuple[list[Layout], int]:
     nx = 2 * module.n
     ns = 2 * nx
-    field = layout("field", ("m", nx * nx))
+    field = layout("field", ("m", nx * nx), ("lu", nx * padded(nx)))
     rk_fixed = layout("rk_fixed", ("k1", ns), ("k2", ns), ("acc", ns), ("field", field.size))
     rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("fail", ns), ("rk", rk_fixed.size))
     rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
@@ -91,7 +105,8 @@ CONTEXT = "context"
 
 
 def _context(module: Module) -> Layout:
-    """Per-call context after `work_base`: masses, coupled entries, A's diagonal in the VI,
+    """Per-call context after `work_base`: masses and their inverses, coupled entries, A's
+    diagonal in the VI,
     neighbour-list cells (the largest grid of the cutoff terms)."""
     if module.kind is not ModuleKind.SPHERE:
         return layout(CONTEXT)
@@ -101,9 +116,14 @@ def _context(module: Module) -> Layout:
     return layout(
         CONTEXT,
         ("md", n),
+        ("mi", n),
         ("mp", len(module.pairs)),
         ("adiag", n if coupled else 0),
         ("nb", max(cells, default=0)),
+        ("cc", module.constants),
+        ("soa", 6 * n if any(t.rows for t in module.terms) else 0),
+        *((("kq", module.quadratic**2), ("kb", module.quadratic + 10)) if module.quadratic else ()),
+        *((f"t{t.index}", t.table * t.loop.count) for t in module.terms if t.table),
     )
 
 

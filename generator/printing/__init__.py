@@ -15,17 +15,19 @@ Example:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from s2gen.interface import interface
 from s2gen.ir import Kernel, LoopKind, Module, ModuleKind, PassRecord, TermLoop
 from s2gen.methods import METHODS, Status, method
-from s2gen.passes.workspace import CONTEXT
+from s2gen.passes.opcount import kernel_profile
+from s2gen.passes.workspace import CONTEXT, padded
 from s2gen.printing.c import (
     c_call,
     c_decl,
     c_field_decl,
+    c_inline,
     c_kernel,
     c_loop,
     c_term_tables,
@@ -50,7 +52,9 @@ class PrintedKernel:
     py_lines: tuple[str, ...]
     ops_before: int
     ops_after: int
+    profile: str  # ops_after by kind
     temporaries: int
+    c_function: bool = True  # False: the C code writes it inline only (no function emitted)
 
 
 @dataclass(frozen=True)
@@ -69,8 +73,14 @@ class PrintedTerm:
     c_close: tuple[str, ...]
     c_value_part: str
     c_gradient_part: str
+    layout: str  # "rows", "quadratic" (in K), "cutoff" or "" (the member loop): its partials
     c_value_call: str
     c_gradient_call: str
+    c_table_lines: tuple[str, ...]
+    c_rows_value: tuple[str, ...]  # the kernels inline, for the rows layout
+    c_rows_gradient: tuple[str, ...]
+    c_rows_constants: tuple[str, ...]  # the context constants they read (c<k>)
+    c_rows_constants_gradient: tuple[str, ...]
     c_gradient_locals: str
     c_gradient_accumulate: tuple[str, ...]
     py_setup: tuple[str, ...]
@@ -95,6 +105,7 @@ class PrintedModule:
     spec_hash: str
     origin: str
     n: int
+    n2: int  # 2 n: offset of the third component row in a component-major (SoA) copy
     n3: int
     nx: int
     ns: int
@@ -102,6 +113,7 @@ class PrintedModule:
     npairs_or_one: int
     coupled: bool
     general: bool
+    soa_bridge: bool  # the component-major gradient needs the body-major one for some terms
     uniform_mass: bool
     neighbour_lists: bool
     parameters: tuple[tuple[str, str], ...]  # (name, value as a round-trip literal)
@@ -110,10 +122,19 @@ class PrintedModule:
     kernels: tuple[PrintedKernel, ...]
     terms: tuple[PrintedTerm, ...]
     call: dict[str, dict[str, str]]  # site -> {"c": ..., "py": ...}
+    inline: dict[str, tuple[str, ...]]  # kernel -> its body inline (explicit VI loops)
     work: dict[str, dict[str, Any]]  # layout -> {buffer: offset, "doc": ..., "size": ...}
     context: tuple[dict[str, Any], ...]  # the per-call context buffers (name, offset, doc)
     work_base: int
     work_size: int
+    constants: int
+    constants_or_one: int
+    table_inits: tuple[dict[str, Any], ...]  # per term with a table: index, count, table, call
+    py_tables: tuple[str, ...]  # calls computing the terms' member tables (NumPy)
+    quadratic: int  # order of the quadratic terms' matrix K (0: none)
+    quad_inits: tuple[dict[str, Any], ...]  # per quadratic term: loop, coefficient call, scatter
+    py_quad_lines: tuple[str, ...]  # NumPy lines building K and b
+    py_table_names: tuple[str, ...]
     c_parts: tuple[str, ...]
     py_parts: tuple[str, ...]
     parts: tuple[str, ...]
@@ -151,6 +172,7 @@ def print_kernel(kernel: Kernel, restrict: str) -> PrintedKernel:
         py_lines=py_lines,
         ops_before=kernel.ops_before,
         ops_after=kernel.ops_after,
+        profile=str(kernel_profile(kernel)),
         temporaries=kernel.temporaries,
     )
 
@@ -194,18 +216,40 @@ def _print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTe
         )
     else:
         py_acc = (f"numpy.add.at(g, {index[0]}, {gradient['py']})",)
-    suffix = "_cutoff" if cutoff else ""
+    suffix = "_cutoff" if cutoff else "_quadratic" if t.quadratic else "_rows" if t.rows else ""
+    rows_value = rows_gradient = constants_value = constants_gradient = ()
+    if t.rows:
+        value_kernel, gradient_kernel = module.kernel(t.value), module.kernel(t.gradient)
+        assert isinstance(value_kernel, Kernel) and isinstance(gradient_kernel, Kernel)
+        constants_value, rows_value = c_inline(value_kernel)
+        constants_gradient, rows_gradient = c_inline(gradient_kernel)
     label = module.kernel(t.value).doc.split(":")[0]
+    table_lines: tuple[str, ...] = ()
+    if t.table:
+        k = t.index
+        table_lines = (
+            f"double row[{t.table}];",
+            f"const double *tab = cx->t{k} ? cx->t{k} + {t.table} * m : row;",
+            f"if (!cx->t{k}) {{",
+            f"    {calls[f't{k}_table']['c']};",
+            "}",
+        )
     return PrintedTerm(
         index=t.index,
         doc=f"term {t.index}, {label}: {_TERM_DOC[kind]}",
         count=t.loop.count,
         c_open=c_open,
         c_close=c_close,
+        layout=suffix[1:],
         c_value_part=f"c/_term_value{suffix}.jinja",
         c_gradient_part=f"c/_term_gradient{suffix}.jinja",
         c_value_call=value["c"],
         c_gradient_call=gradient["c"],
+        c_table_lines=table_lines,
+        c_rows_value=rows_value,
+        c_rows_gradient=rows_gradient,
+        c_rows_constants=constants_value,
+        c_rows_constants_gradient=constants_gradient,
         c_gradient_locals=locals_,
         c_gradient_accumulate=tuple(acc),
         py_setup=setup,
@@ -219,6 +263,83 @@ def _print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTe
         rc2="" if t.loop.cutoff is None else repr(float(t.loop.cutoff) ** 2),
         cells=t.loop.cells,
     )
+
+
+_INLINE_SCALARS = ("q", "w", "g", "qn", "gn", "wh")
+
+
+def _inline(module: Module) -> dict[str, tuple[str, ...]]:
+    """The explicit VI kernels' bodies inline, for the SoA loops over bodies: vector operands
+    q, w, g, qn, gn are scalars (q0, q1, q2, ...), h by name, outputs qn0.., s0, wn0...;
+    "loads" declares their other scalar inputs (the body's mass) as the call sites bind them."""
+    out: dict[str, tuple[str, ...]] = {}
+    names = {k.name for k in module.kernels}
+    loads: list[str] = []
+    for name in ("vi_pos", "vi_vel"):
+        if name in names:
+            kernel = module.kernel(name)
+            assert isinstance(kernel, Kernel), "the passes lowered every kernel"
+            shared, lines = c_inline(kernel, scalars=_INLINE_SCALARS)
+            assert not shared, f"{name} reads no context constants"
+            out[name] = lines
+            call = next(c for c in module.calls if c.site == name)
+            for arg, bound in zip(kernel.inputs, call.c_args):
+                line = f"const double {arg.name} = {bound};"
+                if arg.scalar and arg.name != "h" and line not in loads:
+                    loads.append(line)
+    if out:
+        out["loads"] = tuple(loads)
+    return out
+
+
+def _coordinate(r: int, n: int, index: tuple[str, ...]) -> str:
+    """Component-major index (u n + body) in K of a member's local coordinate r (component
+    r % 3 of body i for r < 3, else of body j)."""
+    return f"{r % 3 * n} + {index[r // 3]}"
+
+
+def _quad_init(module: Module, t: TermLoop, calls: dict[str, Any]) -> dict[str, Any]:
+    """C text adding one quadratic term's members into K and b (once per call)."""
+    c_open, c_close = c_loop(module.name, t, module.n)
+    n3 = 3 * module.n
+    roles = ("i", "j")
+    lines = []
+    for slot, r, c in t.quadratic:
+        if r < 0:
+            lines.append(f"kb[{n3}] += row[{slot}];")
+        elif c < 0:
+            lines.append(f"kb[{_coordinate(r, module.n, roles)}] += row[{slot}];")
+        else:
+            row_i, col_i = _coordinate(r, module.n, roles), _coordinate(c, module.n, roles)
+            lines.append(f"kq[({row_i}) * {n3} + {col_i}] += row[{slot}];")
+            if r != c:
+                lines.append(f"kq[({col_i}) * {n3} + {row_i}] += row[{slot}];")
+    return {
+        "c_open": c_open,
+        "c_close": c_close,
+        "slots": len(t.quadratic),
+        "call": calls[f"t{t.index}_quad"]["c"],
+        "scatter": tuple(lines),
+    }
+
+
+def _py_quad(t: TermLoop, calls: dict[str, Any], n: int) -> tuple[str, ...]:
+    """NumPy lines adding one quadratic term's members into K and kb (component-major)."""
+    up = f"T{t.index}"
+    index = (f"{up}_I", f"{up}_J")
+    lines = [f"coef = {calls[f't{t.index}_quad']['py']}"]
+    for slot, r, c in t.quadratic:
+        value = f"numpy.broadcast_to(coef[..., {slot}], {index[0]}.shape)"
+        if r < 0:
+            lines.append(f"kb[-1] += float(numpy.sum({value}))")
+        elif c < 0:
+            lines.append(f"numpy.add.at(kb, {_coordinate(r, n, index)}, {value})")
+        else:
+            row_i, col_i = _coordinate(r, n, index), _coordinate(c, n, index)
+            lines.append(f"numpy.add.at(kq, ({row_i}, {col_i}), {value})")
+            if r != c:
+                lines.append(f"numpy.add.at(kq, ({col_i}, {row_i}), {value})")
+    return tuple(lines)
 
 
 def _doc(buffers: list[tuple[str, int]]) -> str:
@@ -236,7 +357,12 @@ def _work(module: Module) -> dict[str, dict[str, Any]]:
 
 
 _CONTEXT_DOC = {
+    "cc": "constants of the kernels that depend only on the parameters",
+    "kq": "the quadratic terms' matrix K (row-major, N3 x N3)",
+    "soa": "structure-of-arrays copies of q and g (x, y, z, gx, gy, gz) for the pair rows",
+    "kb": "the quadratic terms' linear part b (N3), then their constant",
     "md": "M_ii, one per body",
+    "mi": "1 / M_ii, one per body",
     "mp": "coupled entries, one per pair",
     "adiag": "diagonal of A(q+) in the VI velocity solve",
     "nb": "neighbour-list cells and links",
@@ -296,7 +422,12 @@ def print_module(module: Module) -> PrintedModule:
     sphere = module.kind is ModuleKind.SPHERE
     restrict = f"{upper}_RESTRICT"
     calls = {c.site: {"c": c_call(name, c), "py": py_call(c)} for c in module.calls}
-    kernels = tuple(print_kernel(k, restrict) for k in module.kernels if isinstance(k, Kernel))
+    inline = _inline(module)
+    kernels = tuple(
+        replace(print_kernel(k, restrict), c_function=k.name not in inline)
+        for k in module.kernels
+        if isinstance(k, Kernel)
+    )
     terms = tuple(_print_term(module, t, calls) for t in module.terms)
     tables: list[tuple[str, str, int, tuple[str, ...]]] = []
     if module.coupling is not None:
@@ -315,17 +446,25 @@ def print_module(module: Module) -> PrintedModule:
         c_macros = (
             ("N3", str(3 * n), "doubles in q (or w): 3 per body"),
             ("NS", str(6 * n), "doubles in the state y = (q, w)"),
+            ("LD3", str(padded(3 * n)), "row stride of the dense N3 x N3 systems"),
+            ("LDN", str(padded(n)), "row stride of the dense n x n systems"),
+            ("LD_MAX", str(padded(3 * n)), "the largest row stride"),
         )
         h_macros = (
             ("NBODIES", str(n), "bodies"),
             ("NSTATE", str(3 * n), "doubles in q (and in w): 3 per body, body-major"),
             ("NPARAMS", str(len(module.parameter_names)), "parameters in p"),
             ("NPAIRS", str(npairs), "coupled pairs of M (off-diagonal entries not zero)"),
+            ("NCONST", str(module.constants), "constants of the kernels (computed once per call)"),
             ("WORK_BASE", str(module.work_base), "workspace doubles before the per-call context"),
             ("WORK_SIZE", str(module.work_size), "workspace doubles every `work` must hold"),
         )
     else:
-        c_macros = (("NS", str(4 * n), "doubles in the state y = (x, xd)"),)
+        c_macros = (
+            ("NS", str(4 * n), "doubles in the state y = (x, xd)"),
+            ("LDX", str(padded(2 * n)), "row stride of the dense NX x NX system"),
+            ("LD_MAX", str(padded(2 * n)), "the largest row stride"),
+        )
         h_macros = (
             ("NBODIES", str(n), "bodies"),
             ("NX", str(2 * n), "angles (and rates): theta_i, phi_i per body"),
@@ -341,6 +480,7 @@ def print_module(module: Module) -> PrintedModule:
         spec_hash=module.spec_hash,
         origin=module.origin,
         n=n,
+        n2=2 * n,
         n3=3 * n,
         nx=2 * n,
         ns=6 * n if sphere else 4 * n,
@@ -348,6 +488,7 @@ def print_module(module: Module) -> PrintedModule:
         npairs_or_one=max(npairs, 1),
         coupled=bool(facts.get("coupled", False)),
         general=bool(facts.get("general", False)),
+        soa_bridge=module.body_major_terms,
         uniform_mass=bool(facts.get("uniform_mass", False)),
         neighbour_lists=bool(facts.get("neighbour_lists", False)),
         parameters=tuple(
@@ -358,13 +499,37 @@ def print_module(module: Module) -> PrintedModule:
         kernels=kernels,
         terms=terms,
         call=calls,
+        inline=inline,
         work=_work(module),
         context=tuple(
-            {"name": b.name, "offset": b.offset, "doc": _CONTEXT_DOC.get(b.name, b.name)}
+            {
+                "name": b.name,
+                "offset": b.offset,
+                "doc": _CONTEXT_DOC.get(b.name, f"term {b.name[1:]}'s member table"),
+            }
             for b in context.buffers
         ),
         work_base=module.work_base,
         work_size=module.work_size,
+        constants=module.constants,
+        constants_or_one=max(1, module.constants),
+        table_inits=tuple(
+            {
+                "index": t.index,
+                "count": t.loop.count,
+                "table": t.table,
+                "call": calls[f"t{t.index}_table"]["c"],
+            }
+            for t in module.terms
+            if t.table
+        ),
+        py_tables=tuple(calls[f"t{t.index}_table"]["py"] for t in module.terms if t.table),
+        py_table_names=tuple(f"tab{t.index}" for t in module.terms if t.table),
+        quadratic=module.quadratic,
+        quad_inits=tuple(_quad_init(module, t, calls) for t in module.terms if t.quadratic),
+        py_quad_lines=tuple(
+            line for t in module.terms if t.quadratic for line in _py_quad(t, calls, module.n)
+        ),
         c_parts=tuple(f"c/_{p}.jinja" for p in module.parts),
         py_parts=tuple(f"numpy/_{p}.jinja" for p in module.parts if p not in module.c_only),
         parts=module.parts,

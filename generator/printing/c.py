@@ -29,6 +29,7 @@ __all__ = [
     "c_call",
     "c_decl",
     "c_field_decl",
+    "c_inline",
     "c_kernel",
     "c_loop",
     "c_term_tables",
@@ -66,6 +67,10 @@ def double_literal(value: sp.Rational) -> str:
             "parameters or the expression"
         )
     return repr(number)
+
+
+#: A term kernel's own position vectors (one-body and pair terms).
+POSITIONS = ("q", "qi", "qj")
 
 
 class CPrinter(C99CodePrinter):
@@ -151,6 +156,50 @@ def c_kernel(kernel: Kernel, restrict: str) -> tuple[str, tuple[str, ...]]:
             assert a.output is not None
             lines.append(f"{a.output[0]}[{a.output[1]}] = {rhs};")
     return ", ".join(params), tuple(lines)
+
+
+def c_inline(
+    kernel: Kernel, scalars: tuple[str, ...] = POSITIONS
+) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """A kernel's body written inline, for a loop that keeps its operands in scalars: every
+    array input `x` named in `scalars` is read from the scalars x0, x1, x2, a shared array `cc`
+    from c0, c1, ... (which the loop loads once), other arrays by index; every output slot
+    `y[k]` is the scalar yk. Returns (the shared slots it reads, as `cK` names; the lines).
+
+    Example:
+        >>> import sympy as sp
+        >>> from s2gen.ir import Argument, Output
+        >>> from s2gen.passes import lower
+        >>> from s2gen.ir import KernelDef
+        >>> a = sp.symbols("qi_0:3", real=True)
+        >>> k = lower(KernelDef("k", "", (Argument("qi", a),), (Output("g", (2 * a[0],)),)))
+        >>> c_inline(k)[1]
+        ('const double g0 = 2*qi0;',)
+    """
+    names: dict[sp.Symbol, str] = {}
+    shared: list[str] = []
+    for arg in kernel.inputs:
+        if arg.shared:
+            names.update({s: f"c{k}" for k, s in enumerate(arg.symbols)})
+        elif arg.name in scalars:
+            names.update({s: f"{arg.name}{k}" for k, s in enumerate(arg.symbols)})
+        elif arg.scalar:
+            names[arg.symbols[0]] = arg.name
+        else:
+            names.update({s: f"{arg.name}[{k}]" for k, s in enumerate(arg.symbols)})
+    used: set[sp.Basic] = set()
+    for a in kernel.assignments:
+        used |= a.expr.free_symbols
+    for arg in kernel.inputs:
+        if arg.shared:
+            shared += [names[s] for s in arg.symbols if s in used]
+    pr = CPrinter(names)
+    lines = []
+    for a in kernel.assignments:
+        rhs = pr.doprint(a.expr)
+        target = a.temp if a.temp is not None else f"{a.output[0]}{a.output[1]}"  # type: ignore[index]
+        lines.append(f"const double {target} = {rhs};")
+    return tuple(shared), tuple(lines)
 
 
 def c_call(prefix: str, call: Call) -> str:

@@ -66,6 +66,8 @@ def _slots(kernel: Kernel) -> dict[sp.Symbol, str]:
     for arg in kernel.inputs:
         if arg.scalar:
             names[arg.symbols[0]] = arg.name
+        elif arg.shared:
+            names.update({s: f"{arg.name}[{k}]" for k, s in enumerate(arg.symbols)})
         elif kernel.system and arg.name == "q":
             names.update({s: f"q[{k // 3}, {k % 3}]" for k, s in enumerate(arg.symbols)})
         elif kernel.system:

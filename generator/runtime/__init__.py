@@ -5,11 +5,12 @@ loaded with ctypes; "numpy": the emitted NumPy module; "reference": the independ
 `s2gen.reference`), step size, horizon and options. Output: a `Trajectory` (t, q, omega,
 energy, statistics, wall time). A failure raises `IntegrationError`, which names the step and
 why and keeps the trajectory computed so far (`.partial`); a stored sample whose energy is not
-finite while its state is counts as such a failure (status NONFINITE). Bad arguments raise
-ValueError before anything runs: a method a backend does not have, h or T not positive and
-finite, more than `MAX_STEPS` steps, samples that would take more than half of the machine's
-memory, parameters of the wrong count or not finite, an initial state of the wrong shape or not
-unit, and options out of range (RK45 tolerances below `RTOL_FLOOR` = 100 eps and `ATOL_FLOOR`).
+finite while its state is counts as such a failure (status NONFINITE). A method a backend does
+not have is refused before anything runs, and so is a request the machine cannot serve
+(`check_run`: h and T finite and positive, T a whole number of steps, at most `MAX_SAMPLES`
+samples, trajectory arrays within `MAX_MEMORY_FRACTION` of the physical memory, tolerances
+finite and positive with rtol at least `RTOL_FLOOR` and atol at least `ATOL_FLOOR`), and
+parameters of the wrong count or not finite: a ValueError of one line saying the limit.
 
 Example:
     >>> from s2gen.systems import builtin
@@ -25,6 +26,7 @@ import math
 import numbers
 import os
 import time
+from collections.abc import Callable
 from typing import Any, Protocol
 
 import numpy as np
@@ -38,6 +40,8 @@ __all__ = [
     "ATOL_FLOOR",
     "BACKENDS",
     "CONTROLS",
+    "MAX_MEMORY_FRACTION",
+    "MAX_SAMPLES",
     "MAX_STEPS",
     "METHODS",
     "RTOL_FLOOR",
@@ -45,6 +49,7 @@ __all__ = [
     "IntegrationError",
     "Options",
     "Trajectory",
+    "check_run",
     "get_backend",
     "run",
     "simulate",
@@ -52,15 +57,23 @@ __all__ = [
 
 #: Method names (the table is `s2gen.methods.METHODS`).
 METHODS = NAMES
-#: The smallest RK45 relative tolerance (100 eps, as MATLAB's ode45): below it the error
-#: estimate is round-off and the step size shrinks without end.
+
+#: Most samples (t = 0 included) one run may hold: 2^31, the count a C int can index.
+MAX_SAMPLES = 2**31
+#: Most steps of one run (the emitted C counts them in a long).
+MAX_STEPS = 2.0**62
+#: The trajectory arrays (t, q, omega, energy) may take at most this fraction of the
+#: machine's physical memory.
+MAX_MEMORY_FRACTION = 0.5
+#: Smallest relative tolerance: 100 machine epsilons (MATLAB ode45's floor); below it the
+#: error control asks for more than double precision can give, and with ode45's weights
+#: max(|y|, atol/rtol) a tiny rtol silently switches the control off.
 RTOL_FLOOR = 100 * float(np.finfo(float).eps)
-#: The smallest RK45 absolute tolerance: below it, round-off in components that should stay 0
-#: drives the step size toward 0 (four pendula at rtol = RTOL_FLOOR over T = 1: 4,600 steps
-#: at atol = 1e-20, 2.3 million at 1e-40; at 1e-300 it never finished).
+#: Smallest absolute tolerance: below it, round-off in components that should stay 0 drives
+#: the RK45 step size toward 0 without reaching the minimum step that would stop the run (four
+#: pendula at rtol = RTOL_FLOOR over T = 1: 4,600 steps at atol = 1e-20, 2.3 million at 1e-40;
+#: at 1e-300 it never finished).
 ATOL_FLOOR = 1e-20
-#: The most steps one run may take (the emitted C counts them in a long).
-MAX_STEPS = 2**62
 
 
 class Backend(Protocol):
@@ -123,12 +136,24 @@ def simulate(
     omega0: np.ndarray | None = None,
     every: int = 1,
     energy: bool = True,
+    progress: Callable[[float], None] | None = None,
 ) -> Trajectory:
     """Integrate a system from its (or the given) initial state to T with step h, keeping
-    every `every`-th sample (T/h must be a multiple of it) and, with `energy`, its energy."""
+    every `every`-th sample (T/h must be a multiple of it) and, with `energy`, its energy;
+    `progress(fraction)` is called as the run goes (see `run`)."""
     check_method(method, backend)
     return run(
-        get_backend(system, backend), method, h, T, options, params, q0, omega0, every, energy
+        get_backend(system, backend),
+        method,
+        h,
+        T,
+        options,
+        params,
+        q0,
+        omega0,
+        every,
+        energy,
+        progress,
     )
 
 
@@ -163,47 +188,68 @@ def _initial_state(
     return q, w
 
 
-def _positive_number(value: Any, what: str) -> float:
-    """`value` as a finite positive float (ValueError naming `what` otherwise)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{what} must be a positive number, got {value!r}")  # noqa: TRY004
-    number = float(value)
-    if not (math.isfinite(number) and number > 0.0):
-        raise ValueError(f"{what} must be a positive finite number, got {value!r}")
-    return number
-
-
-def _check_options(opts: Options) -> None:
-    """Integrator options within their documented ranges (ValueError naming the field)."""
-    if not isinstance(opts, Options):
-        raise ValueError(  # noqa: TRY004 (bad input is a ValueError: the CLI reports those)
-            f"options must be an s2gen.Options, got {type(opts).__name__}"
+def run(
+    be: Backend,
+    method: str = "vi",
+    h: float | None = None,
+    T: float | None = None,
+    options: Options | None = None,
+    params: np.ndarray | None = None,
+    q0: np.ndarray | None = None,
+    omega0: np.ndarray | None = None,
+    every: int = 1,
+    energy: bool = True,
+    progress: Callable[[float], None] | None = None,
+) -> Trajectory:
+    """`simulate` on a given backend object (a `Model` brings its own). `progress(fraction)`
+    is called a few times a second while the emitted C runs (the run is one call either way,
+    so the result does not depend on it), and once at the end on the other backends."""
+    system, backend = be.system, be.name
+    check_method(method, backend)
+    h = h if h is not None else system.run.h
+    T = T if T is not None else system.run.T
+    if h is None or T is None:
+        raise ValueError(f"{system.origin}: no step size h or final time T given (spec [run])")
+    opts = options or Options()
+    nsteps = check_run(system, method, h, T, opts, every)
+    q0, omega0 = _initial_state(system, q0, omega0, opts.unit_tol)
+    p = _parameter_values(system, params)
+    start = time.perf_counter()
+    if progress is not None and backend == "c":
+        status, q, w, en, stats = be.integrate(  # type: ignore[call-arg]
+            method, h, nsteps, q0, omega0, p, opts, every, energy, progress=progress
         )
-    rtol = _positive_number(opts.rtol, "Options.rtol")
-    atol = _positive_number(opts.atol, "Options.atol")
-    if rtol < RTOL_FLOOR:
-        raise ValueError(
-            f"Options.rtol = {rtol:g} is below the floor {RTOL_FLOOR:.3g} (100 eps): RK45 "
-            "cannot meet it in double precision"
+    else:
+        status, q, w, en, stats = be.integrate(
+            method, h, nsteps, q0, omega0, p, opts, every, energy
         )
-    if atol < ATOL_FLOOR:
-        raise ValueError(
-            f"Options.atol = {atol:g} is below the floor {ATOL_FLOOR:g}: round-off would drive "
-            "the RK45 step size toward 0"
+        if progress is not None:
+            progress(1.0)
+    wall = time.perf_counter() - start
+    t = h * every * np.arange(nsteps // every + 1)
+    meta = _metadata(system, method, opts)
+    k = int(stats.get("fail_step", 0)) if status != 0 else len(t)
+    why = Status(status).message if status in Status._value2member_map_ else str(status)
+    bad_energy = _first_nonfinite_energy(en, k)
+    if bad_energy is not None:  # the state is finite there (else the backend had stopped)
+        k, status = bad_energy, int(Status.NONFINITE)
+        why = (
+            f"the energy is not finite at t = {t[k]:.6g} while the state is (the potential or "
+            "the kinetic energy is undefined there or beyond the range of a double: check V "
+            "and the parameters)"
         )
-    if opts.control not in CONTROLS:
-        raise ValueError(f"Options.control = {opts.control!r} is not one of {', '.join(CONTROLS)}")
-    hmax = opts.hmax
-    if not (isinstance(hmax, numbers.Real) and math.isfinite(float(hmax)) and float(hmax) >= 0):
-        raise ValueError(f"Options.hmax must be a finite number >= 0 (0: T/10), got {opts.hmax!r}")
-    _positive_number(opts.newton_tol, "Options.newton_tol")
-    maxiter = opts.newton_maxiter
-    if isinstance(maxiter, bool) or not isinstance(maxiter, numbers.Integral) or maxiter < 1:
-        raise ValueError(f"Options.newton_maxiter must be a positive integer, got {maxiter!r}")
-    if not (isinstance(opts.unit_tol, numbers.Real) and not math.isnan(opts.unit_tol)):
-        raise ValueError(
-            f"Options.unit_tol must be a number (<= 0: no check), got {opts.unit_tol!r}"
+        stats = {**stats, "fail_step": k}
+    if status != 0:
+        kept = None if en is None else en[:k]
+        partial = Trajectory(t[:k], q[:k], w[:k], kept, method, backend, h, stats, wall, **meta)
+        last = f"after t = {t[k - 1]:.6g}" if k else "at the initial state"
+        raise IntegrationError(
+            f"{method} ({backend}) failed {last}: {why}; the {k} valid samples are kept",
+            status,
+            k,
+            partial,
         )
+    return Trajectory(t, q, w, en, method, backend, h, stats, wall, **meta)
 
 
 def _parameter_values(system: System, params: Any) -> np.ndarray:
@@ -228,27 +274,6 @@ def _parameter_values(system: System, params: Any) -> np.ndarray:
     return p
 
 
-def _memory_limit() -> int:
-    """Bytes a trajectory may take: half of the machine's physical memory."""
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
-    except (ValueError, OSError, AttributeError):
-        return 8 * 2**30
-
-
-def _check_size(system: System, nsteps: int, every: int, energy: bool) -> None:
-    """Refuse a run whose stored samples would not fit in memory (before allocating them)."""
-    samples = nsteps // every + 1
-    size = samples * (6 * system.n + (1 if energy else 0)) * 8
-    limit = _memory_limit()
-    if size > limit:
-        raise ValueError(
-            f"{system.name}: {samples} samples of {system.n} bodies take {size / 2**30:.3g} GiB, "
-            f"more than the limit of {limit / 2**30:.3g} GiB (half of this machine's memory); "
-            "store fewer samples with every=..."
-        )
-
-
 def _first_nonfinite_energy(en: np.ndarray | None, valid: int) -> int | None:
     """The first of the `valid` samples whose energy is not finite (None: all finite)."""
     if en is None:
@@ -257,67 +282,114 @@ def _first_nonfinite_energy(en: np.ndarray | None, valid: int) -> int | None:
     return int(bad[0]) if bad.size else None
 
 
-def run(
-    be: Backend,
-    method: str = "vi",
-    h: float | None = None,
-    T: float | None = None,
+def _metadata(system: System, method: str, opts: Options) -> dict[str, Any]:
+    """The Trajectory metadata of a run: system, spec hash and, when adaptive, tolerances."""
+    meta: dict[str, Any] = {"system": system.name, "spec_hash": system.spec_hash()}
+    if method == "rk45":
+        meta.update(rtol=opts.rtol, atol=opts.atol, control=opts.control)
+    return meta
+
+
+def _physical_memory() -> int | None:
+    """Bytes of physical memory, or None where the platform does not say."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, OSError, ValueError):
+        return None
+
+
+def _bytes(n: float) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"):
+        if n < 1024 or unit == "EiB":
+            return f"{n:.3g} {unit}"
+        n /= 1024
+    return f"{n:.3g} EiB"  # pragma: no cover
+
+
+def check_run(
+    system: System,
+    method: str,
+    h: float,
+    T: float,
     options: Options | None = None,
-    params: np.ndarray | None = None,
-    q0: np.ndarray | None = None,
-    omega0: np.ndarray | None = None,
     every: int = 1,
-    energy: bool = True,
-) -> Trajectory:
-    """`simulate` on a given backend object (a `Model` brings its own)."""
-    system, backend = be.system, be.name
-    check_method(method, backend)
-    h = h if h is not None else system.run.h
-    T = T if T is not None else system.run.T
-    if h is None or T is None:
-        raise ValueError(f"{system.origin}: no step size h or final time T given (spec [run])")
-    h, T = _positive_number(h, "the step size h"), _positive_number(T, "the final time T")
-    if T / h > MAX_STEPS:
-        raise ValueError(f"T/h = {T / h:.3g} steps is more than the limit of {MAX_STEPS:.3g}")
-    nsteps = round(T / h)
-    if nsteps < 1 or abs(nsteps * h - T) > 1e-9 * T:
+) -> int:
+    """The number of steps of a run, after checking that it can be served (ValueError else).
+
+    h and T must be finite and positive with T a whole number of steps, and `every` (the
+    output stride) a positive divisor of the steps; the run may keep at most `MAX_SAMPLES`
+    samples and its trajectory arrays at most `MAX_MEMORY_FRACTION` of the physical memory;
+    rtol must lie in [`RTOL_FLOOR`, 1] and atol be finite and positive.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> check_run(builtin("double_pendulum"), "vi", 0.01, 1.0)
+        100
+        >>> check_run(builtin("double_pendulum"), "vi", 0.01, 1e12)
+        Traceback (most recent call last):
+        ...
+        ValueError: T / h = 1e+12 / 0.01 = 1e+14 steps: more than one run may hold (2147483648 samples); raise h or shorten T
+    """
+    for key, value in (("step size h", h), ("final time T", T)):
+        if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
+            raise ValueError(f"{key} = {value!r}: must be a finite number")
+        if value <= 0:
+            raise ValueError(f"{key} = {value:g}: must be positive")
+    if not (isinstance(every, (int, np.integer)) and not isinstance(every, bool) and every >= 1):
+        raise ValueError(f"every = {every!r}: must be a positive whole number of steps")
+    ratio = T / h
+    if not math.isfinite(ratio) or ratio / every + 1 > MAX_SAMPLES or ratio > MAX_STEPS:
+        raise ValueError(
+            f"T / h = {T:g} / {h:g} = {ratio:g} steps kept every {every}: more than one run "
+            f"may hold ({MAX_SAMPLES} samples, {MAX_STEPS:g} steps); raise h, every or shorten T"
+        )
+    nsteps = round(ratio)
+    if nsteps < 1:
+        raise ValueError(f"final time T = {T:g} is shorter than one step h = {h:g}")
+    if abs(nsteps * h - T) > 1e-9 * T:
         raise ValueError(f"T={T} is not a whole number of steps h={h}")
-    if (
-        isinstance(every, bool)
-        or not isinstance(every, numbers.Integral)
-        or every < 1
-        or nsteps % every != 0
-    ):
+    if nsteps % every:
         raise ValueError(f"every={every!r} must be a positive divisor of the {nsteps} steps")
-    every = int(every)
-    opts = Options() if options is None else options
-    _check_options(opts)
-    q0, omega0 = _initial_state(system, q0, omega0, opts.unit_tol)
-    p = _parameter_values(system, params)
-    _check_size(system, nsteps, every, energy)
-    start = time.perf_counter()
-    status, q, w, en, stats = be.integrate(method, h, nsteps, q0, omega0, p, opts, every, energy)
-    wall = time.perf_counter() - start
-    t = h * every * np.arange(nsteps // every + 1)
-    k = int(stats.get("fail_step", 0)) if status != 0 else len(t)
-    why = Status(status).message if status in Status._value2member_map_ else str(status)
-    bad_energy = _first_nonfinite_energy(en, k)
-    if bad_energy is not None:  # the state is finite there (else the backend had stopped)
-        k, status = bad_energy, int(Status.NONFINITE)
-        why = (
-            f"the energy is not finite at t = {t[k]:.6g} while the state is (the potential or "
-            "the kinetic energy is undefined there or beyond the range of a double: check V "
-            "and the parameters)"
+    per_sample = 8 * (2 * 3 * system.n + 2)  # q, omega, energy, t
+    need, memory = (nsteps // every + 1) * per_sample, _physical_memory()
+    if memory is not None and need > MAX_MEMORY_FRACTION * memory:
+        raise ValueError(
+            f"T / h = {T:g} / {h:g}: the trajectory arrays would take {_bytes(need)}, more "
+            f"than {MAX_MEMORY_FRACTION:g} of this machine's {_bytes(memory)} of memory; raise "
+            "h or shorten T"
         )
-        stats = {**stats, "fail_step": k}
-    if status != 0:
-        kept = None if en is None else en[:k]
-        partial = Trajectory(t[:k], q[:k], w[:k], kept, method, backend, h, stats, wall)
-        last = f"after t = {t[k - 1]:.6g}" if k else "at the initial state"
-        raise IntegrationError(
-            f"{method} ({backend}) failed {last}: {why}; the {k} valid samples are kept",
-            status,
-            k,
-            partial,
+    _check_options(options or Options())
+    return nsteps
+
+
+def _check_options(opts: Options) -> None:
+    """Tolerances and Newton settings finite and in range (ValueError naming the option)."""
+    if not isinstance(opts, Options):
+        raise ValueError(  # noqa: TRY004 (bad input is a ValueError: the CLI reports those)
+            f"options must be an s2gen.Options, got {type(opts).__name__}"
         )
-    return Trajectory(t, q, w, en, method, backend, h, stats, wall)
+    for key in ("rtol", "atol", "newton_tol", "hmax", "unit_tol"):
+        value = getattr(opts, key)
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise ValueError(f"{key} = {value!r}: must be a number")  # noqa: TRY004
+    for key in ("rtol", "atol", "newton_tol"):
+        value = getattr(opts, key)
+        if not math.isfinite(value) or value <= 0:
+            raise ValueError(f"{key} = {value}: must be a finite positive number")
+    if opts.rtol < RTOL_FLOOR or opts.rtol > 1:
+        raise ValueError(
+            f"rtol = {opts.rtol:g}: must lie between {RTOL_FLOOR:.3g} (100 machine epsilons, "
+            "MATLAB ode45's floor) and 1"
+        )
+    if opts.atol < ATOL_FLOOR:
+        raise ValueError(
+            f"atol = {opts.atol:g}: must be at least {ATOL_FLOOR:g} (below it round-off drives "
+            "the RK45 step size toward 0)"
+        )
+    if not math.isfinite(opts.hmax) or opts.hmax < 0:
+        raise ValueError(f"hmax = {opts.hmax}: must be finite and >= 0 (0 means T/10)")
+    maxiter = opts.newton_maxiter
+    if isinstance(maxiter, bool) or not isinstance(maxiter, numbers.Integral) or maxiter < 1:
+        raise ValueError(f"newton_maxiter = {maxiter!r}: must be a whole number, at least 1")
+    if opts.control not in CONTROLS:
+        raise ValueError(f"control = {opts.control!r}: choose one of {', '.join(CONTROLS)}")

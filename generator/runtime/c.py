@@ -18,11 +18,13 @@ Example:
 from __future__ import annotations
 
 import ctypes
+import threading
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from s2gen.build import BuildError, header_macro, load_library
+from s2gen.build import BuildError, build_flags, header_macro, load_library
 from s2gen.emit import emit
 from s2gen.interface import Field, Interface, Kind, interface
 from s2gen.ir import ModuleKind
@@ -38,6 +40,10 @@ _SCALARS = {Kind.DOUBLE: ctypes.c_double, Kind.INT: ctypes.c_int, Kind.LONG: cty
 
 
 _ARRAYS = (Kind.ARRAY, Kind.CONST_ARRAY, Kind.LONG_ARRAY)
+#: Seconds between two progress reports of a run in a thread.
+POLL_SECONDS = 0.2
+#: A progress callback: the fraction of the run done, in [0, 1].
+Progress = Callable[[float], None]
 
 
 def pointer(a: np.ndarray | None) -> int | None:
@@ -59,9 +65,11 @@ def _struct(name: str, fields: tuple[Field, ...]) -> type[ctypes.Structure]:
 class CLibrary:
     """An emitted C module compiled and loaded, its functions declared from the interface."""
 
-    def __init__(self, files: dict[str, str], kind: ModuleKind, prefix: str) -> None:
+    def __init__(
+        self, files: dict[str, str], kind: ModuleKind, prefix: str, opt: str | None = None
+    ) -> None:
         self.api: Interface = interface(kind)
-        self.lib, self.build = load_library(files)
+        self.lib, self.build = load_library(files, build_flags(opt))
         self.work = np.zeros(max(1, header_macro(files[f"{prefix}.h"], "WORK_SIZE")))
         self.Options = _struct("Options", self.api.options)
         self.Stats = _struct("Stats", self.api.stats)
@@ -122,12 +130,15 @@ class CBackend:
 
     name = "c"
 
-    def __init__(self, system: System, files: dict[str, str] | None = None) -> None:
-        """Compile `files` (default: the system's emitted C) and load the library; `files`
-        lets a process that never derived the system (a cluster worker) build it."""
+    def __init__(
+        self, system: System, files: dict[str, str] | None = None, opt: str | None = None
+    ) -> None:
+        """Compile `files` (default: the system's emitted C) with flag set `opt` (see
+        `s2gen.build.FLAG_SETS`; default S2GEN_OPT, else "portable") and load the library;
+        `files` lets a process that never derived the system (a cluster worker) build it."""
         self.system = system
         files = emit(system, "c") if files is None else files
-        self.library = CLibrary(files, ModuleKind.SPHERE, system.name)
+        self.library = CLibrary(files, ModuleKind.SPHERE, system.name, opt)
         if self.library.spec_hash != system.spec_hash().encode():
             raise BuildError(
                 f"{system.name}: the library was built from spec {self.library.spec_hash!r}, "
@@ -176,14 +187,19 @@ class CBackend:
         options: Options,
         every: int = 1,
         with_energy: bool = True,
+        progress: Progress | None = None,
     ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray | None, dict[str, Any]]:
+        """One call of the emitted integrate(). With `progress`, the call runs in a thread
+        (ctypes releases the GIL) while this one reports the fraction done every
+        `POLL_SECONDS`, read from the statistics the C updates as it goes (steps taken, or
+        the time reached by RK45): the run itself is the same call, bit for bit."""
         n, samples = self.system.n, nsteps // every + 1
         q = np.full((samples, n, 3), np.nan)
         w = np.full((samples, n, 3), np.nan)
         en = np.full(samples, np.nan) if with_energy else None
         lib = self.library
         stats = lib.Stats()
-        status = self._fn["integrate"](
+        args = (
             contiguous(params),
             ctypes.byref(lib.options(options, every)),
             method(method_name).code,
@@ -197,4 +213,21 @@ class CBackend:
             self.work,
             ctypes.byref(stats),
         )
+        if progress is None or nsteps == 0:
+            status = self._fn["integrate"](*args)
+        else:
+            adaptive = method(method_name).evals == 0
+            span = h * nsteps
+
+            def done() -> float:
+                return stats.fail_time / span if adaptive else stats.steps / nsteps
+
+            result: list[int] = []
+            worker = threading.Thread(target=lambda: result.append(self._fn["integrate"](*args)))
+            worker.start()
+            while worker.is_alive():
+                worker.join(POLL_SECONDS)
+                progress(min(1.0, done()))
+            status = result[0]
+            progress(1.0 if status == 0 else min(1.0, done()))
         return status, q, w, en, lib.stats(stats)

@@ -1,7 +1,16 @@
-"""The result of an integration: samples, statistics, and the error that keeps a partial run.
+"""The result of an integration: samples, statistics, metadata, and the error that keeps a
+partial run.
 
-Input: arrays and counts from a backend. Output: `Trajectory` (t, q, omega, energy, stats,
-wall time) and `IntegrationError` (raised on failure, holding the valid samples in `.partial`).
+Input: arrays and counts from a backend, and what produced them (system, spec hash, method,
+backend, step, tolerances). Output: `Trajectory` (t, q, omega, energy, stats, wall time and
+that metadata), which saves itself to and loads itself from a .npz file, computes its angular
+momentum, converts to an xarray Dataset and plots its energy and unit-length errors; and
+`IntegrationError` (raised on failure, holding the valid samples in `.partial`).
+
+File format (`save`): a NumPy .npz with the arrays ``t`` (N+1), ``q`` and ``omega``
+(N+1, n, 3), ``energy`` (N+1), ``angular_momentum`` (N+1, 3) when present, and ``metadata``,
+a JSON text (system, spec_hash, method, backend, h, rtol, atol, control, version, stats,
+wall_time). Readers that only want the arrays (``np.load(path)["q"]``) need nothing else.
 
 Example:
     >>> import numpy as np
@@ -13,17 +22,68 @@ Example:
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-__all__ = ["IntegrationError", "Trajectory"]
+from s2gen.version import __version__
+
+if TYPE_CHECKING:
+    from s2gen.system import System
+
+__all__ = ["IntegrationError", "Trajectory", "stat_counts"]
+
+#: Metadata fields written to and read from a saved trajectory, in order.
+METADATA_FIELDS = (
+    "system",
+    "spec_hash",
+    "method",
+    "backend",
+    "h",
+    "rtol",
+    "atol",
+    "control",
+    "version",
+    "stats",
+    "wall_time",
+)
+
+#: The reference backend counts under other names: rhs_evaluations (of the continuous field,
+#: one gradient each; the VI and RATTLE there evaluate gradients uncounted) and
+#: newton_iterations_total.
+_REFERENCE_NAMES = {"rhs_evaluations": "gradient_evals", "newton_iterations_total": "newton_iters"}
+
+
+def stat_counts(stats: dict[str, int], method: str = "") -> dict[str, int | None]:
+    """Accepted steps, rejected steps, gradient evaluations and Newton iterations of a run,
+    whatever backend counted them; None for a count the backend does not keep (the
+    reference's VI and RATTLE do not count their gradient evaluations).
+
+    Example:
+        >>> stat_counts({"steps": 5, "rhs_evaluations": 30, "newton_iterations_total": 0}, "rk45")
+        {'steps': 5, 'rejected': 0, 'gradient_evals': 30, 'newton_iters': 0}
+        >>> stat_counts({"steps": 5, "rhs_evaluations": 0, "newton_iterations_total": 9}, "vi")
+        {'steps': 5, 'rejected': 0, 'gradient_evals': None, 'newton_iters': 9}
+    """
+    named: dict[str, int | None] = {k: int(v) for k, v in stats.items()}
+    if "rhs_evaluations" in stats and "gradient_evals" not in stats:
+        for old, new in _REFERENCE_NAMES.items():
+            named[new] = named.pop(old, None)
+        if method in ("vi", "vi4", "rattle"):
+            named["gradient_evals"] = None
+    keys = ("steps", "rejected", "gradient_evals", "newton_iters")
+    return {k: named.get(k, 0) if k != "gradient_evals" else named.get(k) for k in keys}
 
 
 @dataclass(frozen=True)
 class Trajectory:
     """Samples on the grid t_k = k h every: q and omega (N+1, n, 3), energy (N+1,) or None when
-    it was not asked for."""
+    it was not asked for, and what made them (metadata fields after `wall_time` are keywords
+    with defaults; `rtol`, `atol` and `control` are set for adaptive methods only)."""
 
     t: np.ndarray
     q: np.ndarray
@@ -32,8 +92,247 @@ class Trajectory:
     method: str
     backend: str
     h: float
-    stats: dict[str, int] = field(default_factory=dict)
+    stats: dict[str, Any] = field(default_factory=dict)
     wall_time: float = 0.0
+    system: str = ""
+    spec_hash: str = ""
+    rtol: float | None = None
+    atol: float | None = None
+    control: str | None = None
+    version: str = __version__
+    #: J per sample (N+1, 3) when the producer computed it (see `angular_momentum`).
+    momentum: np.ndarray | None = field(default=None, compare=False)
+
+    # ------------------------------------------------------------------------ metadata
+    def metadata(self) -> dict[str, Any]:
+        """The metadata fields as plain JSON values.
+
+        Example:
+            >>> import numpy as np
+            >>> z = np.zeros((1, 1, 3))
+            >>> Trajectory(np.zeros(1), z, z, np.zeros(1), "vi", "c", 0.1).metadata()["h"]
+            0.1
+        """
+        meta = {k: getattr(self, k) for k in METADATA_FIELDS}
+        meta["stats"] = {k: int(v) for k, v in self.stats.items()}
+        meta["h"] = float(self.h)
+        meta["wall_time"] = float(self.wall_time)
+        return meta
+
+    def with_momentum(self, momentum: np.ndarray) -> Trajectory:
+        """A copy carrying the angular momentum per sample (saved with the trajectory).
+
+        Example:
+            >>> import numpy as np
+            >>> z = np.zeros((1, 1, 3))
+            >>> tr = Trajectory(np.zeros(1), z, z, np.zeros(1), "vi", "c", 0.1)
+            >>> tr.with_momentum(np.zeros((1, 3))).momentum.shape
+            (1, 3)
+        """
+        momentum = np.asarray(momentum, dtype=float)
+        if momentum.shape != (len(self.t), 3):
+            raise ValueError(f"angular momentum must have shape {(len(self.t), 3)}")
+        return dataclasses.replace(self, momentum=momentum)
+
+    # ------------------------------------------------------------------------ save / load
+    def save(self, path: str | Path) -> Path:
+        """Write the trajectory to exactly `path` (.npz format, whatever the suffix), through a
+        temporary file moved into place; refuses a symbolic link or a folder at `path`.
+
+        Example:
+            >>> import numpy as np, tempfile, pathlib
+            >>> z = np.zeros((2, 1, 3))
+            >>> tr = Trajectory(np.arange(2.0), z, z, np.zeros(2), "vi", "c", 1.0, system="p")
+            >>> p = tr.save(pathlib.Path(tempfile.mkdtemp()) / "run.npz")
+            >>> Trajectory.load(p).system
+            'p'
+        """
+        from s2gen.paths import write_atomic
+
+        arrays: dict[str, Any] = {"t": self.t, "q": self.q, "omega": self.omega}
+        if self.energy is not None:
+            arrays["energy"] = self.energy
+        if self.momentum is not None:
+            arrays["angular_momentum"] = self.momentum
+        arrays["metadata"] = np.array(json.dumps(self.metadata(), sort_keys=True))
+        return write_atomic(path, lambda f: np.savez(f, **arrays))
+
+    @classmethod
+    def load(cls, path: str | Path) -> Trajectory:
+        """Read a trajectory written by `save` (or the arrays t, q, omega, energy of an older
+        file, whose metadata is then empty; method and backend read "unknown").
+
+        Example:
+            >>> Trajectory.load("missing.npz")
+            Traceback (most recent call last):
+            ...
+            FileNotFoundError: [Errno 2] No such file or directory: 'missing.npz'
+        """
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {k: np.array(data[k]) for k in data.files}
+        meta: dict[str, Any] = {}
+        if "metadata" in arrays:
+            meta = json.loads(str(arrays.pop("metadata")))
+        t = arrays["t"]
+        h = meta.get("h", float(t[1] - t[0]) if len(t) > 1 else 0.0)
+        return cls(
+            t=t,
+            q=arrays["q"],
+            omega=arrays["omega"],
+            energy=arrays.get("energy"),
+            method=meta.get("method", "unknown"),
+            backend=meta.get("backend", "unknown"),
+            h=h,
+            stats={
+                k: v if isinstance(v, float) else int(v) for k, v in meta.get("stats", {}).items()
+            },
+            wall_time=float(meta.get("wall_time", 0.0)),
+            system=meta.get("system", ""),
+            spec_hash=meta.get("spec_hash", ""),
+            rtol=meta.get("rtol"),
+            atol=meta.get("atol"),
+            control=meta.get("control"),
+            version=meta.get("version", ""),
+            momentum=arrays.get("angular_momentum"),
+        )
+
+    # ------------------------------------------------------------------------ derived values
+    def angular_momentum(self, model: Any, params: Any = None) -> np.ndarray:
+        """J_k = sum_i q_i x sum_j M_ij (omega_j x q_j) at every sample, shape (N+1, 3).
+
+        `model` is a `System` or anything with a `.system` (a `Model`, a backend); M is taken
+        at `params` (a sequence in declared order or a mapping by name; default the spec's).
+        Computed here with NumPy from M's nonzero entries, independently of the backends.
+
+        Example:
+            >>> from s2gen.runtime import simulate
+            >>> from s2gen.systems import builtin
+            >>> tr = simulate(builtin("three_bodies"), "vi", h=0.01, T=0.1)
+            >>> J = tr.angular_momentum(builtin("three_bodies"))
+            >>> bool(abs(J - J[0]).max() < 1e-12)
+            True
+        """
+        from scipy.sparse import csr_matrix
+
+        system = getattr(model, "system", model)
+        entries = _inertia_entries(system, params)
+        n = self.q.shape[1]
+        rows, cols = (np.array([k[i] for k in entries], dtype=int) for i in (0, 1))
+        M = csr_matrix((np.array(list(entries.values())), (rows, cols)), shape=(n, n))
+        J = np.empty((len(self.t), 3))
+        block = max(1, 2**20 // max(n, 1))  # bounded temporaries on long runs
+        for k in range(0, len(self.t), block):
+            q, w = self.q[k : k + block], self.omega[k : k + block]
+            v = np.cross(w, q).transpose(1, 0, 2).reshape(n, -1)  # qdot_j = omega_j x q_j
+            p = (M @ v).reshape(n, -1, 3).transpose(1, 0, 2)
+            J[k : k + block] = np.cross(q, p).sum(axis=1)
+        return J
+
+    def unit_length_error(self) -> np.ndarray:
+        """max over bodies of | |q_i| - 1 | at every sample, shape (N+1,).
+
+        Example:
+            >>> import numpy as np
+            >>> q = np.array([[[1.0, 0, 0]], [[0, 2.0, 0]]])
+            >>> Trajectory(np.arange(2.0), q, q, np.zeros(2), "vi", "c", 1.0).unit_length_error()
+            array([0., 1.])
+        """
+        if self.q.shape[1] == 0:
+            return np.zeros(len(self.t))
+        return np.asarray(np.abs(np.linalg.norm(self.q, axis=2) - 1.0).max(axis=1))
+
+    # ------------------------------------------------------------------------ views
+    def to_xarray(self) -> Any:
+        """An `xarray.Dataset` (coordinates t, body, component; variables q, omega, energy and
+        angular_momentum when present; metadata as attributes). Needs the `xarray` extra.
+
+        Example:
+            >>> import numpy as np
+            >>> z = np.zeros((2, 1, 3))
+            >>> ds = Trajectory(np.arange(2.0), z, z, np.zeros(2), "vi", "c", 1.0).to_xarray()
+            >>> ds["q"].dims  # doctest: +SKIP
+            ('t', 'body', 'component')
+        """
+        try:
+            import xarray as xr
+        except ImportError:
+            raise ImportError(
+                "Trajectory.to_xarray needs xarray: pip install 's2gen[xarray]'"
+            ) from None
+        body = np.arange(1, self.q.shape[1] + 1)
+        comp = ["x", "y", "z"]
+        data: dict[str, Any] = {
+            "q": (("t", "body", "component"), self.q),
+            "omega": (("t", "body", "component"), self.omega),
+        }
+        if self.energy is not None:
+            data["energy"] = (("t",), self.energy)
+        if self.momentum is not None:
+            data["angular_momentum"] = (("t", "component"), self.momentum)
+        attrs = {k: v for k, v in self.metadata().items() if v is not None and k != "stats"}
+        attrs.update({f"stats_{k}": v for k, v in self.stats.items()})
+        return xr.Dataset(data, coords={"t": self.t, "body": body, "component": comp}, attrs=attrs)
+
+    def plot(self, path: str | Path | None = None) -> Any:
+        """Two panels against t on log axes: |E - E_0| and max_i | |q_i| - 1 |. Writes a PNG
+        to `path` when given; returns the matplotlib Figure (drawn without pyplot, so no
+        backend is chosen or switched; a notebook shows the returned figure).
+
+        Example:
+            >>> import numpy as np
+            >>> q = np.tile([[[1.0, 0, 0]]], (3, 1, 1))
+            >>> tr = Trajectory(np.arange(3.0), q, q, np.array([1.0, 1.1, 0.9]), "vi", "c", 1.0)
+            >>> len(tr.plot().axes)
+            2
+        """
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(7, 5.5))
+        ax_e, ax_q = fig.subplots(2, 1, sharex=True)
+        energy = np.full(len(self.t), np.nan) if self.energy is None else self.energy
+        dE = np.abs(energy - energy[0]) if len(energy) else energy
+        panels = (
+            (ax_e, dE, r"$|E - E_0|$", "C0"),
+            (ax_q, self.unit_length_error(), r"$\max_i\,|\,\|q_i\| - 1\,|$", "C1"),
+        )
+        for ax, err, label, color in panels:
+            shown = np.where(
+                err > 0, err, np.nan
+            )  # exact zeros (t = 0) have no place on a log axis
+            if np.any(np.isfinite(shown)):
+                ax.semilogy(self.t, shown, lw=0.8, color=color)
+            else:
+                ax.text(0.5, 0.5, "exactly zero", transform=ax.transAxes, ha="center")
+            ax.set_ylabel(label)
+            ax.grid(True, which="major", alpha=0.3)
+        ax_q.set_xlabel("t")
+        title = f"{self.system or 'trajectory'}: {self.method} on {self.backend}, h = {self.h:g}"
+        fig.suptitle(title)
+        fig.tight_layout()
+        if path is not None:
+            fig.savefig(path, dpi=120)
+        return fig
+
+
+def _inertia_entries(system: System, params: Any) -> dict[tuple[int, int], float]:
+    """M's nonzero entries {(row, col): value} at the given parameters (default the spec's)."""
+    import sympy as sp
+
+    if params is None:
+        values = tuple(system.parameter_values)
+    elif isinstance(params, dict):
+        merged = {**system.parameters, **{k: float(v) for k, v in params.items()}}
+        values = tuple(merged[n] for n in system.parameter_names)
+    else:
+        values = tuple(float(v) for v in params)
+    subs = dict(zip(system.parameter_symbols, values))
+    out: dict[tuple[int, int], float] = {}
+    cache: dict[Any, float] = {}
+    for key, entry in system.inertia.todok().items():
+        if entry not in cache:
+            cache[entry] = float(sp.sympify(sp.sympify(entry).xreplace(subs)).evalf())
+        out[key] = cache[entry]
+    return out
 
 
 class IntegrationError(RuntimeError):

@@ -33,8 +33,9 @@ extern "C" {
 #define DOUBLE_PENDULUM_NSTATE 6 /* doubles in q (and in w): 3 per body, body-major */
 #define DOUBLE_PENDULUM_NPARAMS 5 /* parameters in p */
 #define DOUBLE_PENDULUM_NPAIRS 1 /* coupled pairs of M (off-diagonal entries not zero) */
-#define DOUBLE_PENDULUM_WORK_BASE 174 /* workspace doubles before the per-call context */
-#define DOUBLE_PENDULUM_WORK_SIZE 179 /* workspace doubles every `work` must hold */
+#define DOUBLE_PENDULUM_NCONST 5 /* constants of the kernels (computed once per call) */
+#define DOUBLE_PENDULUM_WORK_BASE 186 /* workspace doubles before the per-call context */
+#define DOUBLE_PENDULUM_WORK_SIZE 198 /* workspace doubles every `work` must hold */
 
 /* Status codes returned by the step and integrate functions. */
 enum {

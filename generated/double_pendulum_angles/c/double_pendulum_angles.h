@@ -33,7 +33,7 @@ extern "C" {
 #define DOUBLE_PENDULUM_ANGLES_NBODIES 2 /* bodies */
 #define DOUBLE_PENDULUM_ANGLES_NX 4 /* angles (and rates): theta_i, phi_i per body */
 #define DOUBLE_PENDULUM_ANGLES_NPARAMS 5 /* parameters in p */
-#define DOUBLE_PENDULUM_ANGLES_WORK_SIZE 112 /* workspace doubles every `work` must hold */
+#define DOUBLE_PENDULUM_ANGLES_WORK_SIZE 128 /* workspace doubles every `work` must hold */
 #define DOUBLE_PENDULUM_ANGLES_POLE_TOL 1.1920928955078125e-07 /* sin theta below this is at a pole */
 #define DOUBLE_PENDULUM_ANGLES_MIN_PIVOT_RATIO 1.4210854715202004e-14 /* M(x) singular below this */
 

@@ -31,8 +31,9 @@ extern "C" {
 #define FOUR_PENDULA_NSTATE 12 /* doubles in q (and in w): 3 per body, body-major */
 #define FOUR_PENDULA_NPARAMS 3 /* parameters in p */
 #define FOUR_PENDULA_NPAIRS 0 /* coupled pairs of M (off-diagonal entries not zero) */
+#define FOUR_PENDULA_NCONST 3 /* constants of the kernels (computed once per call) */
 #define FOUR_PENDULA_WORK_BASE 276 /* workspace doubles before the per-call context */
-#define FOUR_PENDULA_WORK_SIZE 280 /* workspace doubles every `work` must hold */
+#define FOUR_PENDULA_WORK_SIZE 323 /* workspace doubles every `work` must hold */
 
 /* Status codes returned by the step and integrate functions. */
 enum {

@@ -31,8 +31,9 @@ extern "C" {
 #define LJ_CUTOFF_NSTATE 24 /* doubles in q (and in w): 3 per body, body-major */
 #define LJ_CUTOFF_NPARAMS 3 /* parameters in p */
 #define LJ_CUTOFF_NPAIRS 0 /* coupled pairs of M (off-diagonal entries not zero) */
+#define LJ_CUTOFF_NCONST 4 /* constants of the kernels (computed once per call) */
 #define LJ_CUTOFF_WORK_BASE 552 /* workspace doubles before the per-call context */
-#define LJ_CUTOFF_WORK_SIZE 569 /* workspace doubles every `work` must hold */
+#define LJ_CUTOFF_WORK_SIZE 581 /* workspace doubles every `work` must hold */
 
 /* Status codes returned by the step and integrate functions. */
 enum {

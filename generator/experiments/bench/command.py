@@ -40,7 +40,7 @@ def add_parser(subparsers: Any) -> None:
         "examples",
         nargs="*",
         metavar="EXAMPLE",
-        help=f"built-in systems (default: {' '.join(DEFAULT_EXAMPLES)})",
+        help=f"built-in systems or TOML spec files (default: {' '.join(DEFAULT_EXAMPLES)})",
     )
     b.add_argument("--out", default="out/bench", help="output folder (default out/bench)")
     b.add_argument("--quick", action="store_true", help="short horizons and sweeps (~a minute)")

@@ -28,16 +28,19 @@ def _print(line: str) -> None:
 
 
 def example_system(name: str) -> System:
-    """A built-in system by name, else a factory of `s2gen.systems.paper` of that name.
+    """A TOML spec file or a built-in system by name (`s2gen.systems.resolve`), else a factory
+    of `s2gen.systems.paper` of that name.
 
     Example:
         >>> example_system("double_pendulum").n
         2
     """
-    from s2gen.systems import builtin, builtin_names
+    from pathlib import Path
 
-    if name in builtin_names():
-        return builtin(name)
+    from s2gen.systems import builtin_names, resolve
+
+    if name in builtin_names() or Path(name).is_file() or name.endswith(".toml"):
+        return resolve(name)
     from s2gen.systems import paper
 
     factory = getattr(paper, name, None)

@@ -74,6 +74,7 @@ def bench(
         if long:
             n = steps or (10**5 if quick else 10**6)
             ex.long, ex.long_notes = long_time(name, n, tight, log)
+        ex.name = ex.system.name  # a TOML path names its files and sections by the spec's name
         report.examples.append(ex)
     if stability_envelope:
         report.stability, report.stability_cases = stability(quick, log)

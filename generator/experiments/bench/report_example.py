@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .common import _fmt, _ms, _table, _times
+from .kernels import md_kernel_ops
 from .model import FIXED, ORDERS, REF_RTOL, VI_FAMILY, ExampleBench, WPRow
 from .sweeps import fitted_orders
 
@@ -238,7 +239,8 @@ def _md_example(ex: ExampleBench, out: Path) -> list[str]:
         lines += findings(ex, "state_err") + findings(ex, "rel_dE")
         lines += [_vi_vs_rattle(ex), ""]
         lines += _md_orders(ex) + [""] + _md_energy_vs_scipy(ex) + [""]
-        lines += _md_per_step(ex) + [""] + _md_pydy(ex) + [""]
+        lines += _md_per_step(ex) + [""] + md_kernel_ops(ex.system) + [""]
+        lines += _md_pydy(ex) + [""]
         lines += _md_all_runs(ex)
     if ex.long:
         lines += _md_long(ex)

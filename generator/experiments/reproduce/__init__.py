@@ -17,7 +17,6 @@ from typing import Any
 
 _WHERE = {
     "ADAPTIVE": "runner",
-    "CHUNKED": "runner",
     "COLUMN_DEFINITIONS": "runner",
     "CSV_COLUMNS": "runner",
     "EXAMPLES": "paper",
@@ -42,7 +41,6 @@ _WHERE = {
 
 __all__ = [
     "ADAPTIVE",
-    "CHUNKED",
     "COLUMN_DEFINITIONS",
     "CSV_COLUMNS",
     "EXAMPLES",

@@ -7,10 +7,15 @@ output folder. Output: PNG files, one per figure of the paper:
   against time (log scale), every method on one plot in the paper's colours (RK: blue dotted,
   VI: red solid, RK2 with projection: black dashed);
 - ``three_bodies.png``: (a) trajectories on the sphere, (b) energy error and (c) unit-length
-  error against step size (log-log; RK2 blue squares, VI red circles);
+  error against step size (log-log; RK2 blue squares, VI red circles; the step-size axis is
+  labelled at the measured step sizes only);
 - ``molecular_kinetic.png``: the kinetic-energy distribution over a 5120-face icosphere at
   t = 0, 0.25, 0.5, 0.75 and 5 (each face: mean kinetic energy of the molecules within the face
-  and the faces sharing a vertex with it; blue, green, yellow, red in ascending order).
+  and the faces sharing a vertex with it; blue, green, yellow, red in ascending order), with a
+  caption stating the viewing direction and the x, y, z axes drawn as seen.
+
+The rod's snapshots are coloured by time with a colour bar beside the panel (a legend of nine
+times covered the rod).
 
 Figures are drawn on `matplotlib.figure.Figure` objects (no pyplot, no global state).
 
@@ -220,7 +225,8 @@ def _motion_sphere(ax: Any, system: System, r: RunResult) -> None:
     if system.n <= 8:
         ax.legend(loc="upper left", fontsize=8)
     _setup_3d(ax, f"(a) Trajectories on the sphere ({r.run.method.upper()})", _CUBE)
-    ax.set(xlabel="x", ylabel="y", zlabel="z")
+    ax.set(xlabel="x", ylabel="y", zlabel="z", xticks=[-1, 0, 1], yticks=[-1, 0, 1])
+    ax.set_zticks([-1, 0, 1])
 
 
 def _motion_double_pendulum(ax: Any, system: System, r: RunResult) -> None:
@@ -277,13 +283,18 @@ def _motion_rod(ax: Any, system: System, r: RunResult) -> None:
     wall = np.zeros((len(tr.t), 1, 3))
     chain = np.concatenate([wall, wall + base, joints], axis=1)
     times = np.linspace(0, len(tr.t) - 1, 9).astype(int)
-    colours = KINETIC_CMAP(np.linspace(0, 1, len(times)))
-    for k, c in zip(times, colours):
-        ax.plot(*chain[k].T, "-o", color=c, markersize=2, lw=1.2, label=f"t = {tr.t[k]:.3g} s")
-    ax.plot(*chain[:, -1][:: _stride(len(tr.t))].T, color="0.6", lw=0.5, label="free end")
-    ax.legend(loc="upper left", fontsize=7, ncol=2)
+    when = Normalize(float(tr.t[0]), float(tr.t[-1]))
+    for k in times:
+        ax.plot(*chain[k].T, "-o", color=KINETIC_CMAP(when(tr.t[k])), markersize=2, lw=1.2)
+    ax.plot(*chain[:, -1][:: _stride(len(tr.t))].T, color="0.6", lw=0.5)
     pts = chain.reshape(-1, 3)
-    _setup_3d(ax, f"(a) Deformation of the rod ({r.run.method.upper()})", pts, True)
+    title = f"(a) Deformation of the rod ({r.run.method.upper()})\ngrey: path of the free end"
+    _setup_3d(ax, title, pts, True)
+    # the snapshots' times as a colour bar beside the panel: a legend covered the rod
+    bar = ax.figure.colorbar(_mappable(when), ax=ax, shrink=0.6, pad=0.0, location="left")
+    bar.set_label("snapshot time (s)")
+    bar.set_ticks(tr.t[times[::2]])
+    bar.ax.yaxis.set_major_formatter(lambda v, _: f"{v:.3g}")
 
 
 def _dipole_grid(system: System) -> tuple[np.ndarray, float]:
@@ -394,8 +405,31 @@ def _against_h(ax: Axes, runs: Sequence[RunResult], metric: str) -> None:
         h, y = np.array(printed).T
         ax.plot(h, y, "kx", markersize=10, mew=2, linestyle="none", label="paper")
     ax.set(xscale="log", yscale="log")
+    _label_step_sizes(ax, sorted({r.run.h for r in runs}))
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(loc="best")
+
+
+def _label_step_sizes(ax: Axes, steps: Sequence[float]) -> None:
+    """x tick labels at the measured step sizes only (matplotlib's default labels every minor
+    tick of a log axis spanning about a decade, and 2e-3, 3e-3, 4e-3 ran into each other)."""
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
+
+    ax.xaxis.set_major_locator(FixedLocator(list(steps)))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda h, _: _power_of_ten(h)))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+
+
+def _power_of_ten(x: float) -> str:
+    r"""A positive number as mathtext m×10^e (m omitted when 1).
+
+    Example:
+        >>> print(_power_of_ten(5e-4), _power_of_ten(1e-3))
+        $5\times10^{-4}$ $10^{-3}$
+    """
+    e = int(np.floor(np.log10(x) + 1e-12))
+    m = x / 10.0**e
+    return f"$10^{{{e}}}$" if abs(m - 1) < 1e-9 else f"${m:.3g}\\times10^{{{e}}}$"
 
 
 # ----------------------------------------------------------------------- kinetic distribution
@@ -540,15 +574,57 @@ def _kinetic_figure(ex: ExampleResult, path: Path) -> Path:
     for ax, k, vals in zip(axes, idx, values):
         plot_kinetic_distribution(ax, vals, vertices, faces, view, norm)
         ax.set_title(f"t = {tr.t[k]:g}")
+    _axes_triad(axes[0], _view_basis(view))
     bar = fig.colorbar(_mappable(norm), ax=list(axes), shrink=0.85)
     bar.set_label("mean kinetic energy per molecule")
-    fig.text(0.01, 0.01, "grey: no molecule within two rings of faces", fontsize=9, color="0.4")
+    fig.supxlabel(_view_caption(view), fontsize=9, color="0.25")
     fig.suptitle(
         f"Kinetic energy distribution over a {len(faces)}-face icosphere ({r.run.method.upper()}"
         f", h = {r.run.h:g})",
         fontsize=13,
     )
     return _save(fig, path)
+
+
+def _view_caption(view: np.ndarray) -> str:
+    """Where the sphere is seen from, in words (the kinetic figure's caption).
+
+    Example:
+        >>> print(_view_caption(np.array([0.0, 0.0, 1.0])))  # doctest: +NORMALIZE_WHITESPACE
+        Seen from outside the sphere along (x, y, z) = (0.00, 0.00, 1.00) (elevation 90°,
+        azimuth 0°): ...
+    """
+    import textwrap
+
+    elev = float(np.degrees(np.arcsin(np.clip(view[2], -1.0, 1.0))))
+    azim = float(np.degrees(np.arctan2(view[1], view[0]))) if abs(view[2]) < 1 - 1e-9 else 0.0
+    x, y, z = (round(float(c), 2) + 0.0 for c in view)  # + 0.0: no "-0.00"
+    up = "+z" if abs(view[2]) < 0.9 else "+y"
+    text = (
+        f"Seen from outside the sphere along (x, y, z) = ({x:.2f}, {y:.2f}, {z:.2f}) (elevation "
+        f"{elev:.0f}°, azimuth {azim:.0f}°): the kinetic-energy-weighted mean direction of the "
+        f"molecules at t = 0, where the vortices are. Orthographic view of the near hemisphere, "
+        f"{up} towards the top of the page (axes at the lower left of the first panel); grey: "
+        "no molecule within two rings of faces."
+    )
+    return textwrap.fill(text, 125)
+
+
+def _axes_triad(ax: Axes, basis: np.ndarray) -> None:
+    """The x, y, z axes as seen in the panel (orthographic: their screen components), drawn
+    in the panel's lower-left corner; an axis pointing nearly at the viewer shows as a dot."""
+    ox, oy = -0.94, -0.94  # the corner outside the disk
+    for k, name in enumerate("xyz"):
+        dx, dy = (0.17 * float(basis[row, k]) for row in (0, 1))
+        if np.hypot(dx, dy) < 0.03:
+            towards = basis[2, k] > 0
+            ax.plot(ox, oy, "o" if towards else "x", color="black", markersize=4)
+            label = f"{name} {'towards' if towards else 'away from'} viewer"
+            ax.annotate(label, (ox, oy), xytext=(-4, -10), textcoords="offset points", fontsize=7)
+            continue
+        arrow = {"arrowstyle": "->", "color": "black", "lw": 1}
+        ax.annotate("", (ox + dx, oy + dy), (ox, oy), arrowprops=arrow)
+        ax.text(ox + 1.45 * dx, oy + 1.45 * dy, name, fontsize=8, ha="center", va="center")
 
 
 def _mappable(norm: Normalize) -> Any:

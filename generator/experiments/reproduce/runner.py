@@ -3,12 +3,8 @@
 Input: example names from `paper.EXAMPLES` (all by default), an output folder, the quick switch
 and a backend. Output: ``results.csv`` (one row per example, method and step), ``results.md``
 (the same table beside the paper's values, with definitions and notes) and the PNG figures of
-`plots.py`, all in the output folder; one progress line per run as it starts and finishes.
-
-Fixed-step integrations whose step maps (q, omega) alone (`CHUNKED`: VI, RK2, RK4 ...) run in
-chunks, each continuing from the last state, so a progress line appears every few seconds on
-long runs; the result is bit-for-bit the same as one call. RK45 runs in one call (its step-size
-history would restart), and so does RATTLE (its step carries more than (q, omega)).
+`figures.py`, all in the output folder; one progress line per run as it starts and finishes,
+and every few seconds on long runs (read from the running C, which is one call either way).
 
 A failing run (integration error, missing system) is reported on one line and recorded in the
 tables; the other runs go on and every file is still written.
@@ -27,10 +23,7 @@ import csv
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import replace
 from pathlib import Path
-
-import numpy as np
 
 from s2gen import metrics
 from s2gen.runtime import IntegrationError, Options, Trajectory, get_backend, simulate
@@ -107,15 +100,10 @@ _DAGGER_NOTE = (
 
 Log = Callable[[str], None]
 
-#: Aim for one progress line about every this many seconds on long fixed-step runs.
+#: At most one progress line this many seconds on long runs.
 PROGRESS_SECONDS = 3.0
-_FIRST_CHUNK = 50
-_MIN_CHUNK = 10
 #: Methods with a variable step; every other method takes steps of exactly h.
 ADAPTIVE = ("rk45",)
-#: Methods whose step is a map of (q, omega) alone, so a run split in chunks that continue
-#: from the last state is bit-for-bit the one-call run (RATTLE carries more state: not chunked).
-CHUNKED = ("vi", "vi4", "rk2", "rk2-proj", "rk4")
 
 
 def _print(line: str) -> None:
@@ -151,10 +139,9 @@ def _paper_values(example: Example, run: PaperRun, quick: bool) -> tuple[dict[st
 
 # ---------------------------------------------------------------------------------- integration
 def integrate(system: System, run: PaperRun, backend: str = "c", log: Log = _print) -> Trajectory:
-    """Integrate one run; `CHUNKED` methods in chunks, with a progress line every few seconds.
-
-    Chunking continues from the last state, so the trajectory is identical to one call. A
-    failure raises `IntegrationError` whose `.partial` covers every chunk computed so far.
+    """Integrate one run in one call, with a progress line every `PROGRESS_SECONDS` on long
+    runs (the emitted C reports how far it has come while it runs; the result does not
+    depend on it). A failure raises `IntegrationError` with the valid samples in `.partial`.
 
     Example:
         >>> from s2gen.systems import builtin
@@ -163,60 +150,19 @@ def integrate(system: System, run: PaperRun, backend: str = "c", log: Log = _pri
         (101, 2, 3)
     """
     opts = Options(rtol=run.rtol, atol=run.atol, control=run.control)
-    if run.method not in CHUNKED:
-        return simulate(system, run.method, backend, h=run.h, T=run.T, options=opts)
-    total = round(run.T / run.h)
-    if total < 1 or abs(total * run.h - run.T) > 1e-9 * run.T:
-        raise ValueError(f"T={run.T:g} is not a whole number of steps h={run.h:g}")
-    parts: list[Trajectory] = []
     start = time.perf_counter()
-    done, chunk, last_line = 0, min(total, _FIRST_CHUNK), start
-    # a chunk continues from the last state as it is: RK states are off unit length by design
-    resume = replace(opts, unit_tol=0.0)
-    while done < total:
-        q0 = parts[-1].q[-1] if parts else None
-        w0 = parts[-1].omega[-1] if parts else None
-        try:
-            tr = simulate(
-                system, run.method, backend, h=run.h, T=chunk * run.h,
-                options=resume if parts else opts, q0=q0, omega0=w0,
-            )  # fmt: skip
-        except IntegrationError as exc:
-            partial = _join([*parts, exc.partial], run.h)
-            raise IntegrationError(
-                f"{exc} (in the chunk from step {done})", exc.status, done + exc.step, partial
-            ) from exc
-        parts.append(tr)
-        done += chunk
-        per_step = max(tr.wall_time, 1e-9) / chunk
-        chunk = min(total - done, max(_MIN_CHUNK, int(PROGRESS_SECONDS / per_step)))
+    last = [start]
+
+    def progress(fraction: float) -> None:
         now = time.perf_counter()
-        if done < total and now - last_line >= PROGRESS_SECONDS * 0.8:
-            last_line = now
+        if fraction < 1.0 and now - last[0] >= PROGRESS_SECONDS:
+            last[0] = now
             log(
-                f"    ... {run.method} h={run.h:g}: t = {done * run.h:.6g} / {run.T:g} "
-                f"({100 * done / total:.0f} %), {now - start:.1f} s"
+                f"    ... {run.method} h={run.h:g}: t = {fraction * run.T:.6g} / {run.T:g} "
+                f"({100 * fraction:.0f} %), {now - start:.1f} s"
             )
-    return _join(parts, run.h)
 
-
-def _join(parts: list[Trajectory], h: float) -> Trajectory:
-    """Concatenate consecutive chunks (each starts at the previous one's last sample)."""
-    first = parts[0]
-    pieces = [first] + [p for p in parts[1:] if len(p.t)]
-    cut = [slice(None)] + [slice(1, None)] * (len(pieces) - 1)
-    q = np.concatenate([p.q[s] for p, s in zip(pieces, cut)])
-    w = np.concatenate([p.omega[s] for p, s in zip(pieces, cut)])
-    en = np.concatenate([p.energy[s] for p, s in zip(pieces, cut)])
-    stats: dict[str, int] = {}
-    for p in parts:
-        for k, v in p.stats.items():
-            if k not in ("fail_step", "newton_max"):
-                stats[k] = stats.get(k, 0) + v
-    stats["newton_max"] = max((p.stats.get("newton_max", 0) for p in parts), default=0)
-    wall = sum(p.wall_time for p in parts)
-    t = h * np.arange(len(en))
-    return Trajectory(t, q, w, en, first.method, first.backend, h, stats, wall)
+    return simulate(system, run.method, backend, h=run.h, T=run.T, options=opts, progress=progress)
 
 
 def _measure(result: RunResult, tr: Trajectory, energy_unit: float) -> None:

@@ -1,0 +1,237 @@
+"""A paper example's chaos band: its printed runs as ensembles of perturbed initial states.
+
+Input: the name of an example of `s2gen reproduce` (default ``elastic_rod``), the number of
+perturbed members (default 64), the relative perturbation (default 1e-13 on both q and omega)
+and where to run (as `ensemble`). Output: one `Band` per full run of the example (for the rod:
+VI at h = 1e-4 and RK45 with MATLAB ode45's control and default tolerances, output spacing
+1e-4, T = 3): the min, median and max over the perturbed members of mean |E - E0| in the
+paper's energy units (the example's `energy_unit`), the unperturbed member's value and the
+paper's printed one; ``band.md`` and ``band.csv`` in the output folder, and each run's store
+and summary (divergence, Lyapunov exponent, figures) under ``<method>_h<h>/``.
+
+The statistics come from the workers, over every sample of each member; the stores keep every
+k-th sample (about `STORED_SAMPLES` per member) for the divergence figure.
+
+Example:
+    >>> bands = chaos_band("elastic_rod", members=64, workers=2)  # doctest: +SKIP
+    >>> [(b.method, f"{b.median:.2e}") for b in bands]  # doctest: +SKIP
+    [('vi', '1.6e-06'), ('rk45', '3.9e-04')]
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from s2gen.runtime.options import Options
+
+from .cluster import CONNECT_TIMEOUT, connect
+from .dispatch import Progress, ensemble
+from .members import EnsembleError
+from .store import EnsembleStore
+from .summary import summarize
+
+__all__ = [
+    "DEFAULT_MEMBERS",
+    "DEFAULT_PERTURB",
+    "STORED_SAMPLES",
+    "Band",
+    "band_markdown",
+    "chaos_band",
+    "paper_example",
+    "write_band",
+]
+
+#: Perturbed members per run.
+DEFAULT_MEMBERS = 64
+#: Relative perturbation of the initial state.
+DEFAULT_PERTURB: Mapping[str, float] = {"q": 1e-13, "omega": 1e-13}
+#: Samples stored per member (every k-th of the run's grid).
+STORED_SAMPLES = 300
+
+
+@dataclass(frozen=True)
+class Band:
+    """One run's band: mean |E - E0| (paper units) over the perturbed members."""
+
+    example: str
+    method: str
+    h: float
+    T: float
+    rtol: float
+    atol: float
+    control: str
+    members: int
+    failed: int
+    minimum: float
+    median: float
+    maximum: float
+    reference: float
+    paper: float | None
+    seconds: float
+    store: Path
+
+    def contains_paper(self) -> bool | None:
+        """Whether the paper's printed value lies in [minimum, maximum] (None if not printed)."""
+        if self.paper is None:
+            return None
+        return self.minimum <= self.paper <= self.maximum
+
+
+def paper_example(name: str) -> Any:
+    """The `s2gen reproduce` example `name` (an `EnsembleError` if there is none)."""
+    from s2gen.experiments.reproduce.paper import EXAMPLES
+
+    if name not in EXAMPLES:
+        raise EnsembleError(
+            f"--chaos-band needs a paper example, not {name!r}; choose from {', '.join(EXAMPLES)}"
+        )
+    return EXAMPLES[name]
+
+
+def chaos_band(
+    example: str = "elastic_rod",
+    members: int = DEFAULT_MEMBERS,
+    perturb: Mapping[str, float] | None = None,
+    client: Any = None,
+    workers: int | None = None,
+    out: str | Path = "out/chaos_band",
+    *,
+    seed: int = 0,
+    progress: Progress | None = None,
+    timeout: float = CONNECT_TIMEOUT,
+    overwrite: bool = False,
+    figures: bool = True,
+    log: Any = print,
+) -> tuple[Band, ...]:
+    """Run each full run of `example` as an ensemble of `members` perturbed members (plus the
+    unperturbed reference) and write band.md and band.csv into `out`, and each run's summary
+    (with its divergence and Lyapunov fit) beside its store."""
+    import s2gen
+
+    ex = paper_example(example)
+    if members < 1:
+        raise EnsembleError(f"members must be at least 1 (got {members})")
+    system = s2gen.load(ex.system)
+    folder = Path(out)
+    bands = []
+    address = client if isinstance(client, str) else None
+    given = None if isinstance(client, str) else client
+    with connect(given, address, workers, timeout) as c:
+        for run in ex.runs:
+            steps = round(run.T / run.h)
+            log(f"{example}: {run.method}, h = {run.h:g}, T = {run.T:g}, {members} members ...")
+            start = time.perf_counter()
+            result = ensemble(
+                system,
+                members=members + 1,
+                perturb=dict(perturb or DEFAULT_PERTURB),
+                method=run.method,
+                h=run.h,
+                T=run.T,
+                every=max(1, steps // STORED_SAMPLES),
+                client=c,
+                workers=0 if c is None else None,
+                out=folder / f"{run.method}_h{run.h:g}",
+                seed=seed,
+                options=Options(rtol=run.rtol, atol=run.atol, control=run.control),
+                progress=progress,
+                overwrite=overwrite,
+                command=f"chaos band of {example}",
+            )
+            seconds = time.perf_counter() - start
+            summarize(EnsembleStore.open(result.path), result.path.parent, result, figures)
+            band = _band(ex, run, result.path, seconds)
+            log(f"  {_line(band)}")
+            bands.append(band)
+    write_band(tuple(bands), folder)
+    return tuple(bands)
+
+
+def _band(ex: Any, run: Any, path: Path, seconds: float) -> Band:
+    per = EnsembleStore.open(path).per_member()
+    unit = float(ex.energy_unit)
+    perturbed = per["replica"] > 0
+    ok = perturbed & (per["status"] == 0)
+    values = per["mean_dE"][ok] / unit
+    ref = per["mean_dE"][(per["replica"] == 0)] / unit
+    lo, med, hi = (
+        (float(values.min()), float(np.median(values)), float(values.max()))
+        if len(values)
+        else (math.nan,) * 3
+    )
+    return Band(
+        example=ex.name,
+        method=run.method,
+        h=run.h,
+        T=run.T,
+        rtol=run.rtol,
+        atol=run.atol,
+        control=run.control,
+        members=int(ok.sum()),
+        failed=int((perturbed & (per["status"] != 0)).sum()),
+        minimum=lo,
+        median=med,
+        maximum=hi,
+        reference=float(ref[0]) if len(ref) else math.nan,
+        paper=run.paper.get("mean_dE"),
+        seconds=seconds,
+        store=path,
+    )
+
+
+def _line(b: Band) -> str:
+    paper = f", paper {b.paper:.4e}" if b.paper is not None else ""
+    return (
+        f"{b.method}: mean |E-E0| min {b.minimum:.4e}, median {b.median:.4e}, max "
+        f"{b.maximum:.4e} over {b.members} members (unperturbed {b.reference:.4e}{paper}), "
+        f"{b.seconds:.1f} s"
+    )
+
+
+def band_markdown(bands: tuple[Band, ...]) -> str:
+    """The bands as a Markdown table."""
+    lines = [
+        (
+            "| example | method | h | T | members | min | median | max | unperturbed | paper "
+            "| paper in band |"
+        ),
+        "|---|---|---|---|---:|---:|---:|---:|---:|---:|---|",
+    ]
+    for b in bands:
+        inside = {None: "", True: "yes", False: "no"}[b.contains_paper()]
+        method = b.method if b.method != "rk45" else f"rk45 (rtol {b.rtol:g}, {b.control})"
+        paper = f"{b.paper:.4e}" if b.paper is not None else ""
+        lines.append(
+            f"| {b.example} | {method} | {b.h:g} | {b.T:g} | {b.members} | {b.minimum:.4e} "
+            f"| {b.median:.4e} | {b.maximum:.4e} | {b.reference:.4e} | {paper} | {inside} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def write_band(bands: tuple[Band, ...], out: Path) -> list[Path]:
+    """band.md (the table and its definition) and band.csv in `out`."""
+    out.mkdir(parents=True, exist_ok=True)
+    md = out / "band.md"
+    md.write_text(
+        "# Chaos bands\n\nMean |E − E0| over every sample (paper units), over members whose "
+        "initial state was perturbed (relative size in each run's store attributes); "
+        "'unperturbed' is the member with the exact initial state.\n\n" + band_markdown(bands),
+        encoding="utf-8",
+    )
+    path = out / "band.csv"
+    fields = ["example", "method", "h", "T", "rtol", "atol", "control", "members", "failed"]
+    fields += ["minimum", "median", "maximum", "reference", "paper", "seconds"]
+    with path.open("w", newline="") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(fields)
+        for b in bands:
+            w.writerow([getattr(b, k) if getattr(b, k) is not None else "" for k in fields])
+    return [md, path]

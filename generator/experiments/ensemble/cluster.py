@@ -1,0 +1,96 @@
+"""Where an ensemble runs: a given Dask client, a running scheduler, or a local cluster.
+
+Input: a `distributed.Client`, a scheduler address (``tcp://host:port``) or neither, a worker
+count for the local cluster and a connection timeout. Output (`connect`, a context manager):
+a connected client with at least one worker, or None for ``workers=0`` (run serially in this
+process); a local cluster started here (worker processes, one thread each, one per core by
+default) is closed on exit, a given client is left open.
+
+An unreachable scheduler or one without workers is an `EnsembleError` (one line).
+
+Example:
+    >>> with connect(workers=1) as client:  # doctest: +SKIP
+    ...     len(client.scheduler_info()["workers"])
+    1
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+from .members import EnsembleError
+
+__all__ = ["CONNECT_TIMEOUT", "connect", "worker_count"]
+
+#: Seconds to wait for a scheduler to answer and to have a worker.
+CONNECT_TIMEOUT = 10.0
+
+
+@contextmanager
+def connect(
+    client: Any = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    timeout: float = CONNECT_TIMEOUT,
+) -> Iterator[Any]:
+    """A connected Dask client: `client` as given, one for `scheduler`, or a local cluster of
+    `workers` processes (default: one per core); None when `workers` is 0 (serial)."""
+    if client is None and scheduler is None and workers == 0:
+        yield None
+        return
+    from distributed import Client, LocalCluster
+
+    if client is not None:
+        yield client
+        return
+    if scheduler is not None:
+        try:
+            c = Client(scheduler, timeout=f"{timeout}s", set_as_default=False)
+        except (OSError, ValueError) as exc:  # TimeoutError and refused connections are OSErrors
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise EnsembleError(
+                f"cannot reach the Dask scheduler at {scheduler}: {reason}"
+            ) from None
+        try:
+            _wait_for_workers(c, scheduler, timeout)
+            yield c
+        finally:
+            c.close()
+        return
+    count = workers if workers is not None else (os.cpu_count() or 1)
+    if count < 1:
+        raise EnsembleError(f"workers must be at least 1 for a local cluster (got {count})")
+    cluster = LocalCluster(
+        n_workers=count,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        silence_logs=logging.ERROR,
+    )
+    try:
+        c = Client(cluster, set_as_default=False)
+        try:
+            yield c
+        finally:
+            c.close()
+    finally:
+        cluster.close()
+
+
+def _wait_for_workers(client: Any, where: str, timeout: float) -> None:
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except (OSError, TimeoutError):
+        raise EnsembleError(
+            f"the Dask scheduler at {where} has no workers after {timeout:g} s "
+            f"(start some with: dask worker {where})"
+        ) from None
+
+
+def worker_count(client: Any) -> int:
+    """Worker processes currently connected to the client's scheduler."""
+    return len(client.scheduler_info()["workers"])

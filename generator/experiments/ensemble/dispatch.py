@@ -1,0 +1,291 @@
+"""Run an ensemble: members to workers (Dask, or this process), results streamed to the store.
+
+Input: a system (a `System` or a spec / built-in name), the members (perturbation replicas
+and sweeps, see `members`), the run (method, h, T, options, stride `every`) and where to run
+(`client`: a `distributed.Client` or a scheduler address; else a local cluster of `workers`
+processes; ``workers=0``: serially in this process). Output: the store
+``out/ensemble.zarr`` (see `store`) and an `EnsembleResult` (counts, order written, timings).
+
+How it runs on Dask: the system, its emitted C sources and the run's settings go to every
+worker once (`client.scatter(..., broadcast=True)`); each task carries one member's index,
+step, initial state and parameters. At most `WINDOW_PER_WORKER` tasks per worker are in flight;
+as each completes (`distributed.as_completed`) the client fetches its result, writes it to the
+store, drops it and submits the next member, so the client holds a few members at a time
+whatever their number. A task lost with its worker (killed, disconnected) is resubmitted (up to
+`ATTEMPTS` times, re-sending the payload if every copy was lost); a task that raises is
+recorded with status -2 and its message; a failed integration is an ordinary result with its
+partial samples and status. Results are deterministic per member (the same library, the same
+inputs), so where a member ran does not change its numbers.
+
+Example:
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     r = ensemble("double_pendulum", members=3, perturb={"omega": 1e-10}, T=0.1,
+    ...                  workers=0, out=d)
+    ...     r.written, r.failed, sorted(r.order)
+    (3, (), [0, 1, 2])
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import tempfile
+import time
+import uuid
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from s2gen.runtime.options import Options
+
+from .cluster import CONNECT_TIMEOUT, connect, worker_count
+from .members import EnsembleError, MemberTable, initial_state, member_table
+from .store import EnsembleStore
+from .worker import MemberResult, Payload, Task, failed_task, make_payload, run_member
+
+if TYPE_CHECKING:
+    from s2gen.system import System
+
+__all__ = ["ATTEMPTS", "WINDOW_CHECK_SECONDS", "WINDOW_PER_WORKER", "EnsembleResult", "ensemble"]
+
+#: Tasks in flight per worker (enough to keep each busy while results travel).
+WINDOW_PER_WORKER = 4
+#: Seconds between looks at the number of workers (the window grows as workers join).
+WINDOW_CHECK_SECONDS = 2.0
+#: Submissions of a member whose task was lost with its worker before it is recorded as failed.
+ATTEMPTS = 3
+
+Progress = Callable[[MemberResult], None]
+
+
+@dataclass(frozen=True)
+class EnsembleResult:
+    """What an ensemble run did. Times in seconds: `setup_time` from the call to the first
+    submission (emission, store, cluster start, payload), `wall_time` from the first
+    submission to the last member written, `integration_time` the members' own integration
+    times added up, `worker_setup_time` the models loaded on workers added up."""
+
+    path: Path
+    members: int
+    written: int
+    failed: tuple[int, ...]
+    task_errors: tuple[int, ...]
+    order: tuple[int, ...]
+    workers: int
+    setup_time: float
+    wall_time: float
+    integration_time: float
+    worker_setup_time: float
+
+
+def _resolve(system: System | str | Path) -> System:
+    if isinstance(system, (str, Path)):
+        import s2gen
+
+        return s2gen.load(system)
+    return system
+
+
+def _tasks(system: System, table: MemberTable) -> Iterator[Task]:
+    for m in table.members:
+        q0, w0 = initial_state(system, table, m)
+        yield Task(m.index, m.h, q0, w0, m.params)
+
+
+def _attrs(
+    system: System, table: MemberTable, payload: Payload, samples: int, command: str | None
+) -> dict[str, Any]:
+    from s2gen.methods import Status
+    from s2gen.version import __version__
+
+    statuses = {str(int(s)): s.message for s in Status}
+    statuses.update({"-1": "not written", "-2": "the task raised (see task_errors)"})
+    return {
+        "system": system.name,
+        "n": system.n,
+        "parameters": system.parameters,
+        "method": payload.method,
+        "h": table.h,
+        "T": table.T,
+        "every": payload.every,
+        "samples": samples,
+        "options": asdict(payload.options),
+        "replicas": table.replicas,
+        "perturb": dict(table.perturb),
+        "sweeps": {s.name: list(s.values) for s in table.sweeps},
+        "seed": table.seed,
+        "status_codes": statuses,
+        "task_errors": {},
+        "generator": __version__,
+        "command": command or "",
+    }
+
+
+def ensemble(
+    system: System | str | Path,
+    members: int | None = None,
+    perturb: Mapping[str, float] | None = None,
+    sweep: Mapping[str, str | Sequence[float]] | None = None,
+    method: str | None = None,
+    h: float | None = None,
+    T: float | None = None,
+    every: int = 1,
+    client: Any = None,
+    workers: int | None = None,
+    out: str | Path | None = None,
+    *,
+    seed: int = 0,
+    options: Options | None = None,
+    progress: Progress | None = None,
+    timeout: float = CONNECT_TIMEOUT,
+    overwrite: bool = False,
+    command: str | None = None,
+) -> EnsembleResult:
+    """Integrate every member with the emitted C and write them to ``out/ensemble.zarr``.
+
+    `members` is the number of replicas per sweep point (replica 0 the unperturbed reference;
+    default 16 with `perturb`, else 1); `perturb` maps "q" and/or "omega" to a relative size;
+    `sweep` maps a parameter name or "h" to ``"START:STOP:COUNT"``, ``"V1,V2"`` or a list.
+    `client`: a `distributed.Client` or a scheduler address; without one a local cluster of
+    `workers` processes is started (default one per core), and ``workers=0`` runs the members
+    one after another in this process. `every` stores every `every`-th sample. `out` defaults
+    to a new temporary folder. Bad input raises `EnsembleError` (a ValueError).
+
+    Example:
+        >>> r = ensemble("double_pendulum", sweep={"g": [1.0, 9.81]}, T=0.1, workers=0)
+        >>> r.members, r.path.name
+        (2, 'ensemble.zarr')
+    """
+    from s2gen import generate
+    from s2gen.methods import check_method
+
+    start = time.perf_counter()
+    system = _resolve(system)
+    method = method or system.run.method or "vi"
+    check_method(method, "c")
+    if every < 1:
+        raise EnsembleError(f"every must be at least 1 (got {every})")
+    table = member_table(system, members, perturb, sweep, seed, h, T)
+    payload = make_payload(system, generate(system, "c"), method, table.T, every, options)
+    samples = max(table.steps(m) // every + 1 for m in table.members)
+    folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="s2gen-ensemble-"))
+    attrs = _attrs(system, table, payload, samples, command)
+    address = client if isinstance(client, str) else None
+    given = None if isinstance(client, str) else client
+    with connect(given, address, workers, timeout) as c:  # connect first: nothing written if not
+        store = EnsembleStore.create(folder, table, system.n, samples, attrs, overwrite)
+        if c is None:
+            results = _serial(payload, _tasks(system, table))
+            return _collect(store, table, results, 0, start, progress)
+        data = c.scatter(payload, broadcast=True, hash=False)
+        results = _on_dask(c, data, payload, _tasks(system, table), system.n)
+        return _collect(store, table, results, worker_count(c), start, progress)
+
+
+def _serial(payload: Payload, tasks: Iterator[Task]) -> Iterator[MemberResult]:
+    """Every member in this process, one after another."""
+    for task in tasks:
+        try:
+            yield run_member(payload, task)
+        except Exception as exc:  # noqa: BLE001 (record it as the member's outcome, go on)
+            yield failed_task(task, payload.system.n, f"{type(exc).__name__}: {exc}")
+
+
+def _lost(exc: BaseException) -> bool:
+    """Whether a task failed because its worker or its data went away (worth resubmitting)."""
+    from concurrent.futures import CancelledError
+
+    from distributed import KilledWorker
+    from distributed.comm.core import CommClosedError
+
+    return isinstance(exc, (KilledWorker, CancelledError, CommClosedError))
+
+
+def _on_dask(
+    client: Any, data: Any, payload: Payload, tasks: Iterator[Task], n: int
+) -> Iterator[MemberResult]:
+    """Results as they complete on the cluster (`data`: the scattered payload)."""
+    from distributed import as_completed
+
+    token = uuid.uuid4().hex[:12]
+    flying: dict[str, tuple[Task, int]] = {}
+    done = as_completed(loop=client.loop)
+
+    def submit(task: Task, attempt: int) -> None:
+        key = f"s2gen-member-{token}-{task.index}-{attempt}"
+        future = client.submit(run_member, data, task, key=key)
+        flying[future.key] = (task, attempt)
+        done.add(future)
+
+    window, checked = 0, -math.inf
+
+    def top_up() -> None:  # keep WINDOW_PER_WORKER tasks per worker in flight, workers may join
+        nonlocal window, checked
+        if time.monotonic() - checked > WINDOW_CHECK_SECONDS:
+            window = WINDOW_PER_WORKER * max(1, worker_count(client))
+            checked = time.monotonic()
+        for task in itertools.islice(tasks, max(0, window - len(flying))):
+            submit(task, 0)
+
+    top_up()
+    for future in done:
+        task, attempt = flying.pop(future.key)
+        try:
+            result = future.result()
+        except Exception as exc:  # noqa: BLE001 (a lost worker is retried, anything else recorded)
+            if _lost(exc) and attempt + 1 < ATTEMPTS:
+                if data.status != "finished":  # every copy of the payload went with its worker
+                    data = client.scatter(payload, broadcast=True, hash=False)
+                submit(task, attempt + 1)
+                continue
+            result = failed_task(task, n, f"{type(exc).__name__}: {exc}")
+        finally:
+            future.release()
+        yield result
+        top_up()
+
+
+def _collect(
+    store: EnsembleStore,
+    table: MemberTable,
+    results: Iterator[MemberResult],
+    workers: int,
+    start: float,
+    progress: Progress | None,
+) -> EnsembleResult:
+    """Write each result as it arrives; flush the statistics at the end, even on interrupt."""
+    first = time.perf_counter()
+    order: list[int] = []
+    failed: list[int] = []
+    errors: list[int] = []
+    integration = setup = 0.0
+    try:
+        for item in results:
+            store.write(item)
+            order.append(item.index)
+            integration += item.wall_time
+            setup += item.setup_time
+            if item.status > 0:
+                failed.append(item.index)
+            elif item.status < 0:
+                errors.append(item.index)
+            if progress is not None:
+                progress(item)
+    finally:
+        store.flush()
+    end = time.perf_counter()
+    return EnsembleResult(
+        path=store.path,
+        members=len(table),
+        written=len(order),
+        failed=tuple(sorted(failed)),
+        task_errors=tuple(sorted(errors)),
+        order=tuple(order),
+        workers=workers,
+        setup_time=first - start,
+        wall_time=end - first,
+        integration_time=integration,
+        worker_setup_time=setup,
+    )

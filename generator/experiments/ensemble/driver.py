@@ -1,0 +1,233 @@
+"""The `s2gen ensemble` command: check the arguments, run with a progress bar, summarise.
+
+Input: arguments parsed by `command.add_parser`. Output: the store and the summary files in
+--out (or, with --bench, the benchmark's printed numbers; with --chaos-band, band.md and
+band.csv); an exit code: 0 (failed integrations are results, counted in the summary), 1 when
+a member's task raised, 2 on bad input (raised as a one-line ValueError for the CLI to print),
+130 when interrupted (the members written so far stay in the store).
+
+Example:
+    >>> from s2gen.experiments.ensemble.command import add_parser
+    >>> p = argparse.ArgumentParser()
+    >>> add_parser(p.add_subparsers(dest="command"))
+    >>> run(p.parse_args(["ensemble", "double_pendulum", "--sweep", "g=1:2"]))
+    ... # doctest: +IGNORE_EXCEPTION_DETAIL
+    Traceback (most recent call last):
+    ...
+    s2gen.experiments.ensemble.members.EnsembleError: sweep g=1:2: expected START:STOP:COUNT (e.g. 100:1000:10) or a list V1,V2,...
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from typing import Any
+
+from s2gen.runtime.options import Options
+
+from .command import DEFAULT_OUT, command_line
+from .members import EnsembleError, member_table, parse_assignment, sweep_values
+
+__all__ = ["perturbations", "run", "sweeps"]
+
+
+def perturbations(items: list[str]) -> dict[str, float]:
+    """--perturb WHAT=SIZE arguments as {"q" | "omega": size}.
+
+    Example:
+        >>> perturbations(["omega=1e-13"])
+        {'omega': 1e-13}
+    """
+    out = {}
+    for item in items:
+        name, value = parse_assignment(item, "--perturb")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise EnsembleError(f"--perturb {item}: SIZE must be a number") from None
+    return out
+
+
+def sweeps(items: list[str]) -> dict[str, tuple[float, ...]]:
+    """--sweep NAME=VALUES arguments as {name: values} (syntax checked here, names later)."""
+    out = {}
+    for item in items:
+        name, value = parse_assignment(item, "--sweep")
+        if name in out:
+            raise EnsembleError(f"--sweep {name} given twice")
+        out[name] = sweep_values(value, name)
+    return out
+
+
+def _options(args: argparse.Namespace) -> Options:
+    return Options(rtol=args.rtol, atol=args.atol, control=args.control)
+
+
+class _Bar:
+    """A tqdm progress bar over members, drawn from the first member on (so that an error
+    while connecting stays a single line), counting failed members."""
+
+    def __init__(self, total: int, desc: str) -> None:
+        self.total, self.desc, self.failed = total, desc, 0
+        self.bar: Any = None
+
+    def __call__(self, result: Any) -> None:
+        if self.bar is None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(
+                total=self.total, desc=self.desc, unit="member", file=sys.stderr, dynamic_ncols=True
+            )
+        if result.status != 0:
+            self.failed += 1
+            self.bar.set_postfix(failed=self.failed, refresh=False)
+        self.bar.update(1)
+
+    def write(self, line: str) -> None:
+        """Print a line without breaking the bar."""
+        if self.bar is None:
+            print(line, flush=True)
+        else:
+            self.bar.write(line)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def run(args: argparse.Namespace) -> int:
+    """Carry out `s2gen ensemble` (see the module docstring for exit codes)."""
+    perturb = perturbations(args.perturb)
+    sweep = sweeps(args.sweep)
+    if args.every < 1:
+        raise EnsembleError(f"--every must be at least 1 (got {args.every})")
+    if args.bench and args.chaos_band:
+        raise EnsembleError("--bench and --chaos-band are separate runs; give one")
+    if args.bench:
+        if sweep:
+            raise EnsembleError("--bench times perturbed members; it takes no --sweep")
+        return _bench(args, perturb)
+    if args.chaos_band:
+        given = [f"--{k}" for k in ("method", "h", "T") if getattr(args, k) is not None]
+        if sweep or given or args.every != 1:
+            extra = ", ".join(
+                given + (["--sweep"] if sweep else []) + (["--every"] * (args.every != 1))
+            )
+            raise EnsembleError(f"--chaos-band runs the paper example's own runs; drop {extra}")
+        return _chaos_band(args, perturb)
+    import s2gen
+
+    from .dispatch import ensemble
+    from .store import EnsembleStore
+    from .summary import summarize
+
+    system = s2gen.load(args.spec)
+    table = member_table(system, args.members, perturb, sweep, args.seed, args.h, args.T)
+    where = args.scheduler or (
+        "this process (serial)"
+        if args.workers == 0
+        else f"{args.workers or 'one per core'} local worker process(es)"
+    )
+    print(f"{system.name}: {len(table)} members on {where}; store {args.out}/", flush=True)
+    bar = _Bar(len(table), system.name)
+    try:
+        result = ensemble(
+            system,
+            members=args.members,
+            perturb=perturb,
+            sweep=sweep,
+            method=args.method,
+            h=args.h,
+            T=args.T,
+            every=args.every,
+            client=args.scheduler,
+            workers=args.workers,
+            out=args.out,
+            seed=args.seed,
+            options=_options(args),
+            progress=bar,
+            timeout=args.timeout,
+            overwrite=args.overwrite,
+            command=command_line(args),
+        )
+    except KeyboardInterrupt:
+        bar.close()
+        kept = _kept(args.out)
+        print(f"interrupted: {kept} of {len(table)} members kept in {args.out}/", file=sys.stderr)
+        return 130
+    finally:
+        bar.close()
+    summary = summarize(EnsembleStore.open(result.path), args.out, result, not args.no_figures)
+    print(
+        f"{result.written} members in {result.wall_time:.2f} s (set-up {result.setup_time:.2f} s)"
+        f" on {result.workers or 'no'} worker(s): {len(result.failed)} failed integrations, "
+        f"{len(result.task_errors)} task errors"
+    )
+    for d in summary.divergences:
+        if d.fit.rate is not None:
+            print(f"  Lyapunov exponent (point {d.point}): {d.fit.rate:.4g}")
+    print(f"  {result.path}")
+    for path in summary.files:
+        print(f"  {path}")
+    return 1 if result.task_errors else 0
+
+
+def _kept(out: str) -> int:
+    from .store import EnsembleStore
+
+    try:
+        return int(EnsembleStore.open(out).written().sum())
+    except Exception:  # noqa: BLE001 (a store not yet created keeps nothing)
+        return 0
+
+
+def _bench(args: argparse.Namespace, perturb: dict[str, float]) -> int:
+    from .bench import benchmark
+
+    report = benchmark(
+        args.spec,
+        members=args.members or 64,
+        perturb=perturb or None,
+        method=args.method,
+        h=args.h,
+        T=args.T,
+        every=args.every,
+        workers=args.workers or 2,
+        options=_options(args),
+        seed=args.seed,
+        out=None if args.out == DEFAULT_OUT else args.out,
+    )
+    print(f"$ {command_line(args)}")
+    for line in report.lines():
+        print(line)
+    return 0
+
+
+def _chaos_band(args: argparse.Namespace, perturb: dict[str, float]) -> int:
+    from .band import DEFAULT_MEMBERS, band_markdown, chaos_band, paper_example
+
+    members = args.members or DEFAULT_MEMBERS
+    out = args.out if args.out != DEFAULT_OUT else "out/chaos_band"
+    runs = len(paper_example(args.spec).runs)
+    bar = _Bar(runs * (members + 1), f"{args.spec} bands")
+    try:
+        bands = chaos_band(
+            args.spec,
+            members=members,
+            perturb=perturb or None,
+            client=args.scheduler,
+            workers=args.workers,
+            out=out,
+            seed=args.seed,
+            progress=bar,
+            timeout=args.timeout,
+            overwrite=args.overwrite,
+            figures=not args.no_figures,
+            log=bar.write,
+        )
+    finally:
+        bar.close()
+    print(band_markdown(bands), end="")
+    print(f"  {out}/band.md, {out}/band.csv")
+    return 0 if all(math.isfinite(b.median) for b in bands) else 1

@@ -1,0 +1,181 @@
+"""The ensemble's figures (matplotlib, PNG): energy error per member, divergence, sweep.
+
+Input: the per-member arrays of a store, the `Divergence` curves of `summary`, the store's
+settings and a folder. Output: ``energy.png`` (each member's mean |E - E0| as a strip, with a
+histogram beside it), ``divergence.png`` (perturbed members' divergence from their reference
+against time, the ensemble's geometric mean and the fitted exponential) when members were
+perturbed, and ``sweep.png`` (mean |E - E0| against each swept quantity: median over the
+replicas, their range as a bar, failures marked) when something was swept.
+
+Example:
+    >>> write_figures(per, divergences, attrs, "out/ensemble")  # doctest: +SKIP
+    [PosixPath('out/ensemble/energy.png'), ...]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .store import NOT_WRITTEN
+from .summary import Divergence, point_label, swept_names
+
+__all__ = ["divergence_figure", "energy_figure", "sweep_figure", "write_figures"]
+
+_DPI = 120
+
+
+def _plt() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _title(attrs: dict[str, Any]) -> str:
+    return f"{attrs['system']}, {attrs['method']}, h = {attrs['h']:g}, T = {attrs['T']:g}"
+
+
+def energy_figure(per: dict[str, np.ndarray], attrs: dict[str, Any], path: Path) -> Path:
+    """Mean |E - E0| of every member: a strip (x: sweep point) and a histogram (log bins)."""
+    plt = _plt()
+    written = per["status"] != NOT_WRITTEN
+    ok = written & (per["status"] == 0)
+    bad = written & (per["status"] != 0)
+    y = per["mean_dE"]
+    fig, (ax, hx) = plt.subplots(
+        1, 2, figsize=(9, 4), gridspec_kw={"width_ratios": [3, 1]}, sharey=True
+    )
+    rng = np.random.default_rng(0)
+    x = per["point"] + rng.uniform(-0.25, 0.25, len(y))
+    ref = per["replica"] == 0
+    ax.scatter(x[ok & ~ref], y[ok & ~ref], s=12, alpha=0.7, label="perturbed")
+    ax.scatter(x[ok & ref], y[ok & ref], s=40, marker="D", color="k", label="reference")
+    if bad.any():
+        ax.scatter(x[bad], y[bad], s=30, marker="x", color="tab:red", label="failed (partial)")
+    ax.set_yscale("log")
+    ax.set_ylabel("mean |E − E0| over the run")
+    points = np.unique(per["point"])
+    names = swept_names(per)
+    if len(points) > 1:
+        ticks = points[:: int(np.ceil(len(points) / 12))]
+        if len(names) == 1:  # the values alone, the name as the axis label
+            labels = [point_label(per, int(p)).split(" = ")[1] for p in ticks]
+            ax.set_xlabel(names[0].removeprefix("param_"))
+        else:
+            labels = [point_label(per, int(p), "\n") for p in ticks]
+            ax.set_xlabel("sweep point")
+        ax.set_xticks(ticks, labels, fontsize=8, rotation=30 if len(ticks) > 6 else 0)
+    else:
+        ax.set_xticks([])
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(_title(attrs), fontsize=10)
+    finite = y[written & np.isfinite(y) & (y > 0)]
+    if len(finite):
+        lo, hi = np.log10(finite.min()), np.log10(finite.max())
+        bins = np.logspace(lo - 0.05, hi + 0.05, 20) if hi > lo else 10
+        hx.hist(finite, bins=bins, orientation="horizontal", color="tab:blue", alpha=0.7)
+    hx.set_xlabel("members")
+    fig.tight_layout()
+    fig.savefig(path, dpi=_DPI)
+    plt.close(fig)
+    return path
+
+
+def divergence_figure(
+    divs: Sequence[Divergence], per: dict[str, np.ndarray], attrs: dict[str, Any], path: Path
+) -> Path:
+    """Divergence from the reference against time (log scale) with the fitted exponent."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    single = len(divs) == 1
+    for k, d in enumerate(divs[:8]):
+        color = "k" if single else colors[k % len(colors)]
+        t = d.t
+        if single:
+            for c in d.curves:
+                ax.plot(t, np.where(c > 0, c, np.nan), color="tab:blue", lw=0.5, alpha=0.3)
+            ax.fill_between(t, d.low, d.high, color="tab:blue", alpha=0.1, label="range")
+        where = point_label(per, d.point)
+        label = "geometric mean" if single else where
+        ax.plot(t, np.exp(d.log_mean), color=color, lw=1.8, label=label)
+        f = d.fit
+        if f.rate is not None:
+            tt = np.linspace(f.t_start, f.t_end, 50)
+            ax.plot(
+                tt,
+                np.exp(f.intercept + f.rate * tt),
+                "--",
+                color="tab:red" if single else color,
+                lw=2,
+                label=f"fit λ = {f.rate:.3g}" + ("" if single else f" ({where})"),
+            )
+            if single:
+                ax.axvspan(f.t_start, f.t_end, color="tab:red", alpha=0.06)
+    ax.set_yscale("log")
+    ax.set_xlabel("t")
+    ax.set_ylabel("max_i |q_i − q_i^ref|")
+    members = sum(d.members for d in divs)
+    ax.set_title(f"{_title(attrs)}: {members} perturbed members", fontsize=10)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0)
+    fig.tight_layout()
+    fig.savefig(path, dpi=_DPI)
+    plt.close(fig)
+    return path
+
+
+def sweep_figure(per: dict[str, np.ndarray], attrs: dict[str, Any], path: Path) -> Path:
+    """Mean |E - E0| against each swept quantity (median over replicas, range as a bar)."""
+    plt = _plt()
+    names = swept_names(per)
+    fig, axes = plt.subplots(1, len(names), figsize=(5.5 * len(names), 4), squeeze=False)
+    written = per["status"] != NOT_WRITTEN
+    for ax, name in zip(axes[0], names):
+        xs, med, lo, hi, failed = [], [], [], [], []
+        for point in np.unique(per["point"]):
+            sel = (per["point"] == point) & written
+            if not sel.any():
+                continue
+            x = float(per[name][sel][0])
+            v = per["mean_dE"][sel & (per["status"] == 0)]
+            v = v[np.isfinite(v)]
+            if len(v):
+                xs.append(x)
+                med.append(np.median(v))
+                lo.append(np.median(v) - v.min())
+                hi.append(v.max() - np.median(v))
+            if (per["status"][sel] != 0).any():
+                failed.append(x)
+        ax.errorbar(xs, med, yerr=[lo, hi], fmt="o-", ms=4, capsize=3, label="median (range)")
+        for k, x in enumerate(failed):
+            ax.axvline(x, color="tab:red", ls=":", lw=1, label="failures" if k == 0 else None)
+        ax.set_yscale("log")
+        positive = [x for x in xs + failed if x > 0]
+        if positive and max(positive) / min(positive) > 100:
+            ax.set_xscale("log")
+        ax.set_xlabel(name.removeprefix("param_"))
+        ax.set_ylabel("mean |E − E0|")
+        ax.legend(loc="best", fontsize=8)
+    fig.suptitle(_title(attrs), fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=_DPI)
+    plt.close(fig)
+    return path
+
+
+def write_figures(
+    per: dict[str, np.ndarray], divs: Sequence[Divergence], attrs: dict[str, Any], out: Path
+) -> list[Path]:
+    """Every figure that applies, written into `out`."""
+    paths = [energy_figure(per, attrs, out / "energy.png")]
+    if divs:
+        paths.append(divergence_figure(divs, per, attrs, out / "divergence.png"))
+    if len(np.unique(per["point"])) > 1:
+        paths.append(sweep_figure(per, attrs, out / "sweep.png"))
+    return paths

@@ -1,0 +1,266 @@
+"""The on-disk store of an ensemble: one chunked Zarr (v3) group, written member by member.
+
+Input: a `MemberTable`, the system's size and the stored sample count (`create`), then one
+`MemberResult` at a time (`write`). Output: the folder ``ensemble.zarr`` that holds
+
+- ``q``, ``omega``: (member, sample, body, component), float64, one chunk per member, NaN
+  after a member's last valid sample (a failed member keeps its samples up to the failure);
+- ``energy``, ``t``: (member, sample), likewise;
+- per-member statistics over all valid samples (not only the stored ones), dimension member:
+  ``mean_dE``, ``max_dE`` (|E - E0|), ``max_unit`` (max | |q_i| - 1 |), ``samples`` (valid
+  samples), ``steps``, ``rejected``, ``gradient_evals``, ``status`` (0 ok, a
+  `s2gen.methods.Status` code, -2 the task raised, -1 not written), ``wall_time`` (the
+  integration), ``setup_time`` (loading the model on that worker, 0 when reused);
+- coordinates, dimension member: ``member``, ``point`` (sweep point), ``replica`` (0 = the
+  unperturbed reference), ``seed`` (the perturbation of member i is drawn from
+  ``numpy.random.default_rng([seed[i], replica[i]])``), ``perturb_q``, ``perturb_omega``
+  (relative sizes, 0 for the reference), ``h`` and ``param_NAME`` per swept parameter;
+  ``body`` (1-based) and ``component`` (0..2);
+- group attributes under "s2gen": system, method, T, every, options, perturbations, sweeps,
+  status messages, the generator version and the command.
+
+Every array names its dimensions (Zarr v3 ``dimension_names``; ``xarray.open_zarr`` reads the
+group as a Dataset). Trajectories are written as each member arrives; the small per-member
+statistics are buffered and written together (`flush`, at least every `FLUSH_SECONDS` and at
+the end), ``status`` last, so a member whose status is -1 is absent, whatever its samples say.
+
+Example:
+    >>> import tempfile, s2gen
+    >>> from s2gen.experiments.ensemble.members import member_table
+    >>> s = s2gen.load("double_pendulum")
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     st = EnsembleStore.create(d, member_table(s), n=2, samples=11, attrs={})
+    ...     st.array("q").shape, st.dims("q")
+    ((1, 11, 2, 3), ('member', 'sample', 'body', 'component'))
+"""
+
+from __future__ import annotations
+
+import shutil
+import time
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from .members import EnsembleError, MemberTable
+from .worker import TASK_ERROR, MemberResult
+
+__all__ = [
+    "COORDINATES",
+    "FLUSH_SECONDS",
+    "NOT_WRITTEN",
+    "STATISTICS",
+    "STORE_NAME",
+    "TRAJECTORIES",
+    "EnsembleStore",
+]
+
+#: The store's folder name inside an ensemble's output folder.
+STORE_NAME = "ensemble.zarr"
+#: Status of a member not (yet) written.
+NOT_WRITTEN = -1
+#: Buffered statistics are written at least this often while results arrive.
+FLUSH_SECONDS = 5.0
+#: Per-sample arrays and their dimensions.
+TRAJECTORIES = {
+    "q": ("member", "sample", "body", "component"),
+    "omega": ("member", "sample", "body", "component"),
+    "energy": ("member", "sample"),
+    "t": ("member", "sample"),
+}
+#: Per-member statistics: name -> (dtype, fill value); `status` is written last.
+STATISTICS: dict[str, tuple[str, float | int]] = {
+    "mean_dE": ("f8", np.nan),
+    "max_dE": ("f8", np.nan),
+    "max_unit": ("f8", np.nan),
+    "samples": ("i8", 0),
+    "steps": ("i8", 0),
+    "rejected": ("i8", 0),
+    "gradient_evals": ("i8", 0),
+    "wall_time": ("f8", np.nan),
+    "setup_time": ("f8", np.nan),
+    "status": ("i4", NOT_WRITTEN),
+}
+#: Per-member coordinates every store has (plus param_NAME per swept parameter).
+COORDINATES = ("member", "point", "replica", "seed", "perturb_q", "perturb_omega", "h")
+_MEMBER_CHUNK = 1024
+
+
+def _codec() -> Any:
+    """Blosc LZ4 with byte shuffle: the fastest lossless codec we measured on trajectories
+    (9 ms per 7 MB member against 18 ms for Zarr's default zstd, 13 % smaller than raw)."""
+    from zarr.codecs import BloscCodec
+
+    return BloscCodec(cname="lz4", clevel=5, shuffle="shuffle")
+
+
+def _coordinates(table: MemberTable) -> dict[str, np.ndarray]:
+    ms = table.members
+    coords = {
+        "member": np.array([m.index for m in ms], dtype="i8"),
+        "point": np.array([m.point for m in ms], dtype="i8"),
+        "replica": np.array([m.replica for m in ms], dtype="i8"),
+        "seed": np.full(len(ms), table.seed, dtype="i8"),
+        "perturb_q": np.array([table.size("q") if m.perturbed else 0.0 for m in ms]),
+        "perturb_omega": np.array([table.size("omega") if m.perturbed else 0.0 for m in ms]),
+        "h": np.array([m.h for m in ms]),
+    }
+    for sweep in table.sweeps:
+        if sweep.name != "h":
+            coords[f"param_{sweep.name}"] = np.array([dict(m.params)[sweep.name] for m in ms])
+    return coords
+
+
+class EnsembleStore:
+    """An ensemble's Zarr group: create it, write members into it, read it back."""
+
+    def __init__(self, path: Path, group: Any) -> None:
+        self.path = path
+        self.group = group
+        self._arrays: dict[str, Any] = {}  # opened once: each lookup re-reads its metadata
+        self._pending: dict[int, dict[str, Any]] = {}  # statistics only, never samples
+        self._errors: dict[str, str] = {}
+        self._last_flush = time.monotonic()
+
+    # ----------------------------------------------------------------------------- creation
+    @classmethod
+    def create(
+        cls,
+        folder: str | Path,
+        table: MemberTable,
+        n: int,
+        samples: int,
+        attrs: dict[str, Any],
+        overwrite: bool = False,
+    ) -> EnsembleStore:
+        """A new store ``folder/ensemble.zarr`` for `table` (refuses to replace one unless
+        `overwrite`)."""
+        import zarr
+
+        path = Path(folder) / STORE_NAME
+        if path.exists():
+            if not overwrite:
+                raise EnsembleError(f"{path} exists; choose another --out or pass --overwrite")
+            shutil.rmtree(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        group = zarr.open_group(str(path), mode="w")
+        count = len(table)
+        for name, dims in TRAJECTORIES.items():
+            shape = (count, samples, n, 3)[: len(dims)]
+            group.create_array(
+                name,
+                shape=shape,
+                chunks=(1, *shape[1:]),
+                dtype="f8",
+                fill_value=np.nan,
+                compressors=_codec(),
+                dimension_names=list(dims),
+            )
+        chunk = (min(count, _MEMBER_CHUNK),)
+        for name, (dtype, fill) in STATISTICS.items():
+            group.create_array(
+                name,
+                shape=(count,),
+                chunks=chunk,
+                dtype=dtype,
+                fill_value=fill,
+                dimension_names=["member"],
+            )
+        coords = _coordinates(table)
+        coords_small = {"body": np.arange(1, n + 1, dtype="i8"), "component": np.arange(3)}
+        for name, values in {**coords, **coords_small}.items():
+            dim = name if name in coords_small else "member"
+            arr = group.create_array(
+                name,
+                shape=values.shape,
+                chunks=values.shape if dim != "member" else chunk,
+                dtype=values.dtype,
+                dimension_names=[dim],
+            )
+            arr[:] = values
+        coord_names = " ".join(n for n in coords if n != "member")
+        for name in (*TRAJECTORIES, *STATISTICS):
+            group[name].attrs["coordinates"] = coord_names
+        group.attrs["s2gen"] = attrs
+        return cls(path, group)
+
+    @classmethod
+    def open(cls, path: str | Path, mode: Literal["r", "r+"] = "r") -> EnsembleStore:
+        """Open an existing store (the ``ensemble.zarr`` folder or the folder holding it)."""
+        import zarr
+
+        p = Path(path)
+        if p.name != STORE_NAME and (p / STORE_NAME).exists():
+            p = p / STORE_NAME
+        if not p.exists():
+            raise EnsembleError(f"no ensemble store at {p}")
+        return cls(p, zarr.open_group(str(p), mode=mode))
+
+    # ------------------------------------------------------------------------------ writing
+    def write(self, result: MemberResult) -> None:
+        """Write a member's samples now; buffer its statistics (flushed every
+        `FLUSH_SECONDS`, or by `flush`)."""
+        k = len(result.t)
+        i = result.index
+        if k:
+            for name in TRAJECTORIES:
+                self.array(name)[i, :k] = getattr(result, name)
+        self._pending[i] = {name: getattr(result, name) for name in STATISTICS}
+        if result.status == TASK_ERROR:
+            self._errors[str(i)] = result.message
+        if time.monotonic() - self._last_flush >= FLUSH_SECONDS:
+            self.flush()
+
+    def flush(self) -> None:
+        """Write the buffered statistics (``status`` last)."""
+        if not self._pending:
+            return
+        idx = np.array(sorted(self._pending))
+        rows = [self._pending[i] for i in idx]
+        if self._errors:  # messages before statuses: a member marked -2 has its message
+            meta = dict(self.group.attrs["s2gen"])
+            meta["task_errors"] = {**meta.get("task_errors", {}), **self._errors}
+            self.group.attrs["s2gen"] = meta
+            self._errors.clear()
+        for name, (dtype, _) in STATISTICS.items():
+            values = np.array([r[name] for r in rows], dtype=dtype)
+            self.array(name).set_orthogonal_selection((idx,), values)
+        self._pending.clear()
+        self._last_flush = time.monotonic()
+
+    # ------------------------------------------------------------------------------ reading
+    def array(self, name: str) -> Any:
+        """The Zarr array `name` (index it to read)."""
+        if name not in self._arrays:
+            self._arrays[name] = self.group[name]
+        return self._arrays[name]
+
+    def dims(self, name: str) -> tuple[str, ...]:
+        """The dimension names of array `name`."""
+        return tuple(self.array(name).metadata.dimension_names)
+
+    @property
+    def attrs(self) -> dict[str, Any]:
+        """The ensemble's settings (group attribute "s2gen")."""
+        return dict(self.group.attrs["s2gen"])
+
+    def names(self) -> list[str]:
+        """Every array in the store."""
+        return sorted(self.group.array_keys())
+
+    def per_member(self) -> dict[str, np.ndarray]:
+        """Every per-member array (statistics and coordinates), read whole (small)."""
+        return {
+            name: np.asarray(self.array(name)[:])
+            for name in self.names()
+            if self.dims(name) == ("member",)
+        }
+
+    def member(self, i: int, names: tuple[str, ...] = tuple(TRAJECTORIES)) -> dict[str, Any]:
+        """The stored samples of member i (NaN after its last valid sample)."""
+        return {name: np.asarray(self.array(name)[i]) for name in names}
+
+    def written(self) -> np.ndarray:
+        """Boolean mask of the members present (status written)."""
+        return np.asarray(self.array("status")[:]) != NOT_WRITTEN

@@ -1,0 +1,247 @@
+"""What runs on a worker: integrate one member with the emitted C and summarise it.
+
+Input: a `Payload` (the system, its emitted C sources and the run's settings; sent once per
+worker) and a `Task` (one member: index, step, initial state, parameters). Output: a
+`MemberResult` with the stored samples (every `every`-th), the member's statistics over all
+its samples, and its status.
+
+A worker needs no shared file system and nothing derived: the C sources travel in the payload;
+the first task on a worker thread builds them (content-hash cached in the worker's
+`$S2GEN_CACHE`) and loads the library, and every later task with the same sources reuses that
+loaded model (`MODEL_CACHE` models per thread, keyed by the sources' sha256). A failed
+integration is a result, not an exception: it keeps the samples computed before the failure
+and the status code (`s2gen.methods.Status`).
+
+Example:
+    >>> import s2gen
+    >>> s = s2gen.load("double_pendulum")
+    >>> payload = make_payload(s, s2gen.generate(s, "c"), "vi", T=0.1, every=5)
+    >>> r = run_member(payload, Task(0, 0.01, s.q0, s.omega0, ()))
+    >>> r.status, r.q.shape, r.samples
+    (0, (3, 2, 3), 11)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import socket
+import threading
+import time
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from s2gen.runtime.options import Options
+
+if TYPE_CHECKING:
+    from s2gen.runtime.model import Model
+    from s2gen.system import System
+
+__all__ = [
+    "MODEL_CACHE",
+    "TASK_ERROR",
+    "MemberResult",
+    "Payload",
+    "Task",
+    "failed_task",
+    "make_payload",
+    "run_member",
+    "sources_digest",
+    "thin",
+]
+
+#: Loaded models kept per worker thread (least recently used dropped first).
+MODEL_CACHE = 4
+#: Status of a member whose task raised (not an integration failure): see the message.
+TASK_ERROR = -2
+
+_local = threading.local()
+
+
+@dataclass(frozen=True)
+class Payload:
+    """Everything the members share, sent once to each worker: the system, its emitted C
+    sources and their sha256, the method, horizon, stride and options."""
+
+    system: System
+    files: dict[str, str]
+    digest: str
+    method: str
+    T: float
+    every: int
+    options: Options
+
+
+@dataclass(frozen=True)
+class Task:
+    """One member's own inputs: its index, step size, initial state and swept parameters."""
+
+    index: int
+    h: float
+    q0: np.ndarray
+    omega0: np.ndarray
+    params: tuple[tuple[str, float], ...]
+
+
+@dataclass(frozen=True)
+class MemberResult:
+    """One member's outcome: stored samples (every `every`-th of the valid ones), statistics
+    over all valid samples, status (0 ok, a `Status` code, or `TASK_ERROR`) and timings."""
+
+    index: int
+    status: int
+    message: str
+    t: np.ndarray
+    q: np.ndarray
+    omega: np.ndarray
+    energy: np.ndarray
+    samples: int
+    mean_dE: float
+    max_dE: float
+    max_unit: float
+    steps: int
+    rejected: int
+    gradient_evals: int
+    wall_time: float
+    setup_time: float
+    worker: str
+
+    @property
+    def ok(self) -> bool:
+        """Whether the integration reached T."""
+        return self.status == 0
+
+
+def sources_digest(files: dict[str, str]) -> str:
+    """sha256 over the sources (sorted by name): the key of a loaded model.
+
+    Example:
+        >>> len(sources_digest({"a.c": "int x;"}))
+        64
+    """
+    h = hashlib.sha256()
+    for name in sorted(files):
+        h.update(name.encode() + b"\0" + files[name].encode() + b"\0")
+    return h.hexdigest()
+
+
+def make_payload(
+    system: System,
+    files: dict[str, str],
+    method: str,
+    T: float,
+    every: int = 1,
+    options: Options | None = None,
+) -> Payload:
+    """The payload of an ensemble (computes the sources' digest)."""
+    return Payload(system, files, sources_digest(files), method, T, every, options or Options())
+
+
+def _model(payload: Payload) -> tuple[Model, float]:
+    """This thread's loaded model of the payload's sources, and the seconds spent loading it
+    now (0 when reused)."""
+    models: OrderedDict[str, Any] = getattr(_local, "models", None) or OrderedDict()
+    _local.models = models
+    if payload.digest in models:
+        models.move_to_end(payload.digest)
+        return models[payload.digest], 0.0
+    from s2gen.runtime.model import Model
+
+    start = time.perf_counter()
+    model = Model(payload.system, "c", files=payload.files)
+    models[payload.digest] = model
+    while len(models) > MODEL_CACHE:
+        models.popitem(last=False)
+    return model, time.perf_counter() - start
+
+
+def thin(x: np.ndarray, every: int) -> np.ndarray:
+    """The stored samples of a per-sample array: every `every`-th, from the first.
+
+    The one place the stride is applied (on the worker, before sending): the member is
+    integrated at every step so that its statistics (energy and unit-length errors) see every
+    sample; only what is stored and sent is thinned.
+
+    Example:
+        >>> thin(np.arange(7), 3).tolist()
+        [0, 3, 6]
+    """
+    return np.ascontiguousarray(x[::every])
+
+
+def _worker_name() -> str:
+    return f"{socket.gethostname()}:{os.getpid()}"
+
+
+def run_member(payload: Payload, task: Task) -> MemberResult:
+    """Integrate one member and summarise it (never raises for a failed integration)."""
+    from s2gen.runtime.trajectory import IntegrationError
+
+    model, setup = _model(payload)
+    status, message = 0, "ok"
+    try:
+        tr = model.integrate(
+            payload.method,
+            task.h,
+            payload.T,
+            q0=task.q0,
+            omega0=task.omega0,
+            options=payload.options,
+            params=dict(task.params),
+        )
+    except IntegrationError as exc:
+        tr, status, message = exc.partial, int(exc.status), str(exc)
+    k = len(tr.t)
+    if k:
+        dev = np.abs(tr.energy - tr.energy[0])
+        mean_de, max_de = float(dev.mean()), float(dev.max())
+        max_unit = float(np.abs(np.sqrt(np.einsum("skc,skc->sk", tr.q, tr.q)) - 1.0).max())
+    else:
+        mean_de = max_de = max_unit = float("nan")
+    stats = tr.stats
+    return MemberResult(
+        index=task.index,
+        status=status,
+        message=message,
+        t=thin(tr.t, payload.every),
+        q=thin(tr.q, payload.every),
+        omega=thin(tr.omega, payload.every),
+        energy=thin(tr.energy, payload.every),
+        samples=k,
+        mean_dE=mean_de,
+        max_dE=max_de,
+        max_unit=max_unit,
+        steps=int(stats.get("steps", max(k - 1, 0))),
+        rejected=int(stats.get("rejected", 0)),
+        gradient_evals=int(stats.get("gradient_evals", 0)),
+        wall_time=float(tr.wall_time),
+        setup_time=setup,
+        worker=_worker_name(),
+    )
+
+
+def failed_task(task: Task, n: int, message: str) -> MemberResult:
+    """The result recorded for a member whose task raised (status `TASK_ERROR`, no samples)."""
+    empty = np.zeros((0, n, 3))
+    return MemberResult(
+        index=task.index,
+        status=TASK_ERROR,
+        message=message,
+        t=np.zeros(0),
+        q=empty,
+        omega=empty,
+        energy=np.zeros(0),
+        samples=0,
+        mean_dE=float("nan"),
+        max_dE=float("nan"),
+        max_unit=float("nan"),
+        steps=0,
+        rejected=0,
+        gradient_evals=0,
+        wall_time=0.0,
+        setup_time=0.0,
+        worker="",
+    )

@@ -1,0 +1,199 @@
+"""Every built-in's emitted C under AddressSanitizer and UndefinedBehaviorSanitizer (and, in the
+slow suite, valgrind's memcheck): a driver runs every method the C backend has from the
+system's own initial state, with every caller array allocated at exactly the size the header
+states (trajectory (nsteps + 1) * NSTATE, energy nsteps + 1, workspace WORK_SIZE), so a write or
+read past any of them is reported. Any sanitizer report fails the test; so does a failed
+integration or a non-finite result.
+
+Every built-in runs in the default suite (about 12 s on two cores); among them the double
+pendulum (coupled: Newton, linear solves) and the four pendula (diagonal, with one-body and
+pair terms). Valgrind runs those two in the slow suite.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from s2gen import generate
+from s2gen.methods import METHODS
+from s2gen.system import System
+from s2gen.systems import builtin, builtin_names
+
+C_METHODS = [m for m in METHODS if "c" in m.backends]
+SANITIZE = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]
+ENV = {
+    "ASAN_OPTIONS": "halt_on_error=1:detect_leaks=1:abort_on_error=0",
+    "UBSAN_OPTIONS": "halt_on_error=1:print_stacktrace=1",
+}
+REPORTS = ("AddressSanitizer", "LeakSanitizer", "runtime error:", "UndefinedBehaviorSanitizer")
+#: Steps per method: a few hundred; molecular (642 bodies, all pairs) a few.
+STEPS = {"molecular": 10}
+#: The systems valgrind runs (slow suite).
+VALGRIND_SUITE = ("double_pendulum", "four_pendula")
+
+pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not installed")
+
+
+def _doubles(values: object) -> str:
+    import numpy as np
+
+    return ", ".join(repr(float(v)) for v in np.asarray(values, dtype=float).ravel())
+
+
+def driver_source(system: System) -> str:
+    """A C program that integrates `system` with each method code given on its command line."""
+    name, up = system.name, system.name.upper()
+    return f"""#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "{name}.h"
+
+static const double q_init[] = {{{_doubles(system.q0)}}};
+static const double w_init[] = {{{_doubles(system.omega0)}}};
+
+static double *exactly(size_t count)
+{{
+    double *a = malloc(count * sizeof *a);
+    if (!a) {{ fprintf(stderr, "out of memory\\n"); exit(3); }}
+    return a;
+}}
+
+int main(int argc, char **argv)
+{{
+    long nsteps = atol(argv[1]), k;
+    double h = atof(argv[2]);
+    int i, bad = 0;
+    double *p = exactly({up}_NPARAMS > 0 ? {up}_NPARAMS : 1);
+    double *q0 = exactly({up}_NSTATE), *w0 = exactly({up}_NSTATE);
+    {name}_options opt;
+    {name}_default_params(p);
+    {name}_default_options(&opt);
+    memcpy(q0, q_init, sizeof q_init);
+    memcpy(w0, w_init, sizeof w_init);
+    for (i = 3; i < argc; ++i) {{
+        int method = atoi(argv[i]);
+        size_t samples = (size_t)nsteps + 1;
+        double *q = exactly(samples * {up}_NSTATE), *w = exactly(samples * {up}_NSTATE);
+        double *en = exactly(samples), *work = exactly({up}_WORK_SIZE);
+        {name}_stats st;
+        int status = {name}_integrate(p, &opt, method, h, nsteps, q0, w0, q, w, en, work, &st);
+        for (k = 0; status == {up}_OK && k < (long)(samples * {up}_NSTATE); ++k)
+            if (!isfinite(q[k]) || !isfinite(w[k])) {{ bad = 1; break; }}
+        printf("method %d status %d steps %ld energy %.17g\\n", method, status, st.steps,
+               en[status == {up}_OK ? nsteps : 0]);
+        bad |= status != {up}_OK;
+        free(q); free(w); free(en); free(work);
+    }}
+    free(p); free(q0); free(w0);
+    return bad;
+}}
+"""
+
+
+def build_driver(
+    system: System, folder: Path, flags: list[str], edit: Callable[[str], str] = str
+) -> Path:
+    """The emitted C and the driver (passed through `edit`), compiled with `flags`."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for fname, text in generate(system, "c").items():
+        (folder / fname).write_text(text)
+    (folder / "driver.c").write_text(edit(driver_source(system)))
+    exe = folder / "driver"
+    cmd = ["gcc", "-std=c99", "-g", *flags, "-o", str(exe), str(folder / "driver.c"),
+           str(folder / f"{system.name}.c"), f"-I{folder}", "-lm"]  # fmt: skip
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    assert proc.returncode == 0, proc.stderr
+    return exe
+
+
+def _args(system: System) -> list[str]:
+    h = system.run.h
+    assert h is not None
+    return [str(STEPS.get(system.name, 300)), repr(h), *(str(m.code) for m in C_METHODS)]
+
+
+def _check_output(proc: subprocess.CompletedProcess[str], tool: str) -> None:
+    report = [line for line in proc.stderr.splitlines() if any(r in line for r in REPORTS)]
+    assert not report, f"{tool} report:\n{proc.stderr[-4000:]}"
+    assert proc.returncode == 0, f"exit {proc.returncode}\n{proc.stdout}\n{proc.stderr[-4000:]}"
+    lines = proc.stdout.splitlines()
+    assert len(lines) == len(C_METHODS), proc.stdout
+    assert all(" status 0 " in line for line in lines), proc.stdout
+
+
+def _sanitized_run(name: str, tmp_path: Path) -> None:
+    system = builtin(name)
+    exe = build_driver(system, tmp_path / name, ["-O1", *SANITIZE])
+    proc = subprocess.run(
+        [str(exe), *_args(system)],
+        capture_output=True,
+        text=True,
+        check=False,
+        env={**os.environ, **ENV},
+    )
+    _check_output(proc, "sanitizer")
+
+
+def test_the_suites_cover_a_coupled_and_a_diagonal_system_with_terms() -> None:
+    dp, fp = builtin("double_pendulum"), builtin("four_pendula")
+    assert not dp.is_diagonal and fp.is_diagonal and fp.terms
+    assert set(VALGRIND_SUITE) <= set(builtin_names())
+    assert {m.name for m in C_METHODS} >= {"vi", "vi4", "rattle", "rk45", "rk4"}
+
+
+@pytest.mark.parametrize("name", builtin_names())
+def test_sanitizers(name: str, tmp_path: Path) -> None:
+    _sanitized_run(name, tmp_path)
+
+
+def _one_short(src: str) -> str:
+    """The driver with a workspace one double shorter than the header's WORK_SIZE."""
+    short = src.replace(
+        "exactly(DOUBLE_PENDULUM_WORK_SIZE)", "exactly(DOUBLE_PENDULUM_WORK_SIZE - 1)"
+    )
+    assert short != src
+    return short
+
+
+def test_a_sanitizer_report_fails_the_check(tmp_path: Path) -> None:
+    """The check is live: a driver whose workspace is one double short is caught."""
+    exe = build_driver(builtin("double_pendulum"), tmp_path, ["-O1", *SANITIZE], _one_short)
+    proc = subprocess.run(
+        [str(exe), "5", "0.01", "0"], capture_output=True, text=True, check=False,
+        env={**os.environ, **ENV},
+    )  # fmt: skip
+    with pytest.raises(AssertionError, match="sanitizer report"):
+        _check_output(proc, "sanitizer")
+
+
+def _memcheck(exe: Path, args: list[str]) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        ["valgrind", "--error-exitcode=1", "--leak-check=full", "--errors-for-leak-kinds=all",
+         "-q", str(exe), *args],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind not installed")
+@pytest.mark.parametrize("name", VALGRIND_SUITE)
+def test_valgrind_memcheck(name: str, tmp_path: Path) -> None:
+    system = builtin(name)
+    proc = _memcheck(build_driver(system, tmp_path, ["-O1"]), _args(system))
+    assert "Invalid" not in proc.stderr and "definitely lost" not in proc.stderr, proc.stderr
+    _check_output(proc, "valgrind")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind not installed")
+def test_valgrind_report_fails_the_check(tmp_path: Path) -> None:
+    exe = build_driver(builtin("double_pendulum"), tmp_path, ["-O1"], _one_short)
+    proc = _memcheck(exe, ["5", "0.01", "0"])
+    assert proc.returncode == 1 and "Invalid" in proc.stderr
