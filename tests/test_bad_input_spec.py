@@ -205,6 +205,16 @@ TOML_CASES: list[tuple[str, str, list[str]]] = [
         edit(BASE, '"-m*g*q1[2] - m*g*q2[2]"', '"1e999*q1[0]"'),
         ["[potential] V: number '1e999' is not finite", "column 1"],
     ),
+    (
+        "potential a 5000-character name",
+        edit(BASE, '"-m*g*q1[2] - m*g*q2[2]"', '"' + "a" * 5000 + '*q1[0]"'),
+        ["[potential] V: unknown name 'aaaaaaaaaa", "...' at column 1"],
+    ),
+    (
+        "diagonal a 400-digit string (found by the fuzzer)",
+        edit(BASE, 'diagonal = ["m", "m"]', 'diagonal = "' + "9" * 400 + '"'),
+        ["[inertia] diagonal: expected a list of 2 entries (one per body), got '99999", "...'"],
+    ),
     # --- parameters
     ("parameter pi", edit(BASE, "k = 2.0", "pi = 3.0"), ["[parameters] pi: 'pi' is a reserved"]),
     (
@@ -323,8 +333,9 @@ TOML_CASES: list[tuple[str, str, list[str]]] = [
 
 
 def check_message(message: str, origin: str, fragments: list[str]) -> None:
-    """One line, from the origin, with every fragment, no traceback."""
+    """One line of reasonable length, from the origin, with every fragment, no traceback."""
     assert "\n" not in message and message == message.strip(), repr(message)
+    assert len(message) < 300, message
     assert message.startswith(origin + ": "), message
     assert "Traceback" not in message
     for fragment in fragments:
@@ -367,6 +378,11 @@ API_CASES: list[tuple[str, Callable[[], object], list[str]]] = [
     ),
     ("name with a newline", lambda: _pendulum(name="abc\n"), ["key 'name': 'abc\\n' is not"]),
     ("name _math", lambda: _pendulum(name="_math"), ["'_math' starts with '_'", "_MATH_H"]),
+    (
+        "name of 5000 characters that is not an identifier",
+        lambda: _pendulum(name="-" * 5000),
+        ["key 'name': '-----", "...' is not a C identifier"],
+    ),
     (
         "potential with I",
         lambda: _pendulum(potential=sp.I * Q0),

@@ -24,7 +24,7 @@ from typing import Any, TypeAlias
 import sympy as sp
 
 from s2gen.symbols import local_vector, q_vector
-from s2gen.system import SpecError
+from s2gen.system import SpecError, shown
 
 __all__ = ["RESERVED_NAMES", "Value", "parse_expression"]
 
@@ -127,23 +127,23 @@ class _Names:
         """Why `name` means nothing here (the message of the error)."""
         global_q = _Q_NAME.fullmatch(name) is not None
         if not self.allow_vectors and (global_q or name in _AXES or name in _ROLES):
-            return f"{name!r} is not allowed here (only numbers and parameters)"
+            return f"{shown(name)} is not allowed here (only numbers and parameters)"
         own = " and ".join(self.roles)
         if global_q and self.term:
             return (
-                f"the global position {name!r} is not allowed in a term expression "
+                f"the global position {shown(name)} is not allowed in a term expression "
                 f"(a term sees only its own vectors, here {own})"
             )
         if global_q:
-            return f"no body {name!r}: the bodies are q1..q{self.n}"
+            return f"no body {shown(name)}: the bodies are q1..q{self.n}"
         if name in _ROLES and self.term:
-            return f"unknown name {name!r} (this term's own vectors are {own})"
+            return f"unknown name {shown(name)} (this term's own vectors are {own})"
         if name in _ROLES:
             return (
-                f"unknown name {name!r} (q, qi and qj exist only in term expressions: "
+                f"unknown name {shown(name)} (q, qi and qj exist only in term expressions: "
                 "[[potential.body]] has q, [[potential.pair]] has qi and qj)"
             )
-        return f"unknown name {name!r}"
+        return f"unknown name {shown(name)}"
 
 
 @dataclass(frozen=True)
@@ -221,7 +221,7 @@ def parse_expression(
     """
     bad = [p for p in parameters if p in RESERVED_NAMES or _Q_RESERVED.fullmatch(p)]
     if bad:
-        raise SpecError(f"{where}: parameter name {bad[0]!r} is reserved")
+        raise SpecError(f"{where}: parameter name {shown(bad[0])} is reserved")
     names = _name_table(n, parameters, allow_vectors, local, where)
     ctx, tree = _parse(text, where, names)
     try:
@@ -254,9 +254,11 @@ def _name_table(
     for name, width in (local or {}).items():
         if name in fixed or name in RESERVED_NAMES or _Q_RESERVED.fullmatch(name):
             what = "a parameter" if name in parameters else "reserved"
-            raise SpecError(f"{where}: local name {name!r} clashes with {what} name {name!r}")
+            raise SpecError(
+                f"{where}: local name {shown(name)} clashes with {what} name {shown(name)}"
+            )
         if width not in (1, 3):
-            raise SpecError(f"{where}: local name {name!r} has width {width}, not 1 or 3")
+            raise SpecError(f"{where}: local name {shown(name)} has width {width}, not 1 or 3")
         if width == 1:
             fixed[name] = sp.Symbol(name, real=True)
         elif allow_vectors:
@@ -273,7 +275,7 @@ def _parse(text: str, where: str, names: _Names) -> tuple[_Context, ast.Expressi
     TOML strings may break lines anywhere, as inside parentheses.
     """
     if not isinstance(text, str):
-        raise SpecError(f"{where}: expected an expression string, got {text!r}")
+        raise SpecError(f"{where}: expected an expression string, got {shown(text)}")
     if len(text) > _MAX_LENGTH:
         raise SpecError(f"{where}: expression longer than the limit of {_MAX_LENGTH} characters")
     _check_characters(text, where)
@@ -415,7 +417,7 @@ def _log10(n: int) -> float:
 def _constant(ctx: _Context, node: ast.Constant) -> Value:
     value = node.value
     if isinstance(value, bool):
-        raise ctx.fail(node, f"boolean {value!r} is not allowed")
+        raise ctx.fail(node, f"boolean {shown(value)} is not allowed")
     if isinstance(value, int):
         return sp.Integer(value)
     if isinstance(value, float):
@@ -434,7 +436,7 @@ def _name(ctx: _Context, node: ast.Name) -> Value:
     if value is not None:
         return value
     if name in _SCALAR_FUNCTIONS or name in _VECTOR_FUNCTIONS:
-        raise ctx.fail(node, f"function {name!r} used without a call, e.g. {name}(...)")
+        raise ctx.fail(node, f"function {shown(name)} used without a call, e.g. {name}(...)")
     raise ctx.fail(node, ctx.names.explain(name))
 
 
@@ -534,9 +536,9 @@ def _call(ctx: _Context, node: ast.Call) -> Value:
     name = node.func.id
     if name not in _SCALAR_FUNCTIONS and name not in _VECTOR_FUNCTIONS:
         known = ", ".join(sorted([*_SCALAR_FUNCTIONS, *_VECTOR_FUNCTIONS]))
-        raise ctx.fail(node.func, f"{name!r} is not a known function (known: {known})")
+        raise ctx.fail(node.func, f"{shown(name)} is not a known function (known: {known})")
     if name in _VECTOR_FUNCTIONS and not ctx.names.allow_vectors:
-        raise ctx.fail(node.func, f"function {name!r} is not allowed here (no vectors)")
+        raise ctx.fail(node.func, f"function {shown(name)} is not allowed here (no vectors)")
     if node.keywords:
         kw = node.keywords[0]
         raise ctx.fail(kw, f"keyword argument {ctx.token(kw)!r} is not allowed")
