@@ -222,80 +222,120 @@ def _vectors(n: int) -> st.SearchStrategy[Any]:
     )
 
 
+def _mostly(
+    valid: st.SearchStrategy[Any], invalid: st.SearchStrategy[Any]
+) -> st.SearchStrategy[Any]:
+    """`valid` three times in four (so that later stages see inputs too), else `invalid`."""
+    return st.sampled_from([0, 1, 2, 3]).flatmap(lambda k: invalid if k == 3 else valid)
+
+
 @st.composite
 def spec_values(draw: st.DrawFn) -> dict[str, Any]:
-    """Keyword arguments for `define_system`: mostly plausible, often wrong somewhere."""
-    n = draw(st.one_of(st.integers(1, 3), st.sampled_from([0, -1, 10**9, 2.5, True, "2"])))
+    """Keyword arguments for `define_system`: each field plausible three times in four."""
+    n = draw(_mostly(st.integers(1, 3), st.sampled_from([0, -1, 10**9, 2.5, True, "2"])))
     size = n if isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= 3 else 2
     params = draw(
-        st.dictionaries(
-            _PARAMETER_NAMES,
-            st.one_of(st.floats(0.1, 10), st.floats(), st.text(max_size=3)),
-            max_size=4,
+        _mostly(
+            st.fixed_dictionaries({p: st.floats(0.1, 10) for p in PARAMETERS}),
+            st.dictionaries(
+                _PARAMETER_NAMES,
+                st.one_of(st.floats(0.1, 10), st.floats(), st.text(max_size=3)),
+                max_size=4,
+            ),
         )
     )
     diagonal = draw(
-        st.one_of(
-            st.lists(
-                st.sampled_from(["m", "k", "1", "2.0", "-1", "m/0", "q1[0]", "sqrt(-1)"]),
-                min_size=size,
-                max_size=size,
+        _mostly(
+            st.lists(st.sampled_from(["m", "k", "1", "2.0", "m*k"]), min_size=size, max_size=size),
+            st.one_of(
+                st.lists(
+                    st.sampled_from(["m", "-1", "m/0", "q1[0]", "sqrt(-1)", "0", "1e400"]),
+                    min_size=size,
+                    max_size=size,
+                ),
+                _ANY_VALUE,
             ),
-            _ANY_VALUE,
         )
     )
     values: dict[str, Any] = {
-        "name": draw(_NAME_VALUES),
+        "name": draw(_mostly(st.just("fz"), _NAME_VALUES)),
         "bodies": n,
         "parameters": params,
-        "potential": draw(st.one_of(valid_expression, expression_text, _ANY_VALUE)),
+        "potential": draw(_mostly(valid_expression, st.one_of(expression_text, _ANY_VALUE))),
         "diagonal": diagonal,
     }
     if draw(st.booleans()):
-        values["initial_q"] = draw(_vectors(size))
-        values["initial_omega"] = draw(_vectors(size))
+        unit = st.sampled_from([[0, 0, 1], [1, 0, 0], ["sqrt(3)/2", 0, "1/2"]])
+        values["initial_q"] = draw(
+            _mostly(st.lists(unit, min_size=size, max_size=size), _vectors(size))
+        )
+        values["initial_omega"] = draw(_mostly(st.just([[0.0, 0.0, 0.0]] * size), _vectors(size)))
     if draw(st.booleans()):
         values["run"] = draw(
-            st.one_of(
-                st.dictionaries(
-                    st.sampled_from(["h", "T", "method", "rtol", "atol", "x"]),
-                    st.one_of(st.floats(), st.sampled_from(["vi", "rk45", "nope"])),
-                    max_size=3,
+            _mostly(
+                st.fixed_dictionaries(
+                    {"h": st.floats(1e-4, 0.1), "T": st.floats(0.1, 10)},
+                    optional={"method": st.sampled_from(["vi", "rk45", "rk4"])},
                 ),
-                _ANY_VALUE,
+                st.one_of(
+                    st.dictionaries(
+                        st.sampled_from(["h", "T", "method", "rtol", "atol", "x"]),
+                        st.one_of(st.floats(), st.sampled_from(["vi", "rk45", "nope"])),
+                        max_size=3,
+                    ),
+                    _ANY_VALUE,
+                ),
             )
         )
     if draw(st.booleans()):
-        values["pair_terms"] = draw(
-            st.one_of(
-                st.lists(
-                    st.fixed_dictionaries(
-                        {"V": st.one_of(st.just("c*dot(qi, qj)"), expression_text)},
-                        optional={
-                            "pairs": st.one_of(
-                                st.sampled_from(["all", "chain", [[1, 2]], [[1, 1]], [[0, 2]]]),
-                                _ANY_VALUE,
-                            ),
-                            "data": st.one_of(
-                                st.dictionaries(
-                                    st.sampled_from(["c", "i", "C", "x0", "pi", "qi", "d"]),
-                                    st.one_of(
-                                        st.lists(st.floats(), max_size=3),
-                                        st.lists(st.lists(st.floats(), max_size=3), max_size=2),
-                                    ),
-                                    max_size=2,
-                                ),
-                                _ANY_VALUE,
-                            ),
-                            "cutoff": st.one_of(st.floats(), _ANY_VALUE),
-                        },
-                    ),
-                    max_size=2,
-                ),
-                _ANY_VALUE,
-            )
-        )
+        values["pair_terms"] = draw(_mostly(_good_pair_terms(size), _bad_pair_terms()))
     return values
+
+
+def _good_pair_terms(n: int) -> st.SearchStrategy[Any]:
+    pairs = st.sampled_from(["chain"] + ([[[1, 2]]] if n >= 2 else []))
+    return st.lists(
+        st.fixed_dictionaries(
+            {
+                "V": st.sampled_from(
+                    ["c*dot(qi, qj)", "c*norm(qi - qj)**2", "c/(3 - dot(qi, qj))"]
+                ),
+                "pairs": pairs,
+                "data": st.just({"c": [1.5] * max(n - 1, 1)}),
+            }
+        ),
+        max_size=1,
+    )
+
+
+def _bad_pair_terms() -> st.SearchStrategy[Any]:
+    return st.one_of(
+        st.lists(
+            st.fixed_dictionaries(
+                {"V": st.one_of(st.just("c*dot(qi, qj)"), expression_text)},
+                optional={
+                    "pairs": st.one_of(
+                        st.sampled_from(["all", "chain", [[1, 2]], [[1, 1]], [[0, 2]]]),
+                        _ANY_VALUE,
+                    ),
+                    "data": st.one_of(
+                        st.dictionaries(
+                            st.sampled_from(["c", "i", "C", "x0", "pi", "qi", "d"]),
+                            st.one_of(
+                                st.lists(st.floats(), max_size=3),
+                                st.lists(st.lists(st.floats(), max_size=3), max_size=2),
+                            ),
+                            max_size=2,
+                        ),
+                        _ANY_VALUE,
+                    ),
+                    "cutoff": st.one_of(st.floats(), _ANY_VALUE),
+                },
+            ),
+            max_size=2,
+        ),
+        _ANY_VALUE,
+    )
 
 
 BASE_TOML = """\
