@@ -219,7 +219,7 @@ def header_macro(header: str, suffix: str) -> int:
     """The integer value of the macro `<NAME>_<suffix>` in an emitted header.
 
     Example:
-        >>> header_macro("#define DP_WORK_SIZE 120\n", "WORK_SIZE")
+        >>> header_macro("#define DP_WORK_SIZE 120\\n", "WORK_SIZE")
         120
     """
     for line in header.splitlines():

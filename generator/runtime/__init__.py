@@ -319,7 +319,7 @@ def check_run(
     h and T must be finite and positive with T a whole number of steps, and `every` (the
     output stride) a positive divisor of the steps; the run may keep at most `MAX_SAMPLES`
     samples and its trajectory arrays at most `MAX_MEMORY_FRACTION` of the physical memory;
-    rtol must lie in [`RTOL_FLOOR`, 1] and atol be finite and positive.
+    rtol must lie in [`RTOL_FLOOR`, 1] and atol be finite and at least `ATOL_FLOOR`.
 
     Example:
         >>> from s2gen.systems import builtin
@@ -328,7 +328,7 @@ def check_run(
         >>> check_run(builtin("double_pendulum"), "vi", 0.01, 1e12)
         Traceback (most recent call last):
         ...
-        ValueError: T / h = 1e+12 / 0.01 = 1e+14 steps: more than one run may hold (2147483648 samples); raise h or shorten T
+        ValueError: T / h = 1e+12 / 0.01 = 1e+14 steps kept every 1: more than one run may hold (2147483648 samples, 4.61169e+18 steps); raise h, every or shorten T
     """
     for key, value in (("step size h", h), ("final time T", T)):
         if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):

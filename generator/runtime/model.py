@@ -9,7 +9,7 @@ Example:
     >>> model = Model(builtin("double_pendulum"))
     >>> tr = model.integrate(h=0.01, T=0.05, params={"g": 1.0})
     >>> tr.q.shape, round(model.energy(tr.q[0], tr.omega[0], params={"g": 1.0}), 6)
-    ((6, 2, 3), -7.1736)
+    ((6, 2, 3), 100.675125)
 """
 
 from __future__ import annotations

@@ -389,10 +389,21 @@ _LOG10_2 = math.log10(2.0)
 
 
 def _short(value: sp.Expr) -> str:
-    """A number for a message: a few significant digits, never thousands."""
+    """A number for a message: a few significant digits, never thousands (an exponent of
+    more than 12 digits is given by its length: 5.957e+<233 digits>).
+
+    Example:
+        >>> _short(sp.Integer(10) ** 400), _short(sp.Float("1e300") ** (10**200))
+        ('1.000e+400', '1.000e+<203 digits>')
+    """
     if isinstance(value, (sp.Integer, sp.Float)):
-        return str(sp.Float(value, 4)) if abs(value) >= 1e6 else str(value)
-    return str(sp.N(value, 4))
+        text = str(sp.Float(value, 4)) if abs(value) >= 1e6 else str(value)
+    else:
+        text = str(sp.N(value, 4))
+    mantissa, e, exponent = text.partition("e")
+    if e and len(exponent.lstrip("+-")) > 12:
+        return f"{mantissa}e{exponent[0]}<{len(exponent.lstrip('+-'))} digits>"
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def _digits(value: sp.Expr) -> float:
