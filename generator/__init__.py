@@ -99,8 +99,10 @@ def generate(system: System, lang: str = "c", out: str | Path | None = None) -> 
     return files
 
 
-def compile(system: System, backend: str = "c") -> Model:
-    """`system` compiled for `backend` ("c", "numpy" or "reference") as a `Model`.
+def compile(system: System, backend: str = "c", opt: str | None = None) -> Model:
+    """`system` compiled for `backend` ("c", "numpy" or "reference") as a `Model`; `opt`
+    picks the C library's gcc flags: "portable" (the default) or "native" (-O3
+    -march=native, for this processor only).
 
     Example:
         >>> compile(load("double_pendulum")).parameters["g"]
@@ -108,4 +110,4 @@ def compile(system: System, backend: str = "c") -> Model:
     """
     from s2gen.runtime.model import Model
 
-    return Model(system, backend)
+    return Model(system, backend, opt=opt)

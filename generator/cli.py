@@ -52,7 +52,8 @@ def _parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="s2gen",
         description="Equations, variational integrators and C/NumPy code for mechanics on "
-        "(S^2)^n. SPEC is a TOML file or the name of a built-in system (s2gen list).",
+        "(S^2)^n. SPEC is a TOML file or the name of a built-in system (s2gen list), with "
+        "options after a colon: elastic_rod:n=1000, rope:n=200,kappa=0.1.",
     )
     p.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = p.add_subparsers(dest="command", required=True)
@@ -75,6 +76,19 @@ def _parser() -> argparse.ArgumentParser:
         choices=CONTROLS,
         default="matlab",
         help="RK45 error control: MATLAB ode45's (default) or Hairer's/scipy's",
+    )
+    s.add_argument(
+        "--every",
+        type=int,
+        default=1,
+        metavar="K",
+        help="keep every K-th step (T/h a multiple of K; energy only at kept samples); default 1",
+    )
+    s.add_argument(
+        "--opt",
+        choices=("portable", "native"),
+        help="gcc flags of the C library: portable (default: -O2 with SIMD hints, runs on any "
+        "machine) or native (-O3 -march=native: this processor only); or set S2GEN_OPT",
     )
     s.add_argument(
         "--out",
@@ -156,14 +170,16 @@ def _progress_on(args: argparse.Namespace) -> bool:
     return bool(getattr(sys.stderr, "isatty", lambda: False)())
 
 
-def _integrate(be: Any, method: str, h: float, T: float, opts: Any, show: bool) -> Any:
-    """One run; when `show`, a progress bar (steps, rate, time left) on stderr once the run
-    has gone `PROGRESS_DELAY` seconds. The run is one call either way: the bar only reads
-    how far it has come."""
+def _integrate(
+    be: Any, method: str, h: float, T: float, opts: Any, show: bool, every: int = 1
+) -> Any:
+    """One run keeping every `every`-th step; when `show`, a progress bar (steps, rate, time
+    left) on stderr once the run has gone `PROGRESS_DELAY` seconds. The run is one call
+    either way: the bar only reads how far it has come."""
     from s2gen.runtime import run
 
     if not show:
-        return run(be, method, h, T, opts)
+        return run(be, method, h, T, opts, every=every)
     from tqdm import tqdm
 
     steps = round(T / h)
@@ -175,7 +191,7 @@ def _integrate(be: Any, method: str, h: float, T: float, opts: Any, show: bool) 
         def progress(fraction: float) -> None:
             bar.update(int(steps * fraction) - bar.n)
 
-        return run(be, method, h, T, opts, progress=progress)
+        return run(be, method, h, T, opts, every=every, progress=progress)
 
 
 def _output_file(path: str) -> Path:
@@ -206,14 +222,16 @@ def _simulate(args: argparse.Namespace) -> int:
     from s2gen.methods import check_method
 
     check_method(method, args.backend)
-    check_run(system, method, h, T, opts)  # a request the machine cannot serve: refused now
-    out = _output_file(args.out)  # and so is a file that could not be written
+    check_run(system, method, h, T, opts, args.every)  # a request the machine cannot serve
+    out = _output_file(args.out)  # and a file that could not be written: refused now
+    if args.opt:
+        os.environ["S2GEN_OPT"] = args.opt
     be = get_backend(system, args.backend)
     print(
         f"{system.name}: integrating with {method} on {args.backend} (h={h}, T={T}) ...", flush=True
     )
     try:
-        tr = _integrate(be, method, h, T, opts, _progress_on(args))
+        tr = _integrate(be, method, h, T, opts, _progress_on(args), args.every)
     except IntegrationError as exc:
         exc.partial.save(out)
         print(f"error: {exc}; saved them to {out}", file=sys.stderr)
@@ -225,12 +243,14 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def _list(args: argparse.Namespace) -> int:
-    from s2gen.systems import builtin, builtin_names
+    from s2gen.systems import builtin, builtin_names, builtin_options
 
     for name in builtin_names():
         s = builtin(name)
-        kind = "coupled" if not s.is_diagonal else "diagonal"
-        print(f"{name}  (n = {s.n}, {kind} inertia)")
+        options = ", ".join(str(o) for o in builtin_options(name))
+        print(f"{name}  (n = {s.n}, {s.structure.kind.value} inertia)")
+        if options:
+            print(f"    options: {options}")
     return 0
 
 

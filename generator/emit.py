@@ -133,10 +133,12 @@ def emit_angles(
 
 
 #: Modules kept in the repository's generated/ folder, one of each kind (folder, built-in,
-#: form): coupled inertia, diagonal inertia with term loops and a quadratic term, a cutoff
-#: term, and an angle-form module.
+#: form): coupled inertia (dense solves), diagonal inertia with term loops and a quadratic
+#: term, a cutoff term, a chain with max-index inertia (structured O(n) solves) and an
+#: angle-form module.
 GENERATED = (
     ("double_pendulum", "double_pendulum", "sphere"),
+    ("rope", "rope", "sphere"),
     ("four_pendula", "four_pendula", "sphere"),
     ("lj_cutoff", "lj_cutoff", "sphere"),
     ("double_pendulum_angles", "double_pendulum", "angles"),

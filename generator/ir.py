@@ -15,6 +15,8 @@ Structure:
   signature (`s2gen.passes.calls`), for each language.
 - `Layout` is the workspace of one function: named buffers with sizes and offsets
   (`s2gen.passes.workspace`).
+- `Band` is one coupled linear system of the structured solvers as the band elimination lays
+  it out: unknowns per body, rows, bandwidths and the doubles its storage takes.
 - `Module` gathers one emitted module: its kind, kernels, loops, calls, layouts, the partial
   templates that lay it out (chosen in Python: the algorithm variants) and the passes that ran.
 
@@ -36,9 +38,12 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from s2gen.inertia import InertiaKind
+
 __all__ = [
     "Argument",
     "Assignment",
+    "Band",
     "Buffer",
     "Call",
     "Kernel",
@@ -231,6 +236,39 @@ class Layout:
 
 
 @dataclass(frozen=True)
+class Band:
+    """One coupled system L x = b, L = E + H (M_off (x) I_r) K, as a band matrix.
+
+    `p` unknowns per body (`r` of them coupled through M), `nrhs` right-hand sides; `block`
+    unknowns per body in the band (p + r for MAX_INDEX, whose y_i join x_i; p for BANDED),
+    `rows` = n block, `kl` and `ku` sub- and superdiagonals. Storage: rows (2 kl + ku + 1)
+    doubles for the matrix, then rows nrhs for the right-hand sides when they are laid out
+    apart from b (MAX_INDEX).
+
+    Example:
+        >>> Band("field", 3, 3, 1, 6, 60, 6, 6, True).size
+        1200
+    """
+
+    name: str
+    p: int
+    r: int
+    nrhs: int
+    block: int
+    rows: int
+    kl: int
+    ku: int
+    separate_rhs: bool
+
+    @property
+    def size(self) -> int:
+        """Doubles of workspace the solve takes."""
+        return self.rows * (2 * self.kl + self.ku + 1) + (
+            self.rows * self.nrhs if self.separate_rhs else 0
+        )
+
+
+@dataclass(frozen=True)
 class PassRecord:
     """A lowering pass that ran, with the operations of all kernels after it (total, and by
     kind as `passes.opcount.Ops` prints them)."""
@@ -271,6 +309,16 @@ class Module:
     facts: tuple[tuple[str, bool | int | float | str], ...] = ()
     field_calls: tuple[tuple[str, int], ...] = ()  # (kernel, calls) per vector-field evaluation
     passes: tuple[PassRecord, ...] = ()
+    solver: InertiaKind = InertiaKind.DIAGONAL  # how the coupled solves are done
+    bands: tuple[Band, ...] = ()  # structured solvers: their systems (workspace pass)
+    inertia_data: tuple[tuple[str, tuple[float, ...]], ...] = ()  # per-body data of M
+
+    def band(self, name: str) -> Band:
+        """The band system `name` (KeyError if absent)."""
+        for b in self.bands:
+            if b.name == name:
+                return b
+        raise KeyError(f"module {self.name} has no band system {name!r}")
 
     def kernel(self, name: str) -> KernelDef | Kernel:
         """The kernel called `name` (KeyError if absent)."""

@@ -30,9 +30,19 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
+from s2gen.inertia import (
+    INDEX,
+    ChainInertia,
+    InertiaKind,
+    InertiaStructure,
+    chain_cholesky_pivots,
+    chain_structure,
+    detect,
+)
 from s2gen.symbols import local_vector, q_symbol
 
 __all__ = [
+    "INERTIA_SOLVERS",
     "MAX_BODIES",
     "MAX_NAME_LENGTH",
     "UNIT_LENGTH_TOLERANCE",
@@ -53,6 +63,10 @@ UNIT_LENGTH_TOLERANCE = 1e-3
 MAX_BODIES = 10**6
 #: The longest system name: it prefixes every emitted symbol and names the emitted files.
 MAX_NAME_LENGTH = 64
+
+#: How the coupled solves are chosen: by the structure of M and n ("auto"), the dense
+#: solvers, or the structured ones (an error when M has no structure they use).
+INERTIA_SOLVERS = ("auto", "dense", "structured")
 
 _C_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _C_RESERVED = frozenset(
@@ -335,19 +349,25 @@ def _check_real(expr: sp.Expr, where: str) -> None:
 
 @dataclass(frozen=True)
 class System:
-    """A validated mechanical system on (S^2)^n. Build it with `System.create`."""
+    """A validated mechanical system on (S^2)^n. Build it with `System.create`.
+
+    M is either a SymPy matrix (`matrix`) or per-body expressions (`chain`, never n^2
+    entries); `inertia` is the matrix either way (built on demand), `structure` what it is.
+    """
 
     name: str
     n: int
     parameter_names: tuple[str, ...]
     parameter_values: tuple[float, ...]
-    inertia: sp.ImmutableSparseMatrix
+    matrix: sp.ImmutableSparseMatrix | None
     potential: sp.Expr
     q0: np.ndarray | None = field(default=None, compare=False)
     omega0: np.ndarray | None = field(default=None, compare=False)
     run: RunSettings = RunSettings()
     origin: str = "<python api>"
     terms: tuple[Term, ...] = ()
+    chain: ChainInertia | None = None
+    inertia_solver: str = "auto"
 
     # ------------------------------------------------------------------ construction
     @staticmethod
@@ -356,15 +376,19 @@ class System:
         name: str,
         n: int,
         parameters: Mapping[str, float],
-        inertia: sp.MatrixBase,
+        inertia: sp.MatrixBase | ChainInertia,
         potential: sp.Expr,
         q0: Sequence[Sequence[float]] | np.ndarray | None = None,
         omega0: Sequence[Sequence[float]] | np.ndarray | None = None,
         run: RunSettings | None = None,
         origin: str = "<python api>",
         terms: Sequence[Term] = (),
+        inertia_solver: str = "auto",
     ) -> System:
-        """Validate the pieces and return a frozen System (raises SpecError)."""
+        """Validate the pieces and return a frozen System (raises SpecError).
+
+        `inertia` is an n x n SymPy matrix or a `ChainInertia` (per-body expressions);
+        `inertia_solver` one of `INERTIA_SOLVERS`."""
         where = origin
         _check_name(name, where)
         if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
@@ -398,37 +422,16 @@ class System:
         psyms = {sp.Symbol(p, real=True) for p in names}
         subs = {sp.Symbol(p, real=True): v for p, v in zip(names, values)}
 
-        # SymPy's constructor sorts every entry (13 s for 10^5 bodies): keep a given one as is
-        M = (
-            inertia
-            if isinstance(inertia, sp.ImmutableSparseMatrix)
-            else sp.ImmutableSparseMatrix(inertia)
-        )
-        if M.shape != (n, n):
-            raise SpecError(f"{where}: [inertia] M: expected a {n}x{n} matrix, got {M.shape}")
-        entries = {key: sp.sympify(v) for key, v in M.todok().items()}
-        checked: set[sp.Expr] = set()  # most entries repeat (uniform masses): check each once
-        for (r, c), entry in sorted(entries.items()):
-            if entry in checked:
-                continue
-            checked.add(entry)
-            extra = entry.free_symbols - psyms
-            if extra:
-                bad = ", ".join(sorted(str(s) for s in extra))
-                raise SpecError(
-                    f"{where}: [inertia] M[{r + 1}][{c + 1}]: depends on {bad}, "
-                    "but the inertia must be constant (parameters only)"
-                )
-        for (r, c), entry in sorted(entries.items()):
-            other = entries.get((c, r), sp.Integer(0))
-            upper_or_lone = r < c or (r > c and (c, r) not in entries)
-            if upper_or_lone and entry != other and sp.simplify(entry - other) != 0:
-                lo, hi = min(r, c), max(r, c)
-                raise SpecError(
-                    f"{where}: [inertia] M is not symmetric: M[{lo + 1}][{hi + 1}] = "
-                    f"{M[lo, hi]} but M[{hi + 1}][{lo + 1}] = {M[hi, lo]}"
-                )
-        _check_positive_definite(entries, n, subs, where)
+        if inertia_solver not in INERTIA_SOLVERS:
+            raise SpecError(
+                f"{where}: [inertia] solver: {inertia_solver!r} is not one of "
+                f"{', '.join(INERTIA_SOLVERS)}"
+            )
+        if isinstance(inertia, ChainInertia):
+            _validate_chain(inertia, n, psyms, subs, where)
+            matrix = None
+        else:
+            matrix = _validate_matrix(inertia, n, psyms, subs, where)
 
         V = sp.sympify(potential)
         if not isinstance(V, sp.Expr):
@@ -452,13 +455,15 @@ class System:
             n=n,
             parameter_names=names,
             parameter_values=tuple(values),
-            inertia=M,
+            matrix=matrix,
             potential=V,
             q0=q0a,
             omega0=w0a,
             run=run or RunSettings(),
             origin=origin,
             terms=tuple(terms),
+            chain=inertia if isinstance(inertia, ChainInertia) else None,
+            inertia_solver=inertia_solver,
         )
 
     # ------------------------------------------------------------------ queries
@@ -472,10 +477,39 @@ class System:
         """Parameter values by name."""
         return dict(zip(self.parameter_names, self.parameter_values))
 
+    @property
+    def inertia(self) -> sp.ImmutableSparseMatrix:
+        """M as a SymPy matrix (built from `chain` on first use: n^2 entries)."""
+        if self.matrix is not None:
+            return self.matrix
+        cached = self.__dict__.get("_matrix")
+        if cached is None:
+            assert self.chain is not None
+            cached = self.chain.matrix(self.n)
+            object.__setattr__(self, "_matrix", cached)  # frozen: set once, by hand
+        return cached  # type: ignore[no-any-return]
+
+    @property
+    def structure(self) -> InertiaStructure:
+        """The structure of M (`s2gen.inertia`), found once and kept on the System."""
+        cached = self.__dict__.get("_structure")
+        if cached is None:
+            subs = dict(zip(self.parameter_symbols, self.parameter_values))
+            if self.chain is not None and self.is_diagonal:
+                cached = InertiaStructure(InertiaKind.DIAGONAL, 0)
+            elif self.chain is not None and chain_structure(self.chain, self.n, subs):
+                cached = InertiaStructure(InertiaKind.MAX_INDEX, self.n - 1, (), self.chain)
+            else:
+                cached = detect(self.inertia, subs)
+            object.__setattr__(self, "_structure", cached)
+        return cached  # type: ignore[no-any-return]
+
     def inertia_numeric(self, values: Sequence[float] | None = None) -> np.ndarray:
         """M evaluated at the given (default: the spec's) parameter values."""
         vals = self.parameter_values if values is None else tuple(values)
         subs = dict(zip(self.parameter_symbols, vals))
+        if self.chain is not None:
+            return self.chain.dense(self.n, subs)
         out = np.zeros((self.n, self.n))
         for (r, c), entry in self.inertia.todok().items():
             out[r, c] = float(sp.sympify(sp.sympify(entry).xreplace(subs)).evalf())
@@ -484,7 +518,9 @@ class System:
     @property
     def is_diagonal(self) -> bool:
         """True when every off-diagonal entry of M is identically zero."""
-        return all(self.inertia[r, c] == 0 for r in range(self.n) for c in range(self.n) if r != c)
+        if self.chain is not None:
+            return self.n == 1 or self.chain.max_index == 0 or self.chain.scale == 0
+        return all(v == 0 for (r, c), v in self.inertia.todok().items() if r != c)
 
     def full_potential(self) -> sp.Expr:
         """V as one expression: the general part plus every term instance (small n only)."""
@@ -510,8 +546,17 @@ class System:
         h.update(str(self.n).encode())
         for p, v in zip(self.parameter_names, self.parameter_values):
             h.update(f"{p}={v!r};".encode())
-        for key, entry in sorted(self.inertia.todok().items()):
-            h.update(f"{key}={sp.srepr(entry)};".encode())
+        if self.chain is not None:
+            h.update(f"chain;{self.n}".encode())
+            for e in (self.chain.diagonal, self.chain.scale, self.chain.max_index):
+                h.update(f"{sp.srepr(e)};".encode())
+            for d in self.chain.data:
+                h.update(f"{d.name};{d.values}".encode())
+        else:
+            for key, entry in sorted(self.inertia.todok().items()):
+                h.update(f"{key}={sp.srepr(entry)};".encode())
+        if self.inertia_solver != "auto":  # absent by default: older specs keep their digest
+            h.update(f"solver={self.inertia_solver};".encode())
         h.update(sp.srepr(self.potential).encode())
         for t in self.terms:
             h.update(f"{t.kind};{t.select};{t.members};{t.label};{t.cutoff!r}".encode())
@@ -520,6 +565,112 @@ class System:
                 h.update(f"{d.name};{d.width};{d.values}".encode())
         object.__setattr__(self, "_spec_digest", h.hexdigest())  # frozen: set once, by hand
         return h.hexdigest()
+
+
+def _validate_matrix(
+    inertia: sp.MatrixBase,
+    n: int,
+    psyms: set[sp.Symbol],
+    subs: dict[sp.Symbol, float],
+    where: str,
+) -> sp.ImmutableSparseMatrix:
+    """A given M: shape, constant entries (parameters only), symmetric, positive definite."""
+    # SymPy's constructor sorts every entry (13 s for 10^5 bodies): keep a given one as is
+    M = (
+        inertia
+        if isinstance(inertia, sp.ImmutableSparseMatrix)
+        else sp.ImmutableSparseMatrix(inertia)
+    )
+    if M.shape != (n, n):
+        raise SpecError(f"{where}: [inertia] M: expected a {n}x{n} matrix, got {M.shape}")
+    entries = {key: sp.sympify(v) for key, v in M.todok().items()}
+    checked: set[sp.Expr] = set()  # most entries repeat (uniform masses): check each once
+    for (r, c), entry in sorted(entries.items()):
+        if entry in checked:
+            continue
+        checked.add(entry)
+        extra = entry.free_symbols - psyms
+        if extra:
+            bad = ", ".join(sorted(str(s) for s in extra))
+            raise SpecError(
+                f"{where}: [inertia] M[{r + 1}][{c + 1}]: depends on {bad}, "
+                "but the inertia must be constant (parameters only)"
+            )
+    for (r, c), entry in sorted(entries.items()):
+        other = entries.get((c, r), sp.Integer(0))
+        upper_or_lone = r < c or (r > c and (c, r) not in entries)
+        if upper_or_lone and entry != other and sp.simplify(entry - other) != 0:
+            lo, hi = min(r, c), max(r, c)
+            raise SpecError(
+                f"{where}: [inertia] M is not symmetric: M[{lo + 1}][{hi + 1}] = "
+                f"{M[lo, hi]} but M[{hi + 1}][{lo + 1}] = {M[hi, lo]}"
+            )
+    _check_positive_definite(entries, n, subs, where)
+    return M
+
+
+def _validate_chain(
+    chain: ChainInertia,
+    n: int,
+    psyms: set[sp.Symbol],
+    subs: dict[sp.Symbol, float],
+    where: str,
+) -> None:
+    """Per-body inertia: its symbols, its data (one finite number per body), finite values
+    and positive definiteness (an O(n) Cholesky; `s2gen.inertia.chain_cholesky_pivots`)."""
+    names = [d.name for d in chain.data]
+    for d in chain.data:
+        if d.width != 1 or len(d.values) != n:
+            raise SpecError(
+                f"{where}: [inertia.data] {d.name}: expected {n} numbers (one per body), got "
+                f"{len(d.values) / max(d.width, 1):g} entries of width {d.width}"
+            )
+        if not all(np.isfinite(d.values)):
+            raise SpecError(f"{where}: [inertia.data] {d.name}: contains a non-finite value")
+    clash = sorted(({p.name for p in psyms} | {INDEX.name}) & set(names))
+    if clash or len(set(names)) != len(names):
+        bad = clash[0] if clash else next(x for x in names if names.count(x) > 1)
+        raise SpecError(
+            f"{where}: [inertia.data] {bad}: the name is also a parameter, the body index i "
+            "or another datum"
+        )
+    allowed = psyms | set(chain.data_symbols()) | {INDEX}
+    for key, expr in (
+        ("diagonal", chain.diagonal),
+        ("scale", chain.scale),
+        ("max_index", chain.max_index),
+    ):
+        if not isinstance(expr, sp.Expr):
+            raise SpecError(f"{where}: [inertia] {key}: must be a scalar expression")
+        extra = expr.free_symbols - allowed
+        if extra:
+            bad = ", ".join(sorted(str(s) for s in extra))
+            raise SpecError(
+                f"{where}: [inertia] {key}: depends on {bad}, which is not a parameter, "
+                "a datum of [inertia.data] or the body index i"
+            )
+    try:
+        d, a, c = chain.numeric(n, subs)
+    except (TypeError, ValueError, ZeroDivisionError) as exc:
+        raise SpecError(f"{where}: [inertia] cannot evaluate M per body ({exc})") from None
+    if not (np.all(np.isfinite(d)) and np.all(np.isfinite(a)) and np.all(np.isfinite(c))):
+        raise SpecError(f"{where}: [inertia] M is not finite at the parameter values")
+    pivots = chain_cholesky_pivots(d, a, c)
+    if not np.all(pivots > 0.0):
+        k = int(np.argmin(np.nan_to_num(pivots, nan=np.inf) > 0.0))
+        raise SpecError(
+            f"{where}: [inertia] M is not positive definite at the parameter values "
+            f"(Cholesky pivot {k + 1} is {pivots[k]:.6g})"
+        )
+    coupled = not (n == 1 or chain.max_index == 0 or chain.scale == 0)
+    if coupled and not chain_structure(chain, n, subs):
+        warnings.warn(
+            f"{where}: [inertia]: the O(n) solvers need scale != 0 at every body and "
+            "max_index_k != max_index_k+1 (max_index_n != 0); M is treated as a general "
+            "matrix (n^2 entries, dense solves)",
+            SpecWarning,
+            stacklevel=4,
+        )
 
 
 def _check_positive_definite(

@@ -45,6 +45,8 @@ SYSTEMS = {
     "springs4": lambda: resolve(str(SPECS / "springs4.toml")),
     "springs4_terms": lambda: resolve(str(SPECS / "springs4_terms.toml")),
     "lj_ring": lambda: lennard_jones_ring(),
+    # the paper's rod with its max-index inertia given per body: the structured O(n) solvers
+    "rod12": lambda: builtin("elastic_rod", n=12),
 }
 
 

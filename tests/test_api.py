@@ -151,3 +151,15 @@ def test_a_damaged_cache_entry_is_derived_again() -> None:
     victim.write_text(victim.read_text()[:100])
     assert emit(system, "c") == good
     assert victim.read_text() == good["double_pendulum.c"]
+
+
+def test_native_flags_give_the_same_motion() -> None:
+    """compile(..., opt="native") builds with -O3 -march=native: the same trajectory as the
+    portable library to round-off (no fused multiply-adds under -std=c99); opt is refused off
+    the C backend."""
+    system = s2gen.load("double_pendulum")
+    portable = s2gen.compile(system).integrate("vi", h=0.01, T=1.0)
+    native = s2gen.compile(system, opt="native").integrate("vi", h=0.01, T=1.0)
+    assert np.max(np.abs(native.q - portable.q)) < 1e-12
+    with pytest.raises(ValueError, match="C backend"):
+        s2gen.compile(system, "numpy", opt="native")

@@ -70,9 +70,10 @@ def _run(cmd: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
 
 
 def test_the_c_compiles_as_cpp(tmp_path: Path) -> None:
-    """The emitted .c is also valid C++ (the restrict spelling, casts, names)."""
-    _write(tmp_path, ("double_pendulum", "dipoles"))
-    for name in ("double_pendulum", "dipoles"):
+    """The emitted .c is also valid C++ (the restrict spelling, casts, names), the structured
+    solvers' (rope: max-index inertia) included."""
+    _write(tmp_path, ("double_pendulum", "dipoles", "rope"))
+    for name in ("double_pendulum", "dipoles", "rope"):
         cmd = ["g++", "-x", "c++", "-std=c++11", "-Wall", "-Wextra", "-Werror", "-c", f"{name}.c"]
         proc = _run(cmd, tmp_path)
         assert proc.returncode == 0, proc.stderr[:3000]

@@ -180,3 +180,22 @@ def test_progress_does_not_change_the_result(tmp_path) -> None:
     assert main([*base, "--out", str(a)]) == 0
     assert main([*base, "--progress", "--out", str(b)]) == 0
     assert np.load(a)["q"].tobytes() == np.load(b)["q"].tobytes()
+
+
+def test_every_keeps_every_kth_sample_of_the_same_run(tmp_path) -> None:
+    """--every K saves samples 0, K, 2K, ... of the run with every step kept, with their
+    energies, and the integrator's statistics are those of all the steps."""
+    full, thin = tmp_path / "full.npz", tmp_path / "thin.npz"
+    args = ["simulate", "double_pendulum", "--h", "0.01", "--T", "2"]
+    assert main([*args, "--out", str(full)]) == 0
+    assert main([*args, "--every", "25", "--out", str(thin)]) == 0
+    a, b = Trajectory.load(full), Trajectory.load(thin)
+    assert len(b.t) == 200 // 25 + 1
+    assert np.array_equal(b.q, a.q[::25]) and np.array_equal(b.energy, a.energy[::25])
+    assert b.stats["steps"] == a.stats["steps"] == 200
+
+
+def test_every_must_divide_the_steps(capsys) -> None:
+    args = ["simulate", "double_pendulum", "--h", "0.01", "--T", "1", "--every", "3"]
+    assert main([*args, "--out", "x.npz"]) == 2
+    assert "every" in capsys.readouterr().err

@@ -82,7 +82,8 @@ def test_emitted_c_compiles_strictly(system, tmp_path: Path) -> None:
 def test_diagonal_systems_emit_no_coupling_code(system) -> None:
     """Nothing absent is emitted: no Newton, no linear solves, no pair loops for diagonal M."""
     text = emit(system, "c")[f"{system.name}.c"]
-    has_coupling = any(w in text for w in ("_lu_solve", "_cholesky_solve", "_pair_i", "res_pair"))
+    words = ("_lu_solve", "_cholesky_solve", "_pair_i", "res_pair", "_coupled_solve")
+    has_coupling = any(w in text for w in words)
     assert has_coupling == (not system.is_diagonal)
 
 

@@ -190,3 +190,20 @@ def test_full_reproduction_matches_paper(name: str, tmp_path: Path) -> None:
             compared += 1
     assert compared > 0
     assert all(_png_size(p)[0] > 0 for p in ex.figures)
+
+
+@pytest.mark.slow
+def test_rod_chaos_bands_hold_the_papers_figures(tmp_path: Path) -> None:
+    """reproduce --bands: the rod's VI and RK45 runs as 16-member ensembles (1e-13
+    perturbations) on a local Dask cluster; results.md states both bands and the paper's
+    printed figures lie inside them."""
+    report = rp.reproduce(["elastic_rod"], tmp_path, bands=16, log=lambda _: None)
+    assert report.ok, report.errors
+    md = (tmp_path / "results.md").read_text()
+    assert "## The rod's chaos bands (16 perturbed members per run)" in md
+    assert "The paper's figures lie inside the bands." in md
+    rows = list(csv.DictReader((tmp_path / "chaos_band" / "band.csv").open()))
+    assert [r["method"] for r in rows] == ["vi", "rk45"]
+    for r in rows:
+        assert float(r["minimum"]) <= float(r["paper"]) <= float(r["maximum"])
+        assert int(r["members"]) == 16

@@ -2,9 +2,12 @@
 
 Input: a `System` (or its `AngleEquations`). Output: a `Module` (see `s2gen.ir`) holding the
 kernel definitions the system needs and the decisions that shape its code: whether M couples
-bodies (then Newton's method and linear solves, else the explicit updates), which structured
-terms are looped over how, and the partial templates (algorithm variants) that lay the module
-out, in order. Nothing absent is emitted: a diagonal M gets no pair kernels, no solves and no
+bodies (then Newton's method and linear solves, else the explicit updates) and how its solves
+are done (`choose_solver`: dense LU and Cholesky over pair loops, or, for a banded or
+max-index M, the structured solvers: pair sums as O(n) products with M and band elimination,
+partials `coupled_banded` / `coupled_chain`, `band`, `*_structured`), which structured terms
+are looped over how, and the partial templates (algorithm variants) that lay the module out,
+in order. Nothing absent is emitted: a diagonal M gets no pair kernels, no solves and no
 Newton code; a potential without cutoff terms gets no neighbour lists.
 
 Example:
@@ -16,20 +19,33 @@ Example:
 
 from __future__ import annotations
 
+import functools
+
 from s2gen.equations.angles import MIN_PIVOT_RATIO, POLE_TOL, AngleEquations, angle_kernels
 from s2gen.equations.continuous import continuous_kernels
 from s2gen.equations.discrete import explicit_kernels, newton_kernels
+from s2gen.equations.operators import operator_kernels
 from s2gen.equations.rattle import rattle_kernels
 from s2gen.equations.structure import (
+    choose_solver,
     coupling_pairs,
     has_general_potential,
+    per_body_inertia,
     system_kernels,
     term_kernels,
 )
+from s2gen.inertia import InertiaKind
 from s2gen.ir import KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
 from s2gen.system import System, Term
 
-__all__ = ["MAX_CELLS", "angle_module", "cell_grid", "generic_kernel_defs", "sphere_module"]
+__all__ = [
+    "MAX_CELLS",
+    "angle_module",
+    "cell_grid",
+    "clear_caches",
+    "generic_kernel_defs",
+    "sphere_module",
+]
 
 #: Most neighbour-list cells per axis (bounds the list's memory when the cutoff is tiny).
 MAX_CELLS = 160
@@ -45,14 +61,38 @@ def cell_grid(cutoff: float) -> int:
     return max(1, min(int(2.0 / cutoff), MAX_CELLS))
 
 
-def generic_kernel_defs(coupled: bool) -> tuple[KernelDef, ...]:
-    """The system-independent kernels: the continuous field, energy and momenta, and the
-    discrete flows (Newton's residual for coupled M, the explicit updates and RATTLE's closed
-    form for diagonal M)."""
+#: Kernels the structured solvers take from the dense set (the rest are `operator_kernels`).
+_STRUCTURED_KEEP = {
+    InertiaKind.BANDED: ("kin_body", "kin_pair", "mom_body", "mom_pair", "cayley", "a_body"),
+    InertiaKind.MAX_INDEX: ("cayley", "a_body"),
+}
+
+
+@functools.cache
+def _generic(solver: InertiaKind) -> tuple[KernelDef, ...]:
+    coupled = solver is not InertiaKind.DIAGONAL
     defs = continuous_kernels(coupled) + (
         newton_kernels() if coupled else explicit_kernels() + rattle_kernels()
     )
-    return tuple(defs)
+    if solver not in _STRUCTURED_KEEP:
+        return tuple(defs)
+    keep = [k for k in defs if k.name in _STRUCTURED_KEEP[solver]]
+    return (*keep, *operator_kernels(solver is InertiaKind.MAX_INDEX, defs))
+
+
+def generic_kernel_defs(coupled: bool, solver: InertiaKind | None = None) -> tuple[KernelDef, ...]:
+    """The system-independent kernels: the continuous field, energy and momenta, and the
+    discrete flows (Newton's residual for coupled M, the explicit updates and RATTLE's closed
+    form for diagonal M); with a structured `solver`, the factored kernels of
+    `s2gen.equations.operators` instead of the pair kernels. Derived once per process."""
+    if solver is None:
+        solver = InertiaKind.DENSE if coupled else InertiaKind.DIAGONAL
+    return _generic(solver)
+
+
+def clear_caches() -> None:
+    """Forget the generic kernels derived in this process."""
+    _generic.cache_clear()
 
 
 def _term_loop(index: int, term: Term, n: int) -> TermLoop:
@@ -76,43 +116,56 @@ def _term_loop(index: int, term: Term, n: int) -> TermLoop:
     )
 
 
+def _parts(solver: InertiaKind, tables: bool, cutoff: bool) -> tuple[str, ...]:
+    """The partial templates of a sphere module, in order, for its inertia solver: explicit
+    updates (diagonal M), dense solves over pair loops, or the structured solves (band
+    elimination after the per-call context, products with M by `coupled_banded` or
+    `coupled_chain`)."""
+    chain = solver is InertiaKind.MAX_INDEX
+    middle: tuple[str, ...]
+    if solver is InertiaKind.DIAGONAL:
+        middle = ("context", "potential", "energy", "field_diagonal", "field", "vi_explicit")
+        rattle = "rattle_closed"
+    elif solver is InertiaKind.DENSE:
+        middle = ("inertia_operator", "cholesky", "lu", "context", "potential", "energy")
+        middle += ("field_coupled", "field", "vi_newton")
+        rattle = "rattle_newton"
+    else:
+        middle = ("context", "band", "coupled_chain" if chain else "coupled_banded", "potential")
+        middle += ("energy_chain" if chain else "energy", "field_structured", "field")
+        middle += ("vi_structured",)
+        rattle = "rattle_structured"
+    head = (*(("tables",) if tables else ()), *(("neighbours",) if cutoff else ()))
+    return (*head, "kernels", "helpers", *middle, "vi_step", rattle, "rk", "rk_step", "driver")
+
+
 def sphere_module(system: System) -> Module:
     """The unlowered (S^2)^n module of a system."""
-    pairs = coupling_pairs(system)
-    coupled = bool(pairs)
+    solver = choose_solver(system)
+    coupled = solver is not InertiaKind.DIAGONAL
+    chain = solver is InertiaKind.MAX_INDEX
+    pairs = coupling_pairs(system) if coupled and not chain else ()
     terms = [(k, t) for k, t in enumerate(system.terms) if t.count(system.n) > 0]
-    kernels: list[KernelDef] = list(system_kernels(system))
+    kernels: list[KernelDef] = list(system_kernels(system, solver))
     for k, t in terms:
         kernels += term_kernels(system, k, t)
-    kernels += generic_kernel_defs(coupled)
+    kernels += generic_kernel_defs(coupled, solver)
     loops = tuple(_term_loop(k, t, system.n) for k, t in terms)
     cutoff = any(t.loop.kind is LoopKind.CUTOFF_PAIRS for t in loops)
-    uniform = system.n > 1 and kernels[0].outputs[0].size == 1
+    per_body = per_body_inertia(system, solver) is not None
+    uniform = system.n > 1 and not per_body and kernels[0].outputs[0].size == 1
     general = has_general_potential(system)
-    field = [("inertia", 1), *((("gradient", 1),) if general else ())]
+    field = [("inertia_body" if per_body else "inertia", system.n if per_body else 1)]
+    field += [*((("gradient", 1),) if general else ())]
     field += [(t.gradient, t.loop.count) for t in loops]
-    if coupled:
+    if solver is InertiaKind.DENSE:
         field += [("rhs_body", system.n), ("rhs_pair", len(pairs)), ("a_pair", len(pairs))]
+    elif coupled:
+        field += [("src_rhs", system.n), ("rhs_coupled", system.n), ("a_blocks", system.n)]
     else:
         field.append(("rhs_diag", system.n))
-    parts = (
-        *(("tables",) if coupled or loops else ()),
-        *(("neighbours",) if cutoff else ()),
-        "kernels",
-        "helpers",
-        *(("inertia_operator", "cholesky", "lu") if coupled else ()),
-        "context",
-        "potential",
-        "energy",
-        "field_coupled" if coupled else "field_diagonal",
-        "field",
-        "vi_newton" if coupled else "vi_explicit",
-        "vi_step",
-        "rattle_newton" if coupled else "rattle_closed",
-        "rk",
-        "rk_step",
-        "driver",
-    )
+    chain_data = system.chain.data if per_body and system.chain is not None else ()
+    parts = _parts(solver, bool(pairs) or bool(loops) or bool(chain_data), cutoff)
     return Module(
         kind=ModuleKind.SPHERE,
         name=system.name,
@@ -123,10 +176,10 @@ def sphere_module(system: System) -> Module:
         parameter_values=system.parameter_values,
         kernels=tuple(kernels),
         parts=parts,
-        c_only=("cholesky", "lu"),  # NumPy solves with numpy.linalg
+        c_only=("cholesky", "lu", "band"),  # NumPy solves with numpy.linalg and scipy.linalg
         pairs=pairs,
         terms=loops,
-        coupling=Loop(LoopKind.COUPLING, len(pairs), pairs) if coupled else None,
+        coupling=Loop(LoopKind.COUPLING, len(pairs), pairs) if pairs else None,
         facts=(
             ("coupled", coupled),
             ("general", general),
@@ -134,6 +187,8 @@ def sphere_module(system: System) -> Module:
             ("neighbour_lists", cutoff),
         ),
         field_calls=tuple(field),
+        solver=solver,
+        inertia_data=tuple((d.name, d.values) for d in chain_data),
     )
 
 

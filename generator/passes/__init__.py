@@ -35,6 +35,7 @@ from dataclasses import replace
 
 from s2gen.equations.angles import AngleEquations
 from s2gen.equations.assemble import angle_module, sphere_module
+from s2gen.equations.assemble import clear_caches as _clear_generic
 from s2gen.ir import Kernel, KernelDef, Module, ModuleKind, PassRecord
 from s2gen.passes import factor as _factor
 from s2gen.passes import opcount as _opcount
@@ -115,7 +116,8 @@ def lower(kdef: KernelDef) -> Kernel:
 
 
 def clear_caches() -> None:
-    """Forget every kernel lowered in this process."""
+    """Forget every kernel derived or lowered in this process."""
+    _clear_generic()
     _factor.clear_cache()
     _reciprocal.inverted.cache_clear()
     lower_kernel.cache_clear()

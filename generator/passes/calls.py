@@ -12,7 +12,10 @@ of a term, i and j its bodies):
 - pair: `h` -> h, `mij` -> mp[k], an array `xi` / `xj` -> x + 3 * i0 / x + 3 * j0, outputs
   are the site's local arrays (named as the outputs);
 - system: arrays by name, a scalar output `s` -> &s;
-- term: `q`, `qi` -> q + 3 * i, `qj` -> q + 3 * j, data from the term's tables at member m.
+- term: `q`, `qi` -> q + 3 * i, `qj` -> q + 3 * j, data from the term's tables at member m;
+- the structured solvers' per-body kernels (`s2gen.equations.operators`) write their blocks
+  at 9 (3 x 3) or 16 (4 x 4) doubles per body, the per-body inertia kernel reads the
+  inertia's data tables at body i.
 NumPy calls take the inputs only and vectorize: body arrays whole, `m` -> md, `mi` -> 1/md, pair arrays
 indexed by PAIR_I / PAIR_J, `mij` -> mp, term positions indexed by the term's index arrays.
 
@@ -102,7 +105,6 @@ _MASSES = {"m": "cx->md[i]"}
 #: Call sites of the (S^2)^n module; a site whose kernel the module lacks is skipped.
 SPHERE_SITES = (
     Site("context", "context", _S, {"cc": "cx->cc"}),
-    Site("inertia", "inertia", _S, {"mdiag": "md", "mpair": "mp"}),
     Site("potential", "potential", _S, {"v": "&total", "cc": "cx->cc"}),
     Site("gradient", "gradient", _S, {"cc": "cx->cc"}),
     Site("kin_body", "kin_body", _B),
@@ -125,6 +127,45 @@ SPHERE_SITES = (
     Site("vi_vel", "vi_vel", _B, _MASSES),
     Site("rattle_pos", "rattle_pos", _B, _MASSES),
     Site("rattle_vel", "rattle_vel", _B, _MASSES),
+    # the structured solvers (banded or max-index M)
+    Site("vel", "vel", _B, {"v": "u + 3 * i"}),
+    Site("d_coupled", "d_coupled", _B),
+    Site("disp", "disp", _B, {"kd": "kb + 9 * i"}),
+    Site("res_coupled", "res_coupled", _B, {"e": "e + 9 * i", "hq": "hb + 9 * i"}),
+    Site("c_coupled", "c_coupled", _B, {"c": "wn + 3 * i"}),
+    Site(
+        "a_blocks_vi",
+        "a_blocks",
+        _B,
+        {
+            "a": "cx->adiag[i]",
+            "q": "qn + 3 * i",
+            "e": "e + 9 * i",
+            "hq": "hb + 9 * i",
+            "kq": "kb + 9 * i",
+        },
+        {"a": "adiag", "q": "qn"},
+    ),
+    Site(
+        "a_blocks_field",
+        "a_blocks",
+        _B,
+        {"a": "md[i]", "e": "e + 9 * i", "hq": "hb + 9 * i", "kq": "kb + 9 * i"},
+        {"a": "md"},
+    ),
+    Site("src_rhs", "src_rhs", _B),
+    Site("rhs_coupled", "rhs_coupled", _B, {"b": "dw + 3 * i"}),
+    Site("rattle_pos_blocks", "rattle_pos_blocks", _B, {"e": "e + 16 * i"}),
+    Site("rattle_vel_blocks", "rattle_vel_blocks", _B, {"e": "e + 16 * i"}),
+    Site("vel_sweep", "vel", _B, {"v": "v"}),
+    Site("kin_sweep", "kin_sweep", _B, {"ac": "sa[i] * sc[i]", "pv": "pv"}, {"ac": "sa * sc"}),
+    Site(
+        "mom_sweep",
+        "mom_sweep",
+        _B,
+        {"ac": "sa[i] * sc[i]", "pq": "pq", "pv": "pv", "j": "t"},
+        {"ac": "sa * sc"},
+    ),
 )
 
 #: Call sites of the angle-form module.
@@ -169,10 +210,29 @@ def _term_sites(module: Module, t: TermLoop) -> list[Site]:
     return sites
 
 
+def _inertia_sites(module: Module) -> list[Site]:
+    """The inertia kernel: the diagonal into md, the coupled entries into mp, or the
+    max-index generators a and c into mp[0..n) and mp[n..2n); per body (at body i, data from
+    the inertia's tables) or for the whole system."""
+    n = module.n
+    whole = {"mdiag": "md", "mpair": "mp", "sa": "mp", "sc": f"mp + {n}"}
+    c = {"p": "p", "i": "(double)(i + 1)", "md": "&md[i]", "sa": "&mp[i]", "sc": f"&mp[{n} + i]"}
+    py = {"i": "INDEX"}
+    for name, _ in module.inertia_data:
+        c[f"d_{name}"] = f"{module.name}_inertia_{name}[i]"
+        py[f"d_{name}"] = f"INERTIA_{name.upper()}"
+    return [
+        Site("inertia", "inertia", Context.SYSTEM, whole),
+        Site("inertia_body", "inertia_body", Context.BODY, c, py),
+    ]
+
+
 def calls_pass(module: Module) -> Module:
     """Resolve every call site of the module's templates."""
     sites = SPHERE_SITES if module.kind is ModuleKind.SPHERE else ANGLE_SITES
     names = {k.name for k in module.kernels}
+    if module.kind is ModuleKind.SPHERE:
+        sites = (*_inertia_sites(module), *sites)
     all_sites = [s for s in sites if s.kernel in names]
     for t in module.terms:
         all_sites += _term_sites(module, t)

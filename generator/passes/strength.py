@@ -38,7 +38,12 @@ LIMIT = 64
 class _Powers:
     """The shared power chains of one kernel's bases, as new temporaries."""
 
-    def __init__(self) -> None:
+    def __init__(self, uses: dict[sp.Expr, int] | None = None) -> None:
+        #: reducible powers of each base in the kernel (see `_uses`): a lone 1/b or sqrt(b)
+        #: is left as written, one a base shares with other powers joins its chain
+        self.uses = uses or {}
+        self.raw: dict[sp.Symbol, sp.Expr] = {}  # a base's symbol -> the base as written
+        self.halves: set[sp.Expr] = set()  # bases with a half-integer negative power
         self.count = 0
         self.new: dict[sp.Symbol, list[Assignment]] = {}  # base -> its chain, in order
         self.made: dict[tuple[sp.Symbol, str, int], sp.Expr] = {}
@@ -64,11 +69,15 @@ class _Powers:
         return self.bases[base]
 
     def root(self, base: sp.Symbol, kind: str) -> sp.Expr:
-        """1/b ("inv"), sqrt(b) ("sqrt") or 1/sqrt(b) ("isqrt"), once per base."""
+        """1/b ("inv"), sqrt(b) ("sqrt") or 1/sqrt(b) ("isqrt"), once per base; with a
+        half-integer negative power as well, 1/b is (1/sqrt(b))^2 (one division per base)."""
         key = (base, kind, 1)
         if key not in self.made:
-            if kind == "inv":
-                expr: sp.Expr = sp.Pow(base, -1, evaluate=False)
+            if kind == "inv" and self.raw.get(base, base) in self.halves:
+                unit = self.root(base, "isqrt")
+                expr: sp.Expr = sp.Mul(unit, unit, evaluate=False)
+            elif kind == "inv":
+                expr = sp.Pow(base, -1, evaluate=False)
             elif kind == "sqrt":
                 expr = sp.sqrt(base)
             else:
@@ -92,10 +101,11 @@ class _Powers:
         if expr.is_Pow and expr.exp.is_Rational:
             e = expr.exp
             twice = 2 * e
-            if twice.is_Integer and 1 < abs(twice) <= 2 * LIMIT and e not in (1, -1):
-                base = expr.base
-                if not base.is_Symbol:
-                    base = self.named(self.replace(base))
+            lone = e in _SIMPLE and self.uses.get(expr.base, 0) < 2
+            if twice.is_Integer and 0 < abs(twice) <= 2 * LIMIT and e != 1 and not lone:
+                raw = expr.base
+                base = raw if raw.is_Symbol else self.named(self.replace(raw))
+                self.raw[base] = raw
                 whole, half = divmod(int(abs(twice)), 2)
                 negative = e < 0
                 if half:
@@ -112,10 +122,32 @@ class _Powers:
         return expr.func(*(self.replace(a) for a in expr.args))
 
 
+#: Powers that cost one operation alone (1/b, sqrt(b), 1/sqrt(b)): reduced only when their base
+#: has other reducible powers in the kernel, whose chain they then share.
+_SIMPLE = (sp.Integer(-1), sp.Rational(1, 2), sp.Rational(-1, 2))
+
+
+def _uses(kernel: Kernel) -> tuple[dict[sp.Expr, int], set[sp.Expr]]:
+    """Per base: how many reducible powers of it the kernel has; and the bases with a
+    half-integer negative power (whose 1/b is then the square of 1/sqrt(b))."""
+    uses: dict[sp.Expr, int] = {}
+    halves: set[sp.Expr] = set()
+    for a in kernel.assignments:
+        for e in sp.preorder_traversal(a.expr):
+            reducible = isinstance(e, sp.Pow) and e.exp.is_Rational and (2 * e.exp).is_Integer
+            if reducible and e.exp != 1 and abs(e.exp) <= LIMIT:
+                uses[e.base] = uses.get(e.base, 0) + 1
+                if e.exp.is_negative and not e.exp.is_Integer:
+                    halves.add(e.base)
+    return uses, halves
+
+
 @functools.lru_cache(maxsize=1024)
 def reduce_kernel(kernel: Kernel) -> Kernel:
     """The kernel with its powers of symbols sharing roots and squares."""
-    powers = _Powers()
+    uses, halves = _uses(kernel)
+    powers = _Powers(uses)
+    powers.halves = halves
     staged: list[tuple[list[Assignment], Assignment]] = []  # (base temps before it, assignment)
     for a in kernel.assignments:
         expr = powers.replace(a.expr)

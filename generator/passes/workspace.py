@@ -4,7 +4,8 @@ Input: a `Module`. Output: the same module with one `Layout` per function that t
 memory (named buffers, sizes and offsets; a buffer that hands memory on to a callee has the
 callee's size), `work_base` (the most any entry point uses) and `work_size` (plus the per-call
 context kept after `work_base`). Templates read every offset from these records; the header's
-WORK_SIZE is `work_size`.
+WORK_SIZE is `work_size`. Modules with structured solvers (BANDED or MAX_INDEX inertia) also
+get their `Band` systems (`bands`): the bandwidths and storage of each coupled solve.
 
 Example:
     >>> from s2gen.systems import builtin
@@ -18,9 +19,12 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from s2gen.ir import Buffer, Layout, LoopKind, Module, ModuleKind
+from s2gen.inertia import InertiaKind
+from s2gen.ir import Band, Buffer, Layout, LoopKind, Module, ModuleKind
 
-__all__ = ["CONTEXT", "layout", "padded", "workspace_pass"]
+__all__ = ["CONTEXT", "band", "bands", "layout", "padded", "workspace_pass"]
+
+_STRUCTURED = (InertiaKind.BANDED, InertiaKind.MAX_INDEX)
 
 
 def padded(dim: int) -> int:
@@ -38,15 +42,87 @@ def layout(name: str, *buffers: tuple[str, int]) -> Layout:
     return Layout(name, tuple(placed))
 
 
+def band(module: Module, name: str, p: int, r: int, nrhs: int) -> Band:
+    """The band system of an operator with `p` unknowns per body (`r` coupled through M).
+
+    MAX_INDEX: unknowns (x_i, y_i) per body, y_i coupled to y_i-1 and y_i+1: kl = ku = p + r.
+    BANDED (bandwidth w): the blocks L_ij of |i - j| <= w: kl = ku = p (w + 1) - 1.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> b = lower_system(builtin("rope", n=10)).band("newton")
+        >>> b.block, b.rows, b.kl, b.ku
+        (6, 60, 6, 6)
+    """
+    n = module.n
+    if module.solver is InertiaKind.MAX_INDEX:
+        block = p + r
+        return Band(name, p, r, nrhs, block, n * block, block, block, True)
+    width = max((j - i for i, j in module.pairs), default=0)
+    half = p * (width + 1) - 1
+    return Band(name, p, r, nrhs, p, n * p, half, half, False)
+
+
+def bands(module: Module) -> tuple[Band, ...]:
+    """The coupled solves of the structured solvers: the VI's Newton step and velocity
+    solve, the continuous field (all 3 x 3 blocks coupled by M), RATTLE's multipliers
+    ((z_i, lambda_i): 4 per body, z_i coupled) and M itself (three right-hand sides)."""
+    if module.kind is not ModuleKind.SPHERE or module.solver not in _STRUCTURED:
+        return ()
+    return (
+        band(module, "newton", 3, 3, 1),
+        band(module, "velocity", 3, 3, 1),
+        band(module, "field", 3, 3, 1),
+        band(module, "rattle", 4, 3, 1),
+        band(module, "mass", 1, 1, 3),
+    )
+
+
+def _structured(module: Module, systems: tuple[Band, ...]) -> tuple[Layout, Layout, Layout]:
+    """Layouts of the structured field, VI and RATTLE: sources u, sums z = M_off u, the
+    blocks E, H, K of each body (9 or 16 doubles) and the band solve's storage."""
+    n, m3 = module.n, 3 * module.n
+    size = {b.name: b.size for b in systems}
+    blocks = [("e", 9 * n), ("hb", 9 * n), ("kb", 9 * n)]
+    field = layout("field", ("g", m3), ("u", m3), ("z", m3), *blocks, ("solve", size["field"]))
+    vi = layout(
+        "vi_advance",
+        ("d", m3),
+        ("r", m3),
+        ("u", m3),
+        ("z", m3),
+        *blocks,
+        ("solve", max(size["newton"], size["velocity"])),
+    )
+    rattle = layout(
+        "rattle_advance",
+        ("gw", m3),
+        ("y", m3),
+        ("u", m3),
+        ("t", m3),
+        ("e", 16 * n),
+        ("rb", 4 * n),
+        ("solve", max(size["rattle"], size["mass"])),
+    )
+    return field, vi, rattle
+
+
 def _sphere(module: Module) -> tuple[list[Layout], int]:
     n, m3 = module.n, 3 * module.n
     ns = 2 * m3
-    coupled = module.coupling is not None
+    coupled = module.solver is not InertiaKind.DIAGONAL
+    structured = module.solver in _STRUCTURED
     field = layout("field", ("g", m3), ("a", m3 * padded(m3) if coupled else 0))
+    extra: list[Layout] = []
+    if structured:
+        field, vi, rattle = _structured(module, bands(module))
     rk_fixed = layout("rk_fixed", ("k1", ns), ("k2", ns), ("acc", ns), ("field", field.size))
     rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("rk", rk_fixed.size))
     rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
-    if coupled:
+    if structured:
+        pass  # laid out above
+    elif coupled:
         vi = layout("vi_advance", ("d", m3), ("r", m3), ("jm", m3 * padded(m3)))
         rattle = layout(
             "rattle_advance",
@@ -57,7 +133,6 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
             ("u", m3),
             ("r", n),
         )
-        extra: list[Layout] = []
     else:
         # the explicit step runs on component-major (SoA) copies, so that its loops over bodies
         # vectorise; "bridge" holds body-major q and g for terms without an SoA gradient
@@ -112,12 +187,12 @@ def _context(module: Module) -> Layout:
         return layout(CONTEXT)
     n = module.n
     cells = [t.loop.cells**3 + n for t in module.terms if t.loop.kind is LoopKind.CUTOFF_PAIRS]
-    coupled = module.coupling is not None
+    coupled = module.solver is not InertiaKind.DIAGONAL
     return layout(
         CONTEXT,
         ("md", n),
         ("mi", n),
-        ("mp", len(module.pairs)),
+        ("mp", 2 * n if module.solver is InertiaKind.MAX_INDEX else len(module.pairs)),
         ("adiag", n if coupled else 0),
         ("nb", max(cells, default=0)),
         ("cc", module.constants),
@@ -136,4 +211,5 @@ def workspace_pass(module: Module) -> Module:
         layouts=(*layouts, context),
         work_base=base,
         work_size=base + context.size,
+        bands=bands(module),
     )

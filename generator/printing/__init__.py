@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Any
 
+from s2gen.inertia import InertiaKind
 from s2gen.interface import interface
 from s2gen.ir import Kernel, LoopKind, Module, ModuleKind, PassRecord, TermLoop
 from s2gen.methods import METHODS, Status, method
@@ -111,6 +112,7 @@ class PrintedModule:
     ns: int
     npairs: int
     npairs_or_one: int
+    ncoupled: int  # doubles of mp: coupled entries (one per pair) or max-index generators (2n)
     coupled: bool
     general: bool
     soa_bridge: bool  # the component-major gradient needs the body-major one for some terms
@@ -157,6 +159,11 @@ class PrintedModule:
     derivation: str
     pole_tol: str
     min_pivot_ratio: str
+    solver: str  # InertiaKind value of the coupled solves
+    band: dict[str, dict[str, int]]  # structured solves: name -> p, r, nrhs, kl, ku, rows, ...
+    c_masses: str  # the partial that computes M's entries or generators (C, NumPy)
+    py_masses: str
+    py_inertia_setup: tuple[str, ...]  # NumPy: the body index and per-body data of M
 
 
 def print_kernel(kernel: Kernel, restrict: str) -> PrintedKernel:
@@ -369,6 +376,12 @@ _CONTEXT_DOC = {
 }
 
 
+def _context_doc(name: str, chain: bool) -> str:
+    if name == "mp" and chain:
+        return "max-index generators: a (scale), then c, one per body each"
+    return _CONTEXT_DOC.get(name, f"term {name[1:]}'s member table")
+
+
 def _functions(module: Module, prefix: str) -> tuple[dict[str, Any], ...]:
     out = []
     for f in interface(module.kind).functions:
@@ -416,6 +429,56 @@ def _enums(module: Module) -> tuple[tuple[tuple[str, int, str], ...], ...]:
     return tuple((s.c_name, int(s), s.message) for s in statuses), meths
 
 
+def _masses_parts(module: Module) -> tuple[str, str]:
+    """(C, NumPy) partials of the masses: M's entries from one system kernel, the
+    max-index generators from one system kernel, or from a per-body kernel in a loop."""
+    names = {k.name for k in module.kernels}
+    if "inertia_body" in names and module.solver is InertiaKind.DIAGONAL:
+        stem = "masses_body_diagonal"
+    elif "inertia_body" in names:
+        stem = "masses_body"
+    elif module.solver is InertiaKind.MAX_INDEX:
+        stem = "masses_generators"
+    else:
+        stem = "masses"
+    return f"c/_{stem}.jinja", f"numpy/_{stem}.jinja"
+
+
+def _inertia_tables(
+    module: Module,
+) -> tuple[list[tuple[str, str, int, tuple[str, ...]]], tuple[str, ...]]:
+    """C tables and NumPy arrays of the per-body data of M (and NumPy's body index)."""
+    c_tables = []
+    py = []
+    if (
+        module.inertia_data
+        or module.kind is ModuleKind.SPHERE
+        and any(k.name == "inertia_body" for k in module.kernels)
+    ):
+        py.append("INDEX = numpy.arange(1.0, NBODIES + 1.0)")
+    for name, values in module.inertia_data:
+        lits = [repr(float(v)) for v in values]
+        c_tables.append(("double", f"{module.name}_inertia_{name}", len(values), rows(lits)))
+        py.append(f"INERTIA_{name.upper()} = numpy.array([{', '.join(lits)}])")
+    return c_tables, tuple(py)
+
+
+def _bands(module: Module) -> dict[str, dict[str, int]]:
+    return {
+        b.name: {
+            "p": b.p,
+            "r": b.r,
+            "nrhs": b.nrhs,
+            "block": b.block,
+            "rows": b.rows,
+            "kl": b.kl,
+            "ku": b.ku,
+            "size": b.size,
+        }
+        for b in module.bands
+    }
+
+
 def print_module(module: Module) -> PrintedModule:
     """Print every part of a lowered module for both languages."""
     name, upper = module.name, module.name.upper()
@@ -436,8 +499,13 @@ def print_module(module: Module) -> PrintedModule:
             tables.append(("int", f"{name}_pair_{role}", len(idx), rows(idx, 16)))
     for t in module.terms:
         tables += c_term_tables(name, t)
+    inertia_tables, py_inertia = _inertia_tables(module)
+    tables += inertia_tables
+    c_masses, py_masses = _masses_parts(module)
     facts = dict(module.facts)
     n, npairs = module.n, len(module.pairs)
+    chain = module.solver is InertiaKind.MAX_INDEX
+    coupled_pairs = n * (n - 1) // 2 if chain else npairs
     statuses, meths = _enums(module)
     context = module.layout(CONTEXT)
     c_macros: tuple[tuple[str, str, str], ...]
@@ -454,7 +522,7 @@ def print_module(module: Module) -> PrintedModule:
             ("NBODIES", str(n), "bodies"),
             ("NSTATE", str(3 * n), "doubles in q (and in w): 3 per body, body-major"),
             ("NPARAMS", str(len(module.parameter_names)), "parameters in p"),
-            ("NPAIRS", str(npairs), "coupled pairs of M (off-diagonal entries not zero)"),
+            ("NPAIRS", str(coupled_pairs), "coupled pairs of M (off-diagonal entries not zero)"),
             ("NCONST", str(module.constants), "constants of the kernels (computed once per call)"),
             ("WORK_BASE", str(module.work_base), "workspace doubles before the per-call context"),
             ("WORK_SIZE", str(module.work_size), "workspace doubles every `work` must hold"),
@@ -486,6 +554,7 @@ def print_module(module: Module) -> PrintedModule:
         ns=6 * n if sphere else 4 * n,
         npairs=npairs,
         npairs_or_one=max(npairs, 1),
+        ncoupled=2 * n if module.solver is InertiaKind.MAX_INDEX else max(npairs, 1),
         coupled=bool(facts.get("coupled", False)),
         general=bool(facts.get("general", False)),
         soa_bridge=module.body_major_terms,
@@ -502,11 +571,7 @@ def print_module(module: Module) -> PrintedModule:
         inline=inline,
         work=_work(module),
         context=tuple(
-            {
-                "name": b.name,
-                "offset": b.offset,
-                "doc": _CONTEXT_DOC.get(b.name, f"term {b.name[1:]}'s member table"),
-            }
+            {"name": b.name, "offset": b.offset, "doc": _context_doc(b.name, chain)}
             for b in context.buffers
         ),
         work_base=module.work_base,
@@ -566,4 +631,9 @@ def print_module(module: Module) -> PrintedModule:
         derivation=str(facts.get("derivation", "")),
         pole_tol=str(facts.get("pole_tol", "")),
         min_pivot_ratio=str(facts.get("min_pivot_ratio", "")),
+        solver=module.solver.value,
+        band=_bands(module),
+        c_masses=c_masses,
+        py_masses=py_masses,
+        py_inertia_setup=py_inertia,
     )

@@ -32,20 +32,26 @@ class Model:
     """`system` compiled for `backend` ("c", "numpy" or "reference")."""
 
     def __init__(
-        self, system: System, backend: str = "c", files: dict[str, str] | None = None
+        self,
+        system: System,
+        backend: str = "c",
+        files: dict[str, str] | None = None,
+        opt: str | None = None,
     ) -> None:
         """`files`: the emitted C to build (backend "c" only), for a process that must not
-        derive the system itself; by default the system's own emitted files."""
+        derive the system itself; by default the system's own emitted files. `opt`: the C
+        library's flag set, "portable" or "native" (`s2gen.build.FLAG_SETS`; default the
+        environment's S2GEN_OPT, else "portable")."""
         self.system = system
         self.backend_name = backend
-        if files is None:
+        if (files is not None or opt is not None) and backend != "c":
+            raise ValueError(f"files and opt are for the C backend, not {backend!r}")
+        if files is None and opt is None:
             self._backend = get_backend(system, backend)
-        elif backend == "c":
+        else:
             from s2gen.runtime.c import CBackend
 
-            self._backend = CBackend(system, files)
-        else:
-            raise ValueError(f"prebuilt files are C sources; backend {backend!r} cannot use them")
+            self._backend = CBackend(system, files, opt)
 
     @property
     def parameters(self) -> dict[str, float]:

@@ -41,6 +41,20 @@ one-body and pair terms, each a sum of one expression over its members::
     pairs = "all"
     cutoff = 0.1             # chord distance |qi - qj|; cell lists make the cost O(n)
 
+Chains: the inertia per body. Instead of its n^2 entries, [inertia] may give M as
+one expression per body (see `s2gen.spec.inertia`), in the parameters, per-body data, the body
+index `i` (1..n) and the body count `n`: M_ii = diagonal, M_ij = scale_i scale_j
+max_index_max(i,j) for i != j (the form of every chain of links; the O(n) solvers use it)::
+
+    [inertia]
+    diagonal  = "l**2*T"         # a string: one expression per body (a list: n entries)
+    max_index = "T"              # optional; without it M is diagonal
+    scale     = "l"              # optional, default 1
+    solver    = "auto"           # optional: "auto", "dense" or "structured"
+    [inertia.data]               # per-body data: one number per body
+    l = [0.3, 0.25, 0.2]
+    T = [1.2, 0.8, 0.5]
+
 A term expression sees its own vectors (`q`, or `qi` and `qj`), its data, the parameters and
 everything above except the global `q1..qn`. A datum is a list with one entry per member, all
 numbers (a scalar, symbol `name`) or all 3-vectors (usable wherever a vector is: `dot(r, qi)`,
@@ -68,6 +82,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from s2gen.spec.inertia import chain_inertia
 from s2gen.spec.parser import RESERVED_NAMES, parse_expression
 from s2gen.spec.tables import (
     _BODY,
@@ -81,7 +96,7 @@ from s2gen.spec.tables import (
     _run_settings,
     _terms,
 )
-from s2gen.system import RunSettings, SpecError, System, shown
+from s2gen.system import INERTIA_SOLVERS, RunSettings, SpecError, System, shown
 
 __all__ = [
     "RESERVED_NAMES",
@@ -102,18 +117,25 @@ def define_system(
     parameters: Mapping[str, float],
     potential: str | float | sp.Expr | None = None,
     inertia: Sequence[Sequence[str | float | sp.Expr]] | sp.MatrixBase | None = None,
-    diagonal: Sequence[str | float | sp.Expr] | None = None,
+    diagonal: Sequence[str | float | sp.Expr] | str | sp.Expr | None = None,
     initial_q: Sequence[Sequence[str | float | sp.Expr]] | np.ndarray | None = None,
     initial_omega: Sequence[Sequence[str | float | sp.Expr]] | np.ndarray | None = None,
     run: Mapping[str, Any] | RunSettings | None = None,
     origin: str = API_ORIGIN,
     body_terms: Sequence[Mapping[str, Any]] | None = None,
     pair_terms: Sequence[Mapping[str, Any]] | None = None,
+    max_index: str | sp.Expr | None = None,
+    scale: str | float | sp.Expr | None = None,
+    inertia_data: Mapping[str, Sequence[str | float]] | None = None,
+    inertia_solver: str = "auto",
 ) -> System:
     """Build a validated System from Python values (the same rules as a TOML spec).
 
     Expressions may be strings (parsed safely) or SymPy objects; give exactly one of
-    `inertia` (n x n) and `diagonal` (n entries). `body_terms` and `pair_terms` are lists of
+    `inertia` (n x n) and `diagonal` (n entries, or one expression per body in the body index
+    `i`, `n`, the parameters and `inertia_data`, optionally with `max_index` and `scale`:
+    M_ij = scale_i scale_j max_index_max(i,j) off the diagonal; see `s2gen.spec.inertia`).
+    `inertia_solver` is "auto", "dense" or "structured". `body_terms` and `pair_terms` are lists of
     dicts with the keys of a ``[[potential.body]]`` / ``[[potential.pair]]`` table (``V``,
     ``bodies`` / ``pairs`` with 1-based indices, ``data``); `potential` (the general part) may
     then be omitted. Raises SpecError naming `origin` and the key.
@@ -130,11 +152,15 @@ def define_system(
         ...                                "data": {"c": ["k", 3]}}])
         >>> [t.member_list(s.n) for t in s.terms], s.terms[1].data
         ([[(0,), (1,), (2,)], [(0, 1), (1, 2)]], (TermData(name='c', width=1, values=(2.0, 3.0)),))
+        >>> s = define_system(name="rope", bodies=1000, parameters={"m": 1.0}, potential=0,
+        ...                   diagonal="m*(n - i + 1)", max_index="m*(n - i + 1)")
+        >>> s.structure.kind.value
+        'max-index'
     """
     params = _parameters(parameters, origin)
     n = _bodies(bodies, origin)
     names = list(params)
-    matrix = _inertia(inertia, diagonal, n, names, origin)
+    matrix = _any_inertia(inertia, diagonal, max_index, scale, inertia_data, n, params, origin)
     general = sp.Integer(0) if potential is None else _potential(potential, n, names, origin)
     terms = [
         *_terms(body_terms, _BODY, n, params, origin),
@@ -156,14 +182,51 @@ def define_system(
         run=_run_settings(run, origin),
         origin=origin,
         terms=terms,
+        inertia_solver=_solver(inertia_solver, origin),
     )
+
+
+def _any_inertia(
+    inertia: Any,
+    diagonal: Any,
+    max_index: Any,
+    scale: Any,
+    data: Any,
+    n: int,
+    params: Mapping[str, float],
+    origin: str,
+) -> Any:
+    """M as a matrix (`M`, or `diagonal` as a list) or per body (`chain_inertia`)."""
+    per_body = isinstance(diagonal, (str, sp.Expr)) or any(
+        v is not None for v in (max_index, scale, data)
+    )
+    if not per_body:
+        return _inertia(inertia, diagonal, n, list(params), origin)
+    where = f"{origin}: [inertia]"
+    if inertia is not None:
+        raise SpecError(f"{where}: give either 'M' or the per-body 'diagonal' (not both)")
+    if not isinstance(diagonal, (str, sp.Expr)):
+        raise SpecError(
+            f"{where} diagonal: with max_index, scale or data, give the diagonal as one "
+            f"expression per body (in i, n, the parameters and [inertia.data]), got {diagonal!r}"
+        )
+    return chain_inertia(diagonal, max_index, scale, data, n, params, origin)
+
+
+def _solver(value: Any, origin: str) -> str:
+    if not isinstance(value, str) or value not in INERTIA_SOLVERS:
+        raise SpecError(
+            f"{origin}: [inertia] solver: expected one of {', '.join(INERTIA_SOLVERS)}, "
+            f"got {value!r}"
+        )
+    return value
 
 
 # ====================================================================== TOML files
 _TOP_KEYS = ("name", "bodies", "parameters", "inertia", "potential", "initial", "run")
 _TABLE_KEYS = {
     "parameters": None,
-    "inertia": ("M", "diagonal"),
+    "inertia": ("M", "diagonal", "max_index", "scale", "data", "solver"),
     "potential": ("V", "body", "pair"),
     "initial": ("q", "omega"),
     "run": ("h", "T", "method", "rtol", "atol"),
@@ -219,6 +282,10 @@ def load_spec_text(text: str, *, origin: str = "<string>") -> System:
         potential=potential.get("V"),
         inertia=tables["inertia"].get("M"),
         diagonal=tables["inertia"].get("diagonal"),
+        max_index=tables["inertia"].get("max_index"),
+        scale=tables["inertia"].get("scale"),
+        inertia_data=tables["inertia"].get("data"),
+        inertia_solver=tables["inertia"].get("solver", "auto"),
         initial_q=tables["initial"].get("q"),
         initial_omega=tables["initial"].get("omega"),
         run=tables["run"] or None,

@@ -1,42 +1,130 @@
-"""The built-in systems: the paper's examples, by name.
+"""The built-in systems: the paper's examples and the rope, by name (with options).
 
-Input: a name (``double_pendulum``) or a path to a TOML spec file.
+Input: a name (``double_pendulum``), a name with options (``elastic_rod:n=1000``,
+``rope:n=200,kappa=0.1``, ``molecular:subdivisions=4``) or a path to a TOML spec file.
 Output: a validated `System`.
 
 Built-ins come from two places, merged into one registry of loader callables: the TOML files
-shipped in the ``s2gen.systems.examples`` package folder (one system per file, named by the file stem)
-and Python factories listed in `_FACTORIES` (for systems whose size is a parameter).
+shipped in the ``s2gen.systems.examples`` package folder (one system per file, named by the
+file stem) and Python factories listed in `_FACTORIES` (for systems whose size is a
+parameter). A factory's keyword arguments are its options: `builtin_options` lists them with
+their defaults, `resolve` parses ``name:key=value,...`` by each option's type (int, float, str,
+bool), and an unknown option or a value of the wrong type is a one-line `SpecError`.
 
 Example:
     >>> "double_pendulum" in builtin_names()
     True
     >>> builtin("double_pendulum").n
     2
+    >>> resolve("elastic_rod:n=12,inertia=physical").n
+    12
 """
 
 from __future__ import annotations
 
 import functools
+import inspect
 from collections.abc import Callable
+from dataclasses import dataclass
 from importlib.resources import files
 from pathlib import Path
+from typing import Any
 
 from s2gen.spec import load_spec, load_spec_text
 from s2gen.system import SpecError, System
-from s2gen.systems import paper
+from s2gen.systems import chains, paper
 
-__all__ = ["builtin", "builtin_names", "resolve"]
+__all__ = ["Option", "builtin", "builtin_names", "builtin_options", "resolve"]
 
 _EXAMPLES = "s2gen.systems.examples"
 
 #: Built-ins written in Python, name -> factory. A TOML example of the same name is an error.
-_FACTORIES: dict[str, Callable[[], System]] = {
+_FACTORIES: dict[str, Callable[..., System]] = {
     "three_bodies": paper.three_bodies,
     "four_pendula": paper.four_pendula,
     "elastic_rod": paper.elastic_rod,
     "dipoles": paper.dipoles,
     "molecular": paper.molecular,
+    "rope": chains.rope,
 }
+
+#: Option types settable from a command line (annotation text -> description).
+_TYPES = {
+    "int": "an integer",
+    "float": "a number",
+    "str": "a string",
+    "bool": "true or false",
+    "str | float": "a number or a string",
+}
+
+
+@dataclass(frozen=True)
+class Option:
+    """One option of a built-in: its name, default and type (annotation text).
+
+    Example:
+        >>> [str(o) for o in builtin_options("elastic_rod")]
+        ['n=10', "inertia='paper'", "solver='auto'"]
+    """
+
+    name: str
+    default: Any
+    annotation: str
+
+    def __str__(self) -> str:
+        return f"{self.name}={self.default!r}"
+
+    @property
+    def settable(self) -> bool:
+        """True when a command line can set it (a scalar type)."""
+        return self.annotation in _TYPES
+
+    def parse(self, text: str, where: str) -> Any:
+        """The value of `text` for this option (SpecError when it has the wrong type)."""
+        kind = self.annotation
+        if not self.settable:
+            raise SpecError(
+                f"{where}: option {self.name} ({kind}) cannot be set from a spec string; "
+                "use the Python API"
+            )
+        try:
+            if kind == "int":
+                return int(text)
+            if kind == "float":
+                return float(text)
+            if kind == "bool":
+                if text.lower() not in ("true", "false", "1", "0"):
+                    raise ValueError(text)
+                return text.lower() in ("true", "1")
+            if kind == "str | float":
+                try:
+                    return float(text)
+                except ValueError:
+                    return text
+        except ValueError:
+            raise SpecError(
+                f"{where}: option {self.name} expects {_TYPES[kind]}, got {text!r}"
+            ) from None
+        return text
+
+
+def builtin_options(name: str) -> list[Option]:
+    """The options of a built-in (none for TOML examples), with defaults, in signature order.
+
+    Example:
+        >>> [o.name for o in builtin_options("rope")][:3]
+        ['n', 'mass', 'length']
+    """
+    factory = _FACTORIES.get(name)
+    if factory is None:
+        if name not in _registry():
+            raise SpecError(f"unknown built-in system {name!r}; built-ins are: {_listing()}")
+        return []
+    return [
+        Option(p.name, p.default, str(p.annotation))
+        for p in inspect.signature(factory).parameters.values()
+        if p.default is not inspect.Parameter.empty
+    ]
 
 
 def _toml_stems() -> list[str]:
@@ -56,7 +144,7 @@ def _toml_loader(stem: str) -> Callable[[], System]:
 
 
 @functools.cache
-def _registry() -> dict[str, Callable[[], System]]:
+def _registry() -> dict[str, Callable[..., System]]:
     """Every built-in name mapped to the callable that builds it."""
     registry = {stem: _toml_loader(stem) for stem in _toml_stems()}
     clash = sorted(set(registry) & set(_FACTORIES))
@@ -76,17 +164,32 @@ def builtin_names() -> list[str]:
     return list(_registry())
 
 
-def builtin(name: str) -> System:
-    """Build the built-in system `name` (raises SpecError listing the names if unknown).
+def builtin(name: str, **options: Any) -> System:
+    """Build the built-in system `name` with `options` (its factory's keyword arguments;
+    raises SpecError listing the names if unknown, or naming a bad option).
 
     Example:
         >>> builtin("double_pendulum").parameter_names
         ('m1', 'm2', 'l1', 'l2', 'g')
+        >>> builtin("rope", n=50).n
+        50
     """
     loader = _registry().get(name)
     if loader is None:
         raise SpecError(f"unknown built-in system {name!r}; built-ins are: {_listing()}")
-    return loader()
+    if not options:
+        return loader()
+    known = {o.name for o in builtin_options(name)}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        shown = ", ".join(str(o) for o in builtin_options(name)) or "none"
+        raise SpecError(f"{name}: unknown option {unknown[0]!r} (options: {shown})")
+    try:
+        return loader(**options)
+    except SpecError:
+        raise
+    except ValueError as exc:
+        raise SpecError(f"{name}: {exc}") from None
 
 
 def resolve(spec: str) -> System:
@@ -101,11 +204,34 @@ def resolve(spec: str) -> System:
         return load_spec(path)
     if spec in _registry():
         return builtin(spec)
+    name, _, text = spec.partition(":")
+    if name in _registry():
+        return builtin(name, **_parse_options(name, text))
     if path.suffix == ".toml" or len(path.parts) > 1:
         raise SpecError(f"{spec}: no such spec file (built-ins are: {_listing()})")
     raise SpecError(
         f"{spec!r} is neither a spec file nor a built-in system; built-ins are: {_listing()}"
     )
+
+
+def _parse_options(name: str, text: str) -> dict[str, Any]:
+    """``key=value,...`` after a built-in's name, each value parsed by the option's type."""
+    options = {o.name: o for o in builtin_options(name)}
+    where = f"{name}:{text}"
+    if not options:
+        raise SpecError(f"{where}: the built-in {name!r} takes no options")
+    values: dict[str, Any] = {}
+    for item in text.split(","):
+        key, eq, value = (part.strip() for part in item.partition("="))
+        if not eq or not key or not value:
+            raise SpecError(f"{where}: expected key=value, got {item!r}")
+        if key not in options:
+            shown = ", ".join(str(o) for o in options.values())
+            raise SpecError(f"{where}: unknown option {key!r} (options: {shown})")
+        if key in values:
+            raise SpecError(f"{where}: option {key!r} given twice")
+        values[key] = options[key].parse(value, where)
+    return values
 
 
 def _listing() -> str:

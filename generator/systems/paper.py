@@ -22,8 +22,9 @@ import math
 import numpy as np
 import sympy as sp
 
+from s2gen.inertia import INDEX, ChainInertia
 from s2gen.symbols import vector
-from s2gen.system import RunSettings, System, Term, TermData
+from s2gen.system import INERTIA_SOLVERS, RunSettings, System, Term, TermData
 from s2gen.systems.meshes import icosphere, nearest_neighbour_distance
 
 __all__ = [
@@ -38,6 +39,7 @@ __all__ = [
     "lennard_jones_sigma",
     "molecular",
     "nearest_neighbour_distance",
+    "rod_chain_inertia",
     "rod_inertia",
     "three_bodies",
     "vortex_axes",
@@ -156,19 +158,38 @@ def rod_inertia(n: int, inertia: str = "paper") -> sp.Matrix:
     return sp.Matrix(n, n, lambda r, c: entry(r + 1, c + 1))
 
 
-def elastic_rod(n: int = 10, inertia: str = "paper") -> System:
+def rod_chain_inertia(n: int, inertia: str = "paper", unit: sp.Expr | None = None) -> ChainInertia:
+    """`rod_inertia` per body (times `unit`): M_ii = 1/3 + (n - i) and M_ij = c_max(i,j) with
+    c_k = (n - k + 1)/2 ("paper") or n - k + 1/2 ("physical"); three expressions in the body
+    index, whatever n.
+
+    Example:
+        >>> rod_chain_inertia(3).matrix(3) == rod_inertia(3)
+        True
+    """
+    if inertia not in ROD_INERTIA:
+        raise ValueError(f"rod inertia must be one of {ROD_INERTIA}, got {inertia!r}")
+    half, u = sp.Rational(1, 2), sp.Integer(1) if unit is None else unit
+    tail = half * (n - INDEX + 1) if inertia == "paper" else n - INDEX + half
+    return ChainInertia(u * (sp.Rational(1, 3) + n - INDEX), u * tail)
+
+
+def elastic_rod(n: int = 10, inertia: str = "paper", solver: str = "auto") -> System:
     """Pure bending of a clamped elastic rod of n + 1 rigid elements (paper, example 4).
 
     Element 0 is clamped along e1; elements 1..n move. Total mass m = 55 g and length
     l = 1.1 m split equally; bending springs kappa = 1000 N m at every joint; gravity along e3.
-    The kick omega = [0, 0, 10] goes to element 5 (element n when n < 5).
+    The kick omega = [0, 0, 10] goes to element 5 (element n when n < 5). M is given per body
+    (`rod_chain_inertia`: diagonal plus max-index, O(n) solves); `solver` ("auto", "dense",
+    "structured") chooses the coupled solves.
 
     Example:
         >>> s = elastic_rod(4, inertia="physical")
         >>> s.n, s.is_diagonal, [t.label for t in s.terms]
         (4, False, ['gravity', 'clamp spring', 'bending springs'])
     """
-    M = rod_inertia(n, inertia)
+    if solver not in INERTIA_SOLVERS:
+        raise ValueError(f"solver must be one of {INERTIA_SOLVERS}, got {solver!r}")
     m, l, g, kappa = _sym("m"), _sym("l"), _sym("g"), _sym("kappa")
     q, qi, qj, w, clamp = vector("q"), vector("qi"), vector("qj"), _sym("w"), vector("clamp")
     # sum_i m_i g (sum_{j<i} l_j q_j + l_i q_i / 2).e3 = m g l/(n+1)^2 sum_j (n - j + 1/2) q_j.e3
@@ -195,13 +216,15 @@ def elastic_rod(n: int = 10, inertia: str = "paper") -> System:
         name="elastic_rod" if inertia == "paper" else "elastic_rod_physical",
         n=n,
         parameters={"m": 0.055, "l": 1.1, "g": 9.81, "kappa": 1000.0},
-        inertia=m * l**2 / (n + 1) ** 3 * M,
+        inertia=rod_chain_inertia(n, inertia, m * l**2 / (n + 1) ** 3),
         potential=sp.Integer(0),
         q0=np.tile([1.0, 0.0, 0.0], (n, 1)),
         omega0=omega0,
         run=RunSettings(h=1e-4, T=3.0, method="vi"),
-        origin=f"{_ORIGIN}.elastic_rod(n={n}, inertia={inertia!r})",
+        origin=f"{_ORIGIN}.elastic_rod(n={n}, inertia={inertia!r}"
+        + (f", solver={solver!r})" if solver != "auto" else ")"),
         terms=[gravity, first] + ([bending] if n > 1 else []),
+        inertia_solver=solver,
     )
 
 

@@ -7,12 +7,12 @@
  *   factor: 2255 ops (772 +, 1387 *, 96 /, 0 sqrt, 0 calls)
  *   cse: 769 ops (237 +, 522 *, 10 /, 0 sqrt, 0 calls)
  *   hoist: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
- *   strength: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
- *   powers: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
- *   opcount: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
- *   calls: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
- *   layout: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
- *   workspace: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+ *   strength: 766 ops (236 +, 521 *, 9 /, 0 sqrt, 0 calls)
+ *   powers: 766 ops (236 +, 521 *, 9 /, 0 sqrt, 0 calls)
+ *   opcount: 766 ops (236 +, 521 *, 9 /, 0 sqrt, 0 calls)
+ *   calls: 766 ops (236 +, 521 *, 9 /, 0 sqrt, 0 calls)
+ *   layout: 766 ops (236 +, 521 *, 9 /, 0 sqrt, 0 calls)
+ *   workspace: 766 ops (236 +, 521 *, 9 /, 0 sqrt, 0 calls)
  */
 #include "double_pendulum.h"
 
@@ -33,6 +33,14 @@
 #else
 #define DOUBLE_PENDULUM_SIMD
 #define DOUBLE_PENDULUM_SIMD_SUM(...)
+#endif
+
+/* kernels are written into their loops (a call per pair or body would cost more than many
+ * kernels' arithmetic) */
+#if defined(__GNUC__)
+#define DOUBLE_PENDULUM_KERNEL static inline __attribute__((always_inline))
+#else
+#define DOUBLE_PENDULUM_KERNEL static inline
 #endif
 
 /* restrict as C99 spells it, or as C++ compilers do */
@@ -58,7 +66,7 @@ static const int double_pendulum_pair_j[1] = {
 /* ---- kernels derived by SymPy ------------------------------------------------------------- */
 /* constants of the kernels that depend only on the parameters (once per call)
  * 8 operations as derived; after the passes 6 ops (1 +, 5 *, 0 /, 0 sqrt, 0 calls), 2 temporaries. */
-static void double_pendulum_k_context(const double *DOUBLE_PENDULUM_RESTRICT p, double *DOUBLE_PENDULUM_RESTRICT cc)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_context(const double *DOUBLE_PENDULUM_RESTRICT p, double *DOUBLE_PENDULUM_RESTRICT cc)
 {
     const double x0 = p[0] + p[1];
     const double x1 = p[3]*p[1];
@@ -71,7 +79,7 @@ static void double_pendulum_k_context(const double *DOUBLE_PENDULUM_RESTRICT p, 
 
 /* diagonal of M and its coupled off-diagonal entries (pair order of the header)
  * 7 operations as derived; after the passes 7 ops (1 +, 6 *, 0 /, 0 sqrt, 0 calls), 2 temporaries. */
-static void double_pendulum_k_inertia(const double *DOUBLE_PENDULUM_RESTRICT p, double *DOUBLE_PENDULUM_RESTRICT mdiag, double *DOUBLE_PENDULUM_RESTRICT mpair)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_inertia(const double *DOUBLE_PENDULUM_RESTRICT p, double *DOUBLE_PENDULUM_RESTRICT mdiag, double *DOUBLE_PENDULUM_RESTRICT mpair)
 {
     const double pw0 = p[2]*p[2];
     const double pw1 = p[3]*p[3];
@@ -82,14 +90,14 @@ static void double_pendulum_k_inertia(const double *DOUBLE_PENDULUM_RESTRICT p, 
 
 /* potential energy V(q) (general part)
  * 7 operations as derived; after the passes 4 ops (1 +, 3 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void double_pendulum_k_potential(const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT cc, double *DOUBLE_PENDULUM_RESTRICT v)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_potential(const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT cc, double *DOUBLE_PENDULUM_RESTRICT v)
 {
     v[0] = cc[2]*(cc[0]*q[2] + cc[1]*q[5]);
 }
 
 /* dV/dq, body-major (3 per body)
  * 5 operations as derived; after the passes 0 ops (0 +, 0 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void double_pendulum_k_gradient(const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT cc, double *DOUBLE_PENDULUM_RESTRICT g)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_gradient(const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT cc, double *DOUBLE_PENDULUM_RESTRICT g)
 {
     (void)q;
     g[0] = 0;
@@ -102,7 +110,7 @@ static void double_pendulum_k_gradient(const double *DOUBLE_PENDULUM_RESTRICT q,
 
 /* kinetic energy of one body: 1/2 M_ii |omega x q|^2
  * 16 operations as derived; after the passes 16 ops (5 +, 11 *, 0 /, 0 sqrt, 0 calls), 6 temporaries. */
-static void double_pendulum_k_kin_body(const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT w, double *DOUBLE_PENDULUM_RESTRICT t)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_kin_body(const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT w, double *DOUBLE_PENDULUM_RESTRICT t)
 {
     const double pw0 = q[0]*w[2] - q[2]*w[0];
     const double pw1 = pw0*pw0;
@@ -115,14 +123,14 @@ static void double_pendulum_k_kin_body(const double m, const double *DOUBLE_PEND
 
 /* kinetic energy of a coupled pair: M_ij (omega_i x q_i).(omega_j x q_j)
  * 24 operations as derived; after the passes 24 ops (8 +, 16 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void double_pendulum_k_kin_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT wi, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT wj, double *DOUBLE_PENDULUM_RESTRICT t)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_kin_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT wi, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT wj, double *DOUBLE_PENDULUM_RESTRICT t)
 {
     t[0] = mij*((-qi[0]*wi[1] + qi[1]*wi[0])*(-qj[0]*wj[1] + qj[1]*wj[0]) + (qi[0]*wi[2] - qi[2]*wi[0])*(qj[0]*wj[2] - qj[2]*wj[0]) + (-qi[1]*wi[2] + qi[2]*wi[1])*(-qj[1]*wj[2] + qj[2]*wj[1]));
 }
 
 /* angular momentum of one body: M_ii q x (omega x q)
  * 30 operations as derived; after the passes 21 ops (6 +, 15 *, 0 /, 0 sqrt, 0 calls), 3 temporaries. */
-static void double_pendulum_k_mom_body(const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT w, double *DOUBLE_PENDULUM_RESTRICT j)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_mom_body(const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT w, double *DOUBLE_PENDULUM_RESTRICT j)
 {
     const double x0 = -q[0]*w[1] + q[1]*w[0];
     const double x1 = q[0]*w[2] - q[2]*w[0];
@@ -134,7 +142,7 @@ static void double_pendulum_k_mom_body(const double m, const double *DOUBLE_PEND
 
 /* angular momentum of a pair: M_ij (q_i x qdot_j + q_j x qdot_i)
  * 60 operations as derived; after the passes 42 ops (15 +, 27 *, 0 /, 0 sqrt, 0 calls), 6 temporaries. */
-static void double_pendulum_k_mom_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT wi, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT wj, double *DOUBLE_PENDULUM_RESTRICT j)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_mom_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT wi, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT wj, double *DOUBLE_PENDULUM_RESTRICT j)
 {
     const double x0 = -qj[0]*wj[1] + qj[1]*wj[0];
     const double x1 = -qi[0]*wi[1] + qi[1]*wi[0];
@@ -149,7 +157,7 @@ static void double_pendulum_k_mom_pair(const double mij, const double *DOUBLE_PE
 
 /* vector field, coupled body: qdot = omega x q and b_i = -q x g
  * 18 operations as derived; after the passes 18 ops (6 +, 12 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void double_pendulum_k_rhs_body(const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT w, const double *DOUBLE_PENDULUM_RESTRICT g, double *DOUBLE_PENDULUM_RESTRICT dq, double *DOUBLE_PENDULUM_RESTRICT b)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_rhs_body(const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT w, const double *DOUBLE_PENDULUM_RESTRICT g, double *DOUBLE_PENDULUM_RESTRICT dq, double *DOUBLE_PENDULUM_RESTRICT b)
 {
     dq[0] = -q[1]*w[2] + q[2]*w[1];
     dq[1] = q[0]*w[2] - q[2]*w[0];
@@ -161,7 +169,7 @@ static void double_pendulum_k_rhs_body(const double *DOUBLE_PENDULUM_RESTRICT q,
 
 /* pair terms of b: M_ij |omega_j|^2 q_i x q_j (and i <-> j)
  * 60 operations as derived; after the passes 27 ops (7 +, 20 *, 0 /, 0 sqrt, 0 calls), 11 temporaries. */
-static void double_pendulum_k_rhs_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT wi, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT wj, double *DOUBLE_PENDULUM_RESTRICT bi, double *DOUBLE_PENDULUM_RESTRICT bj)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_rhs_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT wi, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT wj, double *DOUBLE_PENDULUM_RESTRICT bi, double *DOUBLE_PENDULUM_RESTRICT bj)
 {
     const double pw0 = wj[0]*wj[0];
     const double pw1 = wj[1]*wj[1];
@@ -184,7 +192,7 @@ static void double_pendulum_k_rhs_pair(const double mij, const double *DOUBLE_PE
 
 /* block A_ij = -M_ij hat(q_i) hat(q_j) (row-major); A_ji is its transpose
  * 27 operations as derived; after the passes 15 ops (3 +, 12 *, 0 /, 0 sqrt, 0 calls), 6 temporaries. */
-static void double_pendulum_k_a_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT qj, double *DOUBLE_PENDULUM_RESTRICT a)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_a_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT qj, double *DOUBLE_PENDULUM_RESTRICT a)
 {
     const double x0 = mij*qi[1];
     const double x1 = qj[1]*x0;
@@ -205,7 +213,7 @@ static void double_pendulum_k_a_pair(const double mij, const double *DOUBLE_PEND
 
 /* known side d_i, one-body part: h M_ii omega_i - h^2/2 q_i x g_i
  * 54 operations as derived; after the passes 40 ops (12 +, 28 *, 0 /, 0 sqrt, 0 calls), 6 temporaries. */
-static void double_pendulum_k_d_body(const double h, const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT w, const double *DOUBLE_PENDULUM_RESTRICT g, double *DOUBLE_PENDULUM_RESTRICT d)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_d_body(const double h, const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT w, const double *DOUBLE_PENDULUM_RESTRICT g, double *DOUBLE_PENDULUM_RESTRICT d)
 {
     const double pw0 = h*h;
     const double x0 = (1.0/2.0)*pw0;
@@ -220,7 +228,7 @@ static void double_pendulum_k_d_body(const double h, const double m, const doubl
 
 /* known side, pair part: h M_ij q_i x (omega_j x q_j) (and i <-> j)
  * 78 operations as derived; after the passes 59 ops (18 +, 41 *, 0 /, 0 sqrt, 0 calls), 11 temporaries. */
-static void double_pendulum_k_d_pair(const double h, const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT wi, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT wj, double *DOUBLE_PENDULUM_RESTRICT di, double *DOUBLE_PENDULUM_RESTRICT dj)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_d_pair(const double h, const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT wi, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT wj, double *DOUBLE_PENDULUM_RESTRICT di, double *DOUBLE_PENDULUM_RESTRICT dj)
 {
     const double x0 = qj[0]*wj[1];
     const double x1 = qi[2]*wj[2];
@@ -242,8 +250,8 @@ static void double_pendulum_k_d_pair(const double h, const double mij, const dou
 }
 
 /* residual 2 M_ii (q.q) f/(1+f.f) - d and its Jacobian block in f (row-major)
- * 255 operations as derived; after the passes 46 ops (11 +, 33 *, 2 /, 0 sqrt, 0 calls), 20 temporaries. */
-static void double_pendulum_k_res_body(const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT f, const double *DOUBLE_PENDULUM_RESTRICT d, double *DOUBLE_PENDULUM_RESTRICT r, double *DOUBLE_PENDULUM_RESTRICT jac)
+ * 255 operations as derived; after the passes 45 ops (11 +, 33 *, 1 /, 0 sqrt, 0 calls), 20 temporaries. */
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_res_body(const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT f, const double *DOUBLE_PENDULUM_RESTRICT d, double *DOUBLE_PENDULUM_RESTRICT r, double *DOUBLE_PENDULUM_RESTRICT jac)
 {
     const double pw0 = q[0]*q[0];
     const double pw1 = q[1]*q[1];
@@ -258,7 +266,7 @@ static void double_pendulum_k_res_body(const double m, const double *DOUBLE_PEND
     const double x4 = x1 + x2 + x3 + 1;
     const double pw6 = 1.0/x4;
     const double pw7 = pw6*pw6;
-    const double x5 = 1.0/x4;
+    const double x5 = pw6;
     const double x6 = -2*m*x0*x5;
     const double x7 = 4*m*pw7*x0;
     const double x8 = f[0]*x7;
@@ -281,7 +289,7 @@ static void double_pendulum_k_res_body(const double m, const double *DOUBLE_PEND
 
 /* pair residual M_ij q_i x (F_j q_j - q_j) (and i <-> j), Jacobian blocks d/df_j, d/df_i
  * 1260 operations as derived; after the passes 292 ops (90 +, 200 *, 2 /, 0 sqrt, 0 calls), 64 temporaries. */
-static void double_pendulum_k_res_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT fi, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT fj, double *DOUBLE_PENDULUM_RESTRICT ri, double *DOUBLE_PENDULUM_RESTRICT rj, double *DOUBLE_PENDULUM_RESTRICT jij, double *DOUBLE_PENDULUM_RESTRICT jji)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_res_pair(const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT fi, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT fj, double *DOUBLE_PENDULUM_RESTRICT ri, double *DOUBLE_PENDULUM_RESTRICT rj, double *DOUBLE_PENDULUM_RESTRICT jij, double *DOUBLE_PENDULUM_RESTRICT jji)
 {
     const double pw0 = fj[0]*fj[0];
     const double pw1 = fj[1]*fj[1];
@@ -375,7 +383,7 @@ static void double_pendulum_k_res_pair(const double mij, const double *DOUBLE_PE
 
 /* diagonal block of A(q+) for the VI velocity solve: M_ii (q.q) I, the exact completion of -M_ii hat(q)^2 (equal to M_ii I on the sphere)
  * 6 operations as derived; after the passes 6 ops (2 +, 4 *, 0 /, 0 sqrt, 0 calls), 3 temporaries. */
-static void double_pendulum_k_a_body(const double m, const double *DOUBLE_PENDULUM_RESTRICT q, double *DOUBLE_PENDULUM_RESTRICT a)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_a_body(const double m, const double *DOUBLE_PENDULUM_RESTRICT q, double *DOUBLE_PENDULUM_RESTRICT a)
 {
     const double pw0 = q[0]*q[0];
     const double pw1 = q[1]*q[1];
@@ -385,7 +393,7 @@ static void double_pendulum_k_a_body(const double m, const double *DOUBLE_PENDUL
 
 /* q+ = F q with F the Cayley rotation of f (exactly orthogonal for any f)
  * 84 operations as derived; after the passes 40 ops (15 +, 24 *, 1 /, 0 sqrt, 0 calls), 10 temporaries. */
-static void double_pendulum_k_cayley(const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT f, double *DOUBLE_PENDULUM_RESTRICT qn)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_cayley(const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT f, double *DOUBLE_PENDULUM_RESTRICT qn)
 {
     const double pw0 = f[0]*f[0];
     const double pw1 = f[1]*f[1];
@@ -404,7 +412,7 @@ static void double_pendulum_k_cayley(const double *DOUBLE_PENDULUM_RESTRICT q, c
 
 /* velocity right side, one-body part: 2 M_ii/h (q.q) f/(1 + f.f) - h/2 q+ x g+
  * 66 operations as derived; after the passes 34 ops (11 +, 21 *, 2 /, 0 sqrt, 0 calls), 8 temporaries. */
-static void double_pendulum_k_c_body(const double h, const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT f, const double *DOUBLE_PENDULUM_RESTRICT qn, const double *DOUBLE_PENDULUM_RESTRICT gn, double *DOUBLE_PENDULUM_RESTRICT c)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_c_body(const double h, const double m, const double *DOUBLE_PENDULUM_RESTRICT q, const double *DOUBLE_PENDULUM_RESTRICT f, const double *DOUBLE_PENDULUM_RESTRICT qn, const double *DOUBLE_PENDULUM_RESTRICT gn, double *DOUBLE_PENDULUM_RESTRICT c)
 {
     const double pw0 = f[0]*f[0];
     const double pw1 = f[1]*f[1];
@@ -421,7 +429,7 @@ static void double_pendulum_k_c_body(const double h, const double m, const doubl
 
 /* velocity right side, pair part: M_ij/h q_i+ x (F_j q_j - q_j) (and i <-> j)
  * 198 operations as derived; after the passes 70 ops (24 +, 43 *, 3 /, 0 sqrt, 0 calls), 17 temporaries. */
-static void double_pendulum_k_c_pair(const double h, const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT fi, const double *DOUBLE_PENDULUM_RESTRICT qni, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT fj, const double *DOUBLE_PENDULUM_RESTRICT qnj, double *DOUBLE_PENDULUM_RESTRICT ci, double *DOUBLE_PENDULUM_RESTRICT cj)
+DOUBLE_PENDULUM_KERNEL void double_pendulum_k_c_pair(const double h, const double mij, const double *DOUBLE_PENDULUM_RESTRICT qi, const double *DOUBLE_PENDULUM_RESTRICT fi, const double *DOUBLE_PENDULUM_RESTRICT qni, const double *DOUBLE_PENDULUM_RESTRICT qj, const double *DOUBLE_PENDULUM_RESTRICT fj, const double *DOUBLE_PENDULUM_RESTRICT qnj, double *DOUBLE_PENDULUM_RESTRICT ci, double *DOUBLE_PENDULUM_RESTRICT cj)
 {
     const double pw0 = fj[0]*fj[0];
     const double pw1 = fj[1]*fj[1];

@@ -7,12 +7,12 @@
 #   factor: 2255 ops (772 +, 1387 *, 96 /, 0 sqrt, 0 calls)
 #   cse: 769 ops (237 +, 522 *, 10 /, 0 sqrt, 0 calls)
 #   hoist: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
-#   strength: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
-#   powers: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
-#   opcount: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
-#   calls: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
-#   layout: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
-#   workspace: 767 ops (236 +, 521 *, 10 /, 0 sqrt, 0 calls)
+#   strength: 766 ops (236 +, 521 *, 9 /, 0 sqrt, 0 calls)
+#   powers: 766 ops (236 +, 521 *, 9 /, 0 sqrt, 0 calls)
+#   opcount: 766 ops (236 +, 521 *, 9 /, 0 sqrt, 0 calls)
+#   calls: 766 ops (236 +, 521 *, 9 /, 0 sqrt, 0 calls)
+#   layout: 766 ops (236 +, 521 *, 9 /, 0 sqrt, 0 calls)
+#   workspace: 766 ops (236 +, 521 *, 9 /, 0 sqrt, 0 calls)
 """Equations of motion and integrators for the system "double_pendulum" on (S^2)^2 (NumPy).
 
 Same functions as the emitted C (double_pendulum.h). States are arrays q, w of shape (2, 3).
@@ -194,7 +194,7 @@ def _k_d_pair(h, mij, qi, wi, qj, wj):
 
 
 def _k_res_body(m, q, f, d):
-    """residual 2 M_ii (q.q) f/(1+f.f) - d and its Jacobian block in f (row-major) (255 ops as derived; after the passes 46 ops (11 +, 33 *, 2 /, 0 sqrt, 0 calls))."""
+    """residual 2 M_ii (q.q) f/(1+f.f) - d and its Jacobian block in f (row-major) (255 ops as derived; after the passes 45 ops (11 +, 33 *, 1 /, 0 sqrt, 0 calls))."""
     pw0 = q[..., 0]*q[..., 0]
     pw1 = q[..., 1]*q[..., 1]
     pw2 = q[..., 2]*q[..., 2]
@@ -208,7 +208,7 @@ def _k_res_body(m, q, f, d):
     x4 = x1 + x2 + x3 + 1
     pw6 = x4**(-1.0)
     pw7 = pw6*pw6
-    x5 = x4**(-1.0)
+    x5 = pw6
     x6 = -2*m*x0*x5
     x7 = 4*m*pw7*x0
     x8 = f[..., 0]*x7

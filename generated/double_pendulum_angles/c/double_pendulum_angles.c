@@ -35,6 +35,14 @@
 #define DOUBLE_PENDULUM_ANGLES_SIMD_SUM(...)
 #endif
 
+/* kernels are written into their loops (a call per pair or body would cost more than many
+ * kernels' arithmetic) */
+#if defined(__GNUC__)
+#define DOUBLE_PENDULUM_ANGLES_KERNEL static inline __attribute__((always_inline))
+#else
+#define DOUBLE_PENDULUM_ANGLES_KERNEL static inline
+#endif
+
 /* restrict as C99 spells it, or as C++ compilers do */
 #if defined(__cplusplus)
 #define DOUBLE_PENDULUM_ANGLES_RESTRICT __restrict
@@ -47,7 +55,7 @@
 /* ---- kernels derived by SymPy ------------------------------------------------------------- */
 /* mass matrix M(x) (row-major 4 x 4) and force F(x, xd) of M xdd = F
  * 1198 operations as derived; after the passes 291 ops (80 +, 203 *, 0 /, 0 sqrt, 8 calls), 81 temporaries. */
-static void double_pendulum_angles_k_dynamics(const double *DOUBLE_PENDULUM_ANGLES_RESTRICT p, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT x, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT xd, double *DOUBLE_PENDULUM_ANGLES_RESTRICT m, double *DOUBLE_PENDULUM_ANGLES_RESTRICT f)
+DOUBLE_PENDULUM_ANGLES_KERNEL void double_pendulum_angles_k_dynamics(const double *DOUBLE_PENDULUM_ANGLES_RESTRICT p, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT x, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT xd, double *DOUBLE_PENDULUM_ANGLES_RESTRICT m, double *DOUBLE_PENDULUM_ANGLES_RESTRICT f)
 {
     const double pw4 = p[2]*p[2];
     const double pw9 = p[3]*p[3];
@@ -154,7 +162,7 @@ static void double_pendulum_angles_k_dynamics(const double *DOUBLE_PENDULUM_ANGL
 
 /* total energy T + V in angles
  * 122 operations as derived; after the passes 68 ops (15 +, 45 *, 0 /, 0 sqrt, 8 calls), 26 temporaries. */
-static void double_pendulum_angles_k_energy(const double *DOUBLE_PENDULUM_ANGLES_RESTRICT p, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT x, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT xd, double *DOUBLE_PENDULUM_ANGLES_RESTRICT e)
+DOUBLE_PENDULUM_ANGLES_KERNEL void double_pendulum_angles_k_energy(const double *DOUBLE_PENDULUM_ANGLES_RESTRICT p, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT x, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT xd, double *DOUBLE_PENDULUM_ANGLES_RESTRICT e)
 {
     const double pw0 = p[3]*p[3];
     const double pw3 = xd[2]*xd[2];
@@ -187,7 +195,7 @@ static void double_pendulum_angles_k_energy(const double *DOUBLE_PENDULUM_ANGLES
 
 /* one body: q = q(theta, phi), omega = q x qdot
  * 68 operations as derived; after the passes 26 ops (5 +, 17 *, 0 /, 0 sqrt, 4 calls), 11 temporaries. */
-static void double_pendulum_angles_k_to_sphere(const double *DOUBLE_PENDULUM_ANGLES_RESTRICT a, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT ad, double *DOUBLE_PENDULUM_ANGLES_RESTRICT q, double *DOUBLE_PENDULUM_ANGLES_RESTRICT w)
+DOUBLE_PENDULUM_ANGLES_KERNEL void double_pendulum_angles_k_to_sphere(const double *DOUBLE_PENDULUM_ANGLES_RESTRICT a, const double *DOUBLE_PENDULUM_ANGLES_RESTRICT ad, double *DOUBLE_PENDULUM_ANGLES_RESTRICT q, double *DOUBLE_PENDULUM_ANGLES_RESTRICT w)
 {
     const double x0 = sin(a[0]);
     const double pw0 = x0*x0;

@@ -35,6 +35,14 @@
 #define FOUR_PENDULA_SIMD_SUM(...)
 #endif
 
+/* kernels are written into their loops (a call per pair or body would cost more than many
+ * kernels' arithmetic) */
+#if defined(__GNUC__)
+#define FOUR_PENDULA_KERNEL static inline __attribute__((always_inline))
+#else
+#define FOUR_PENDULA_KERNEL static inline
+#endif
+
 /* restrict as C99 spells it, or as C++ compilers do */
 #if defined(__cplusplus)
 #define FOUR_PENDULA_RESTRICT __restrict
@@ -67,7 +75,7 @@ static const double four_pendula_t1_r[12] = {
 /* ---- kernels derived by SymPy ------------------------------------------------------------- */
 /* constants of the kernels that depend only on the parameters (once per call)
  * 5 operations as derived; after the passes 5 ops (0 +, 4 *, 0 /, 0 sqrt, 1 calls), 0 temporaries. */
-static void four_pendula_k_context(const double *FOUR_PENDULA_RESTRICT p, double *FOUR_PENDULA_RESTRICT cc)
+FOUR_PENDULA_KERNEL void four_pendula_k_context(const double *FOUR_PENDULA_RESTRICT p, double *FOUR_PENDULA_RESTRICT cc)
 {
     cc[0] = -p[2]*p[1]*p[0];
     cc[1] = (1.0/2.0)*fabs(p[1]);
@@ -76,7 +84,7 @@ static void four_pendula_k_context(const double *FOUR_PENDULA_RESTRICT p, double
 
 /* term 1: what depends only on parameters and the member's data (once per call and member)
  * 16 operations as derived; after the passes 15 ops (2 +, 12 *, 0 /, 1 sqrt, 0 calls), 4 temporaries. */
-static void four_pendula_k_t1_table(const double *FOUR_PENDULA_RESTRICT p, const double d_kappa, const double *FOUR_PENDULA_RESTRICT d_r, double *FOUR_PENDULA_RESTRICT tab)
+FOUR_PENDULA_KERNEL void four_pendula_k_t1_table(const double *FOUR_PENDULA_RESTRICT p, const double d_kappa, const double *FOUR_PENDULA_RESTRICT d_r, double *FOUR_PENDULA_RESTRICT tab)
 {
     const double pw0 = d_r[0]*d_r[0];
     const double pw1 = d_r[1]*d_r[1];
@@ -95,7 +103,7 @@ static void four_pendula_k_t1_table(const double *FOUR_PENDULA_RESTRICT p, const
 
 /* diagonal of M and its coupled off-diagonal entries (pair order of the header)
  * 2 operations as derived; after the passes 2 ops (0 +, 2 *, 0 /, 0 sqrt, 0 calls), 1 temporaries. */
-static void four_pendula_k_inertia(const double *FOUR_PENDULA_RESTRICT p, double *FOUR_PENDULA_RESTRICT mdiag)
+FOUR_PENDULA_KERNEL void four_pendula_k_inertia(const double *FOUR_PENDULA_RESTRICT p, double *FOUR_PENDULA_RESTRICT mdiag)
 {
     const double pw0 = p[1]*p[1];
     mdiag[0] = p[0]*pw0;
@@ -103,14 +111,14 @@ static void four_pendula_k_inertia(const double *FOUR_PENDULA_RESTRICT p, double
 
 /* gravity: sum over bodies (all), value
  * 3 operations as derived; after the passes 1 ops (0 +, 1 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void four_pendula_k_t0_value(const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT cc, double *FOUR_PENDULA_RESTRICT v)
+FOUR_PENDULA_KERNEL void four_pendula_k_t0_value(const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT cc, double *FOUR_PENDULA_RESTRICT v)
 {
     v[0] = cc[0]*q[2];
 }
 
 /* gravity: sum over bodies (all), gradient
  * 2 operations as derived; after the passes 0 ops (0 +, 0 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void four_pendula_k_t0_gradient(const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT cc, double *FOUR_PENDULA_RESTRICT g)
+FOUR_PENDULA_KERNEL void four_pendula_k_t0_gradient(const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT cc, double *FOUR_PENDULA_RESTRICT g)
 {
     (void)q;
     g[0] = 0;
@@ -120,7 +128,7 @@ static void four_pendula_k_t0_gradient(const double *FOUR_PENDULA_RESTRICT q, co
 
 /* midpoint springs: sum over pairs (list), value
  * 29 operations as derived; after the passes 16 ops (9 +, 6 *, 0 /, 1 sqrt, 0 calls), 8 temporaries. */
-static void four_pendula_k_t1_value(const double *FOUR_PENDULA_RESTRICT qi, const double *FOUR_PENDULA_RESTRICT qj, const double *FOUR_PENDULA_RESTRICT cc, const double *FOUR_PENDULA_RESTRICT tab, double *FOUR_PENDULA_RESTRICT v)
+FOUR_PENDULA_KERNEL void four_pendula_k_t1_value(const double *FOUR_PENDULA_RESTRICT qi, const double *FOUR_PENDULA_RESTRICT qj, const double *FOUR_PENDULA_RESTRICT cc, const double *FOUR_PENDULA_RESTRICT tab, double *FOUR_PENDULA_RESTRICT v)
 {
     const double pw0 = -qi[0] + qj[0] + tab[0];
     const double pw1 = pw0*pw0;
@@ -135,7 +143,7 @@ static void four_pendula_k_t1_value(const double *FOUR_PENDULA_RESTRICT qi, cons
 
 /* midpoint springs: sum over pairs (list), gradient
  * 366 operations as derived; after the passes 21 ops (9 +, 10 *, 1 /, 1 sqrt, 0 calls), 11 temporaries. */
-static void four_pendula_k_t1_gradient(const double *FOUR_PENDULA_RESTRICT qi, const double *FOUR_PENDULA_RESTRICT qj, const double *FOUR_PENDULA_RESTRICT cc, const double *FOUR_PENDULA_RESTRICT tab, double *FOUR_PENDULA_RESTRICT gi, double *FOUR_PENDULA_RESTRICT gj)
+FOUR_PENDULA_KERNEL void four_pendula_k_t1_gradient(const double *FOUR_PENDULA_RESTRICT qi, const double *FOUR_PENDULA_RESTRICT qj, const double *FOUR_PENDULA_RESTRICT cc, const double *FOUR_PENDULA_RESTRICT tab, double *FOUR_PENDULA_RESTRICT gi, double *FOUR_PENDULA_RESTRICT gj)
 {
     const double x1 = cc[2]*(-qi[0] + qj[0]) + tab[5];
     const double pw0 = x1*x1;
@@ -158,7 +166,7 @@ static void four_pendula_k_t1_gradient(const double *FOUR_PENDULA_RESTRICT qi, c
 
 /* kinetic energy of one body: 1/2 M_ii |omega x q|^2
  * 16 operations as derived; after the passes 16 ops (5 +, 11 *, 0 /, 0 sqrt, 0 calls), 6 temporaries. */
-static void four_pendula_k_kin_body(const double m, const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT w, double *FOUR_PENDULA_RESTRICT t)
+FOUR_PENDULA_KERNEL void four_pendula_k_kin_body(const double m, const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT w, double *FOUR_PENDULA_RESTRICT t)
 {
     const double pw0 = q[0]*w[2] - q[2]*w[0];
     const double pw1 = pw0*pw0;
@@ -171,7 +179,7 @@ static void four_pendula_k_kin_body(const double m, const double *FOUR_PENDULA_R
 
 /* angular momentum of one body: M_ii q x (omega x q)
  * 30 operations as derived; after the passes 21 ops (6 +, 15 *, 0 /, 0 sqrt, 0 calls), 3 temporaries. */
-static void four_pendula_k_mom_body(const double m, const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT w, double *FOUR_PENDULA_RESTRICT j)
+FOUR_PENDULA_KERNEL void four_pendula_k_mom_body(const double m, const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT w, double *FOUR_PENDULA_RESTRICT j)
 {
     const double x0 = -q[0]*w[1] + q[1]*w[0];
     const double x1 = q[0]*w[2] - q[2]*w[0];
@@ -183,7 +191,7 @@ static void four_pendula_k_mom_body(const double m, const double *FOUR_PENDULA_R
 
 /* vector field, uncoupled body: qdot = omega x q, omegadot = -q x g / M_ii
  * 21 operations as derived; after the passes 21 ops (6 +, 15 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void four_pendula_k_rhs_diag(const double mi, const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT w, const double *FOUR_PENDULA_RESTRICT g, double *FOUR_PENDULA_RESTRICT dq, double *FOUR_PENDULA_RESTRICT dw)
+FOUR_PENDULA_KERNEL void four_pendula_k_rhs_diag(const double mi, const double *FOUR_PENDULA_RESTRICT q, const double *FOUR_PENDULA_RESTRICT w, const double *FOUR_PENDULA_RESTRICT g, double *FOUR_PENDULA_RESTRICT dq, double *FOUR_PENDULA_RESTRICT dw)
 {
     dq[0] = -q[1]*w[2] + q[2]*w[1];
     dq[1] = q[0]*w[2] - q[2]*w[0];
@@ -194,10 +202,11 @@ static void four_pendula_k_rhs_diag(const double mi, const double *FOUR_PENDULA_
 }
 
 /* RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0)
- * 811 operations as derived; after the passes 66 ops (30 +, 33 *, 2 /, 1 sqrt, 0 calls), 25 temporaries. */
-static void four_pendula_k_rattle_pos(const double h, const double mi, const double *FOUR_PENDULA_RESTRICT x, const double *FOUR_PENDULA_RESTRICT v, const double *FOUR_PENDULA_RESTRICT g, double *FOUR_PENDULA_RESTRICT xn, double *FOUR_PENDULA_RESTRICT vh, double *FOUR_PENDULA_RESTRICT disc)
+ * 811 operations as derived; after the passes 66 ops (30 +, 33 *, 2 /, 1 sqrt, 0 calls), 26 temporaries. */
+FOUR_PENDULA_KERNEL void four_pendula_k_rattle_pos(const double h, const double mi, const double *FOUR_PENDULA_RESTRICT x, const double *FOUR_PENDULA_RESTRICT v, const double *FOUR_PENDULA_RESTRICT g, double *FOUR_PENDULA_RESTRICT xn, double *FOUR_PENDULA_RESTRICT vh, double *FOUR_PENDULA_RESTRICT disc)
 {
     const double pw0 = h*h;
+    const double pw8 = 1.0/h;
     const double pw5 = x[0]*x[0];
     const double pw6 = x[1]*x[1];
     const double pw7 = x[2]*x[2];
@@ -221,7 +230,7 @@ static void four_pendula_k_rattle_pos(const double h, const double mi, const dou
     const double x13 = x11*x[1];
     const double x14 = x11*x[2];
     const double x15 = h*x0;
-    const double x16 = 1.0/h;
+    const double x16 = pw8;
     xn[0] = h*v[0] - x12 - x2 + x[0];
     xn[1] = h*v[1] - x13 - x4 + x[1];
     xn[2] = h*v[2] - x14 - x6 + x[2];
@@ -233,7 +242,7 @@ static void four_pendula_k_rattle_pos(const double h, const double mi, const dou
 
 /* RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+
  * 87 operations as derived; after the passes 25 ops (10 +, 14 *, 1 /, 0 sqrt, 0 calls), 8 temporaries. */
-static void four_pendula_k_rattle_vel(const double h, const double mi, const double *FOUR_PENDULA_RESTRICT xn, const double *FOUR_PENDULA_RESTRICT vh, const double *FOUR_PENDULA_RESTRICT gn, double *FOUR_PENDULA_RESTRICT vn)
+FOUR_PENDULA_KERNEL void four_pendula_k_rattle_vel(const double h, const double mi, const double *FOUR_PENDULA_RESTRICT xn, const double *FOUR_PENDULA_RESTRICT vh, const double *FOUR_PENDULA_RESTRICT gn, double *FOUR_PENDULA_RESTRICT vn)
 {
     const double pw0 = xn[0]*xn[0];
     const double pw1 = xn[1]*xn[1];
@@ -637,6 +646,7 @@ FOUR_PENDULA_SIMD
         const double w0 = v[i], w1 = v[4 + i], w2 = v[8 + i];
         const double g0 = gx[i], g1 = gx[4 + i], g2 = gx[8 + i];
         const double pw0 = h*h;
+        const double pw4 = 1.0/h;
         const double x0 = (1.0/2.0)*mi*pw0;
         const double x1 = h*w1 - x0*(g0*q2 - g2*q0);
         const double pw1 = x1*x1;
@@ -646,7 +656,7 @@ FOUR_PENDULA_SIMD
         const double pw3 = x3*x3;
         const double x4 = -pw1 - pw2 - pw3 + 1;
         const double x5 = sqrt(x4);
-        const double x6 = 1.0/h;
+        const double x6 = pw4;
         const double qn0 = q0*x5 - q1*x2 + q2*x1;
         const double qn1 = q0*x2 + q1*x5 - q2*x3;
         const double qn2 = -q0*x1 + q1*x3 + q2*x5;

@@ -159,6 +159,7 @@ def _k_rhs_diag(mi, q, w, g):
 def _k_vi_pos(h, mi, q, w, g):
     """explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0), wh = a/h (234 ops as derived; after the passes 47 ops (15 +, 30 *, 1 /, 1 sqrt, 0 calls))."""
     pw0 = h*h
+    pw4 = h**(-1.0)
     x0 = (1/2)*mi*pw0
     x1 = h*w[..., 1] - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])
     pw1 = x1*x1
@@ -168,7 +169,7 @@ def _k_vi_pos(h, mi, q, w, g):
     pw3 = x3*x3
     x4 = -pw1 - pw2 - pw3 + 1
     x5 = numpy.sqrt(x4)
-    x6 = h**(-1.0)
+    x6 = pw4
     qn = _stack(q[..., 0]*x5 - q[..., 1]*x2 + q[..., 2]*x1, q[..., 0]*x2 + q[..., 1]*x5 - q[..., 2]*x3, -q[..., 0]*x1 + q[..., 1]*x3 + q[..., 2]*x5)
     wh = _stack(x3*x6, x1*x6, x2*x6)
     s = x4
@@ -185,6 +186,7 @@ def _k_vi_vel(h, mi, wh, qn, gn):
 def _k_rattle_pos(h, mi, x, v, g):
     """RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0) (811 ops as derived; after the passes 66 ops (30 +, 33 *, 2 /, 1 sqrt, 0 calls))."""
     pw0 = h*h
+    pw8 = h**(-1.0)
     pw5 = x[..., 0]*x[..., 0]
     pw6 = x[..., 1]*x[..., 1]
     pw7 = x[..., 2]*x[..., 2]
@@ -208,7 +210,7 @@ def _k_rattle_pos(h, mi, x, v, g):
     x13 = x11*x[..., 1]
     x14 = x11*x[..., 2]
     x15 = h*x0
-    x16 = h**(-1.0)
+    x16 = pw8
     xn = _stack(h*v[..., 0] - x12 - x2 + x[..., 0], h*v[..., 1] - x13 - x4 + x[..., 1], h*v[..., 2] - x14 - x6 + x[..., 2])
     vh = _stack(-g[..., 0]*x15 + v[..., 0] - x12*x16, -g[..., 1]*x15 + v[..., 1] - x13*x16, -g[..., 2]*x15 + v[..., 2] - x14*x16)
     disc = x10

@@ -5,14 +5,14 @@
  *   quadratic: 1602 ops (465 +, 976 *, 152 /, 9 sqrt, 0 calls)
  *   reciprocal: 1602 ops (465 +, 1099 *, 29 /, 9 sqrt, 0 calls)
  *   factor: 1510 ops (459 +, 1013 *, 29 /, 9 sqrt, 0 calls)
- *   cse: 267 ops (90 +, 168 *, 7 /, 2 sqrt, 0 calls)
- *   hoist: 262 ops (90 +, 163 *, 7 /, 2 sqrt, 0 calls)
- *   strength: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
- *   powers: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
- *   opcount: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
- *   calls: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
- *   layout: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
- *   workspace: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
+ *   cse: 264 ops (90 +, 165 *, 7 /, 2 sqrt, 0 calls)
+ *   hoist: 259 ops (90 +, 160 *, 7 /, 2 sqrt, 0 calls)
+ *   strength: 254 ops (90 +, 156 *, 6 /, 2 sqrt, 0 calls)
+ *   powers: 254 ops (90 +, 156 *, 6 /, 2 sqrt, 0 calls)
+ *   opcount: 254 ops (90 +, 156 *, 6 /, 2 sqrt, 0 calls)
+ *   calls: 254 ops (90 +, 156 *, 6 /, 2 sqrt, 0 calls)
+ *   layout: 254 ops (90 +, 156 *, 6 /, 2 sqrt, 0 calls)
+ *   workspace: 254 ops (90 +, 156 *, 6 /, 2 sqrt, 0 calls)
  */
 #include "lj_cutoff.h"
 
@@ -33,6 +33,14 @@
 #else
 #define LJ_CUTOFF_SIMD
 #define LJ_CUTOFF_SIMD_SUM(...)
+#endif
+
+/* kernels are written into their loops (a call per pair or body would cost more than many
+ * kernels' arithmetic) */
+#if defined(__GNUC__)
+#define LJ_CUTOFF_KERNEL static inline __attribute__((always_inline))
+#else
+#define LJ_CUTOFF_KERNEL static inline
 #endif
 
 /* restrict as C99 spells it, or as C++ compilers do */
@@ -85,7 +93,7 @@ static int lj_cutoff_near(const double *a, const double *b, double rc2)
 /* ---- kernels derived by SymPy ------------------------------------------------------------- */
 /* constants of the kernels that depend only on the parameters (once per call)
  * 19 operations as derived; after the passes 7 ops (0 +, 7 *, 0 /, 0 sqrt, 0 calls), 3 temporaries. */
-static void lj_cutoff_k_context(const double *LJ_CUTOFF_RESTRICT p, double *LJ_CUTOFF_RESTRICT cc)
+LJ_CUTOFF_KERNEL void lj_cutoff_k_context(const double *LJ_CUTOFF_RESTRICT p, double *LJ_CUTOFF_RESTRICT cc)
 {
     const double pw0 = p[2]*p[2];
     const double pw1 = pw0*pw0;
@@ -98,14 +106,14 @@ static void lj_cutoff_k_context(const double *LJ_CUTOFF_RESTRICT p, double *LJ_C
 
 /* diagonal of M and its coupled off-diagonal entries (pair order of the header)
  * 0 operations as derived; after the passes 0 ops (0 +, 0 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void lj_cutoff_k_inertia(const double *LJ_CUTOFF_RESTRICT p, double *LJ_CUTOFF_RESTRICT mdiag)
+LJ_CUTOFF_KERNEL void lj_cutoff_k_inertia(const double *LJ_CUTOFF_RESTRICT p, double *LJ_CUTOFF_RESTRICT mdiag)
 {
     mdiag[0] = p[0];
 }
 
 /* [[potential.pair]] #1: sum over pairs (all), value
  * 38 operations as derived; after the passes 15 ops (6 +, 8 *, 1 /, 0 sqrt, 0 calls), 10 temporaries. */
-static void lj_cutoff_k_t0_value(const double *LJ_CUTOFF_RESTRICT qi, const double *LJ_CUTOFF_RESTRICT qj, const double *LJ_CUTOFF_RESTRICT cc, double *LJ_CUTOFF_RESTRICT v)
+LJ_CUTOFF_KERNEL void lj_cutoff_k_t0_value(const double *LJ_CUTOFF_RESTRICT qi, const double *LJ_CUTOFF_RESTRICT qj, const double *LJ_CUTOFF_RESTRICT cc, double *LJ_CUTOFF_RESTRICT v)
 {
     const double pw0 = qi[0] - qj[0];
     const double pw1 = pw0*pw0;
@@ -121,8 +129,8 @@ static void lj_cutoff_k_t0_value(const double *LJ_CUTOFF_RESTRICT qi, const doub
 }
 
 /* [[potential.pair]] #1: sum over pairs (all), gradient
- * 252 operations as derived; after the passes 22 ops (6 +, 15 *, 1 /, 0 sqrt, 0 calls), 11 temporaries. */
-static void lj_cutoff_k_t0_gradient(const double *LJ_CUTOFF_RESTRICT qi, const double *LJ_CUTOFF_RESTRICT qj, const double *LJ_CUTOFF_RESTRICT cc, double *LJ_CUTOFF_RESTRICT gi, double *LJ_CUTOFF_RESTRICT gj)
+ * 252 operations as derived; after the passes 19 ops (6 +, 12 *, 1 /, 0 sqrt, 0 calls), 14 temporaries. */
+LJ_CUTOFF_KERNEL void lj_cutoff_k_t0_gradient(const double *LJ_CUTOFF_RESTRICT qi, const double *LJ_CUTOFF_RESTRICT qj, const double *LJ_CUTOFF_RESTRICT cc, double *LJ_CUTOFF_RESTRICT gi, double *LJ_CUTOFF_RESTRICT gj)
 {
     const double x0 = qi[0] - qj[0];
     const double pw0 = x0*x0;
@@ -135,17 +143,20 @@ static void lj_cutoff_k_t0_gradient(const double *LJ_CUTOFF_RESTRICT qi, const d
     const double pw4 = pw3*pw3;
     const double pw5 = pw4*pw4;
     const double x5 = cc[3]*pw5*(cc[2]*pw3*pw4 - 1);
-    gi[0] = -x0*x5;
-    gi[1] = -x2*x5;
-    gi[2] = -x3*x5;
-    gj[0] = x0*x5;
-    gj[1] = x2*x5;
-    gj[2] = x3*x5;
+    const double x6 = -x0*x5;
+    const double x7 = -x2*x5;
+    const double x8 = -x3*x5;
+    gi[0] = x6;
+    gi[1] = x7;
+    gi[2] = x8;
+    gj[0] = -x6;
+    gj[1] = -x7;
+    gj[2] = -x8;
 }
 
 /* kinetic energy of one body: 1/2 M_ii |omega x q|^2
  * 16 operations as derived; after the passes 16 ops (5 +, 11 *, 0 /, 0 sqrt, 0 calls), 6 temporaries. */
-static void lj_cutoff_k_kin_body(const double m, const double *LJ_CUTOFF_RESTRICT q, const double *LJ_CUTOFF_RESTRICT w, double *LJ_CUTOFF_RESTRICT t)
+LJ_CUTOFF_KERNEL void lj_cutoff_k_kin_body(const double m, const double *LJ_CUTOFF_RESTRICT q, const double *LJ_CUTOFF_RESTRICT w, double *LJ_CUTOFF_RESTRICT t)
 {
     const double pw0 = q[0]*w[2] - q[2]*w[0];
     const double pw1 = pw0*pw0;
@@ -158,7 +169,7 @@ static void lj_cutoff_k_kin_body(const double m, const double *LJ_CUTOFF_RESTRIC
 
 /* angular momentum of one body: M_ii q x (omega x q)
  * 30 operations as derived; after the passes 21 ops (6 +, 15 *, 0 /, 0 sqrt, 0 calls), 3 temporaries. */
-static void lj_cutoff_k_mom_body(const double m, const double *LJ_CUTOFF_RESTRICT q, const double *LJ_CUTOFF_RESTRICT w, double *LJ_CUTOFF_RESTRICT j)
+LJ_CUTOFF_KERNEL void lj_cutoff_k_mom_body(const double m, const double *LJ_CUTOFF_RESTRICT q, const double *LJ_CUTOFF_RESTRICT w, double *LJ_CUTOFF_RESTRICT j)
 {
     const double x0 = -q[0]*w[1] + q[1]*w[0];
     const double x1 = q[0]*w[2] - q[2]*w[0];
@@ -170,7 +181,7 @@ static void lj_cutoff_k_mom_body(const double m, const double *LJ_CUTOFF_RESTRIC
 
 /* vector field, uncoupled body: qdot = omega x q, omegadot = -q x g / M_ii
  * 21 operations as derived; after the passes 21 ops (6 +, 15 *, 0 /, 0 sqrt, 0 calls), 0 temporaries. */
-static void lj_cutoff_k_rhs_diag(const double mi, const double *LJ_CUTOFF_RESTRICT q, const double *LJ_CUTOFF_RESTRICT w, const double *LJ_CUTOFF_RESTRICT g, double *LJ_CUTOFF_RESTRICT dq, double *LJ_CUTOFF_RESTRICT dw)
+LJ_CUTOFF_KERNEL void lj_cutoff_k_rhs_diag(const double mi, const double *LJ_CUTOFF_RESTRICT q, const double *LJ_CUTOFF_RESTRICT w, const double *LJ_CUTOFF_RESTRICT g, double *LJ_CUTOFF_RESTRICT dq, double *LJ_CUTOFF_RESTRICT dw)
 {
     dq[0] = -q[1]*w[2] + q[2]*w[1];
     dq[1] = q[0]*w[2] - q[2]*w[0];
@@ -181,10 +192,11 @@ static void lj_cutoff_k_rhs_diag(const double mi, const double *LJ_CUTOFF_RESTRI
 }
 
 /* RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0)
- * 811 operations as derived; after the passes 66 ops (30 +, 33 *, 2 /, 1 sqrt, 0 calls), 25 temporaries. */
-static void lj_cutoff_k_rattle_pos(const double h, const double mi, const double *LJ_CUTOFF_RESTRICT x, const double *LJ_CUTOFF_RESTRICT v, const double *LJ_CUTOFF_RESTRICT g, double *LJ_CUTOFF_RESTRICT xn, double *LJ_CUTOFF_RESTRICT vh, double *LJ_CUTOFF_RESTRICT disc)
+ * 811 operations as derived; after the passes 66 ops (30 +, 33 *, 2 /, 1 sqrt, 0 calls), 26 temporaries. */
+LJ_CUTOFF_KERNEL void lj_cutoff_k_rattle_pos(const double h, const double mi, const double *LJ_CUTOFF_RESTRICT x, const double *LJ_CUTOFF_RESTRICT v, const double *LJ_CUTOFF_RESTRICT g, double *LJ_CUTOFF_RESTRICT xn, double *LJ_CUTOFF_RESTRICT vh, double *LJ_CUTOFF_RESTRICT disc)
 {
     const double pw0 = h*h;
+    const double pw8 = 1.0/h;
     const double pw5 = x[0]*x[0];
     const double pw6 = x[1]*x[1];
     const double pw7 = x[2]*x[2];
@@ -208,7 +220,7 @@ static void lj_cutoff_k_rattle_pos(const double h, const double mi, const double
     const double x13 = x11*x[1];
     const double x14 = x11*x[2];
     const double x15 = h*x0;
-    const double x16 = 1.0/h;
+    const double x16 = pw8;
     xn[0] = h*v[0] - x12 - x2 + x[0];
     xn[1] = h*v[1] - x13 - x4 + x[1];
     xn[2] = h*v[2] - x14 - x6 + x[2];
@@ -220,7 +232,7 @@ static void lj_cutoff_k_rattle_pos(const double h, const double mi, const double
 
 /* RATTLE velocity step of one body: v+ = u - (x+.u)/(x+.x+) x+, u = v+1/2 - h/(2m) g+
  * 87 operations as derived; after the passes 25 ops (10 +, 14 *, 1 /, 0 sqrt, 0 calls), 8 temporaries. */
-static void lj_cutoff_k_rattle_vel(const double h, const double mi, const double *LJ_CUTOFF_RESTRICT xn, const double *LJ_CUTOFF_RESTRICT vh, const double *LJ_CUTOFF_RESTRICT gn, double *LJ_CUTOFF_RESTRICT vn)
+LJ_CUTOFF_KERNEL void lj_cutoff_k_rattle_vel(const double h, const double mi, const double *LJ_CUTOFF_RESTRICT xn, const double *LJ_CUTOFF_RESTRICT vh, const double *LJ_CUTOFF_RESTRICT gn, double *LJ_CUTOFF_RESTRICT vn)
 {
     const double pw0 = xn[0]*xn[0];
     const double pw1 = xn[1]*xn[1];
@@ -673,6 +685,7 @@ LJ_CUTOFF_SIMD
         const double w0 = v[i], w1 = v[8 + i], w2 = v[16 + i];
         const double g0 = gx[i], g1 = gx[8 + i], g2 = gx[16 + i];
         const double pw0 = h*h;
+        const double pw4 = 1.0/h;
         const double x0 = (1.0/2.0)*mi*pw0;
         const double x1 = h*w1 - x0*(g0*q2 - g2*q0);
         const double pw1 = x1*x1;
@@ -682,7 +695,7 @@ LJ_CUTOFF_SIMD
         const double pw3 = x3*x3;
         const double x4 = -pw1 - pw2 - pw3 + 1;
         const double x5 = sqrt(x4);
-        const double x6 = 1.0/h;
+        const double x6 = pw4;
         const double qn0 = q0*x5 - q1*x2 + q2*x1;
         const double qn1 = q0*x2 + q1*x5 - q2*x3;
         const double qn2 = -q0*x1 + q1*x3 + q2*x5;

@@ -5,14 +5,14 @@
 #   quadratic: 1602 ops (465 +, 976 *, 152 /, 9 sqrt, 0 calls)
 #   reciprocal: 1602 ops (465 +, 1099 *, 29 /, 9 sqrt, 0 calls)
 #   factor: 1510 ops (459 +, 1013 *, 29 /, 9 sqrt, 0 calls)
-#   cse: 267 ops (90 +, 168 *, 7 /, 2 sqrt, 0 calls)
-#   hoist: 262 ops (90 +, 163 *, 7 /, 2 sqrt, 0 calls)
-#   strength: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
-#   powers: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
-#   opcount: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
-#   calls: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
-#   layout: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
-#   workspace: 257 ops (90 +, 159 *, 6 /, 2 sqrt, 0 calls)
+#   cse: 264 ops (90 +, 165 *, 7 /, 2 sqrt, 0 calls)
+#   hoist: 259 ops (90 +, 160 *, 7 /, 2 sqrt, 0 calls)
+#   strength: 254 ops (90 +, 156 *, 6 /, 2 sqrt, 0 calls)
+#   powers: 254 ops (90 +, 156 *, 6 /, 2 sqrt, 0 calls)
+#   opcount: 254 ops (90 +, 156 *, 6 /, 2 sqrt, 0 calls)
+#   calls: 254 ops (90 +, 156 *, 6 /, 2 sqrt, 0 calls)
+#   layout: 254 ops (90 +, 156 *, 6 /, 2 sqrt, 0 calls)
+#   workspace: 254 ops (90 +, 156 *, 6 /, 2 sqrt, 0 calls)
 """Equations of motion and integrators for the system "lj_cutoff" on (S^2)^8 (NumPy).
 
 Same functions as the emitted C (lj_cutoff.h). States are arrays q, w of shape (8, 3).
@@ -95,7 +95,7 @@ def _k_t0_value(qi, qj, cc):
 
 
 def _k_t0_gradient(qi, qj, cc):
-    """[[potential.pair]] #1: sum over pairs (all), gradient (252 ops as derived; after the passes 22 ops (6 +, 15 *, 1 /, 0 sqrt, 0 calls))."""
+    """[[potential.pair]] #1: sum over pairs (all), gradient (252 ops as derived; after the passes 19 ops (6 +, 12 *, 1 /, 0 sqrt, 0 calls))."""
     x0 = qi[..., 0] - qj[..., 0]
     pw0 = x0*x0
     x2 = qi[..., 1] - qj[..., 1]
@@ -107,8 +107,11 @@ def _k_t0_gradient(qi, qj, cc):
     pw4 = pw3*pw3
     pw5 = pw4*pw4
     x5 = cc[3]*pw5*(cc[2]*pw3*pw4 - 1)
-    gi = _stack(-x0*x5, -x2*x5, -x3*x5)
-    gj = _stack(x0*x5, x2*x5, x3*x5)
+    x6 = -x0*x5
+    x7 = -x2*x5
+    x8 = -x3*x5
+    gi = _stack(x6, x7, x8)
+    gj = _stack(-x6, -x7, -x8)
     return gi, gj
 
 
@@ -143,6 +146,7 @@ def _k_rhs_diag(mi, q, w, g):
 def _k_vi_pos(h, mi, q, w, g):
     """explicit VI position update: a = h omega - h^2/(2M_ii) q x g, q+ = a x q + sqrt(1 - a.a) q (s = 1 - a.a must be >= 0), wh = a/h (234 ops as derived; after the passes 47 ops (15 +, 30 *, 1 /, 1 sqrt, 0 calls))."""
     pw0 = h*h
+    pw4 = h**(-1.0)
     x0 = (1/2)*mi*pw0
     x1 = h*w[..., 1] - x0*(g[..., 0]*q[..., 2] - g[..., 2]*q[..., 0])
     pw1 = x1*x1
@@ -152,7 +156,7 @@ def _k_vi_pos(h, mi, q, w, g):
     pw3 = x3*x3
     x4 = -pw1 - pw2 - pw3 + 1
     x5 = numpy.sqrt(x4)
-    x6 = h**(-1.0)
+    x6 = pw4
     qn = _stack(q[..., 0]*x5 - q[..., 1]*x2 + q[..., 2]*x1, q[..., 0]*x2 + q[..., 1]*x5 - q[..., 2]*x3, -q[..., 0]*x1 + q[..., 1]*x3 + q[..., 2]*x5)
     wh = _stack(x3*x6, x1*x6, x2*x6)
     s = x4
@@ -169,6 +173,7 @@ def _k_vi_vel(h, mi, wh, qn, gn):
 def _k_rattle_pos(h, mi, x, v, g):
     """RATTLE position step of one body: x+ on |x+| = 1 (closed form), v+1/2, and the discriminant (must be >= 0) (811 ops as derived; after the passes 66 ops (30 +, 33 *, 2 /, 1 sqrt, 0 calls))."""
     pw0 = h*h
+    pw8 = h**(-1.0)
     pw5 = x[..., 0]*x[..., 0]
     pw6 = x[..., 1]*x[..., 1]
     pw7 = x[..., 2]*x[..., 2]
@@ -192,7 +197,7 @@ def _k_rattle_pos(h, mi, x, v, g):
     x13 = x11*x[..., 1]
     x14 = x11*x[..., 2]
     x15 = h*x0
-    x16 = h**(-1.0)
+    x16 = pw8
     xn = _stack(h*v[..., 0] - x12 - x2 + x[..., 0], h*v[..., 1] - x13 - x4 + x[..., 1], h*v[..., 2] - x14 - x6 + x[..., 2])
     vh = _stack(-g[..., 0]*x15 + v[..., 0] - x12*x16, -g[..., 1]*x15 + v[..., 1] - x13*x16, -g[..., 2]*x15 + v[..., 2] - x14*x16)
     disc = x10

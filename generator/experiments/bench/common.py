@@ -28,18 +28,19 @@ def _print(line: str) -> None:
 
 
 def example_system(name: str) -> System:
-    """A TOML spec file or a built-in system by name (`s2gen.systems.resolve`), else a factory
-    of `s2gen.systems.paper` of that name.
+    """A TOML spec file or a built-in system by name (with options: ``rope:n=50``; see
+    `s2gen.systems.resolve`), else a factory of `s2gen.systems.paper` of that name.
 
     Example:
-        >>> example_system("double_pendulum").n
-        2
+        >>> example_system("double_pendulum").n, example_system("rope:n=50").n
+        (2, 50)
     """
     from pathlib import Path
 
     from s2gen.systems import builtin_names, resolve
 
-    if name in builtin_names() or Path(name).is_file() or name.endswith(".toml"):
+    builtin = name.partition(":")[0] in builtin_names()
+    if builtin or Path(name).is_file() or name.endswith(".toml"):
         return resolve(name)
     from s2gen.systems import paper
 

@@ -181,6 +181,9 @@ class ScaleRow:
     vi_us: float
     rk4_us: float
     status: str = "ok"
+    solver: str = ""  # the inertia's coupled solves: dense, banded, max-index (or diagonal)
+    h: float = float("nan")  # step size of the per-step timings
+    newton: float = float("nan")  # Newton iterations per VI step in the timed run
 
 
 @dataclass

@@ -23,6 +23,7 @@ from .common import _fmt, _table
 from .envelope import _first_failure, largest_stable
 from .model import EVALS_PER_STEP, FIXED, BenchReport, ScaleRow, StabilityCase, StabRow
 from .report_example import _md_example
+from .sizes import DENSE_ROD, STRUCTURED_ROD
 
 #: Published figures for n = 20 (quoted, not measured here).
 PUBLISHED_N20 = (
@@ -100,17 +101,57 @@ def _md_stability(rows: Sequence[StabRow], cases: Sequence[StabilityCase]) -> li
     ]
 
 
+def fitted_exponent(ns: Sequence[float], values: Sequence[float]) -> float:
+    """The slope of log(value) against log(n), least squares (nan with fewer than 2 points).
+
+    Example:
+        >>> round(fitted_exponent([10, 100, 1000], [1.0, 10.0, 100.0]), 6)
+        1.0
+    """
+    if len(ns) < 2:
+        return float("nan")
+    return float(np.polyfit(np.log(ns), np.log(values), 1)[0])
+
+
+def _rod_summary(rows: Sequence[ScaleRow]) -> str:
+    """The dense and structured rods side by side: per-step ratio, fitted exponent, and the
+    largest structured rod's generation time, from this run's rows."""
+    ok = [r for r in rows if r.status == "ok"]
+    dense = {r.n: r for r in ok if r.family == DENSE_ROD}
+    structured = {r.n: r for r in ok if r.family == STRUCTURED_ROD}
+    if not structured:
+        return "The rods were not measured in this run."
+    ns = sorted(structured)
+    slope = fitted_exponent(ns, [structured[n].vi_us for n in ns])
+    big = structured[ns[-1]]
+    first = (
+        f"Structured rod, VI per step against n = {ns[0]} … {ns[-1]}: fitted exponent "
+        f"{slope:.2f}; at n = {big.n} {big.vi_us / 1e3:.3g} ms per step, generated in "
+        f"{big.emit_s + big.gcc_s:.2f} s (derive + emit {big.emit_s:.2f} s, gcc "
+        f"{big.gcc_s:.2f} s), {big.c_bytes} bytes of C."
+    )
+    parts = [first]
+    both = [n for n in sorted(dense) if n in structured]
+    if both:
+        ratios = ", ".join(f"{dense[n].vi_us / structured[n].vi_us:.3g}× at n = {n}" for n in both)
+        parts.append(f"Dense over structured, time per VI step: {ratios}.")
+    return " ".join(parts)
+
+
 def _md_scaling(rows: Sequence[ScaleRow]) -> list[str]:
     table = [
         [
             r.family,
             str(r.n),
+            r.solver or "—",
             f"{r.create_s:.2f}",
             _fmt(r.emit_s, ".2f"),
             _fmt(r.gcc_s, ".2f"),
             str(r.c_bytes),
             _fmt(r.vi_us),
+            _fmt(r.newton, ".2f"),
             _fmt(r.rk4_us),
+            _fmt(r.h, ".0e"),
             r.status,
         ]
         for r in rows
@@ -118,15 +159,20 @@ def _md_scaling(rows: Sequence[ScaleRow]) -> list[str]:
     head = (
         "system",
         "n",
+        "solves",
         "build System [s]",
         "derive+emit [s]",
         "gcc [s]",
         "C bytes",
         "vi µs/step",
+        "Newton/step",
         "rk4 µs/step",
+        "h",
         "status",
     )
-    rod20 = next((r for r in rows if r.family == "rod" and r.n == 20 and r.status == "ok"), None)
+    rod20 = next(
+        (r for r in rows if r.family == STRUCTURED_ROD and r.n == 20 and r.status == "ok"), None
+    )
     ours = (
         f"Ours for the rod at n = 20, measured in this run: derive + emit {rod20.emit_s:.2f} s, "
         f"gcc {rod20.gcc_s:.2f} s."
@@ -139,10 +185,13 @@ def _md_scaling(rows: Sequence[ScaleRow]) -> list[str]:
         "",
         (
             "Generation in a fresh build cache (SymPy caches cleared between sizes); per step: best "
-            "of 3 on the emitted C. ![scaling](scaling.png)"
+            "of 3 on the emitted C. Times are CPU seconds (this process; gcc's as its child), "
+            "immune to other load on the machine. ![scaling](scaling.png)"
         ),
         "",
         *_table(head, table),
+        "",
+        _rod_summary(rows),
         "",
         f"{ours} Published figures for n = 20, quoted and not measured here: {quoted}.",
         "",

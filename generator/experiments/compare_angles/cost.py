@@ -49,7 +49,7 @@ int {prefix}_bench(const double *p, const double *a, const double *b, double *c,
 
 
 def gcc_seconds(files: dict[str, str]) -> float:
-    """Wall time of one uncached `gcc -O2 -shared` of the emitted C (build.DEFAULT_FLAGS)."""
+    """Wall time of one uncached gcc run of the emitted C with build.DEFAULT_FLAGS."""
     cc, _ = compiler()
     with tempfile.TemporaryDirectory(prefix="s2gen-gcc-") as tmp:
         for name, text in files.items():

@@ -78,6 +78,7 @@ class Report:
     examples: list[ExampleResult] = field(default_factory=list)
     files: list[Path] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
+    bands: list[str] = field(default_factory=list)  # results.md lines of the chaos bands
 
     @property
     def ok(self) -> bool:
