@@ -7,6 +7,12 @@ private temporary folder and moved into place with `os.replace`, so concurrent b
 same key never expose a partial file. The cache folder is `$S2GEN_CACHE`, else
 `~/.cache/s2gen`. Each build is logged (logger "s2gen.build") as built or reused, with timings.
 
+A cached library is trusted only if it matches the sha256 stored beside it (`<lib>.sha256`,
+written after the library, both moved into place atomically): a truncated or overwritten
+library (which would be mapped and crash with SIGBUS or SIGILL) or a missing checksum is
+logged and rebuilt, and `load_library` also rebuilds once a cached library the dynamic loader
+refuses.
+
 Example:
     >>> key = cache_key({"a.c": "int f(void) { return 1; }"}, ("-O2",))
     >>> len(key)
@@ -15,6 +21,7 @@ Example:
 
 from __future__ import annotations
 
+import ctypes
 import functools
 import hashlib
 import logging
@@ -39,6 +46,7 @@ __all__ = [
     "cache_key",
     "compile_shared",
     "compiler",
+    "load_library",
 ]
 
 log = logging.getLogger("s2gen.build")
@@ -130,15 +138,45 @@ def cache_key(sources: dict[str, str], flags: tuple[str, ...]) -> str:
     return h.hexdigest()
 
 
-def compile_shared(sources: dict[str, str], flags: tuple[str, ...] = DEFAULT_FLAGS) -> BuildResult:
-    """Compile the .c files among `sources` (headers alongside) into a cached shared library."""
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def checksum_path(library: Path) -> Path:
+    """Where the sha256 of a cached library is kept (beside it)."""
+    return library.with_name(library.name + ".sha256")
+
+
+def _intact(library: Path) -> bool:
+    """True if `library` exists and matches the checksum stored beside it."""
+    try:
+        expected = checksum_path(library).read_text().strip()
+        return len(expected) == 64 and _sha256(library) == expected
+    except OSError:
+        return False
+
+
+def compile_shared(
+    sources: dict[str, str], flags: tuple[str, ...] = DEFAULT_FLAGS, rebuild: bool = False
+) -> BuildResult:
+    """Compile the .c files among `sources` (headers alongside) into a cached shared library;
+    a cached one is reused only if it matches its stored sha256 (and `rebuild` is False)."""
     start = time.perf_counter()
     key = cache_key(sources, flags)
     target = cache_dir() / f"s2gen-{key[:32]}.so"
-    if target.exists():
-        secs = time.perf_counter() - start
-        log.info("reused %s (%.3f s)", target.name, secs)
-        return BuildResult(target, True, secs)
+    if target.exists() and not rebuild:
+        if _intact(target):
+            secs = time.perf_counter() - start
+            log.info("reused %s (%.3f s)", target.name, secs)
+            return BuildResult(target, True, secs)
+        log.warning(
+            "cached library %s does not match its sha256 (damaged, or no checksum); rebuilding",
+            target.name,
+        )
     cc, _ = compiler()
     with tempfile.TemporaryDirectory(dir=cache_dir(), prefix="build-") as tmp:
         tmpdir = Path(tmp)
@@ -154,17 +192,45 @@ def compile_shared(sources: dict[str, str], flags: tuple[str, ...] = DEFAULT_FLA
         )
         if proc.returncode != 0:
             raise BuildError(f"gcc failed ({' '.join(flags)}):\n{proc.stderr}")
+        digest = tmpdir / "lib.so.sha256"
+        digest.write_text(_sha256(out) + "\n")
         os.replace(out, target)
+        os.replace(digest, checksum_path(target))
     secs = time.perf_counter() - start
     log.info("built %s (%.3f s)", target.name, secs)
     return BuildResult(target, False, secs)
+
+
+def load_library(
+    sources: dict[str, str], flags: tuple[str, ...] = DEFAULT_FLAGS
+) -> tuple[ctypes.CDLL, BuildResult]:
+    """The library of `sources` built (or reused from the cache) and loaded with ctypes; a
+    cached library the dynamic loader refuses is rebuilt once (logged).
+
+    Example:
+        >>> lib, build = load_library({"one.c": "int one(void) { return 1; }"})
+        >>> lib.one()
+        1
+    """
+    build = compile_shared(sources, flags)
+    try:
+        return ctypes.CDLL(str(build.path)), build
+    except OSError as exc:
+        if not build.reused:
+            raise BuildError(f"cannot load the library just built, {build.path}: {exc}") from None
+        log.warning("cached library %s does not load (%s); rebuilding", build.path.name, exc)
+    build = compile_shared(sources, flags, rebuild=True)
+    try:
+        return ctypes.CDLL(str(build.path)), build
+    except OSError as exc:
+        raise BuildError(f"cannot load the library just built, {build.path}: {exc}") from None
 
 
 def header_macro(header: str, suffix: str) -> int:
     """The integer value of the macro `<NAME>_<suffix>` in an emitted header.
 
     Example:
-        >>> header_macro("#define DP_WORK_SIZE 120\n", "WORK_SIZE")
+        >>> header_macro("#define DP_WORK_SIZE 120\\n", "WORK_SIZE")
         120
     """
     for line in header.splitlines():

@@ -39,10 +39,12 @@ from s2gen.inertia import (
     chain_structure,
     detect,
 )
-from s2gen.symbols import local_vector, q_symbol, q_symbols
+from s2gen.symbols import local_vector, q_symbol
 
 __all__ = [
     "INERTIA_SOLVERS",
+    "MAX_BODIES",
+    "MAX_NAME_LENGTH",
     "UNIT_LENGTH_TOLERANCE",
     "RunSettings",
     "SpecError",
@@ -50,16 +52,23 @@ __all__ = [
     "System",
     "Term",
     "TermData",
+    "shown",
 ]
 
 #: A q_i further than this from unit length is an error; closer ones are normalized (warning).
 UNIT_LENGTH_TOLERANCE = 1e-3
 
+#: The largest number of bodies a system may have (a larger one is refused before anything
+#: is allocated; the emitted code's cost and the derivation's grow with n).
+MAX_BODIES = 10**6
+#: The longest system name: it prefixes every emitted symbol and names the emitted files.
+MAX_NAME_LENGTH = 64
+
 #: How the coupled solves are chosen: by the structure of M and n ("auto"), the dense
 #: solvers, or the structured ones (an error when M has no structure they use).
 INERTIA_SOLVERS = ("auto", "dense", "structured")
 
-_C_IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_C_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _C_RESERVED = frozenset(
     [
         "auto",
@@ -103,6 +112,16 @@ _C_RESERVED = frozenset(
 
 class SpecError(ValueError):
     """A system specification is invalid. The message names file/origin, key and item."""
+
+
+def shown(value: object, limit: int = 60) -> str:
+    """repr(value) for a one-line message, cut to `limit` characters (a value echoed in an
+    error may be a 1000-digit string or a whole table)."""
+    text = repr(value)
+    if len(text) <= limit:
+        return text
+    close = text[-1] if text[0] in "'\"" else ""  # a cut string keeps its closing quote
+    return text[: limit - 3 - len(close)] + "..." + close
 
 
 class SpecWarning(UserWarning):
@@ -195,28 +214,29 @@ def _validate_term(term: Term, n: int, psyms: set[sp.Symbol], where: str) -> Non
     """Check kind, selection, members, data sizes and the symbols of one term."""
     at = f"{where}: {term.label}"
     if term.kind not in ("body", "pair"):
-        raise SpecError(f"{at}: kind must be 'body' or 'pair', got {term.kind!r}")
+        raise SpecError(f"{at}: kind must be 'body' or 'pair', got {shown(term.kind)}")
     allowed = ("all", "list") if term.kind == "body" else ("all", "chain", "list")
     if term.select not in allowed:
-        raise SpecError(f"{at}: selection must be one of {allowed}, got {term.select!r}")
+        raise SpecError(f"{at}: selection must be one of {allowed}, got {shown(term.select)}")
     if term.select == "list":
         width = 1 if term.kind == "body" else 2
         for k, mem in enumerate(term.members):
             if len(mem) != width or not all(0 <= b < n for b in mem):
-                shown = [b + 1 for b in mem]
+                one_based = [b + 1 for b in mem]
                 raise SpecError(
-                    f"{at}: member {k + 1} {shown} is not {width} body index(es) 1..{n}"
+                    f"{at}: member {k + 1} {one_based} is not {width} body index(es) 1..{n}"
                 )
             if width == 2 and mem[0] == mem[1]:
                 raise SpecError(f"{at}: member {k + 1} pairs body {mem[0] + 1} with itself")
     elif term.members:
-        raise SpecError(f"{at}: members are given but the selection is {term.select!r}")
+        raise SpecError(f"{at}: members are given but the selection is {shown(term.select)}")
     if term.cutoff is not None:
         if term.kind != "pair" or term.select != "all":
             raise SpecError(f"{at}: a cutoff applies only to pair terms over all pairs")
         if not (np.isfinite(term.cutoff) and 0.0 < term.cutoff):
-            raise SpecError(f"{at}: cutoff must be a positive distance, got {term.cutoff!r}")
+            raise SpecError(f"{at}: cutoff must be a positive distance, got {shown(term.cutoff)}")
     count = term.count(n)
+    _check_data_names(term, at)
     for d in term.data:
         if term.select == "all" and term.kind == "pair":
             raise SpecError(
@@ -243,6 +263,88 @@ def _validate_term(term: Term, n: int, psyms: set[sp.Symbol], where: str) -> Non
     if extra:
         bad = ", ".join(sorted(str(s) for s in extra))
         raise SpecError(f"{at}: depends on {bad}, which is not a position, datum or parameter")
+    _check_real(term.expr, f"{at} V")
+
+
+#: Names of a term's emitted member tables: C `NAME_t<k>_i`, `_j`; NumPy `T<k>_I`, `_J` (data
+#: tables are `NAME_t<k>_<name>` and `T<k>_<NAME>`, upper-cased, in the same namespaces).
+_MEMBER_TABLES = frozenset({"I", "J"})
+
+
+def _check_data_names(term: Term, at: str) -> None:
+    """Data names must not clash with the emitted member tables of their term or the kernels'
+    temporaries, nor with each other once upper-cased (the NumPy module's table names): k and
+    K would share one table."""
+    seen: dict[str, str] = {}
+    for d in term.data:
+        if not isinstance(d.name, str) or not _C_IDENTIFIER.fullmatch(d.name):
+            raise SpecError(f"{at} data.{shown(d.name)}: {shown(d.name)} is not an identifier")
+        if d.width == 1 and _TEMPORARY.fullmatch(d.name):  # a vector's symbols are x0_0..
+            raise SpecError(f"{at} data.{d.name}: the name {shown(d.name)} {_TEMPORARY_CLASH}")
+        upper = d.name.upper()
+        if upper in _MEMBER_TABLES:
+            raise SpecError(
+                f"{at} data.{d.name}: the name {shown(d.name)} is taken by the term's table of "
+                "member bodies in the emitted code (rename the datum)"
+            )
+        if upper in seen:
+            raise SpecError(
+                f"{at} data.{d.name}: the names {shown(seen[upper])} and {shown(d.name)} differ "
+                "only in case, and the emitted NumPy module names its tables in upper case "
+                "(rename one)"
+            )
+        seen[upper] = d.name
+
+
+def _check_name(name: object, where: str) -> None:
+    """The system name prefixes every emitted symbol and macro and names the files."""
+    if not isinstance(name, str) or not _C_IDENTIFIER.fullmatch(name):
+        raise SpecError(f"{where}: key 'name': {shown(name)} is not a C identifier")
+    if len(name) > MAX_NAME_LENGTH:
+        raise SpecError(
+            f"{where}: key 'name': {shown(name[:16])}... has {len(name)} characters, more than the "
+            f"limit of {MAX_NAME_LENGTH}"
+        )
+    if name.startswith("_"):
+        raise SpecError(
+            f"{where}: key 'name': {shown(name)} starts with '_' (C reserves such names, and the "
+            f"header guard {name.upper()}_H could clash with a system header's)"
+        )
+    if name in _C_RESERVED or keyword.iskeyword(name):
+        raise SpecError(f"{where}: key 'name': {shown(name)} is a reserved word in C or Python")
+
+
+def _is_position(symbol: sp.Symbol, n: int) -> bool:
+    """True for the position symbols q{i}_{c} of bodies 1..n (without building all 3n)."""
+    match = _POSITION.fullmatch(symbol.name)
+    return (
+        match is not None
+        and 1 <= int(match.group(1)) <= n
+        and symbol == q_symbol(int(match.group(1)), int(match.group(2)))
+    )
+
+
+_POSITION = re.compile(r"q([1-9][0-9]*)_([0-2])")
+#: The names of the emitted kernels' common-subexpression temporaries (`passes.cse`): real
+#: symbols x0, x1, ... that a parameter or scalar datum of the same name would be taken for.
+_TEMPORARY = re.compile(r"x[0-9]+")
+_TEMPORARY_CLASH = "is reserved (the emitted code names its temporaries x0, x1, ...)"
+
+
+def _check_real(expr: sp.Expr, where: str) -> None:
+    """Refuse an expression that holds a complex number (sqrt(-1), log(-2), (-8)**(1/3)) or
+    that SymPy knows is not real: the emitted code computes in real doubles."""
+    bad: sp.Expr | None = sp.I if expr.has(sp.I) else None
+    if bad is None:
+        for atom in expr.atoms(sp.Pow, sp.Function):
+            if not atom.free_symbols and atom.evalf(15).has(sp.I):
+                bad = atom
+                break
+    if bad is None and expr.is_extended_real is False:
+        bad = expr
+    if bad is not None:
+        text = str(bad) if len(str(bad)) <= 40 else str(bad)[:37] + "..."
+        raise SpecError(f"{where}: is not real ({text} is complex); the potential must be real")
 
 
 @dataclass(frozen=True)
@@ -288,25 +390,31 @@ class System:
         `inertia` is an n x n SymPy matrix or a `ChainInertia` (per-body expressions);
         `inertia_solver` one of `INERTIA_SOLVERS`."""
         where = origin
-        if not isinstance(name, str) or not _C_IDENTIFIER.match(name):
-            raise SpecError(f"{where}: key 'name': {name!r} is not a C identifier")
-        if name in _C_RESERVED or keyword.iskeyword(name):
-            raise SpecError(f"{where}: key 'name': {name!r} is a reserved word in C or Python")
+        _check_name(name, where)
         if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
-            raise SpecError(f"{where}: key 'bodies': expected a positive integer, got {n!r}")
+            raise SpecError(f"{where}: key 'bodies': expected a positive integer, got {shown(n)}")
+        if n > MAX_BODIES:
+            raise SpecError(
+                f"{where}: key 'bodies': {n} bodies is more than the limit of {MAX_BODIES}"
+            )
         n = int(n)
         names = tuple(parameters.keys())
         values: list[float] = []
         for pname in names:
-            if not _C_IDENTIFIER.match(pname):
-                raise SpecError(f"{where}: [parameters]: {pname!r} is not an identifier")
+            if not isinstance(pname, str) or not _C_IDENTIFIER.fullmatch(pname):
+                raise SpecError(f"{where}: [parameters]: {shown(pname)} is not an identifier")
             if re.fullmatch(r"q[0-9]+_[0-9]+", pname):
-                raise SpecError(f"{where}: [parameters]: {pname!r} clashes with a position symbol")
+                raise SpecError(
+                    f"{where}: [parameters]: {shown(pname)} clashes with a position symbol"
+                )
+            if _TEMPORARY.fullmatch(pname):
+                raise SpecError(f"{where}: [parameters]: {shown(pname)} {_TEMPORARY_CLASH}")
             try:
                 v = float(parameters[pname])
             except (TypeError, ValueError):
+                got = shown(parameters[pname])
                 raise SpecError(
-                    f"{where}: [parameters] {pname}: expected a number, got {parameters[pname]!r}"
+                    f"{where}: [parameters] {pname}: expected a number, got {got}"
                 ) from None
             if not np.isfinite(v):
                 raise SpecError(f"{where}: [parameters] {pname}: value {v} is not finite")
@@ -327,9 +435,8 @@ class System:
 
         V = sp.sympify(potential)
         if not isinstance(V, sp.Expr):
-            raise SpecError(f"{where}: [potential] V: must be a scalar expression, got {V!r}")
-        qs = set(q_symbols(n))
-        extra = V.free_symbols - qs - psyms
+            raise SpecError(f"{where}: [potential] V: must be a scalar expression, got {shown(V)}")
+        extra = {s for s in V.free_symbols - psyms if not _is_position(s, n)}
         if extra:
             bad = ", ".join(sorted(str(s) for s in extra))
             raise SpecError(
@@ -338,6 +445,7 @@ class System:
             )
         if V.has(sp.Derivative, sp.Integral):
             raise SpecError(f"{where}: [potential] V: must not contain derivatives or integrals")
+        _check_real(V, f"{where}: [potential] V")
 
         for term in terms:
             _validate_term(term, n, psyms, where)

@@ -40,12 +40,17 @@ def test_newton_not_converged(backend: str) -> None:
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_non_finite_state(backend: str) -> None:
-    """Two bodies of the cotangent potential placed on top of each other: infinite force."""
+    """Two bodies of the cotangent potential placed on top of each other: infinite force, and
+    an infinite energy already at t = 0, so no sample is valid (the step fails too)."""
     s = builtin("three_bodies")
     q0 = s.q0.copy()
     q0[1] = q0[0]
     with pytest.raises(IntegrationError) as info:
         simulate(s, "rk4", backend, h=0.01, T=1.0, q0=q0, omega0=np.zeros_like(q0))
+    assert info.value.status == 3
+    assert info.value.step == 0 and len(info.value.partial.t) == 0
+    with pytest.raises(IntegrationError) as info:
+        simulate(s, "rk4", backend, h=0.01, T=1.0, q0=q0, omega0=np.zeros_like(q0), energy=False)
     assert info.value.status == 3
     assert info.value.step == 1
 

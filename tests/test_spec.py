@@ -464,7 +464,11 @@ def test_rounded_initial_values_are_normalized_with_a_warning(tmp_path: Path) ->
         (Q_LINE, "q = [[0, 0, 1], [0, 1]]", ["[initial] q[2]: expected 3 components, got 2"]),
         (Q_LINE, 'q = [[0, 0, 1], [0, "q1[0]", 1]]', ["[initial] q[2][2]", "'q1' is not"]),
         (Q_LINE, 'q = [[0, 0, 1], [0, "x", 1]]', ["[initial] q[2][2]", "unknown name 'x'"]),
-        (Q_LINE, 'q = [[0, 0, 1], [0, "sqrt(-1)", 1]]', ["[initial] q[2][2]", "not a real"]),
+        (
+            Q_LINE,
+            'q = [[0, 0, 1], [0, "sqrt(-1)", 1]]',
+            ["[initial] q[2][2]", "is not real", "column 1"],
+        ),
         (Q_LINE, 'q = [[0, 0, 1], [0, "true", 1]]', ["[initial] q[2][2]", "unknown name 'true'"]),
         (W_LINE, "", ["[initial]: give both 'q' and 'omega'"]),
         (W_LINE, "omega = 3", ["[initial] omega: expected a list of 2 vectors"]),

@@ -427,7 +427,7 @@ B1 = "[[potential.body]] #1"
         (
             K_LINE,
             '"a b" = [10, 20, 30, 40]',
-            [f"{P1} data.a b: data name 'a b' is not an identifier"],
+            [f"{P1} data.'a b': data name 'a b' is not an identifier"],
         ),
         (K_LINE, "for = [10, 20, 30, 40]", [f"{P1} data.for", "reserved word"]),
         (

@@ -14,6 +14,8 @@ Example:
 
 from __future__ import annotations
 
+import math
+
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 
@@ -21,7 +23,9 @@ from s2gen.interface import Field, Function, Kind, Param
 from s2gen.ir import Call, Kernel, LoopKind, TermLoop
 
 __all__ = [
+    "EXACT_INTEGER",
     "CPrinter",
+    "LiteralError",
     "c_call",
     "c_decl",
     "c_field_decl",
@@ -29,8 +33,40 @@ __all__ = [
     "c_kernel",
     "c_loop",
     "c_term_tables",
+    "double_literal",
     "rows",
 ]
+
+
+class LiteralError(ValueError):
+    """A number of an expression cannot be a double (beyond its range, or complex)."""
+
+
+#: Integers up to this magnitude are exact doubles, and so is the quotient p.0/q.0 of two of
+#: them correctly rounded; beyond it a literal is printed as the correctly rounded double.
+EXACT_INTEGER = 2**53
+
+
+def double_literal(value: sp.Rational) -> str:
+    """The shortest literal that reads back as the double nearest to the exact `value`
+    (Python's int / int is correctly rounded); LiteralError beyond the range of a double.
+
+    Example:
+        >>> double_literal(sp.Integer(2)**64), double_literal(sp.Rational(1, 10**400))
+        ('1.8446744073709552e+19', '0.0')
+    """
+    try:
+        number = int(value.p) / int(value.q)
+    except OverflowError:
+        number = math.inf
+    if not math.isfinite(number):
+        shown = sp.Float(value, 4)
+        raise LiteralError(
+            f"the number {shown} (in an expression of the system or its derivatives) is "
+            "beyond the range of a double (magnitude at most about 1.8e308); rescale the "
+            "parameters or the expression"
+        )
+    return repr(number)
 
 
 #: A term kernel's own position vectors (one-body and pair terms).
@@ -38,18 +74,56 @@ POSITIONS = ("q", "qi", "qj")
 
 
 class CPrinter(C99CodePrinter):
-    """C99 printer with symbols mapped to argument slots; pi as a literal (M_PI is POSIX)."""
+    """C99 printer with symbols mapped to argument slots; every number a C99 double literal.
+
+    SymPy's C printer writes the POSIX macros M_PI, M_SQRT2, M_E ... (not in C99's math.h),
+    integers beyond 64 bits as integer constants (truncated by the compiler) and sqrt(-1) as
+    I (complex.h): here constants are literals with 21 significant digits, exact integers and
+    rationals beyond 2**53 the correctly rounded double, and complex numbers an error.
+    """
 
     def __init__(self, names: dict[sp.Symbol, str]) -> None:
-        super().__init__()
+        super().__init__({"math_macros": {}})
         self._names = names
 
     def _print_Symbol(self, expr: sp.Symbol) -> str:
         name = self._names.get(expr)
         return name if name is not None else super()._print_Symbol(expr)
 
-    def _print_Pi(self, expr: sp.Expr) -> str:
-        return "3.14159265358979323846"
+    def _print_NumberSymbol(self, expr: sp.Expr) -> str:
+        return str(expr.evalf(21))
+
+    _print_Pi = _print_Exp1 = _print_NumberSymbol
+    _print_EulerGamma = _print_Catalan = _print_GoldenRatio = _print_NumberSymbol
+
+    def _print_Integer(self, expr: sp.Integer) -> str:
+        if abs(int(expr)) <= EXACT_INTEGER:
+            return str(int(expr))
+        return double_literal(expr)
+
+    def _print_Rational(self, expr: sp.Rational) -> str:
+        if abs(int(expr.p)) <= EXACT_INTEGER and int(expr.q) <= EXACT_INTEGER:
+            return f"{int(expr.p)}.0/{int(expr.q)}.0"
+        return double_literal(expr)
+
+    def _print_Float(self, expr: sp.Float) -> str:
+        number = float(expr)
+        if not math.isfinite(number):
+            raise LiteralError(
+                f"the number {sp.Float(expr, 4)} is beyond the range of a double (magnitude at "
+                "most about 1.8e308)"
+            )
+        if number == 0.0:
+            return "0.0"  # also a nonzero float below the smallest double (gcc: an error)
+        return str(super()._print_Float(expr))
+
+    def _print_ImaginaryUnit(self, expr: sp.Expr) -> str:
+        raise LiteralError("a complex number (I) cannot be printed as C double arithmetic")
+
+    def _print_Infinity(self, expr: sp.Expr) -> str:
+        raise LiteralError("an infinite number cannot be printed as a C literal")
+
+    _print_NegativeInfinity = _print_ComplexInfinity = _print_NaN = _print_Infinity
 
 
 def slot_names(kernel: Kernel) -> dict[sp.Symbol, str]:

@@ -13,16 +13,23 @@ Example:
 
 from __future__ import annotations
 
+import math
+
 import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
 
 from s2gen.ir import Call, Kernel, LoopKind, TermLoop
+from s2gen.printing.c import EXACT_INTEGER, LiteralError, double_literal
 
 __all__ = ["PyPrinter", "py_call", "py_kernel", "py_term_setup"]
 
 
 class PyPrinter(NumPyPrinter):
-    """NumPy printer with symbols mapped to argument slots (`numpy.` qualified calls)."""
+    """NumPy printer with symbols mapped to argument slots (`numpy.` qualified calls).
+
+    Numbers print as the C printer's do: exact integers and rationals beyond 2**53 as their
+    correctly rounded double, anything beyond the range of a double or complex an error.
+    """
 
     def __init__(self, names: dict[sp.Symbol, str]) -> None:
         super().__init__({"fully_qualified_modules": True})
@@ -31,6 +38,27 @@ class PyPrinter(NumPyPrinter):
     def _print_Symbol(self, expr: sp.Symbol) -> str:
         name = self._names.get(expr)
         return name if name is not None else super()._print_Symbol(expr)
+
+    def _print_Integer(self, expr: sp.Integer) -> str:
+        if abs(int(expr)) <= EXACT_INTEGER:
+            return str(int(expr))
+        return double_literal(expr)
+
+    def _print_Rational(self, expr: sp.Rational) -> str:
+        if abs(int(expr.p)) <= EXACT_INTEGER and int(expr.q) <= EXACT_INTEGER:
+            return str(super()._print_Rational(expr))
+        return double_literal(expr)
+
+    def _print_Float(self, expr: sp.Float) -> str:
+        if not math.isfinite(float(expr)):
+            raise LiteralError(
+                f"the number {sp.Float(expr, 4)} is beyond the range of a double (magnitude at "
+                "most about 1.8e308)"
+            )
+        return str(super()._print_Float(expr))
+
+    def _print_ImaginaryUnit(self, expr: sp.Expr) -> str:
+        raise LiteralError("a complex number (I) cannot be printed as real NumPy arithmetic")
 
 
 def _slots(kernel: Kernel) -> dict[sp.Symbol, str]:

@@ -4,11 +4,13 @@ Input: a `System`, a method (see `s2gen.methods`), a backend ("c": emitted C com
 loaded with ctypes; "numpy": the emitted NumPy module; "reference": the independent
 `s2gen.reference`), step size, horizon and options. Output: a `Trajectory` (t, q, omega,
 energy, statistics, wall time). A failure raises `IntegrationError`, which names the step and
-why and keeps the trajectory computed so far (`.partial`). A method a backend does not have is
-refused before anything runs, and so is a request the machine cannot serve (`check_run`: h and
-T finite and positive, T a whole number of steps, at most `MAX_SAMPLES` samples, trajectory
-arrays within `MAX_MEMORY_FRACTION` of the physical memory, tolerances finite and positive with
-rtol at least `RTOL_FLOOR`): a ValueError of one line saying the limit.
+why and keeps the trajectory computed so far (`.partial`); a stored sample whose energy is not
+finite while its state is counts as such a failure (status NONFINITE). A method a backend does
+not have is refused before anything runs, and so is a request the machine cannot serve
+(`check_run`: h and T finite and positive, T a whole number of steps, at most `MAX_SAMPLES`
+samples, trajectory arrays within `MAX_MEMORY_FRACTION` of the physical memory, tolerances
+finite and positive with rtol at least `RTOL_FLOOR` and atol at least `ATOL_FLOOR`), and
+parameters of the wrong count or not finite: a ValueError of one line saying the limit.
 
 Example:
     >>> from s2gen.systems import builtin
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 import os
 import time
 from collections.abc import Callable
@@ -35,10 +38,12 @@ from s2gen.runtime.trajectory import IntegrationError, Trajectory
 from s2gen.system import System
 
 __all__ = [
+    "ATOL_FLOOR",
     "BACKENDS",
     "CONTROLS",
     "MAX_MEMORY_FRACTION",
     "MAX_SAMPLES",
+    "MAX_STEPS",
     "METHODS",
     "RTOL_FLOOR",
     "Backend",
@@ -65,6 +70,11 @@ MAX_MEMORY_FRACTION = 0.5
 #: error control asks for more than double precision can give, and with ode45's weights
 #: max(|y|, atol/rtol) a tiny rtol silently switches the control off.
 RTOL_FLOOR = 100 * float(np.finfo(float).eps)
+#: Smallest absolute tolerance: below it, round-off in components that should stay 0 drives
+#: the RK45 step size toward 0 without reaching the minimum step that would stop the run (four
+#: pendula at rtol = RTOL_FLOOR over T = 1: 4,600 steps at atol = 1e-20, 2.3 million at 1e-40;
+#: at 1e-300 it never finished).
+ATOL_FLOOR = 1e-20
 
 
 class Backend(Protocol):
@@ -152,8 +162,14 @@ def _initial_state(
     system: System, q0: np.ndarray | None, omega0: np.ndarray | None, unit_tol: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """The initial state (given or the spec's), checked: shapes, finite values, unit q_i."""
-    q = system.q0 if q0 is None else np.asarray(q0, dtype=float)
-    w = system.omega0 if omega0 is None else np.asarray(omega0, dtype=float)
+    q, w = system.q0, system.omega0
+    try:
+        q = q if q0 is None else np.asarray(q0, dtype=float)
+        w = w if omega0 is None else np.asarray(omega0, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"q0 and omega0 must be arrays of shape ({system.n}, 3) of numbers"
+        ) from None
     if q is None or w is None:
         raise ValueError(f"{system.origin}: no initial state ([initial] q and omega)")
     for name, a in (("q0", q), ("omega0", w)):
@@ -198,12 +214,7 @@ def run(
     opts = options or Options()
     nsteps = check_run(system, method, h, T, opts, every)
     q0, omega0 = _initial_state(system, q0, omega0, opts.unit_tol)
-    p = np.array(system.parameter_values if params is None else params, dtype=float)
-    if p.shape != (len(system.parameter_names),):
-        raise ValueError(
-            f"{system.name}: expected {len(system.parameter_names)} parameter values "
-            f"({', '.join(system.parameter_names)}), got {p.size}"
-        )
+    p = _parameter_values(system, params)
     start = time.perf_counter()
     if progress is not None and backend == "c":
         status, q, w, en, stats = be.integrate(  # type: ignore[call-arg]
@@ -218,11 +229,20 @@ def run(
     wall = time.perf_counter() - start
     t = h * every * np.arange(nsteps // every + 1)
     meta = _metadata(system, method, opts)
+    k = int(stats.get("fail_step", 0)) if status != 0 else len(t)
+    why = Status(status).message if status in Status._value2member_map_ else str(status)
+    bad_energy = _first_nonfinite_energy(en, k)
+    if bad_energy is not None:  # the state is finite there (else the backend had stopped)
+        k, status = bad_energy, int(Status.NONFINITE)
+        why = (
+            f"the energy is not finite at t = {t[k]:.6g} while the state is (the potential or "
+            "the kinetic energy is undefined there or beyond the range of a double: check V "
+            "and the parameters)"
+        )
+        stats = {**stats, "fail_step": k}
     if status != 0:
-        k = int(stats.get("fail_step", 0))
         kept = None if en is None else en[:k]
         partial = Trajectory(t[:k], q[:k], w[:k], kept, method, backend, h, stats, wall, **meta)
-        why = Status(status).message if status in Status._value2member_map_ else status
         last = f"after t = {t[k - 1]:.6g}" if k else "at the initial state"
         raise IntegrationError(
             f"{method} ({backend}) failed {last}: {why}; the {k} valid samples are kept",
@@ -231,6 +251,36 @@ def run(
             partial,
         )
     return Trajectory(t, q, w, en, method, backend, h, stats, wall, **meta)
+
+
+def _parameter_values(system: System, params: Any) -> np.ndarray:
+    """The parameter vector (given or the spec's), checked: its length and finite values."""
+    names = system.parameter_names
+    try:
+        p = np.array(system.parameter_values if params is None else params, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{system.name}: parameter values must be {len(names)} numbers "
+            f"({', '.join(names) or 'none'}), got {params!r}"
+        ) from None
+    if p.shape != (len(names),):
+        raise ValueError(
+            f"{system.name}: expected {len(names)} parameter values "
+            f"({', '.join(names) or 'none'}), got {p.size}"
+        )
+    bad = np.flatnonzero(~np.isfinite(p))
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(f"{system.name}: parameter {names[k]} = {p[k]} is not finite")
+    return p
+
+
+def _first_nonfinite_energy(en: np.ndarray | None, valid: int) -> int | None:
+    """The first of the `valid` samples whose energy is not finite (None: all finite)."""
+    if en is None:
+        return None
+    bad = np.flatnonzero(~np.isfinite(en[:valid]))
+    return int(bad[0]) if bad.size else None
 
 
 def _metadata(system: System, method: str, opts: Options) -> dict[str, Any]:
@@ -270,7 +320,7 @@ def check_run(
     h and T must be finite and positive with T a whole number of steps, and `every` (the
     output stride) a positive divisor of the steps; the run may keep at most `MAX_SAMPLES`
     samples and its trajectory arrays at most `MAX_MEMORY_FRACTION` of the physical memory;
-    rtol must lie in [`RTOL_FLOOR`, 1] and atol be finite and positive.
+    rtol must lie in [`RTOL_FLOOR`, 1] and atol be finite and at least `ATOL_FLOOR`.
 
     Example:
         >>> from s2gen.systems import builtin
@@ -279,11 +329,11 @@ def check_run(
         >>> check_run(builtin("double_pendulum"), "vi", 0.01, 1e12)
         Traceback (most recent call last):
         ...
-        ValueError: T / h = 1e+12 / 0.01 = 1e+14 steps: more than one run may hold (2147483648 samples); raise h or shorten T
+        ValueError: T / h = 1e+12 / 0.01 = 1e+14 steps kept every 1: more than one run may hold (2147483648 samples, 4.61169e+18 steps); raise h, every or shorten T
     """
     for key, value in (("step size h", h), ("final time T", T)):
         if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
-            raise ValueError(f"{key} = {value}: must be a finite number")
+            raise ValueError(f"{key} = {value!r}: must be a finite number")
         if value <= 0:
             raise ValueError(f"{key} = {value:g}: must be positive")
     if not (isinstance(every, (int, np.integer)) and not isinstance(every, bool) and every >= 1):
@@ -315,6 +365,14 @@ def check_run(
 
 def _check_options(opts: Options) -> None:
     """Tolerances and Newton settings finite and in range (ValueError naming the option)."""
+    if not isinstance(opts, Options):
+        raise ValueError(  # noqa: TRY004 (bad input is a ValueError: the CLI reports those)
+            f"options must be an s2gen.Options, got {type(opts).__name__}"
+        )
+    for key in ("rtol", "atol", "newton_tol", "hmax", "unit_tol"):
+        value = getattr(opts, key)
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise ValueError(f"{key} = {value!r}: must be a number")  # noqa: TRY004
     for key in ("rtol", "atol", "newton_tol"):
         value = getattr(opts, key)
         if not math.isfinite(value) or value <= 0:
@@ -324,9 +382,15 @@ def _check_options(opts: Options) -> None:
             f"rtol = {opts.rtol:g}: must lie between {RTOL_FLOOR:.3g} (100 machine epsilons, "
             "MATLAB ode45's floor) and 1"
         )
+    if opts.atol < ATOL_FLOOR:
+        raise ValueError(
+            f"atol = {opts.atol:g}: must be at least {ATOL_FLOOR:g} (below it round-off drives "
+            "the RK45 step size toward 0)"
+        )
     if not math.isfinite(opts.hmax) or opts.hmax < 0:
         raise ValueError(f"hmax = {opts.hmax}: must be finite and >= 0 (0 means T/10)")
-    if opts.newton_maxiter < 1:
-        raise ValueError(f"newton_maxiter = {opts.newton_maxiter}: must be at least 1")
+    maxiter = opts.newton_maxiter
+    if isinstance(maxiter, bool) or not isinstance(maxiter, numbers.Integral) or maxiter < 1:
+        raise ValueError(f"newton_maxiter = {maxiter!r}: must be a whole number, at least 1")
     if opts.control not in CONTROLS:
         raise ValueError(f"control = {opts.control!r}: choose one of {', '.join(CONTROLS)}")

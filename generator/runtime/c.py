@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.build import BuildError, build_flags, compile_shared, header_macro
+from s2gen.build import BuildError, build_flags, header_macro, load_library
 from s2gen.emit import emit
 from s2gen.interface import Field, Interface, Kind, interface
 from s2gen.ir import ModuleKind
@@ -69,8 +69,7 @@ class CLibrary:
         self, files: dict[str, str], kind: ModuleKind, prefix: str, opt: str | None = None
     ) -> None:
         self.api: Interface = interface(kind)
-        self.build = compile_shared(files, build_flags(opt))
-        self.lib = ctypes.CDLL(str(self.build.path))
+        self.lib, self.build = load_library(files, build_flags(opt))
         self.work = np.zeros(max(1, header_macro(files[f"{prefix}.h"], "WORK_SIZE")))
         self.Options = _struct("Options", self.api.options)
         self.Stats = _struct("Stats", self.api.stats)

@@ -9,12 +9,14 @@ Example:
     >>> model = Model(builtin("double_pendulum"))
     >>> tr = model.integrate(h=0.01, T=0.05, params={"g": 1.0})
     >>> tr.q.shape, round(model.energy(tr.q[0], tr.omega[0], params={"g": 1.0}), 6)
-    ((6, 2, 3), -7.1736)
+    ((6, 2, 3), 100.675125)
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+import numbers
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -56,23 +58,41 @@ class Model:
         """The spec's parameter values by name (the defaults of every call)."""
         return self.system.parameters
 
-    def params(self, params: Mapping[str, float] | None = None) -> np.ndarray:
-        """The parameter vector in declared order: defaults overridden by `params` (by name).
+    def params(
+        self, params: Mapping[str, float] | Sequence[float] | np.ndarray | None = None
+    ) -> np.ndarray:
+        """The parameter vector in declared order: defaults overridden by `params` (by name),
+        or all values in declared order; ValueError for an unknown name, a wrong count or a
+        value that is not a finite number.
 
         Example:
             >>> from s2gen.systems import builtin
             >>> Model(builtin("double_pendulum")).params({"g": 1.0}).tolist()
             [1.0, 1.0, 9.81, 9.81, 1.0]
         """
+        names = self.system.parameter_names
+        known = ", ".join(names) or "none"
+        if params is not None and not isinstance(params, Mapping):
+            values = np.asarray(params, dtype=object).ravel().tolist()
+            if isinstance(params, (str, bytes)) or len(values) != len(names):
+                raise ValueError(
+                    f"{self.system.name}: expected {len(names)} parameter values ({known}) or a "
+                    f"dict by name, got {params!r}"
+                )
+            params = dict(zip(names, values))
         merged = dict(self.system.parameters)
         for name, value in (params or {}).items():
             if name not in merged:
-                known = ", ".join(self.system.parameter_names) or "none"
                 raise ValueError(
                     f"{self.system.name}: unknown parameter {name!r} (parameters: {known})"
                 )
-            merged[name] = float(value)
-        return np.array([merged[p] for p in self.system.parameter_names], dtype=float)
+            number = float(value) if isinstance(value, numbers.Real) else math.nan
+            if isinstance(value, bool) or not math.isfinite(number):
+                raise ValueError(
+                    f"{self.system.name}: parameter {name} must be a finite number, got {value!r}"
+                )
+            merged[name] = number
+        return np.array([merged[p] for p in names], dtype=float)
 
     def integrate(
         self,
@@ -82,7 +102,7 @@ class Model:
         q0: np.ndarray | None = None,
         omega0: np.ndarray | None = None,
         options: Options | None = None,
-        params: Mapping[str, float] | None = None,
+        params: Mapping[str, float] | Sequence[float] | None = None,
         every: int = 1,
         energy: bool = True,
     ) -> Trajectory:

@@ -96,7 +96,7 @@ from s2gen.spec.tables import (
     _run_settings,
     _terms,
 )
-from s2gen.system import INERTIA_SOLVERS, RunSettings, SpecError, System
+from s2gen.system import INERTIA_SOLVERS, RunSettings, SpecError, System, shown
 
 __all__ = [
     "RESERVED_NAMES",
@@ -267,7 +267,7 @@ def load_spec_text(text: str, *, origin: str = "<string>") -> System:
     _check_keys(data, _TOP_KEYS, f"{origin}: top level")
     for key in ("name", "bodies", "inertia", "potential"):
         if key not in data:
-            raise SpecError(f"{origin}: missing required key {key!r}")
+            raise SpecError(f"{origin}: missing required key {shown(key)}")
     tables = {key: _table(data, key, origin) for key in _TABLE_KEYS}
     potential = tables["potential"]
     if not {"V", "body", "pair"} & set(potential):
@@ -298,7 +298,7 @@ def load_spec_text(text: str, *, origin: str = "<string>") -> System:
 def _table(data: Mapping[str, Any], key: str, origin: str) -> dict[str, Any]:
     table = data.get(key, {})
     if not isinstance(table, dict):
-        raise SpecError(f"{origin}: {key!r} must be a table [{key}], got {table!r}")
+        raise SpecError(f"{origin}: {shown(key)} must be a table [{key}], got {shown(table)}")
     allowed = _TABLE_KEYS[key]
     if allowed is not None:
         _check_keys(table, allowed, f"{origin}: [{key}]")

@@ -16,6 +16,7 @@ import ast
 import math
 import operator
 import re
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, TypeAlias
@@ -23,7 +24,7 @@ from typing import Any, TypeAlias
 import sympy as sp
 
 from s2gen.symbols import local_vector, q_vector
-from s2gen.system import SpecError
+from s2gen.system import SpecError, shown
 
 __all__ = ["RESERVED_NAMES", "Value", "parse_expression"]
 
@@ -44,9 +45,16 @@ _Q_NAME = re.compile(r"q([0-9]+)")
 _Q_RESERVED = re.compile(r"q[0-9]+(_[0-9]+)?")
 #: The own vectors of term expressions: q (one-body terms), qi and qj (pair terms).
 _ROLES = ("q", "qi", "qj")
-_MAX_LENGTH = 100_000
-_MAX_DIGITS = 1000
+#: Limits of the language, each stated in the error that enforces it.
+_MAX_LENGTH = 100_000  # characters of one expression
+_MAX_DIGITS = 1000  # decimal digits of an exact number (numerator and denominator together)
+_MAX_LITERAL_DIGITS = 400  # digits of one number as written
+#: The largest finite double: every number, as written or computed, must stay within it.
+DOUBLE_MAX = sys.float_info.max
 _NON_FINITE = (sp.zoo, sp.oo, sp.S.NegativeInfinity, sp.nan)
+#: Characters an expression may contain: printable ASCII and line breaks, but no '#'.
+_ALLOWED = frozenset(chr(c) for c in range(0x20, 0x7F)) | {"\t", "\n", "\r"}
+_LONG_DIGITS = re.compile(f"[0-9_]{{{_MAX_LITERAL_DIGITS + 1},}}")
 
 _OPERATORS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**"}
 _LEFT_ASSOCIATIVE = (ast.Add, ast.Sub, ast.Mult, ast.Div)
@@ -119,23 +127,23 @@ class _Names:
         """Why `name` means nothing here (the message of the error)."""
         global_q = _Q_NAME.fullmatch(name) is not None
         if not self.allow_vectors and (global_q or name in _AXES or name in _ROLES):
-            return f"{name!r} is not allowed here (only numbers and parameters)"
+            return f"{shown(name)} is not allowed here (only numbers and parameters)"
         own = " and ".join(self.roles)
         if global_q and self.term:
             return (
-                f"the global position {name!r} is not allowed in a term expression "
+                f"the global position {shown(name)} is not allowed in a term expression "
                 f"(a term sees only its own vectors, here {own})"
             )
         if global_q:
-            return f"no body {name!r}: the bodies are q1..q{self.n}"
+            return f"no body {shown(name)}: the bodies are q1..q{self.n}"
         if name in _ROLES and self.term:
-            return f"unknown name {name!r} (this term's own vectors are {own})"
+            return f"unknown name {shown(name)} (this term's own vectors are {own})"
         if name in _ROLES:
             return (
-                f"unknown name {name!r} (q, qi and qj exist only in term expressions: "
+                f"unknown name {shown(name)} (q, qi and qj exist only in term expressions: "
                 "[[potential.body]] has q, [[potential.pair]] has qi and qj)"
             )
-        return f"unknown name {name!r}"
+        return f"unknown name {shown(name)}"
 
 
 @dataclass(frozen=True)
@@ -213,7 +221,7 @@ def parse_expression(
     """
     bad = [p for p in parameters if p in RESERVED_NAMES or _Q_RESERVED.fullmatch(p)]
     if bad:
-        raise SpecError(f"{where}: parameter name {bad[0]!r} is reserved")
+        raise SpecError(f"{where}: parameter name {shown(bad[0])} is reserved")
     names = _name_table(n, parameters, allow_vectors, local, where)
     ctx, tree = _parse(text, where, names)
     try:
@@ -226,6 +234,8 @@ def parse_expression(
             f"the expression {ctx.token(tree.body)!r} is a vector, but a scalar is required "
             "(use dot(a, b) or a component such as q1[2])",
         )
+    if result.is_extended_real is False:
+        raise ctx.fail(tree.body, f"the expression {ctx.token(tree.body)!r} is not real")
     return result
 
 
@@ -244,9 +254,11 @@ def _name_table(
     for name, width in (local or {}).items():
         if name in fixed or name in RESERVED_NAMES or _Q_RESERVED.fullmatch(name):
             what = "a parameter" if name in parameters else "reserved"
-            raise SpecError(f"{where}: local name {name!r} clashes with {what} name {name!r}")
+            raise SpecError(
+                f"{where}: local name {shown(name)} clashes with {what} name {shown(name)}"
+            )
         if width not in (1, 3):
-            raise SpecError(f"{where}: local name {name!r} has width {width}, not 1 or 3")
+            raise SpecError(f"{where}: local name {shown(name)} has width {width}, not 1 or 3")
         if width == 1:
             fixed[name] = sp.Symbol(name, real=True)
         elif allow_vectors:
@@ -263,9 +275,10 @@ def _parse(text: str, where: str, names: _Names) -> tuple[_Context, ast.Expressi
     TOML strings may break lines anywhere, as inside parentheses.
     """
     if not isinstance(text, str):
-        raise SpecError(f"{where}: expected an expression string, got {text!r}")
+        raise SpecError(f"{where}: expected an expression string, got {shown(text)}")
     if len(text) > _MAX_LENGTH:
-        raise SpecError(f"{where}: expression longer than {_MAX_LENGTH} characters")
+        raise SpecError(f"{where}: expression longer than the limit of {_MAX_LENGTH} characters")
+    _check_characters(text, where)
     body = text.lstrip()
     if not body.strip():
         raise SpecError(f"{where}: empty expression")
@@ -293,6 +306,35 @@ def _parse(text: str, where: str, names: _Names) -> tuple[_Context, ast.Expressi
     raise SpecError(f"{where}: syntax error ({error.msg}) at {at}")
 
 
+def _check_characters(text: str, where: str) -> None:
+    """Refuse what Python's tokenizer would read differently from the language: '#' (a
+    comment that silently drops the rest of the line), characters outside printable ASCII
+    (identifiers are NFKC-normalized, so a full-width 'ｍ' would read as 'm') and numbers too
+    long to be a double (Python refuses to convert more than 4300 digits)."""
+    bad = next((k for k, ch in enumerate(text) if ch == "#" or ch not in _ALLOWED), None)
+    if bad is not None:
+        ch = text[bad]
+        if ch == "#":
+            why = "'#' is not allowed (expressions have no comments; it would end the expression)"
+        else:
+            why = f"character {ch!r} (U+{ord(ch):04X}) is not allowed (expressions are ASCII)"
+        raise SpecError(f"{where}: {why} at {_text_position(text, bad)}")
+    long = _LONG_DIGITS.search(text)
+    if long is not None:
+        raise SpecError(
+            f"{where}: number {long.group()[:12] + '...'!r} has more than the limit of "
+            f"{_MAX_LITERAL_DIGITS} digits (a double is at most about 1.8e308) at "
+            f"{_text_position(text, long.start())}"
+        )
+
+
+def _text_position(text: str, index: int) -> str:
+    """'column C' or 'line L, column C' (1-based) of `text[index]`, lines split as ast does."""
+    lines = re.split(r"\r\n|\r|\n", text[:index])
+    line, col = len(lines), len(lines[-1])
+    return f"column {col + 1}" if line == 1 else f"line {line}, column {col + 1}"
+
+
 def _ast_parse(ctx: _Context) -> ast.Expression:
     try:
         return ast.parse(ctx.body, mode="eval")
@@ -309,16 +351,84 @@ def _eval(ctx: _Context, node: ast.AST) -> Value:
 
 
 def _finite(ctx: _Context, node: ast.AST, value: Value) -> Value:
+    """`value` if every number in it can be a double; else an error located at `node`."""
     entries = value if isinstance(value, sp.MatrixBase) else [value]
-    if any(e.has(*_NON_FINITE) for e in entries):
-        raise ctx.fail(node, f"{ctx.token(node)!r} is not finite (division by zero?)")
+    for entry in entries:
+        problem = _number_problem(entry)
+        if problem is not None:
+            raise ctx.fail(node, f"{ctx.token(node)!r} {problem}")
     return value
+
+
+def _number_problem(expr: sp.Expr) -> str | None:
+    """Why `expr` cannot be computed in doubles as C, NumPy and the reference do (None if it
+    can): a non-finite number, an exact number too long to handle, a number beyond the range
+    of a double, or a constant that is not real."""
+    symbolic = False
+    for atom in expr.atoms(sp.Number, sp.Symbol, type(sp.zoo)):
+        if isinstance(atom, sp.Symbol):
+            symbolic = True
+        elif atom in _NON_FINITE:
+            return "is not finite (division by zero?)"
+        elif isinstance(atom, sp.Rational) and _digits(atom) > _MAX_DIGITS:
+            return f"holds an exact number of more than the limit of {_MAX_DIGITS} digits"
+        elif abs(atom) > DOUBLE_MAX:
+            return f"holds the number {_short(atom)}, beyond the range of a double ({_RANGE})"
+    if symbolic or isinstance(expr, sp.Number):
+        return None
+    value = expr.evalf(17)
+    if value.has(sp.I):
+        return f"is not real (it is {_short(value)})"
+    if isinstance(value, sp.Float) and abs(value) > DOUBLE_MAX:
+        return f"is about {_short(value)}, beyond the range of a double ({_RANGE})"
+    return None
+
+
+_RANGE = "magnitude at most about 1.8e308"
+_LOG10_2 = math.log10(2.0)
+
+
+def _short(value: sp.Expr) -> str:
+    """A number for a message: a few significant digits, never thousands (an exponent of
+    more than 12 digits is given by its length: 5.957e+<233 digits>).
+
+    Example:
+        >>> _short(sp.Integer(10) ** 400), _short(sp.Float("1e300") ** (10**200))
+        ('1.000e+400', '1.000e+<203 digits>')
+    """
+    if isinstance(value, (sp.Integer, sp.Float)):
+        text = str(sp.Float(value, 4)) if abs(value) >= 1e6 else str(value)
+    else:
+        text = str(sp.N(value, 4))
+    mantissa, e, exponent = text.partition("e")
+    if e and len(exponent.lstrip("+-")) > 12:
+        return f"{mantissa}e{exponent[0]}<{len(exponent.lstrip('+-'))} digits>"
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _digits(value: sp.Expr) -> float:
+    """About how many decimal digits SymPy computes exactly when it raises `value` to the
+    power 1 (an upper bound of the work of `value**e` is |e| times this): the digits of exact
+    numbers, including those SymPy distributes a power over (products and powers of powers);
+    0 for floats (mpmath powers are cheap) and for what SymPy leaves unevaluated."""
+    if isinstance(value, sp.Rational):
+        return (_log10(abs(int(value.p))) + _log10(int(value.q))) or 0.0
+    if isinstance(value, sp.Mul):
+        return sum(_digits(arg) for arg in value.args)
+    if isinstance(value, sp.Pow) and isinstance(value.exp, sp.Number):
+        return abs(float(value.exp)) * _digits(value.base)
+    return 0.0
+
+
+def _log10(n: int) -> float:
+    """A lower bound of log10(n) for n >= 1 (0 for 0 and 1), without converting n to float."""
+    return max(n.bit_length() - 1, 0) * _LOG10_2
 
 
 def _constant(ctx: _Context, node: ast.Constant) -> Value:
     value = node.value
     if isinstance(value, bool):
-        raise ctx.fail(node, f"boolean {value!r} is not allowed")
+        raise ctx.fail(node, f"boolean {shown(value)} is not allowed")
     if isinstance(value, int):
         return sp.Integer(value)
     if isinstance(value, float):
@@ -337,7 +447,7 @@ def _name(ctx: _Context, node: ast.Name) -> Value:
     if value is not None:
         return value
     if name in _SCALAR_FUNCTIONS or name in _VECTOR_FUNCTIONS:
-        raise ctx.fail(node, f"function {name!r} used without a call, e.g. {name}(...)")
+        raise ctx.fail(node, f"function {shown(name)} used without a call, e.g. {name}(...)")
     raise ctx.fail(node, ctx.names.explain(name))
 
 
@@ -417,15 +527,17 @@ def _check(ctx: _Context, node: ast.BinOp, op: str, a: Value, b: Value) -> None:
 
 
 def _check_power_size(ctx: _Context, node: ast.BinOp, base: sp.Expr, exponent: sp.Expr) -> None:
-    """Refuse numeric powers whose exact value would have more than _MAX_DIGITS digits."""
-    if not (isinstance(base, sp.Number) and isinstance(exponent, sp.Number)) or base == 0:
+    """Refuse numeric powers whose exact value SymPy would compute with more than _MAX_DIGITS
+    digits (before SymPy computes it: sqrt(3)**(10**8) is 3**(5*10**7), which takes minutes)."""
+    if not isinstance(exponent, sp.Number):
         return
-    if isinstance(base, sp.Rational):
-        size = abs(math.log10(abs(int(base.p)))) + math.log10(int(base.q))
-    else:
-        size = abs(math.log10(abs(float(base))))
-    if abs(float(exponent)) * size > _MAX_DIGITS:
-        raise ctx.fail(ctx.operator(node), f"power {ctx.token(node)!r} is too large")
+    size = abs(float(exponent)) * _digits(base)
+    if size > _MAX_DIGITS:
+        raise ctx.fail(
+            ctx.operator(node),
+            f"power {ctx.token(node)!r} is too large: its exact value would have about "
+            f"{size:.2g} digits, more than the limit of {_MAX_DIGITS}",
+        )
 
 
 def _call(ctx: _Context, node: ast.Call) -> Value:
@@ -435,9 +547,9 @@ def _call(ctx: _Context, node: ast.Call) -> Value:
     name = node.func.id
     if name not in _SCALAR_FUNCTIONS and name not in _VECTOR_FUNCTIONS:
         known = ", ".join(sorted([*_SCALAR_FUNCTIONS, *_VECTOR_FUNCTIONS]))
-        raise ctx.fail(node.func, f"{name!r} is not a known function (known: {known})")
+        raise ctx.fail(node.func, f"{shown(name)} is not a known function (known: {known})")
     if name in _VECTOR_FUNCTIONS and not ctx.names.allow_vectors:
-        raise ctx.fail(node.func, f"function {name!r} is not allowed here (no vectors)")
+        raise ctx.fail(node.func, f"function {shown(name)} is not allowed here (no vectors)")
     if node.keywords:
         kw = node.keywords[0]
         raise ctx.fail(kw, f"keyword argument {ctx.token(kw)!r} is not allowed")

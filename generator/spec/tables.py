@@ -26,12 +26,16 @@ import sympy as sp
 from s2gen.methods import NAMES
 from s2gen.spec.parser import _Q_RESERVED, _ROLES, RESERVED_NAMES, parse_expression
 from s2gen.symbols import local_vector
-from s2gen.system import RunSettings, SpecError, Term, TermData
+from s2gen.system import MAX_BODIES, RunSettings, SpecError, Term, TermData, shown
 
 
 def _bodies(bodies: Any, origin: str) -> int:
     if isinstance(bodies, bool) or not isinstance(bodies, numbers.Integral) or bodies < 1:
-        raise SpecError(f"{origin}: key 'bodies': expected a positive integer, got {bodies!r}")
+        raise SpecError(f"{origin}: key 'bodies': expected a positive integer, got {shown(bodies)}")
+    if bodies > MAX_BODIES:  # before anything sized by it is read
+        raise SpecError(
+            f"{origin}: key 'bodies': {bodies} bodies is more than the limit of {MAX_BODIES}"
+        )
     return int(bodies)
 
 
@@ -40,24 +44,30 @@ def _parameters(parameters: Any, origin: str) -> dict[str, float]:
         raise SpecError(f"{origin}: [parameters]: expected a table of name = number")
     values: dict[str, float] = {}
     for pname, value in parameters.items():
-        where = f"{origin}: [parameters] {pname}"
+        where = f"{origin}: [parameters] {_key(pname)}"
         _check_parameter_name(pname, where)
         if isinstance(value, bool) or not isinstance(value, numbers.Real):
-            raise SpecError(f"{where}: expected a number, got {value!r}")
+            raise SpecError(f"{where}: expected a number, got {shown(value)}")
         if not math.isfinite(float(value)):
-            raise SpecError(f"{where}: value {value!r} is not finite")
+            raise SpecError(f"{where}: value {shown(value)} is not finite")
         values[pname] = float(value)
     return values
 
 
+def _key(name: Any) -> str:
+    """A user's key as it appears in a location: as written if it is an identifier, else its
+    repr (a name with a line break or other oddities must not break the one-line message)."""
+    return name if isinstance(name, str) and name.isidentifier() and name.isascii() else repr(name)
+
+
 def _check_parameter_name(pname: Any, where: str) -> None:
     if not isinstance(pname, str) or not pname.isidentifier() or not pname.isascii():
-        raise SpecError(f"{where}: {pname!r} is not an identifier")
+        raise SpecError(f"{where}: {shown(pname)} is not an identifier")
     if keyword.iskeyword(pname):
-        raise SpecError(f"{where}: {pname!r} is a reserved word")
+        raise SpecError(f"{where}: {shown(pname)} is a reserved word")
     if pname in RESERVED_NAMES or _Q_RESERVED.fullmatch(pname):
         raise SpecError(
-            f"{where}: {pname!r} is a reserved name (q1.., e1..e3, pi and the function "
+            f"{where}: {shown(pname)} is a reserved name (q1.., e1..e3, pi and the function "
             "names have fixed meanings)"
         )
 
@@ -65,18 +75,18 @@ def _check_parameter_name(pname: Any, where: str) -> None:
 def _scalar(value: Any, where: str, names: Sequence[str]) -> sp.Expr:
     """A number, an expression string in numbers and parameters, or a SymPy scalar."""
     if isinstance(value, bool):
-        raise SpecError(f"{where}: expected a number or an expression string, got {value!r}")
+        raise SpecError(f"{where}: expected a number or an expression string, got {shown(value)}")
     if isinstance(value, numbers.Integral):
         return sp.Integer(int(value))
     if isinstance(value, numbers.Real) and not isinstance(value, sp.Basic):
         if not math.isfinite(float(value)):
-            raise SpecError(f"{where}: value {value!r} is not finite")
+            raise SpecError(f"{where}: value {shown(value)} is not finite")
         return sp.Float(float(value))
     if isinstance(value, str):
         return parse_expression(value, n=0, parameters=names, where=where, allow_vectors=False)
     if isinstance(value, sp.Expr):
         return value
-    raise SpecError(f"{where}: expected a number or an expression string, got {value!r}")
+    raise SpecError(f"{where}: expected a number or an expression string, got {shown(value)}")
 
 
 def _rows(value: Any, length: int, where: str, what: str) -> list[Any]:
@@ -84,7 +94,7 @@ def _rows(value: Any, length: int, where: str, what: str) -> list[Any]:
     if isinstance(value, np.ndarray):
         value = value.tolist()
     if isinstance(value, (str, bytes)) or not isinstance(value, Sequence):
-        raise SpecError(f"{where}: expected a list of {length} {what}, got {value!r}")
+        raise SpecError(f"{where}: expected a list of {length} {what}, got {shown(value)}")
     if len(value) != length:
         raise SpecError(f"{where}: expected {length} {what}, got {len(value)}")
     return list(value)
@@ -124,7 +134,9 @@ def _potential(potential: Any, n: int, names: Sequence[str], origin: str) -> sp.
         isinstance(potential, numbers.Real) and not isinstance(potential, bool)
     ):
         return _scalar(potential, where, names)
-    raise SpecError(f"{where}: expected an expression string or a SymPy scalar, got {potential!r}")
+    raise SpecError(
+        f"{where}: expected an expression string or a SymPy scalar, got {shown(potential)}"
+    )
 
 
 # ---------------------------------------------------------------------- structured potentials
@@ -170,7 +182,7 @@ def _terms(
     if isinstance(entries, (Mapping, str, bytes)) or not isinstance(entries, Sequence):
         raise SpecError(
             f"{origin}: {kind.table}: expected a list of term tables (in TOML an array of "
-            f"tables, written {kind.table}), got {entries!r}"
+            f"tables, written {kind.table}), got {shown(entries)}"
         )
     return [_term(entry, kind, k + 1, n, params, origin) for k, entry in enumerate(entries)]
 
@@ -182,16 +194,18 @@ def _term(
     label = f"{kind.table} #{k}"
     where = f"{origin}: {label}"
     if not isinstance(entry, Mapping):
-        raise SpecError(f"{where}: expected a table (V, {kind.select_key}, data), got {entry!r}")
+        raise SpecError(
+            f"{where}: expected a table (V, {kind.select_key}, data), got {shown(entry)}"
+        )
     allowed = ("V", kind.select_key, "data") + (("cutoff",) if kind.kind == "pair" else ())
     _check_keys(entry, allowed, where)
     for key in ("V", kind.select_key):
         if key not in entry and not (key == kind.select_key and kind.default):
-            raise SpecError(f"{where}: missing required key {key!r}")
+            raise SpecError(f"{where}: missing required key {shown(key)}")
     for role in kind.roles:
         if role in params:
             raise SpecError(
-                f"{where}: the parameter {role!r} clashes with the term's own vector {role} "
+                f"{where}: the parameter {shown(role)} clashes with the term's own vector {role} "
                 "(rename the parameter)"
             )
     select, members = _selection(entry.get(kind.select_key, kind.default), kind, n, where)
@@ -206,7 +220,7 @@ def _term(
         if not cutoff > 0.0 or select != "all":
             raise SpecError(
                 f"{where} cutoff: must be a positive distance, on a term over all pairs "
-                f"(got {entry['cutoff']!r} with pairs = {select!r})"
+                f"(got {shown(entry['cutoff'])} with pairs = {shown(select)})"
             )
     return Term(kind.kind, expr, select, members, data, label, cutoff)
 
@@ -221,7 +235,7 @@ def _selection(
     if isinstance(value, np.ndarray):
         value = value.tolist()
     if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or not value:
-        raise SpecError(f"{where}: expected {kind.options} 1..{n}, got {value!r}")
+        raise SpecError(f"{where}: expected {kind.options} 1..{n}, got {shown(value)}")
     return "list", tuple(
         _member(item, kind, n, f"{where}[{m + 1}]") for m, item in enumerate(value)
     )
@@ -234,7 +248,9 @@ def _member(item: Any, kind: _TermKind, n: int, where: str) -> tuple[int, ...]:
     if isinstance(item, np.ndarray):
         item = item.tolist()
     if isinstance(item, (str, bytes)) or not isinstance(item, Sequence) or len(item) != 2:
-        raise SpecError(f"{where}: expected a pair [i, j] of body indices 1..{n}, got {item!r}")
+        raise SpecError(
+            f"{where}: expected a pair [i, j] of body indices 1..{n}, got {shown(item)}"
+        )
     i, j = (_body_index(b, n, where) for b in item)
     if i == j:
         raise SpecError(f"{where}: the pair [{i}, {j}] joins body {i} with itself")
@@ -243,7 +259,7 @@ def _member(item: Any, kind: _TermKind, n: int, where: str) -> tuple[int, ...]:
 
 def _body_index(value: Any, n: int, where: str) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise SpecError(f"{where}: expected a body index 1..{n}, got {value!r}")
+        raise SpecError(f"{where}: expected a body index 1..{n}, got {shown(value)}")
     value = int(value)
     if not 1 <= value <= n:
         hint = " (indices are 1-based)" if value == 0 else ""
@@ -263,9 +279,11 @@ def _term_data(
     if data is None:
         return ()
     if not isinstance(data, Mapping):
-        raise SpecError(f"{where} data: expected a table of name = list of values, got {data!r}")
+        raise SpecError(
+            f"{where} data: expected a table of name = list of values, got {shown(data)}"
+        )
     return tuple(
-        _datum(name, values, kind, select, count, params, f"{where} data.{name}")
+        _datum(name, values, kind, select, count, params, f"{where} data.{_key(name)}")
         for name, values in data.items()
     )
 
@@ -291,9 +309,9 @@ def _datum(
     widths = [_entry_width(entry, f"{where}[{m + 1}]") for m, entry in enumerate(entries)]
     for m, width in enumerate(widths):
         if width != widths[0]:
-            shown = {1: "a number", 3: "a 3-vector"}
+            kinds = {1: "a number", 3: "a 3-vector"}
             raise SpecError(
-                f"{where}[{m + 1}]: {shown[width]}, but entry 1 is {shown[widths[0]]} "
+                f"{where}[{m + 1}]: {kinds[width]}, but entry 1 is {kinds[widths[0]]} "
                 "(a datum is all numbers or all 3-vectors)"
             )
     flat = [
@@ -328,18 +346,20 @@ def _vector_items(entry: Any) -> list[Any] | None:
 
 def _check_data_name(name: Any, params: Mapping[str, float], where: str) -> None:
     if not isinstance(name, str) or not name.isidentifier() or not name.isascii():
-        raise SpecError(f"{where}: data name {name!r} is not an identifier")
+        raise SpecError(f"{where}: data name {shown(name)} is not an identifier")
     if keyword.iskeyword(name):
-        raise SpecError(f"{where}: data name {name!r} is a reserved word")
+        raise SpecError(f"{where}: data name {shown(name)} is a reserved word")
     if name in params:
-        raise SpecError(f"{where}: data name {name!r} clashes with the parameter {name!r}")
+        raise SpecError(
+            f"{where}: data name {shown(name)} clashes with the parameter {shown(name)}"
+        )
     if name in _ROLES:
         raise SpecError(
-            f"{where}: data name {name!r} is reserved for a term's own vector (q, qi, qj)"
+            f"{where}: data name {shown(name)} is reserved for a term's own vector (q, qi, qj)"
         )
     if name in RESERVED_NAMES or _Q_RESERVED.fullmatch(name):
         raise SpecError(
-            f"{where}: data name {name!r} is a reserved name (q1.., e1..e3, pi and the "
+            f"{where}: data name {shown(name)} is a reserved name (q1.., e1..e3, pi and the "
             "function names have fixed meanings)"
         )
 
@@ -349,9 +369,9 @@ def _check_symbols(
 ) -> None:
     """No two of the parameters, the term's own vectors and its data may share a SymPy
     symbol (a vector datum r owns r_0, r_1, r_2; the vector q owns q_0, q_1, q_2)."""
-    owners = {p: f"the parameter {p!r}" for p in params}
+    owners = {p: f"the parameter {shown(p)}" for p in params}
     claims = [(s.name, f"the term's vector {r}") for r in kind.roles for s in local_vector(r)]
-    claims += [(s.name, f"the datum {d.name!r}") for d in data for s in d.symbols()]
+    claims += [(s.name, f"the datum {shown(d.name)}") for d in data for s in d.symbols()]
     for symbol, owner in claims:
         if symbol in owners:
             raise SpecError(
@@ -377,7 +397,9 @@ def _term_expression(
     if not isinstance(value, sp.Expr) and (
         isinstance(value, bool) or not isinstance(value, numbers.Real)
     ):
-        raise SpecError(f"{where}: expected an expression string or a SymPy scalar, got {value!r}")
+        raise SpecError(
+            f"{where}: expected an expression string or a SymPy scalar, got {shown(value)}"
+        )
     expr = _scalar(value, where, list(params))
     own = " and ".join(kind.roles)
     names = {s.name for s in expr.free_symbols}
@@ -427,9 +449,9 @@ def _number(value: Any, where: str, params: Mapping[str, float]) -> float:
     try:
         result = float(expr.subs(subs).evalf())
     except (TypeError, ValueError):
-        raise SpecError(f"{where}: {value!r} is not a real number") from None
+        raise SpecError(f"{where}: {shown(value)} is not a real number") from None
     if not math.isfinite(result):
-        raise SpecError(f"{where}: {value!r} is not finite")
+        raise SpecError(f"{where}: {shown(value)} is not finite")
     return result
 
 
@@ -439,7 +461,7 @@ def _run_settings(run: Any, origin: str) -> RunSettings:
     if isinstance(run, RunSettings):
         run = {k: v for k, v in asdict(run).items() if v is not None}
     if not isinstance(run, Mapping):
-        raise SpecError(f"{origin}: [run]: expected a table, got {run!r}")
+        raise SpecError(f"{origin}: [run]: expected a table, got {shown(run)}")
     _check_keys(run, ("h", "T", "method", "rtol", "atol"), f"{origin}: [run]")
     settings: dict[str, Any] = {}
     for key, value in run.items():
@@ -449,18 +471,18 @@ def _run_settings(run: Any, origin: str) -> RunSettings:
         elif value in NAMES:
             settings[key] = value
         else:
-            raise SpecError(f"{where}: unknown method {value!r} (one of {', '.join(NAMES)})")
+            raise SpecError(f"{where}: unknown method {shown(value)} (one of {', '.join(NAMES)})")
     return RunSettings(**settings)
 
 
 def _positive(value: Any, where: str) -> float:
     number = float(value) if isinstance(value, numbers.Real) else math.nan
     if isinstance(value, bool) or not (math.isfinite(number) and number > 0):
-        raise SpecError(f"{where}: expected a positive number, got {value!r}")
+        raise SpecError(f"{where}: expected a positive number, got {shown(value)}")
     return number
 
 
 def _check_keys(table: Mapping[str, Any], allowed: Sequence[str], where: str) -> None:
     for key in table:
         if key not in allowed:
-            raise SpecError(f"{where}: unknown key {key!r} (allowed: {', '.join(allowed)})")
+            raise SpecError(f"{where}: unknown key {shown(key)} (allowed: {', '.join(allowed)})")
