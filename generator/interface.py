@@ -169,8 +169,8 @@ _SPHERE = Interface(
                 _p("work", _A),
                 _p("iters", Kind.INT_OUT, True),
             ),
-            "One variational-integrator step (q, w) -> (qn, wn); iters receives the Newton "
-            "iterations (0 for the explicit update). opt NULL means the defaults.",
+            "One variational-integrator step (q, w) -> (qn, wn); iters (may be NULL) receives "
+            "the Newton iterations (0 for the explicit update). opt NULL means the defaults.",
         ),
         Function(
             "rk_step",

@@ -117,8 +117,8 @@ void four_pendula_angular_momentum(const double *p, const double *q, const doubl
 int four_pendula_rhs(const double *p, const double *q, const double *w, double *dq, double *dw,
         double *work);
 
-/* One variational-integrator step (q, w) -> (qn, wn); iters receives the Newton iterations (0
- * for the explicit update). opt NULL means the defaults. */
+/* One variational-integrator step (q, w) -> (qn, wn); iters (may be NULL) receives the Newton
+ * iterations (0 for the explicit update). opt NULL means the defaults. */
 int four_pendula_vi_step(const double *p, const four_pendula_options *opt, double h,
         const double *q, const double *w, double *qn, double *wn, double *work, int *iters);
 

@@ -118,8 +118,8 @@ void rope_angular_momentum(const double *p, const double *q, const double *w, do
 int rope_rhs(const double *p, const double *q, const double *w, double *dq, double *dw,
         double *work);
 
-/* One variational-integrator step (q, w) -> (qn, wn); iters receives the Newton iterations (0
- * for the explicit update). opt NULL means the defaults. */
+/* One variational-integrator step (q, w) -> (qn, wn); iters (may be NULL) receives the Newton
+ * iterations (0 for the explicit update). opt NULL means the defaults. */
 int rope_vi_step(const double *p, const rope_options *opt, double h, const double *q,
         const double *w, double *qn, double *wn, double *work, int *iters);
 

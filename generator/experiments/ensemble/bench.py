@@ -30,6 +30,7 @@ from __future__ import annotations
 import json
 import os
 import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -245,15 +246,22 @@ def benchmark(
     opts = options or Options()
     full = _settings(spec, members, perturb, method, h, T, every, opts, seed)
     little = {**full, "members": min(small, members)}
-    folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="s2gen-bench-"))
-    log(f"serial: {members} members in this process ...")
-    serial = _timed(full, 0, str(folder / "serial"))
-    log(f"{workers} local workers: {members} members (fresh process) ...")
-    parallel = _in_fresh_process(full, workers, str(folder / "parallel"))
-    log(f"{workers} local workers: {little['members']} members (fresh process) ...")
-    few = _in_fresh_process(little, workers, str(folder / "small"))
-    log(f"{workers} plain processes: {members} members, no Dask, no store ...")
-    plain = _plain_processes(full, workers)
+    # the stores only serve the timing: a folder of our own is removed afterwards (at every 1
+    # the rod's three stores hold about 1.7 GB)
+    scratch = None if out is not None else tempfile.mkdtemp(prefix="s2gen-bench-")
+    folder = Path(out) if out is not None else Path(str(scratch))
+    try:
+        log(f"serial: {members} members in this process ...")
+        serial = _timed(full, 0, str(folder / "serial"))
+        log(f"{workers} local workers: {members} members (fresh process) ...")
+        parallel = _in_fresh_process(full, workers, str(folder / "parallel"))
+        log(f"{workers} local workers: {little['members']} members (fresh process) ...")
+        few = _in_fresh_process(little, workers, str(folder / "small"))
+        log(f"{workers} plain processes: {members} members, no Dask, no store ...")
+        plain = _plain_processes(full, workers)
+    finally:
+        if scratch is not None:
+            shutil.rmtree(scratch, ignore_errors=True)
     run = system.run
     title = (
         f"{system.name} (n = {system.n}): {members} members, {method or run.method or 'vi'}, "

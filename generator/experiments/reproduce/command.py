@@ -40,7 +40,7 @@ def add_parser(sub: Any) -> None:
         help=f"examples to run (default all): {', '.join(EXAMPLES)}",
     )
     rp.add_argument("--out", default="out/reproduce", help="folder (default out/reproduce)")
-    rp.add_argument("--quick", action="store_true", help="shortened runs (about a minute)")
+    rp.add_argument("--quick", action="store_true", help="shortened runs (about 15 s)")
     rp.add_argument("--backend", choices=BACKENDS, default="c", help="default c")
     rp.add_argument(
         "--bands",
@@ -48,7 +48,7 @@ def add_parser(sub: Any) -> None:
         default=0,
         metavar="N",
         help="also run the rod's two runs as ensembles of N members perturbed by 1e-13 on a "
-        "local Dask cluster and state their chaos bands (N = 64: about 2 minutes on 2 cores)",
+        "local Dask cluster and state their chaos bands (N = 64: about 30 s on 2 cores)",
     )
 
 
