@@ -217,10 +217,14 @@ class Trajectory:
         from scipy.sparse import csr_matrix
 
         system = getattr(model, "system", model)
-        entries = _inertia_entries(system, params)
         n = self.q.shape[1]
-        rows, cols = (np.array([k[i] for k in entries], dtype=int) for i in (0, 1))
-        M = csr_matrix((np.array(list(entries.values())), (rows, cols)), shape=(n, n))
+        if system.matrix is None and system.chain is not None:
+            # a chain's M from its per-body generators, never its n^2 symbolic entries
+            M = csr_matrix(system.chain.dense(n, _parameter_values(system, params)))
+        else:
+            entries = _inertia_entries(system, params)
+            rows, cols = (np.array([k[i] for k in entries], dtype=int) for i in (0, 1))
+            M = csr_matrix((np.array(list(entries.values())), (rows, cols)), shape=(n, n))
         J = np.empty((len(self.t), 3))
         block = max(1, 2**20 // max(n, 1))  # bounded temporaries on long runs
         for k in range(0, len(self.t), block):
@@ -316,10 +320,8 @@ class Trajectory:
         return fig
 
 
-def _inertia_entries(system: System, params: Any) -> dict[tuple[int, int], float]:
-    """M's nonzero entries {(row, col): value} at the given parameters (default the spec's)."""
-    import sympy as sp
-
+def _parameter_values(system: System, params: Any) -> dict[Any, float]:
+    """{parameter symbol: value} at the given parameters (default the spec's)."""
     if params is None:
         values = tuple(system.parameter_values)
     elif isinstance(params, dict):
@@ -327,7 +329,14 @@ def _inertia_entries(system: System, params: Any) -> dict[tuple[int, int], float
         values = tuple(merged[n] for n in system.parameter_names)
     else:
         values = tuple(float(v) for v in params)
-    subs = dict(zip(system.parameter_symbols, values))
+    return dict(zip(system.parameter_symbols, values))
+
+
+def _inertia_entries(system: System, params: Any) -> dict[tuple[int, int], float]:
+    """M's nonzero entries {(row, col): value} at the given parameters (default the spec's)."""
+    import sympy as sp
+
+    subs = _parameter_values(system, params)
     out: dict[tuple[int, int], float] = {}
     cache: dict[Any, float] = {}
     for key, entry in system.inertia.todok().items():
