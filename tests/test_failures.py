@@ -90,3 +90,23 @@ def test_rk45_stops_at_a_potential_that_becomes_non_finite() -> None:
         assert info.value.partial.q[-1, 0, 2] > -0.5
         stops[backend] = info.value.step
     assert stops["c"] == stops["numpy"] == stops["reference"], stops
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+@pytest.mark.parametrize("h", [1.0, 3.0])
+@pytest.mark.parametrize("name", ["double_pendulum", "elastic_rod", "rope"])
+def test_a_diverging_newton_is_a_newton_failure_on_every_backend(name: str, h: float) -> None:
+    """Far too large a step: Newton's iterates grow without bound. Every backend reports
+    Newton's failure at the first step (before: the C and NumPy dense and structured paths
+    could take an overflowing iterate for converged, inf <= inf, and report a singular
+    inertia, or a non-finite state, while the reference reported Newton)."""
+    from s2gen.methods import Status
+
+    system = builtin(name, n=8) if name == "rope" else builtin(name)
+    runs = [("vi", b) for b in ("c", "numpy", "reference")] + [
+        ("rattle", b) for b in ("c", "numpy")
+    ]
+    for method, backend in runs:
+        with pytest.raises(IntegrationError) as info:
+            simulate(system, method, backend, h=h, T=20 * h)
+        assert (info.value.status, info.value.step) == (Status.NEWTON, 1), (method, backend)

@@ -913,23 +913,26 @@ static int double_pendulum_vi_advance(const double_pendulum_ctx *cx, const doubl
         for (e = 0; e < DOUBLE_PENDULUM_N3; ++e) {
             r[e] = -r[e];
         }
-        /* a singular Jacobian is a failure of Newton's method, not of the inertia */
+        /* a singular Jacobian or a non-finite iterate is a failure of Newton's method (as the
+         * reference reports it), not of the inertia or the state */
         solved = double_pendulum_lu_solve(DOUBLE_PENDULUM_N3, DOUBLE_PENDULUM_LD3, 0.0, jm, r);
         *iters = it;
-        if (solved == DOUBLE_PENDULUM_ERR_SINGULAR) {
+        if (solved != DOUBLE_PENDULUM_OK) {
             return DOUBLE_PENDULUM_ERR_NEWTON;
-        }
-        if (solved != DOUBLE_PENDULUM_OK) { /* a non-finite update */
-            return solved;
         }
         for (e = 0; e < DOUBLE_PENDULUM_N3; ++e) {
             const double moved = fabs(r[e]), now = fabs(f[e] += r[e]);
             step = moved > step ? moved : step;
             size = now > size ? now : size;
         }
-        /* the update, or the next one predicted by quadratic convergence, is below tolerance */
+        if (!isfinite(size)) {
+            return DOUBLE_PENDULUM_ERR_NEWTON;
+        }
+        /* the update, or (while the updates shrink) the next one quadratic convergence predicts, is
+         * below tolerance; the ratio form cannot overflow on a diverging iteration */
         converged = step <= opt->newton_tol * size
-                || (it > 1 && step * step * step <= opt->newton_tol * size * previous * previous)
+                || (it > 1 && step < previous
+                    && step * (step / previous) * (step / previous) <= opt->newton_tol * size)
                 || (step <= 1e3 * opt->newton_tol * size && step > 0.5 * previous);
         previous = step;
     }
@@ -1060,14 +1063,12 @@ static int double_pendulum_rattle_advance(const double_pendulum_ctx *cx, const d
                 jm[i * ld + k] = -2.0 * wi[i * nb + k] * (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
             }
         }
-        /* a singular Jacobian is a failure of Newton's method, not of the inertia */
+        /* a singular Jacobian or a non-finite iterate is a failure of Newton's method (as the
+         * reference reports it), not of the inertia or the state */
         solved = double_pendulum_lu_solve(nb, ld, 0.0, jm, r);
         *iters = it;
-        if (solved == DOUBLE_PENDULUM_ERR_SINGULAR) {
+        if (solved != DOUBLE_PENDULUM_OK) {
             return DOUBLE_PENDULUM_ERR_NEWTON;
-        }
-        if (solved != DOUBLE_PENDULUM_OK) { /* a non-finite update */
-            return solved;
         }
         for (i = 0; i < nb; ++i) {
             double moved = 0.0; /* size of the position correction, (W delta)_i */
@@ -1078,9 +1079,14 @@ static int double_pendulum_rattle_advance(const double_pendulum_ctx *cx, const d
             moved = fabs(moved);
             step = moved > step ? moved : step;
         }
-        /* the update, or the next one predicted by quadratic convergence, is below tolerance */
+        if (!isfinite(step)) {
+            return DOUBLE_PENDULUM_ERR_NEWTON;
+        }
+        /* the update, or (while the updates shrink) the next one quadratic convergence predicts, is
+         * below tolerance; the ratio form cannot overflow on a diverging iteration */
         converged = step <= opt->newton_tol * size
-                || (it > 1 && step * step * step <= opt->newton_tol * size * previous * previous)
+                || (it > 1 && step < previous
+                    && step * (step / previous) * (step / previous) <= opt->newton_tol * size)
                 || (step <= 1e3 * opt->newton_tol * size && step > 0.5 * previous);
         previous = step;
     }

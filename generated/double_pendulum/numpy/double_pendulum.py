@@ -489,19 +489,21 @@ def _vi_advance(p, h, q, w, g, newton_tol, newton_maxiter, start=None):
             jm[i:i + 3, j:j + 3] += jij[k].reshape(3, 3)
             jm[j:j + 3, i:i + 3] += jji[k].reshape(3, 3)
         iters += 1
-        try:
+        try:  # a non-finite Jacobian is singular, as to the C's LU (its pivot test)
+            if not numpy.isfinite(jm).all():
+                raise numpy.linalg.LinAlgError("non-finite Jacobian")
             delta = numpy.linalg.solve(jm, -r.reshape(-1)).reshape(NBODIES, 3)
         except numpy.linalg.LinAlgError:  # a singular Jacobian: Newton's method failed
             return ERR_NEWTON, None, None, None, iters, None
         f = f + delta
         step = float(numpy.max(numpy.abs(delta)))
-        if not numpy.isfinite(step):
-            return ERR_NONFINITE, None, None, None, iters, None
+        if not (numpy.isfinite(step) and numpy.isfinite(f).all()):  # Newton diverged
+            return ERR_NEWTON, None, None, None, iters, None
         size = max(1e-300, float(numpy.max(numpy.abs(f))))
-        # the update, or the next one predicted by quadratic convergence, is below tolerance
+        # the update, or (while the updates shrink) the next one quadratic convergence predicts
         converged = (
             step <= newton_tol * size
-            or (iters > 1 and step * step * step <= newton_tol * size * previous * previous)
+            or (iters > 1 and step < previous and step * (step / previous) * (step / previous) <= newton_tol * size)
             or (step <= 1e3 * newton_tol * size and step > 0.5 * previous)
         )
         previous = step
@@ -558,19 +560,21 @@ def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter, start=None):
         xn = y - (wi * s[None, :]) @ x
         r = -(numpy.sum(xn * xn, axis=1) - 1.0)
         jm = -2.0 * wi * (xn @ x.T)
-        try:
+        try:  # a non-finite Jacobian is singular, as to the C's LU (its pivot test)
+            if not numpy.isfinite(jm).all():
+                raise numpy.linalg.LinAlgError("non-finite Jacobian")
             delta = numpy.linalg.solve(jm, r)
         except numpy.linalg.LinAlgError:  # a singular Jacobian: Newton's method failed
             return ERR_NEWTON, None, None, None, iters + 1, None
         s = s + delta
         iters += 1
         step = float(numpy.max(numpy.abs(wi @ delta)))
-        if not numpy.isfinite(step):
-            return ERR_NONFINITE, None, None, None, iters, None
-        # the update, or the next one predicted by quadratic convergence, is below tolerance
+        if not (numpy.isfinite(step) and numpy.isfinite(s).all()):  # Newton diverged
+            return ERR_NEWTON, None, None, None, iters, None
+        # the update, or (while the updates shrink) the next one quadratic convergence predicts
         converged = (
             step <= newton_tol
-            or (iters > 1 and step * step * step <= newton_tol * previous * previous)
+            or (iters > 1 and step < previous and step * (step / previous) * (step / previous) <= newton_tol)
             or (step <= 1e3 * newton_tol and step > 0.5 * previous)
         )
         previous = step

@@ -987,21 +987,24 @@ static int rope_vi_advance(const rope_ctx *cx, const rope_options *opt,
         }
         status = rope_coupled_solve(cx, 3, 3, 6, 6, e, hb, kb, r, 1, sw);
         *iters = it;
-        /* a singular Jacobian is a failure of Newton's method, not of the inertia */
-        if (status == ROPE_ERR_SINGULAR) {
+        /* a singular Jacobian or a non-finite iterate is a failure of Newton's method (as the
+         * reference reports it), not of the inertia or the state */
+        if (status != ROPE_OK) {
             return ROPE_ERR_NEWTON;
-        }
-        if (status != ROPE_OK) { /* a non-finite update */
-            return status;
         }
         for (k = 0; k < ROPE_N3; ++k) {
             const double moved = fabs(r[k]), now = fabs(f[k] += r[k]);
             step = moved > step ? moved : step;
             size = now > size ? now : size;
         }
-        /* the update, or the next one predicted by quadratic convergence, is below tolerance */
+        if (!isfinite(size)) {
+            return ROPE_ERR_NEWTON;
+        }
+        /* the update, or (while the updates shrink) the next one quadratic convergence predicts, is
+         * below tolerance; the ratio form cannot overflow on a diverging iteration */
         converged = step <= opt->newton_tol * size
-                || (it > 1 && step * step * step <= opt->newton_tol * size * previous * previous)
+                || (it > 1 && step < previous
+                    && step * (step / previous) * (step / previous) <= opt->newton_tol * size)
                 || (step <= 1e3 * opt->newton_tol * size && step > 0.5 * previous);
         previous = step;
     }
@@ -1112,14 +1115,11 @@ static int rope_rattle_advance(const rope_ctx *cx, const rope_options *opt,
             rb[4 * i + 3] = -(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] - 1.0);
         }
         status = rope_coupled_solve(cx, 4, 3, 7, 7, e, NULL, NULL, rb, 1, sw);
-        /* a singular Jacobian is a failure of Newton's method, not of the inertia */
-        if (status == ROPE_ERR_SINGULAR) {
+        /* a singular Jacobian or a non-finite iterate is a failure of Newton's method (as the
+         * reference reports it), not of the inertia or the state */
+        if (status != ROPE_OK) {
             *iters = it;
             return ROPE_ERR_NEWTON;
-        }
-        if (status != ROPE_OK) { /* a non-finite update */
-            *iters = it;
-            return status;
         }
         /* the size of the position correction, (W delta)_i */
         for (i = 0; i < 20; ++i) {
@@ -1134,11 +1134,13 @@ static int rope_rattle_advance(const rope_ctx *cx, const rope_options *opt,
         }
         *iters = it;
         if (!isfinite(step)) {
-            return ROPE_ERR_NONFINITE;
+            return ROPE_ERR_NEWTON;
         }
-        /* the update, or the next one predicted by quadratic convergence, is below tolerance */
+        /* the update, or (while the updates shrink) the next one quadratic convergence predicts, is
+         * below tolerance; the ratio form cannot overflow on a diverging iteration */
         converged = step <= opt->newton_tol * size
-                || (it > 1 && step * step * step <= opt->newton_tol * size * previous * previous)
+                || (it > 1 && step < previous
+                    && step * (step / previous) * (step / previous) <= opt->newton_tol * size)
                 || (step <= 1e3 * opt->newton_tol * size && step > 0.5 * previous);
         previous = step;
     }

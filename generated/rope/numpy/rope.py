@@ -496,13 +496,13 @@ def _vi_advance(p, h, q, w, g, newton_tol, newton_maxiter, start=None):
             return ERR_NEWTON, None, None, None, iters, None
         f = f + delta
         step = float(numpy.max(numpy.abs(delta)))
-        if not numpy.isfinite(step):
-            return ERR_NONFINITE, None, None, None, iters, None
+        if not (numpy.isfinite(step) and numpy.isfinite(f).all()):  # Newton diverged
+            return ERR_NEWTON, None, None, None, iters, None
         size = max(1e-300, float(numpy.max(numpy.abs(f))))
-        # the update, or the next one predicted by quadratic convergence, is below tolerance
+        # the update, or (while the updates shrink) the next one quadratic convergence predicts
         converged = (
             step <= newton_tol * size
-            or (iters > 1 and step * step * step <= newton_tol * size * previous * previous)
+            or (iters > 1 and step < previous and step * (step / previous) * (step / previous) <= newton_tol * size)
             or (step <= 1e3 * newton_tol * size and step > 0.5 * previous)
         )
         previous = step
@@ -573,12 +573,12 @@ def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter, start=None):
         s = s + delta
         iters += 1
         step = float(numpy.max(numpy.abs(_m_solve(md, mp, delta))))
-        if not numpy.isfinite(step):
-            return ERR_NONFINITE, None, None, None, iters, None
-        # the update, or the next one predicted by quadratic convergence, is below tolerance
+        if not (numpy.isfinite(step) and numpy.isfinite(s).all()):  # Newton diverged
+            return ERR_NEWTON, None, None, None, iters, None
+        # the update, or (while the updates shrink) the next one quadratic convergence predicts
         converged = (
             step <= newton_tol
-            or (iters > 1 and step * step * step <= newton_tol * previous * previous)
+            or (iters > 1 and step < previous and step * (step / previous) * (step / previous) <= newton_tol)
             or (step <= 1e3 * newton_tol and step > 0.5 * previous)
         )
         previous = step

@@ -326,7 +326,8 @@ static int step(double h, const double *q, const double *w, const double *g, dou
             return 1;
         }
         converged = stepmax <= NEWTON_TOL * size
-                    || (it > 1 && stepmax * stepmax * stepmax <= NEWTON_TOL * size * prev * prev)
+                    || (it > 1 && stepmax < prev
+                        && stepmax * (stepmax / prev) * (stepmax / prev) <= NEWTON_TOL * size)
                     || (stepmax <= 1e3 * NEWTON_TOL * size && stepmax > 0.5 * prev);
         prev = stepmax;
     }
