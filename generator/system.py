@@ -44,6 +44,7 @@ from s2gen.symbols import local_vector, q_symbol
 __all__ = [
     "INERTIA_SOLVERS",
     "MAX_BODIES",
+    "MAX_CUTOFF",
     "MAX_NAME_LENGTH",
     "UNIT_LENGTH_TOLERANCE",
     "RunSettings",
@@ -63,6 +64,9 @@ UNIT_LENGTH_TOLERANCE = 1e-3
 MAX_BODIES = 10**6
 #: The longest system name: it prefixes every emitted symbol and names the emitted files.
 MAX_NAME_LENGTH = 64
+#: The largest pair-term cutoff: every pair of unit vectors lies within 2, and the emitted
+#: code squares the cutoff, which must stay a finite double.
+MAX_CUTOFF = 1e100
 
 #: How the coupled solves are chosen: by the structure of M and n ("auto"), the dense
 #: solvers, or the structured ones (an error when M has no structure they use).
@@ -233,8 +237,11 @@ def _validate_term(term: Term, n: int, psyms: set[sp.Symbol], where: str) -> Non
     if term.cutoff is not None:
         if term.kind != "pair" or term.select != "all":
             raise SpecError(f"{at}: a cutoff applies only to pair terms over all pairs")
-        if not (np.isfinite(term.cutoff) and 0.0 < term.cutoff):
-            raise SpecError(f"{at}: cutoff must be a positive distance, got {shown(term.cutoff)}")
+        if not (np.isfinite(term.cutoff) and 0.0 < term.cutoff <= MAX_CUTOFF):
+            raise SpecError(
+                f"{at}: cutoff must be a positive distance of at most {MAX_CUTOFF:g} (unit "
+                f"vectors lie within 2 of each other), got {shown(term.cutoff)}"
+            )
     count = term.count(n)
     _check_data_names(term, at)
     for d in term.data:
@@ -743,9 +750,14 @@ def _validate_initial(
     radial = np.einsum("ij,ij->i", qn, w)
     wn = w - radial[:, None] * qn
     for i in range(n):
-        if radial[i] != 0.0 and abs(radial[i]) > 4 * np.finfo(float).eps * max(
-            1.0, float(np.linalg.norm(w[i]))
-        ):
+        scale = max(1.0, float(np.linalg.norm(w[i])))
+        if abs(radial[i]) > UNIT_LENGTH_TOLERANCE * scale:  # as q_i's length: not round-off
+            raise SpecError(
+                f"{where}: [initial] omega{i + 1}: its component {radial[i]:.6g} along q{i + 1} is "
+                f"more than {UNIT_LENGTH_TOLERANCE:g} of max(1, |omega{i + 1}|); omega must be "
+                "tangent to the sphere (omega_i . q_i = 0)"
+            )
+        if radial[i] != 0.0 and abs(radial[i]) > 4 * np.finfo(float).eps * scale:
             notes.append(
                 f"omega{i + 1} projected onto the tangent plane (removed {radial[i]:+.3g})"
             )

@@ -325,6 +325,21 @@ TOML_CASES: list[tuple[str, str, list[str]]] = [
         edit(TERMS, "pairs = [[1, 2]]", "pairs = [[1, 2]]\ncutoff = 0.1"),
         ["[[potential.pair]] #1 cutoff: must be a positive distance, on a term over all pairs"],
     ),
+    (  # the emitted code squares the cutoff: 1e300 overflowed while printing
+        "cutoff beyond any distance on the sphere",
+        edit(
+            BASE,
+            'V = "-m*g*q1[2] - m*g*q2[2]"\n',
+            'V = "-m*g*q1[2]"\n[[potential.pair]]\nV = "k*dot(qi, qj)"\npairs = "all"\n'
+            "cutoff = 1e300\n",
+        ),
+        ["[[potential.pair]] #1: cutoff must be a positive distance of at most 1e+100", "1e+300"],
+    ),
+    (  # was projected away at any size, while q_i has the 1e-3 limit
+        "omega along q",
+        edit(BASE, "omega = [[0, 1, 0], [0, 0, 1]]", "omega = [[0, 1, 0.5], [0, 0, 1]]"),
+        ["[initial] omega1: its component 0.5 along q1 is more than 0.001 of max(1, |omega1|)"],
+    ),
     (
         "term with a hash",
         edit(TERMS, '"kk*dot(qi, qj)"', '"kk*dot(qi, qj) # spring"'),
