@@ -202,3 +202,83 @@ def test_opcount_counts_operations_as_printed() -> None:
     c = render(print_module(lowered()), "c")["passes.c"]
     for name, _ in PIPELINE:
         assert f" *   {name}: " in c
+
+
+def _substituted(kernel: Kernel) -> dict[tuple[str, int], sp.Expr]:
+    """Each output slot of a lowered kernel with its temporaries substituted back."""
+    values: dict[sp.Symbol, sp.Expr] = {}
+    out = {}
+    for a in kernel.assignments:
+        expr = a.expr.xreplace(values)
+        if a.temp is not None:
+            values[a.temp] = expr
+        else:
+            assert a.output is not None
+            out[a.output] = expr
+    return out
+
+
+def test_cse_is_deterministic_and_keeps_every_output() -> None:
+    """cse alone on the unlowered kernels: temporaries x0, x1, ... in order, the same names
+    from a cleared cache, and each output, its temporaries substituted back, equal to the
+    derived expression at random arguments (evaluated by SymPy, 1e-12 relative)."""
+    from s2gen.passes.cse import cse_pass, lower_kernel
+
+    module = sphere_module(passes_system())
+    first = cse_pass(module)
+    lower_kernel.cache_clear()
+    second = cse_pass(module)
+    rng = np.random.default_rng(5)
+    derived = {k.name: k for k in module.kernels}
+    checked = 0
+    for k1, k2 in zip(first.kernels, second.kernels, strict=True):
+        assert isinstance(k1, Kernel) and k1.assignments == k2.assignments, k1.name
+        temps = [str(a.temp) for a in k1.assignments if a.temp is not None]
+        assert temps == [f"x{i}" for i in range(len(temps))], k1.name
+        inputs = {s: rng.uniform(0.5, 1.5) for arg in k1.inputs for s in arg.symbols}
+        params = {s: rng.uniform(0.5, 1.5) for s in passes_system().parameter_symbols}
+        at = {**inputs, **params}
+        lowered_outputs = _substituted(k1)
+        for out in derived[k1.name].outputs:
+            for slot, expr in enumerate(out.exprs):
+                want = complex(sp.N(sp.sympify(expr).xreplace(at)))
+                got = complex(sp.N(sp.sympify(lowered_outputs[(out.name, slot)]).xreplace(at)))
+                assert abs(got - want) <= 1e-12 * max(1.0, abs(want)), (k1.name, out.name)
+                checked += 1
+    assert checked > 40
+
+
+def test_calls_follow_each_kernels_signature() -> None:
+    """Every call site passes one C argument per kernel input and output, in the kernel's
+    order, and one NumPy argument per input; every kernel the module lowers is called."""
+    module = lowered()
+    kernels = {k.name: k for k in module.kernels}
+    assert module.calls
+    for call in module.calls:
+        k = kernels[call.kernel]
+        assert len(call.c_args) == len(k.inputs) + len(k.outputs), call.site
+        assert len(call.py_args) == len(k.inputs), call.site
+    called = {c.kernel for c in module.calls}
+    per_call = {"context"} | {k.name for k in module.kernels if k.name.endswith("_table")}
+    assert set(kernels) - called <= per_call | {"t0_quad", "inertia"}, set(kernels) - called
+
+
+@pytest.mark.parametrize("system", ["passes", "double_pendulum", "rope"])
+def test_workspace_buffers_are_disjoint_and_fit_work_size(system: str) -> None:
+    """Each function's buffers are disjoint and contiguous from 0; the largest layout is
+    `work_base`, within `work_size`, and the header's WORK_SIZE is `work_size`."""
+    from s2gen.build import header_macro
+    from s2gen.passes import lower_system
+    from s2gen.systems import builtin
+
+    module = lowered() if system == "passes" else lower_system(builtin(system))
+    assert module.layouts
+    for lay in module.layouts:
+        end = 0
+        for b in lay.buffers:
+            assert b.offset == end and b.size >= 0, (lay.name, b.name)
+            end = b.offset + b.size
+        assert lay.size <= module.work_base, lay.name
+    assert module.work_base == max(lay.size for lay in module.layouts) <= module.work_size
+    header = render(print_module(module), "c")[f"{module.name}.h"]
+    assert header_macro(header, "WORK_SIZE") == module.work_size
