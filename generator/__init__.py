@@ -10,7 +10,8 @@ The public API, for scripts and notebooks (each name is imported on first use, s
 - `compile(system, backend="c")`: a `Model` (integrate, step, energy, gradient, momentum,
   parameters by name);
 - `simulate(system, method, backend, h, T, ...)`: a `Trajectory`;
-- `METHODS` (the method table), `Options`, `Trajectory`, `IntegrationError`, `SpecError`.
+- `METHODS` (the method table), `Options`, `Trajectory`, `IntegrationError`, `SpecError`,
+  `__version__`.
 
 Example:
     >>> import s2gen
@@ -38,6 +39,7 @@ __all__ = [
     "SpecError",
     "System",
     "Trajectory",
+    "__version__",
     "compile",
     "define",
     "generate",
@@ -55,6 +57,7 @@ _WHERE = {
     "Trajectory": ("s2gen.runtime.trajectory", "Trajectory"),
     "define": ("s2gen.spec", "define_system"),
     "simulate": ("s2gen.runtime", "simulate"),
+    "__version__": ("s2gen.version", "__version__"),
 }
 
 

@@ -142,6 +142,10 @@ def test_version_flag() -> None:
         [sys.executable, "-m", "s2gen", "--version"], capture_output=True, text=True, check=False
     )
     assert out.returncode == 0 and out.stdout.strip() == f"s2gen {__version__}"
+    assert s2gen.__version__ == __version__  # the package attribute, as users look for it
+    from importlib.metadata import version
+
+    assert __version__ == version("s2gen")  # the version pyproject.toml declares
 
 
 def test_emitted_files_are_read_back_without_sympy_work() -> None:
