@@ -9,7 +9,7 @@ are written through a temporary file moved into place, never through a symbolic 
 Only the standard library and the method table are imported up front; each subcommand imports
 what it needs (SymPy, NumPy, an experiment) when it runs, so `s2gen --help` stays fast.
 
-Commands: generate, simulate, list, regen, reproduce, compare-angles, bench. `s2gen COMMAND
+Commands: generate, simulate, list, regen, reproduce, compare-angles, bench, ensemble. `s2gen COMMAND
 --help` documents each.
 
 Example:

@@ -116,6 +116,9 @@ class PrintedModule:
     npairs_or_one: int
     ncoupled: int  # doubles of mp: coupled entries (one per pair) or max-index generators (2n)
     coupled: bool
+    #: the VI's step is the explicit update (the assembler chose the "vi_explicit" partial):
+    #: it has its own driver on component-major copies, and no Newton step exists
+    explicit_vi: bool
     general: bool
     soa_bridge: bool  # the component-major gradient needs the body-major one for some terms
     uniform_mass: bool
@@ -591,6 +594,7 @@ def print_module(module: Module) -> PrintedModule:
         npairs_or_one=max(npairs, 1),
         ncoupled=2 * n if module.solver is InertiaKind.MAX_INDEX else max(npairs, 1),
         coupled=bool(facts.get("coupled", False)),
+        explicit_vi="vi_explicit" in module.parts,
         general=bool(facts.get("general", False)),
         soa_bridge=module.body_major_terms,
         uniform_mass=bool(facts.get("uniform_mass", False)),

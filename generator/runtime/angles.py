@@ -1,7 +1,8 @@
 """The emitted angle-form modules (C and NumPy) and their runner.
 
 Input: a `System`. Output: the lowered and printed angle module, its files
-(templates `c/angles.*.jinja`, `numpy/angles.py.jinja`, file stem ``<system>_angles``), backends
+(the shared templates `c/module.c.jinja`, `c/angles.h.jinja`, `numpy/module.py.jinja` with the
+`_angles_*` partials, file stem ``<system>_angles``), backends
 that integrate it (RK45 and RK4) and `simulate_angles`, which maps the samples back to
 (q_i, omega_i = q_i x qdot_i) so that every metric is computed as for the S^2 form.
 

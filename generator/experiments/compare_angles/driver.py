@@ -7,6 +7,7 @@ progress lines go to `log`; `run` prints the files and returns an exit code.
 
 Example:
     >>> import argparse
+    >>> from s2gen.experiments.compare_angles.command import add_parser
     >>> p = argparse.ArgumentParser()
     >>> add_parser(p.add_subparsers(dest="command"))
     >>> settings_from_args(p.parse_args(["compare-angles", "x.toml", "--quick"])).chain_max

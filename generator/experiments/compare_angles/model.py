@@ -6,6 +6,7 @@ tolerances, `Settings` (what to run), `Cost` (derivation and run cost of one for
 `Comparison` (every result of one `compare` call).
 
 Example:
+    >>> from s2gen.experiments.compare_angles.settings import FORMS, _LABELS
     >>> Settings().options().rtol, FORMS[0], _LABELS["s2"]
     (1e-06, 's2', 'S² form')
 """

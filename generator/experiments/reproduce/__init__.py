@@ -6,6 +6,7 @@ values), `records` (results), `runner` (running and the tables), `figures` (pape
 use, so the command-line parser does not import the rest.
 
 Example:
+    >>> from s2gen.experiments.reproduce import EXAMPLES
     >>> "double_pendulum" in EXAMPLES
     True
 """

@@ -21,7 +21,7 @@ Figures are drawn on `matplotlib.figure.Figure` objects (no pyplot, no global st
 
 Example:
     >>> from pathlib import Path
-    >>> from s2gen.reproduce import reproduce
+    >>> from s2gen.experiments.reproduce import reproduce
     >>> report = reproduce(["double_pendulum"], "/tmp/s2", quick=True)  # doctest: +SKIP
     >>> sorted(p.name for p in report.examples[0].figures)  # doctest: +SKIP
     ['double_pendulum.png']
