@@ -214,23 +214,28 @@ class Trajectory:
             >>> bool(abs(J - J[0]).max() < 1e-12)
             True
         """
-        from scipy.sparse import csr_matrix
-
         system = getattr(model, "system", model)
         n = self.q.shape[1]
+        dense = None
         if system.matrix is None and system.chain is not None:
             # a chain's M from its per-body generators, never its n^2 symbolic entries
-            M = csr_matrix(system.chain.dense(n, _parameter_values(system, params)))
+            dense = system.chain.dense(n, _parameter_values(system, params))
+            width = n
         else:
             entries = _inertia_entries(system, params)
             rows, cols = (np.array([k[i] for k in entries], dtype=int) for i in (0, 1))
-            M = csr_matrix((np.array(list(entries.values())), (rows, cols)), shape=(n, n))
+            vals = np.array(list(entries.values()))
+            width = max(n, len(vals))
         J = np.empty((len(self.t), 3))
-        block = max(1, 2**20 // max(n, 1))  # bounded temporaries on long runs
+        block = max(1, 2**20 // max(width, 1))  # bounded temporaries on long runs
         for k in range(0, len(self.t), block):
             q, w = self.q[k : k + block], self.omega[k : k + block]
-            v = np.cross(w, q).transpose(1, 0, 2).reshape(n, -1)  # qdot_j = omega_j x q_j
-            p = (M @ v).reshape(n, -1, 3).transpose(1, 0, 2)
+            v = np.cross(w, q)  # qdot_j = omega_j x q_j, (samples, n, 3)
+            if dense is not None:
+                p = np.einsum("ij,sjc->sic", dense, v)
+            else:  # p_i = sum_j M_ij v_j over M's nonzero entries
+                p = np.zeros_like(v)
+                np.add.at(p, (slice(None), rows), vals[None, :, None] * v[:, cols])
             J[k : k + block] = np.cross(q, p).sum(axis=1)
         return J
 
