@@ -235,7 +235,8 @@ class Trajectory:
                 p = np.einsum("ij,sjc->sic", dense, v)
             else:  # p_i = sum_j M_ij v_j over M's nonzero entries
                 p = np.zeros_like(v)
-                np.add.at(p, (slice(None), rows), vals[None, :, None] * v[:, cols])
+                by_body = p.swapaxes(0, 1)  # a view: (n, samples, 3)
+                np.add.at(by_body, rows, vals[:, None, None] * v[:, cols].swapaxes(0, 1))
             J[k : k + block] = np.cross(q, p).sum(axis=1)
         return J
 
