@@ -373,7 +373,10 @@ def test_chaos_band_of_a_paper_example(tmp_path: Path) -> None:
         tr = integrate(system, run, log=lambda _: None)
         assert band.reference == energy_variation(tr.energy)[0] / ex.energy_unit
         assert band.members == 3 and band.minimum <= band.median <= band.maximum
+        assert len(band.values) == 3 and min(band.values) == band.minimum
+        assert max(band.values) == band.maximum
     assert (tmp_path / "band.md").read_text().count("| double_pendulum |") == 2
+    assert (tmp_path / "band.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.mark.slow

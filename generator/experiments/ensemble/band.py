@@ -6,7 +6,7 @@ and where to run (as `ensemble`). Output: one `Band` per full run of the example
 VI at h = 1e-4 and RK45 with MATLAB ode45's control and default tolerances, output spacing
 1e-4, T = 3): the min, median and max over the perturbed members of mean |E - E0| in the
 paper's energy units (the example's `energy_unit`), the unperturbed member's value and the
-paper's printed one; ``band.md`` and ``band.csv`` in the output folder, and each run's store
+paper's printed one; ``band.md``, ``band.csv`` and ``band.png`` in the output folder, and each run's store
 and summary (divergence, Lyapunov exponent, figures) under ``<method>_h<h>/``.
 
 The statistics come from the workers, over every sample of each member; the stores keep every
@@ -43,6 +43,7 @@ __all__ = [
     "DEFAULT_PERTURB",
     "STORED_SAMPLES",
     "Band",
+    "band_figure",
     "band_markdown",
     "chaos_band",
     "paper_example",
@@ -77,6 +78,8 @@ class Band:
     paper: float | None
     seconds: float
     store: Path
+    #: each perturbed member's mean |E - E0| (paper units), for the band figure
+    values: tuple[float, ...] = ()
 
     def contains_paper(self) -> bool | None:
         """Whether the paper's printed value lies in [minimum, maximum] (None if not printed)."""
@@ -184,6 +187,7 @@ def _band(ex: Any, run: Any, path: Path, seconds: float) -> Band:
         paper=run.paper.get("mean_dE"),
         seconds=seconds,
         store=path,
+        values=tuple(float(v) for v in values),
     )
 
 
@@ -216,8 +220,44 @@ def band_markdown(bands: tuple[Band, ...]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def band_figure(bands: tuple[Band, ...], path: Path) -> Path:
+    """band.png: one row per run, every perturbed member's mean |E - E0| on a log axis, the
+    band's min, median and max, the unperturbed member and the paper's printed value."""
+    from .figures import _plt
+
+    plt = _plt()
+    fig, axes = plt.subplots(len(bands), 1, figsize=(7.5, 1.2 + 1.3 * len(bands)), squeeze=False)
+    rng = np.random.default_rng(0)  # vertical jitter only, so the dots do not hide each other
+    for ax, b in zip(axes[:, 0], bands, strict=True):
+        v = np.asarray(b.values)
+        ax.scatter(
+            v,
+            rng.uniform(-0.25, 0.25, v.size),
+            s=12,
+            color="tab:blue",
+            alpha=0.7,
+            label=f"{b.members} perturbed members",
+        )
+        for x, style in ((b.minimum, ":"), (b.median, "-"), (b.maximum, ":")):
+            ax.axvline(x, color="tab:blue", linestyle=style, linewidth=1)
+        ax.plot([b.reference], [0], "D", color="black", label="unperturbed")
+        if b.paper is not None:
+            ax.axvline(b.paper, color="tab:red", linewidth=2, label="paper")
+        ax.set_xscale("log")
+        ax.set_yticks([])
+        ax.set_ylim(-0.6, 0.6)
+        name = b.method if b.method != "rk45" else f"rk45 (rtol {b.rtol:g})"
+        ax.set_title(f"{b.example}: {name}, h = {b.h:g}, T = {b.T:g}", fontsize=10)
+        ax.legend(loc="upper left", fontsize=7, ncol=3, frameon=False)
+    axes[-1, 0].set_xlabel("mean |E − E0| over the run (paper's units); lines: min, median, max")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
 def write_band(bands: tuple[Band, ...], out: Path) -> list[Path]:
-    """band.md (the table and its definition) and band.csv in `out`."""
+    """band.md (the table and its definition), band.csv and band.png in `out`."""
     out.mkdir(parents=True, exist_ok=True)
     md = out / "band.md"
     md.write_text(
@@ -234,4 +274,7 @@ def write_band(bands: tuple[Band, ...], out: Path) -> list[Path]:
         w.writerow(fields)
         for b in bands:
             w.writerow([getattr(b, k) if getattr(b, k) is not None else "" for k in fields])
-    return [md, path]
+    paths = [md, path]
+    if any(b.values for b in bands):
+        paths.append(band_figure(bands, out / "band.png"))
+    return paths
