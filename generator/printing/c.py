@@ -25,6 +25,7 @@ from s2gen.ir import Call, Kernel, LoopKind, TermLoop
 __all__ = [
     "EXACT_INTEGER",
     "CPrinter",
+    "ExactIntegers",
     "LiteralError",
     "c_call",
     "c_decl",
@@ -73,7 +74,17 @@ def double_literal(value: sp.Rational) -> str:
 POSITIONS = ("q", "qi", "qj")
 
 
-class CPrinter(C99CodePrinter):
+class ExactIntegers:
+    """Printer mixin: an integer exact in a double prints as itself, a larger one as the
+    correctly rounded double literal (C and NumPy alike)."""
+
+    def _print_Integer(self, expr: sp.Integer) -> str:
+        if abs(int(expr)) <= EXACT_INTEGER:
+            return str(int(expr))
+        return double_literal(expr)
+
+
+class CPrinter(ExactIntegers, C99CodePrinter):
     """C99 printer with symbols mapped to argument slots; every number a C99 double literal.
 
     SymPy's C printer writes the POSIX macros M_PI, M_SQRT2, M_E ... (not in C99's math.h),
@@ -95,11 +106,6 @@ class CPrinter(C99CodePrinter):
 
     _print_Pi = _print_Exp1 = _print_NumberSymbol
     _print_EulerGamma = _print_Catalan = _print_GoldenRatio = _print_NumberSymbol
-
-    def _print_Integer(self, expr: sp.Integer) -> str:
-        if abs(int(expr)) <= EXACT_INTEGER:
-            return str(int(expr))
-        return double_literal(expr)
 
     def _print_Rational(self, expr: sp.Rational) -> str:
         if abs(int(expr.p)) <= EXACT_INTEGER and int(expr.q) <= EXACT_INTEGER:

@@ -19,12 +19,12 @@ import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
 
 from s2gen.ir import Call, Kernel, LoopKind, TermLoop
-from s2gen.printing.c import EXACT_INTEGER, LiteralError, double_literal
+from s2gen.printing.c import EXACT_INTEGER, ExactIntegers, LiteralError, double_literal
 
 __all__ = ["PyPrinter", "py_call", "py_kernel", "py_term_setup"]
 
 
-class PyPrinter(NumPyPrinter):
+class PyPrinter(ExactIntegers, NumPyPrinter):
     """NumPy printer with symbols mapped to argument slots (`numpy.` qualified calls).
 
     Numbers print as the C printer's do: exact integers and rationals beyond 2**53 as their
@@ -38,11 +38,6 @@ class PyPrinter(NumPyPrinter):
     def _print_Symbol(self, expr: sp.Symbol) -> str:
         name = self._names.get(expr)
         return name if name is not None else super()._print_Symbol(expr)
-
-    def _print_Integer(self, expr: sp.Integer) -> str:
-        if abs(int(expr)) <= EXACT_INTEGER:
-            return str(int(expr))
-        return double_literal(expr)
 
     def _print_Rational(self, expr: sp.Rational) -> str:
         if abs(int(expr.p)) <= EXACT_INTEGER and int(expr.q) <= EXACT_INTEGER:
