@@ -245,7 +245,7 @@ def band_figure(bands: tuple[Band, ...], path: Path) -> Path:
             ax.axvline(b.paper, color="tab:red", linewidth=2, label="paper")
         ax.set_xscale("log")
         ax.set_yticks([])
-        ax.set_ylim(-0.6, 0.6)
+        ax.set_ylim(-0.45, 0.9)  # the legend above the members
         name = b.method if b.method != "rk45" else f"rk45 (rtol {b.rtol:g})"
         ax.set_title(f"{b.example}: {name}, h = {b.h:g}, T = {b.T:g}", fontsize=10)
         ax.legend(loc="upper left", fontsize=7, ncol=3, frameon=False)

@@ -1,7 +1,7 @@
 """The `s2gen ensemble` command: check the arguments, run with a progress bar, summarise.
 
 Input: arguments parsed by `command.add_parser`. Output: the store and the summary files in
---out (or, with --bench, the benchmark's printed numbers; with --chaos-band, band.md and
+--out (or, with --bench, the benchmark's printed numbers; with --chaos-band, band.md, band.png and
 band.csv); an exit code: 0 (failed integrations are results, counted in the summary), 1 when
 a member's task raised, 2 on bad input (raised as a one-line ValueError for the CLI to print),
 130 when interrupted (the members written so far stay in the store).
@@ -229,5 +229,5 @@ def _chaos_band(args: argparse.Namespace, perturb: dict[str, float]) -> int:
     finally:
         bar.close()
     print(band_markdown(bands), end="")
-    print(f"  {out}/band.md, {out}/band.csv")
+    print(f"  {out}/band.md, {out}/band.csv, {out}/band.png")
     return 0 if all(math.isfinite(b.median) for b in bands) else 1

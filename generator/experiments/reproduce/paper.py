@@ -121,8 +121,8 @@ EXAMPLES: dict[str, Example] = {
             PaperRun("rk45", 1e-4, 3.0, paper={"mean_dE": 3.5244e-4, "mean_dot": 1.8725e-5}),
         ),
         notes="Chaotic over 3 s (divergence grows as e^(28 t) for the VI): 64 members perturbed "
-        "by 1e-13 put the VI energy figure over 1.17e-6 .. 2.85e-6 (median 1.49e-6) and the "
-        "RK45 one over 2.18e-4 .. 7.17e-4 (median 3.46e-4), so agreement within those bands "
+        "by 1e-13 put the VI energy figure over 1.24e-6 .. 2.29e-6 (median 1.49e-6) and the "
+        "RK45 one over 1.46e-4 .. 6.89e-4 (median 3.47e-4), so agreement within those bands "
         "is all one can ask (`s2gen reproduce elastic_rod --bands 64` measures them again).",
         quick=(PaperRun("vi", 1e-4, 0.3), PaperRun("rk45", 1e-4, 0.3)),
     ),
