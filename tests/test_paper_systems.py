@@ -313,3 +313,17 @@ def test_examples_entries(name: str) -> None:
         assert abs(round(run.T / run.h) * run.h - run.T) < 1e-9 * run.T
         assert set(run.paper) <= {"mean_dE", "max_dE", "mean_norm", "mean_dot", "max_norm"}
     assert any(run.paper for run in e.runs)
+
+
+def test_nearest_neighbour_distance_is_the_k_d_trees(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Small point sets compare all pairs instead of importing scipy's k-d tree: the same
+    doubles as the tree gives (the molecular system's sigma, hence its emitted code, depends
+    on them), on an icosphere and on random points."""
+    from s2gen.systems import meshes
+
+    rng = np.random.default_rng(7)
+    random = rng.normal(size=(900, 3))
+    sets = [meshes.icosphere(3)[0], random / np.linalg.norm(random, axis=1)[:, None]]
+    direct = [meshes.nearest_neighbour_distance(p) for p in sets]
+    monkeypatch.setattr(meshes, "BRUTE_FORCE_POINTS", 0)
+    assert direct == [meshes.nearest_neighbour_distance(p) for p in sets]
