@@ -245,6 +245,17 @@ def _finite(*arrays):
     return all(numpy.all(numpy.isfinite(a)) for a in arrays)
 
 
+def _newton_converged(step, size, previous, iters, tol):
+    """Newton's stopping rule (as the C's): the update is below tolerance, or (while the updates
+    shrink) the next one quadratic convergence predicts is, or the update has stopped shrinking
+    within 1000 times the tolerance (round-off reached). The ratio form cannot overflow."""
+    return (
+        step <= tol * size
+        or (iters > 1 and step < previous and step * (step / previous) * (step / previous) <= tol * size)
+        or (step <= 1e3 * tol * size and step > 0.5 * previous)
+    )
+
+
 # ---- parameters, masses -----------------------------------------------------------------------
 
 

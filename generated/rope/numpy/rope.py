@@ -292,6 +292,17 @@ def _finite(*arrays):
     return all(numpy.all(numpy.isfinite(a)) for a in arrays)
 
 
+def _newton_converged(step, size, previous, iters, tol):
+    """Newton's stopping rule (as the C's): the update is below tolerance, or (while the updates
+    shrink) the next one quadratic convergence predicts is, or the update has stopped shrinking
+    within 1000 times the tolerance (round-off reached). The ratio form cannot overflow."""
+    return (
+        step <= tol * size
+        or (iters > 1 and step < previous and step * (step / previous) * (step / previous) <= tol * size)
+        or (step <= 1e3 * tol * size and step > 0.5 * previous)
+    )
+
+
 # ---- parameters, masses -----------------------------------------------------------------------
 
 
@@ -499,12 +510,7 @@ def _vi_advance(p, h, q, w, g, newton_tol, newton_maxiter, start=None):
         if not (numpy.isfinite(step) and numpy.isfinite(f).all()):  # Newton diverged
             return ERR_NEWTON, None, None, None, iters, None
         size = max(1e-300, float(numpy.max(numpy.abs(f))))
-        # the update, or (while the updates shrink) the next one quadratic convergence predicts
-        converged = (
-            step <= newton_tol * size
-            or (iters > 1 and step < previous and step * (step / previous) * (step / previous) <= newton_tol * size)
-            or (step <= 1e3 * newton_tol * size and step > 0.5 * previous)
-        )
+        converged = _newton_converged(step, size, previous, iters, newton_tol)
         previous = step
     if not converged:
         return ERR_NEWTON, None, None, None, iters, None
@@ -575,12 +581,7 @@ def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter, start=None):
         step = float(numpy.max(numpy.abs(_m_solve(md, mp, delta))))
         if not (numpy.isfinite(step) and numpy.isfinite(s).all()):  # Newton diverged
             return ERR_NEWTON, None, None, None, iters, None
-        # the update, or (while the updates shrink) the next one quadratic convergence predicts
-        converged = (
-            step <= newton_tol
-            or (iters > 1 and step < previous and step * (step / previous) * (step / previous) <= newton_tol)
-            or (step <= 1e3 * newton_tol and step > 0.5 * previous)
-        )
+        converged = _newton_converged(step, 1.0, previous, iters, newton_tol)
         previous = step
     if not converged:
         return ERR_NEWTON, None, None, None, iters, None
