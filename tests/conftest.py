@@ -12,6 +12,16 @@ from s2gen.systems import builtin, resolve
 
 SPECS = Path(__file__).parent / "specs"
 
+#: The per-test limit of the slow suites (the default suite's is `timeout` in pyproject.toml).
+SLOW_TIMEOUT = 3600
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Give every slow test without a timeout of its own the slow suites' limit."""
+    for item in items:
+        if item.get_closest_marker("slow") and not item.get_closest_marker("timeout"):
+            item.add_marker(pytest.mark.timeout(SLOW_TIMEOUT))
+
 
 def three_bodies() -> System:
     """Three bodies on a sphere with the cotangent potential (diagonal M), from a TOML text."""

@@ -337,14 +337,19 @@ def test_killed_worker_mid_ensemble(tmp_path: Path) -> None:
     killed: list[int] = []
 
     def kill_a_busy_worker(result: Any) -> None:
+        """At the first result, wait until a worker holds a member (nine remain, so one soon
+        does, however the machine is loaded) and kill it."""
         if killed:
             return
-        pids = client.run(os.getpid)
-        for address, keys in client.processing().items():
-            if keys and address in pids:
-                os.kill(pids[address], signal.SIGKILL)
-                killed.append(pids[address])
-                return
+        deadline = time.monotonic() + 60.0
+        while time.monotonic() < deadline:
+            pids = client.run(os.getpid)
+            for address, keys in client.processing().items():
+                if keys and address in pids:
+                    os.kill(pids[address], signal.SIGKILL)
+                    killed.append(pids[address])
+                    return
+            time.sleep(0.005)
 
     try:
         r = ensemble(
