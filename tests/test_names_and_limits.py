@@ -12,7 +12,6 @@ table, so the NumPy gradient was silently wrong (off by 1.4 against the referenc
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
@@ -77,16 +76,15 @@ def test_a_parameter_name_with_a_newline_is_refused_by_system_create() -> None:
     assert message == "<python api>: [parameters]: 'm\\n' is not an identifier"
 
 
+@pytest.mark.timeout(30)  # allocating for 10^9 bodies would take far longer, or fail
 def test_too_many_bodies_is_refused_before_allocating() -> None:
     inertia = sp.ImmutableSparseMatrix(10**9, 10**9, {(i, i): 1 for i in range(4)})
-    start = time.perf_counter()
     message = one_line_error(
         lambda: define_system(
             name="big", bodies=10**9, parameters={}, inertia=inertia, potential="q1[2]"
         ),
         SpecError,
     )
-    assert time.perf_counter() - start < 1.0
     assert message == (
         f"<python api>: key 'bodies': 1000000000 bodies is more than the limit of {MAX_BODIES}"
     )

@@ -11,8 +11,6 @@ compile warning) in the emitted code.
 
 from __future__ import annotations
 
-import time
-
 import pytest
 import sympy as sp
 from reliability_helpers import one_line_error
@@ -78,10 +76,9 @@ def test_characters_outside_ascii_are_refused(text: str, char: str, at: str) -> 
     "text",
     ["sqrt(3)**(10**8)", "(sqrt(3)*q1[0])**(10**8)", "((2*q1[0])**1000)**1000", "3**(10**9)"],
 )
+@pytest.mark.timeout(30)  # computing any of these powers exactly would take far longer
 def test_huge_powers_are_refused_before_sympy_computes_them(text: str) -> None:
-    start = time.perf_counter()
     message = error(text)
-    assert time.perf_counter() - start < 1.0
     assert "is too large: its exact value would have about" in message
     assert "more than the limit of 1000" in message and "column" in message
 
