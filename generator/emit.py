@@ -23,12 +23,13 @@ import logging
 import os
 import shutil
 import tempfile
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from s2gen.build import cache_dir
 from s2gen.methods import LANGUAGES
-from s2gen.system import System
+from s2gen.system import SpecWarning, System
 from s2gen.version import fingerprint
 
 if TYPE_CHECKING:
@@ -102,6 +103,7 @@ def _emit(system: System, lang: str, form: str, cache: bool) -> dict[str, str]:
         return files
     from s2gen.render import render
 
+    _warn_if_unstructured(system)
     if form == "sphere":
         module = printed(system)
     else:
@@ -110,6 +112,16 @@ def _emit(system: System, lang: str, form: str, cache: bool) -> dict[str, str]:
     if cache:
         _write_cached(folder, files)
     return files
+
+
+def _warn_if_unstructured(system: System) -> None:
+    """Before a derivation: warn (SpecWarning) when the general potential is a long sum of
+    one-body or pair terms that a structured term would derive once (`s2gen.spec.hints`)."""
+    from s2gen.spec.hints import structure_hint
+
+    hint = structure_hint(system.potential, system.n)
+    if hint is not None:
+        warnings.warn(f"{system.origin}: {hint}", SpecWarning, stacklevel=4)
 
 
 def emit(system: System, lang: str, cache: bool = True) -> dict[str, str]:
