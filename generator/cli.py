@@ -21,10 +21,12 @@ Example:
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import sys
 import time
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -344,6 +346,49 @@ def _check_cache() -> None:
         raise ValueError(f"build cache S2GEN_CACHE={root} is unusable: {exc}") from None
 
 
+class DerivationStages(logging.Handler):
+    """Prints each stage of a derivation (logger ``s2gen.derive``) as one line on `stream`
+    once the derivation has gone `delay` seconds, so a long one shows where it is.
+
+    Example:
+        >>> import io
+        >>> out = io.StringIO()
+        >>> h = DerivationStages(out, delay=2.0)
+        >>> for since in (0.5, 2.5):
+        ...     h.handle(logging.makeLogRecord({"msg": "rope: pass cse done", "since": since}))
+        True
+        True
+        >>> print(out.getvalue().strip())
+        deriving rope: pass cse done (2.5 s)
+    """
+
+    def __init__(self, stream: Any, delay: float = PROGRESS_DELAY) -> None:
+        super().__init__(logging.INFO)
+        self.stream, self.delay = stream, delay
+
+    def emit(self, record: logging.LogRecord) -> None:
+        since = float(getattr(record, "since", 0.0))
+        if since >= self.delay:
+            print(f"deriving {record.getMessage()} ({since:.1f} s)", file=self.stream, flush=True)
+
+
+def _show_stages() -> Callable[[], None]:
+    """On a terminal, derivation stages on stderr (`DerivationStages`); returns the undo."""
+    if not getattr(sys.stderr, "isatty", lambda: False)():
+        return lambda: None
+    logger = logging.getLogger("s2gen.derive")
+    handler = DerivationStages(sys.stderr, delay=PROGRESS_DELAY)
+    level = logger.level
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+
+    def undo() -> None:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+
+    return undo
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the `s2gen` command: the exit status (0 ok, 1 failed integration,
     2 bad input), every error one line on stderr.
@@ -357,6 +402,7 @@ def main(argv: list[str] | None = None) -> int:
         args = _parser().parse_args(argv)
     except SystemExit as exc:  # --help, --version, or a usage error already printed
         return exc.code if isinstance(exc.code, int) else 2
+    undo = _show_stages()
     try:
         if args.command != "list":
             _check_cache()
@@ -371,6 +417,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)
         return 130
+    finally:
+        undo()
 
 
 if __name__ == "__main__":

@@ -30,6 +30,8 @@ Example:
 
 from __future__ import annotations
 
+import logging
+import time
 from collections.abc import Callable
 from dataclasses import replace
 
@@ -59,6 +61,10 @@ __all__ = ["PIPELINE", "clear_caches", "lower", "lower_angles", "lower_module", 
 
 Pass = Callable[[Module], Module]
 
+#: Each stage of a derivation, logged at INFO with `since` (seconds since it began): the
+#: command line shows them once a derivation has taken `s2gen.cli.PROGRESS_DELAY` seconds.
+log = logging.getLogger("s2gen.derive")
+
 #: The lowering passes, in the order they run.
 PIPELINE: tuple[tuple[str, Pass], ...] = (
     ("quadratic", quadratic_pass),
@@ -75,24 +81,39 @@ PIPELINE: tuple[tuple[str, Pass], ...] = (
 )
 
 
-def lower_module(module: Module, pipeline: tuple[tuple[str, Pass], ...] = PIPELINE) -> Module:
-    """Run the passes in order, recording each one and the operations after it."""
+def lower_module(
+    module: Module, pipeline: tuple[tuple[str, Pass], ...] = PIPELINE, start: float | None = None
+) -> Module:
+    """Run the passes in order, recording each one and the operations after it; each pass
+    done is logged (logger ``s2gen.derive``, INFO) with the seconds since `start`."""
+    start = time.perf_counter() if start is None else start
     records = list(module.passes)
     for name, run in pipeline:
         module = run(module)
         ops = module_ops(module)
         records.append(PassRecord(name, ops.total, str(ops)))
+        log.info("%s: pass %s done", module.name, name, extra={"since": _since(start)})
     return replace(module, passes=tuple(records))
+
+
+def _since(start: float) -> float:
+    return time.perf_counter() - start
 
 
 def lower_system(system: System) -> Module:
     """The lowered (S^2)^n module of a system."""
-    return lower_module(sphere_module(system))
+    start = time.perf_counter()
+    module = sphere_module(system)
+    log.info("%s: equations derived", system.name, extra={"since": _since(start)})
+    return lower_module(module, start=start)
 
 
 def lower_angles(eq: AngleEquations) -> Module:
     """The lowered angle-form module of a system."""
-    return lower_module(angle_module(eq))
+    start = time.perf_counter()
+    module = angle_module(eq)
+    log.info("%s: angle-form equations derived", module.name, extra={"since": _since(start)})
+    return lower_module(module, start=start)
 
 
 def lower(kdef: KernelDef) -> Kernel:
