@@ -35,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.runtime import get_backend
-from s2gen.system import System
+from s2gen import System
+from s2gen.inspect import get_backend
 
 __all__ = [
     "PeerRun",

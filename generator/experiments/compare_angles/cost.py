@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from s2gen.build import DEFAULT_FLAGS, compile_shared, compiler, header_macro
-from s2gen.system import System
+from s2gen import System
+from s2gen.inspect import DEFAULT_FLAGS, compile_shared, compiler, header_macro
 
 from .derive import derive_with_budget
 from .model import Cost

@@ -21,10 +21,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from s2gen import metrics
-from s2gen.runtime import IntegrationError, get_backend, simulate
-from s2gen.runtime.angles import AngleIntegrationError, PoleError, simulate_angles
-from s2gen.system import System
+from s2gen import IntegrationError, System, metrics, simulate
+from s2gen.inspect import AngleIntegrationError, PoleError, get_backend, simulate_angles
 
 from .model import Run
 from .settings import ZOOM, Settings

@@ -41,7 +41,7 @@ from matplotlib.colors import LinearSegmentedColormap, Normalize
 from matplotlib.figure import Figure
 
 if TYPE_CHECKING:
-    from s2gen.system import System
+    from s2gen import System
 
     from .records import ExampleResult, RunResult
 
@@ -547,13 +547,13 @@ def plot_kinetic_distribution(
 
 def _kinetic_figure(ex: ExampleResult, path: Path) -> Path:
     """Kinetic-energy distributions at the paper's times (those within the run's horizon)."""
-    from s2gen.systems.paper import icosphere
+    from s2gen import paper
 
     assert ex.system is not None
     r = _motion_run(ex)
     tr = r.trajectory
     assert tr is not None
-    vertices, faces = (np.asarray(a) for a in icosphere(4))
+    vertices, faces = (np.asarray(a) for a in paper.icosphere(4))
     times = [t for t in KINETIC_TIMES if t <= tr.t[-1] + 1e-12] or [float(tr.t[-1])]
     if times[-1] < tr.t[-1] - 1e-12 and len(times) < len(KINETIC_TIMES):
         times.append(float(tr.t[-1]))

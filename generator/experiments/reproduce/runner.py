@@ -25,10 +25,9 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from s2gen import metrics
-from s2gen.runtime import IntegrationError, Options, Trajectory, get_backend, simulate
-from s2gen.system import System
-from s2gen.systems import builtin
+import s2gen
+from s2gen import IntegrationError, Options, System, Trajectory, metrics, simulate
+from s2gen.inspect import get_backend
 
 from .paper import EXAMPLES, Example, PaperRun
 from .records import ExampleResult, Report, RunResult
@@ -223,7 +222,7 @@ def run_example(
     runs = example.quick if quick and example.quick else example.runs
     try:
         start = time.perf_counter()
-        result.system = builtin(example.system)
+        result.system = s2gen.load(example.system)
         get_backend(result.system, backend)
         log(f"[{example.name}] system {example.system} (n = {result.system.n}) ready on "
             f"{backend} in {time.perf_counter() - start:.2f} s")  # fmt: skip
