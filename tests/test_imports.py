@@ -244,3 +244,8 @@ def test_the_rules_flag_a_package_that_breaks_them(tmp_path: Path) -> None:
     assert cycles(found, within=EXPERIMENTS, top_only=False) == [
         ["s2gen.experiments.x", "s2gen.experiments.y"]
     ]
+
+
+def test_the_package_ships_no_c_source() -> None:
+    """Hand-written C programs live in benchmarks/, beside the package, not in it."""
+    assert sorted(p.relative_to(ROOT) for p in ROOT.rglob("*.c")) == []
