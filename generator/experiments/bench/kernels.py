@@ -6,8 +6,8 @@ definitions the equations give, before any pass) and after the passes (as printe
 context, per-member tables, the quadratic terms' coefficients) have no "as derived" count.
 
 Example:
-    >>> from s2gen.systems import builtin
-    >>> rows = {r["kernel"]: r for r in kernel_rows(builtin("double_pendulum"))}
+    >>> import s2gen
+    >>> rows = {r["kernel"]: r for r in kernel_rows(s2gen.load("double_pendulum"))}
     >>> rows["context"]["before"] is None, rows["d_body"]["after"].total < rows["d_body"]["before"].total
     (True, True)
 """

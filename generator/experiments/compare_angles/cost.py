@@ -166,8 +166,8 @@ def costs(
     interleaved, best of `repeats`). Forms in `skip` are not tried (status given).
 
     Example:
-        >>> from s2gen.systems import builtin
-        >>> dp = builtin("double_pendulum")
+        >>> import s2gen
+        >>> dp = s2gen.load("double_pendulum")
         >>> [c.status for c in costs(dp, FORMS[:2], 60, 3)]  # doctest: +SKIP
         ['ok', 'ok']
     """

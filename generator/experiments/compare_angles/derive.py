@@ -7,8 +7,8 @@ and the emitted C files; None when the budget runs out (a blow-up is reported, n
 for), {"error": ...} when the derivation fails.
 
 Example:
-    >>> from s2gen.systems import builtin
-    >>> _derive(builtin("double_pendulum"), "s2")["ops"] > 0  # doctest: +SKIP
+    >>> import s2gen
+    >>> _derive(s2gen.load("double_pendulum"), "s2")["ops"] > 0  # doctest: +SKIP
     True
 """
 
@@ -93,8 +93,8 @@ def derive_with_budget(system: System, form: str, budget: float) -> dict[str, An
     """`_derive` in a fresh subprocess (cold caches); None if it takes longer than `budget` s.
 
     Example:
-        >>> from s2gen.systems import builtin
-        >>> derive_with_budget(builtin("double_pendulum"), "angles", 60)["ops"]  # doctest: +SKIP
+        >>> import s2gen
+        >>> derive_with_budget(s2gen.load("double_pendulum"), "angles", 60)["ops"]  # doctest: +SKIP
         386
     """
     ctx = multiprocessing.get_context("spawn")

@@ -437,8 +437,8 @@ def kinetic_energy(system: System, q: np.ndarray, omega: np.ndarray) -> np.ndarr
     """Per-body kinetic energy ½ M_ii |ω_i × q_i|² for a diagonal inertia matrix.
 
     Example:
-        >>> from s2gen.systems.paper import three_bodies
-        >>> s = three_bodies()  # unit masses
+        >>> from s2gen import paper
+        >>> s = paper.three_bodies()  # unit masses
         >>> kinetic_energy(s, s.q0, s.omega0).round(3).tolist()
         [0.605, 0.5, 0.5]
     """
@@ -524,8 +524,8 @@ def plot_kinetic_distribution(
     """Draw the near hemisphere's faces, orthographically, coloured by `values` (NaN: grey).
 
     Example:
-        >>> from s2gen.systems.paper import icosphere
-        >>> v, f = icosphere(1)
+        >>> from s2gen import paper
+        >>> v, f = paper.icosphere(1)
         >>> ax = Figure().add_subplot()
         >>> plot_kinetic_distribution(ax, np.ones(len(f)), v, f, np.array([0, 0, 1.0]),
         ...                           Normalize(0, 2))

@@ -143,8 +143,8 @@ def integrate(system: System, run: PaperRun, backend: str = "c", log: Log = _pri
     depend on it). A failure raises `IntegrationError` with the valid samples in `.partial`.
 
     Example:
-        >>> from s2gen.systems import builtin
-        >>> tr = integrate(builtin("double_pendulum"), PaperRun("vi", 0.01, 1.0), log=print)
+        >>> import s2gen
+        >>> tr = integrate(s2gen.load("double_pendulum"), PaperRun("vi", 0.01, 1.0), log=print)
         >>> tr.q.shape
         (101, 2, 3)
     """
