@@ -21,6 +21,7 @@ import pytest
 import s2gen
 from s2gen.cli import main
 from s2gen.ensemble import (
+    EnsembleError,
     EnsembleStore,
     ensemble,
     fit_lyapunov,
@@ -195,6 +196,23 @@ def test_missing_store_package_is_an_import_error_of_the_python_api(tmp_path: Pa
     )
     assert proc.stdout == "s2gen.ensemble needs zarr, which is not installed: pip install zarr\n"
     assert not (tmp_path / "ensemble.zarr").exists()
+
+
+def test_chaos_band_needs_the_runner_the_command_line_passes_in(tmp_path: Path) -> None:
+    """The core's ensemble command knows no paper example: --chaos-band runs only through the
+    runner that `s2gen ensemble` passes it from the reproduce experiment."""
+    import argparse
+
+    from s2gen.ensemble import add_parser, run
+
+    parser = argparse.ArgumentParser()
+    add_parser(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["ensemble", "elastic_rod", "--chaos-band", "--out", str(tmp_path)])
+    with pytest.raises(EnsembleError, match="needs the paper examples of s2gen reproduce"):
+        run(args)
+    seen = []
+    assert run(args, chaos_band=lambda a, perturb: seen.append((a.spec, perturb)) or 7) == 7
+    assert seen == [("elastic_rod", {})]
 
 
 def test_unreachable_scheduler_is_one_line_exit_2(tmp_path: Path) -> None:

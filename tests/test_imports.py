@@ -7,7 +7,9 @@ them, so an import hidden in a function counts as much as one at the top of a mo
   `__all__`, and `s2gen.ensemble`, the names of its `__all__`), the inspection module
   `s2gen.inspect`, and other experiments;
 - the modules' top-level imports form no cycle; nor do any of the imports among the ensemble's
-  and the experiments' modules, those inside functions included.
+  and the experiments' modules, those inside functions included;
+- every import of an s2gen module names a module of the package (a moved module leaves no
+  import behind that would fail only when its function runs).
 
 Each rule is also run on a small made-up package that breaks it, so that a rule which could
 never fail would be noticed.
@@ -138,6 +140,11 @@ def private_imports_of_experiments(found: Iterable[Import]) -> list[str]:
     return bad
 
 
+def missing_modules(found: Iterable[Import], known: Iterable[str]) -> list[str]:
+    names = set(known)
+    return [f"{i.module}:{i.line} imports {i.target}" for i in found if i.target not in names]
+
+
 def cycles(
     found: Iterable[Import], within: str = "s2gen", top_only: bool = True
 ) -> list[list[str]]:
@@ -201,6 +208,10 @@ def test_experiments_use_only_the_public_api_and_the_inspection_module() -> None
     assert private_imports_of_experiments(FOUND) == []
 
 
+def test_every_import_names_a_module_of_the_package() -> None:
+    assert missing_modules(FOUND, sources(ROOT)) == []
+
+
 def test_no_import_cycle_at_module_level() -> None:
     assert cycles(FOUND) == []
 
@@ -239,6 +250,10 @@ def test_the_rules_flag_a_package_that_breaks_them(tmp_path: Path) -> None:
     assert private_imports_of_experiments(found) == [
         "s2gen.experiments.x:1 imports not_public from s2gen",
         "s2gen.experiments.x:3 imports lower_system from s2gen.passes",
+    ]
+    assert missing_modules(found, sources(tmp_path)) == [
+        "s2gen.experiments.x:2 imports s2gen.inspect",
+        "s2gen.experiments.x:3 imports s2gen.passes",
     ]
     assert cycles(found) == [["s2gen.a", "s2gen.b"]]  # y -> x is not at module level
     assert cycles(found, within=EXPERIMENTS, top_only=False) == [

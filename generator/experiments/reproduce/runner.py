@@ -397,7 +397,7 @@ def reproduce(
 ) -> Report:
     """Run the selected examples, write results.csv, results.md and the figures into `out`;
     with `bands` > 0 (full runs, the rod selected), also the rod's chaos bands: each of its
-    runs as an ensemble of `bands` members perturbed by 1e-13 (`s2gen.experiments.ensemble`,
+    runs as an ensemble of `bands` members perturbed by 1e-13 (`band`, on `s2gen.ensemble`,
     on a local Dask cluster), in results.md and under out/chaos_band.
 
     The tables are rewritten after each example, so an interrupted run keeps what it did.
@@ -426,7 +426,7 @@ def reproduce(
 
 def _chaos_bands(report: Report, members: int, log: Log) -> None:
     """The rod's runs as ensembles of perturbed members: their band of mean |E - E0|."""
-    from s2gen.experiments.ensemble.band import band_markdown, chaos_band
+    from .band import band_markdown, chaos_band
 
     try:
         found = chaos_band(
