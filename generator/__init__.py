@@ -10,8 +10,15 @@ The public API, for scripts and notebooks (each name is imported on first use, s
 - `compile(system, backend="c")`: a `Model` (integrate, step, energy, gradient, momentum,
   parameters by name);
 - `simulate(system, method, backend, h, T, ...)`: a `Trajectory`;
+- `builtins()`: the names of the built-in systems;
 - `METHODS` (the method table), `Options`, `Trajectory`, `IntegrationError`, `SpecError`,
-  `__version__`.
+  `__version__`;
+- modules: `ensemble` (`s2gen.ensemble`: ensembles of perturbed or swept members on Dask),
+  `metrics` (energy and unit-length errors of a trajectory, observed orders), `paper` (the
+  paper's systems as factories with their options, and their building blocks).
+
+`s2gen.inspect` opens the pipeline (stages, op counts, builds) for the experiments; it is not
+part of this API.
 
 Example:
     >>> import s2gen
@@ -28,8 +35,18 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from s2gen import ensemble as ensemble
+    from s2gen import metrics as metrics
+    from s2gen.methods import METHODS as METHODS
+    from s2gen.runtime import simulate as simulate
     from s2gen.runtime.model import Model
+    from s2gen.runtime.options import Options as Options
+    from s2gen.runtime.trajectory import IntegrationError as IntegrationError
+    from s2gen.runtime.trajectory import Trajectory as Trajectory
+    from s2gen.spec import define_system as define
+    from s2gen.system import SpecError as SpecError
     from s2gen.system import System
+    from s2gen.systems import paper as paper
 
 __all__ = [
     "METHODS",
@@ -40,10 +57,14 @@ __all__ = [
     "System",
     "Trajectory",
     "__version__",
+    "builtins",
     "compile",
     "define",
+    "ensemble",
     "generate",
     "load",
+    "metrics",
+    "paper",
     "simulate",
 ]
 
@@ -61,7 +82,16 @@ _WHERE = {
 }
 
 
+_MODULES = {
+    "ensemble": "s2gen.ensemble",
+    "metrics": "s2gen.metrics",
+    "paper": "s2gen.systems.paper",
+}
+
+
 def __getattr__(name: str) -> Any:
+    if name in _MODULES:
+        return importlib.import_module(_MODULES[name])
     where = _WHERE.get(name)
     if where is None:
         raise AttributeError(f"module 's2gen' has no attribute {name!r}")
@@ -85,6 +115,18 @@ def load(spec: str | Path) -> System:
     if not isinstance(spec, Path) and "\n" in text and "=" in text:
         return load_spec_text(text)
     return resolve(text)
+
+
+def builtins() -> list[str]:
+    """The names of the built-in systems (`load` takes each, with options after a colon).
+
+    Example:
+        >>> "double_pendulum" in builtins()
+        True
+    """
+    from s2gen.systems import builtin_names
+
+    return builtin_names()
 
 
 def generate(system: System, lang: str = "c", out: str | Path | None = None) -> dict[str, str]:

@@ -47,9 +47,9 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _parser() -> argparse.ArgumentParser:
+    from s2gen.ensemble.command import add_parser as add_ensemble
     from s2gen.experiments.bench.command import add_parser as add_bench
     from s2gen.experiments.compare_angles.command import add_parser as add_compare
-    from s2gen.experiments.ensemble.command import add_parser as add_ensemble
     from s2gen.experiments.reproduce.command import add_parser as add_reproduce
 
     p = _Parser(
@@ -306,9 +306,13 @@ def _bench(args: argparse.Namespace) -> int:
 
 
 def _ensemble(args: argparse.Namespace) -> int:
-    from s2gen.experiments.ensemble.driver import run
+    from s2gen.ensemble.driver import run
 
-    return run(args)
+    if not args.chaos_band:
+        return run(args)
+    from s2gen.experiments.reproduce.band import run_band
+
+    return run(args, chaos_band=run_band)
 
 
 _COMMANDS = {

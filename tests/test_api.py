@@ -132,7 +132,11 @@ def test_cli_imports_no_experiment_scipy_or_matplotlib() -> None:
     ).stderr
     loaded = {line.rsplit("|", 1)[-1].strip() for line in out.splitlines() if "|" in line}
     heavy = sorted(
-        m for m in loaded if m.startswith(("s2gen.experiments", "scipy", "matplotlib", "sympy"))
+        m
+        for m in loaded
+        if m.startswith(
+            ("s2gen.experiments", "scipy", "matplotlib", "sympy", "dask", "distributed", "zarr")
+        )
     )
     assert heavy == []
 

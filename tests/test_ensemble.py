@@ -20,15 +20,16 @@ import pytest
 
 import s2gen
 from s2gen.cli import main
-from s2gen.experiments.ensemble import (
+from s2gen.ensemble import (
+    EnsembleError,
     EnsembleStore,
-    chaos_band,
     ensemble,
     fit_lyapunov,
     initial_state,
     member_table,
 )
-from s2gen.experiments.ensemble.store import STATISTICS, TRAJECTORIES
+from s2gen.ensemble.store import STATISTICS, TRAJECTORIES
+from s2gen.experiments.reproduce.band import chaos_band
 from s2gen.methods import Status
 from s2gen.runtime import IntegrationError
 
@@ -159,6 +160,61 @@ def test_bad_input_is_one_line_exit_2(
     assert not out.exists()  # nothing written
 
 
+@pytest.mark.parametrize("package", ["dask", "distributed", "zarr"])
+def test_missing_package_is_one_line_naming_its_install_command(
+    package: str, tmp_path: Path
+) -> None:
+    """With one of the ensemble's packages unimportable (None in sys.modules, in a child
+    process), the command refuses in one line that says what to install; nothing is written."""
+    out = tmp_path / "out"
+    argv = ["ensemble", "double_pendulum", "--perturb", "omega=1e-13", "--T", "0.1"]
+    argv += ["--workers", "2", "--out", str(out)]
+    code = (
+        f"import sys\nsys.modules[{package!r}] = None\n"
+        f"from s2gen.cli import main\nsys.exit(main({argv!r}))\n"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == [
+        f"error: s2gen.ensemble needs {package}, which is not installed: pip install {package}"
+    ]
+    assert not out.exists()
+
+
+def test_missing_store_package_is_an_import_error_of_the_python_api(tmp_path: Path) -> None:
+    """`import s2gen.ensemble` works without zarr; the call that needs it raises ImportError."""
+    code = (
+        "import sys\nsys.modules['zarr'] = None\nimport s2gen.ensemble\n"
+        "try:\n"
+        f"    s2gen.ensemble.ensemble('double_pendulum', T=0.1, workers=0, out={str(tmp_path)!r})\n"
+        "except ImportError as exc:\n    print(exc)\n"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True
+    )
+    assert proc.stdout == "s2gen.ensemble needs zarr, which is not installed: pip install zarr\n"
+    assert not (tmp_path / "ensemble.zarr").exists()
+
+
+def test_chaos_band_needs_the_runner_the_command_line_passes_in(tmp_path: Path) -> None:
+    """The core's ensemble command knows no paper example: --chaos-band runs only through the
+    runner that `s2gen ensemble` passes it from the reproduce experiment."""
+    import argparse
+
+    from s2gen.ensemble import add_parser, run
+
+    parser = argparse.ArgumentParser()
+    add_parser(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["ensemble", "elastic_rod", "--chaos-band", "--out", str(tmp_path)])
+    with pytest.raises(EnsembleError, match="needs the paper examples of s2gen reproduce"):
+        run(args)
+    seen = []
+    assert run(args, chaos_band=lambda a, perturb: seen.append((a.spec, perturb)) or 7) == 7
+    assert seen == [("elastic_rod", {})]
+
+
 def test_unreachable_scheduler_is_one_line_exit_2(tmp_path: Path) -> None:
     out = tmp_path / "out"
     proc = subprocess.run(
@@ -221,7 +277,7 @@ def test_interrupted_ensemble_keeps_the_members_written(tmp_path: Path) -> None:
 def test_a_task_that_raises_is_recorded_and_the_rest_go_on(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from s2gen.experiments.ensemble import dispatch, worker
+    from s2gen.ensemble import dispatch, worker
 
     def flaky(payload: Any, task: Any) -> Any:
         if task.index == 1:

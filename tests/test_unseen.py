@@ -5,15 +5,17 @@ Newton iterations. No timings are checked here."""
 
 from __future__ import annotations
 
+import doctest
+import importlib
 import shutil
 
 import numpy as np
 import pytest
+import unseen  # benchmarks/unseen.py (benchmarks/ is on pytest's pythonpath)
+from unseen_systems import specs
+from unseen_systems.cases import CASES, CaseMismatch, data_header
+from unseen_systems.programs import build, run
 
-from s2gen.experiments.unseen import specs
-from s2gen.experiments.unseen.cases import CASES, CaseMismatch, data_header
-from s2gen.experiments.unseen.command import agreement
-from s2gen.experiments.unseen.programs import build, run
 from s2gen.spec import load_spec_text
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not installed")
@@ -28,7 +30,7 @@ def test_hand_written_and_emitted_agree(name, tmp_path):
     hand = run(programs.hand["O2"], STEPS[name], 1)
     emitted = run(programs.emitted["O2"], STEPS[name], 1)
     assert hand.state.shape == emitted.state.shape == programs.initial.shape
-    assert agreement(hand, emitted) < 1e-11
+    assert unseen.agreement(hand, emitted) < 1e-11
     # both moved: the agreement is not that of two programs that left the state alone
     assert np.max(np.abs(hand.state - programs.initial)) > 1e-2
     assert 0.0 < hand.energy_change < 1e-5 and 0.0 < emitted.energy_change < 1e-5
@@ -56,3 +58,21 @@ def test_data_header_refuses_a_spec_the_program_does_not_model():
     assert "CH_MASS" in data_header(case, heavier)  # parameters may change: read, not retyped
     with pytest.raises(CaseMismatch, match="M is not"):
         data_header(case, load_spec_text(text.replace('"l10*l10*m10"', '"2*l10*l10*m10"')))
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "unseen",
+        "unseen_systems",
+        "unseen_systems.cases",
+        "unseen_systems.programs",
+        "unseen_systems.specs",
+    ],
+)
+def test_benchmark_docstring_examples_run(name, tmp_path, monkeypatch):
+    """The benchmark's modules live outside the package, so their examples run here."""
+    monkeypatch.chdir(tmp_path)
+    module = importlib.import_module(name)
+    result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 0 and result.failed == 0, name

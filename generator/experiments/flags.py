@@ -17,11 +17,11 @@ import argparse
 import statistics
 import time
 from collections.abc import Sequence
+from typing import Any
 
-from s2gen.build import FLAG_SETS
-from s2gen.runtime import Options
-from s2gen.runtime.c import CBackend
-from s2gen.systems import builtin
+import s2gen
+from s2gen import Options
+from s2gen.inspect import c_backend
 
 __all__ = ["CANDIDATES", "main", "measure"]
 
@@ -43,7 +43,7 @@ RUNS = {
 }
 
 
-def _seconds_per_step(backend: CBackend, h: float, steps: int) -> float:
+def _seconds_per_step(backend: Any, h: float, steps: int) -> float:
     system = backend.system
     start = time.perf_counter()
     status, *_ = backend.integrate(
@@ -63,13 +63,9 @@ def _seconds_per_step(backend: CBackend, h: float, steps: int) -> float:
 
 def measure(name: str, launches: int) -> dict[str, float]:
     """Median seconds per step of `name`'s VI for each candidate flag set."""
-    system = builtin(name)
+    system = s2gen.load(name)
     h, steps = RUNS[name]
-    backends = {}
-    for label, flags in CANDIDATES.items():
-        FLAG_SETS[f"_{label}"] = flags
-        backends[label] = CBackend(system, opt=f"_{label}")
-        del FLAG_SETS[f"_{label}"]
+    backends = {label: c_backend(system, flags) for label, flags in CANDIDATES.items()}
     times: dict[str, list[float]] = {label: [] for label in CANDIDATES}
     for _ in range(launches):
         for label, backend in backends.items():

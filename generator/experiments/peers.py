@@ -17,8 +17,8 @@ benchmark compares them exactly as it compares our own integrators.
   on (S^2)^n like ours. Code generation and compilation are timed.
 
 Example:
-    >>> from s2gen.systems import builtin
-    >>> s = builtin("double_pendulum")
+    >>> import s2gen
+    >>> s = s2gen.load("double_pendulum")
     >>> r = scipy_run(s, "DOP853", 1e-8, T=1.0)
     >>> r.status, r.q.shape
     ('ok', (2, 3))
@@ -35,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.runtime import get_backend
-from s2gen.system import System
+from s2gen import System
+from s2gen.inspect import get_backend
 
 __all__ = [
     "PeerRun",
@@ -79,8 +79,8 @@ def numpy_field(system: System, params: np.ndarray | None = None) -> Field:
     """f(t, y) on flat y = (q, omega) from the emitted NumPy module's ``rhs(p, q, w)``.
 
     Example:
-        >>> from s2gen.systems import builtin
-        >>> s = builtin("double_pendulum")
+        >>> import s2gen
+        >>> s = s2gen.load("double_pendulum")
         >>> f = numpy_field(s)
         >>> f(0.0, np.concatenate([s.q0.ravel(), s.omega0.ravel()])).shape
         (12,)
@@ -101,8 +101,8 @@ def c_field(system: System, params: np.ndarray | None = None) -> Field:
     """f(t, y) on flat y = (q, omega) from the emitted C right-hand side (through ctypes).
 
     Example:
-        >>> from s2gen.systems import builtin
-        >>> s = builtin("double_pendulum")
+        >>> import s2gen
+        >>> s = s2gen.load("double_pendulum")
         >>> y = np.concatenate([s.q0.ravel(), s.omega0.ravel()])
         >>> bool(np.allclose(c_field(s)(0.0, y), numpy_field(s)(0.0, y)))
         True
@@ -151,8 +151,8 @@ def scipy_run(
     (dense output) with the emitted C energy. `rhs` is "numpy" (emitted NumPy module) or "c".
 
     Example:
-        >>> from s2gen.systems import builtin
-        >>> r = scipy_run(builtin("double_pendulum"), "RK45", 1e-6, T=0.5)
+        >>> import s2gen
+        >>> r = scipy_run(s2gen.load("double_pendulum"), "RK45", 1e-6, T=0.5)
         >>> r.status, r.evals > 0
         ('ok', True)
     """
@@ -271,8 +271,8 @@ def pydy_model(system: System, generator: str = "auto") -> PydyModel:
     (m1, m2, l1, l2, g).
 
     Example:
-        >>> from s2gen.systems import builtin
-        >>> m = pydy_model(builtin("double_pendulum"), "lambdify")
+        >>> import s2gen
+        >>> m = pydy_model(s2gen.load("double_pendulum"), "lambdify")
         >>> m.generator, m.rhs(np.zeros(8), 0.0, m.params).shape
         ('lambdify', (8,))
     """
@@ -367,8 +367,8 @@ def pydy_run(
     """Integrate PyDy's right-hand side with "lsoda" (odeint, PyDy's default) or "DOP853".
 
     Example:
-        >>> from s2gen.systems import builtin
-        >>> s = builtin("double_pendulum")
+        >>> import s2gen
+        >>> s = s2gen.load("double_pendulum")
         >>> r = pydy_run(s, pydy_model(s, "lambdify"), "DOP853", 1e-8, T=0.5)
         >>> r.status, r.max_dE < 1e-4
         ('ok', True)

@@ -17,8 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.runtime import IntegrationError, Trajectory
-from s2gen.system import SpecError, System
+from s2gen import IntegrationError, SpecError, System, Trajectory
 
 Log = Callable[[str], None]
 
@@ -29,7 +28,7 @@ def _print(line: str) -> None:
 
 def example_system(name: str) -> System:
     """A TOML spec file or a built-in system by name (with options: ``rope:n=50``; see
-    `s2gen.systems.resolve`), else a factory of `s2gen.systems.paper` of that name.
+    `s2gen.load`), else a factory of `s2gen.paper` of that name.
 
     Example:
         >>> example_system("double_pendulum").n, example_system("rope:n=50").n
@@ -37,19 +36,18 @@ def example_system(name: str) -> System:
     """
     from pathlib import Path
 
-    from s2gen.systems import builtin_names, resolve
+    import s2gen
+    from s2gen import paper
 
-    builtin = name.partition(":")[0] in builtin_names()
+    builtin = name.partition(":")[0] in s2gen.builtins()
     if builtin or Path(name).is_file() or name.endswith(".toml"):
-        return resolve(name)
-    from s2gen.systems import paper
-
+        return s2gen.load(name)
     factory = getattr(paper, name, None)
     if name in getattr(paper, "__all__", ()) and callable(factory):
         system = factory()
         if isinstance(system, System):
             return system
-    raise SpecError(f"unknown example {name!r}; built-ins are: {', '.join(builtin_names())}")
+    raise SpecError(f"unknown example {name!r}; built-ins are: {', '.join(s2gen.builtins())}")
 
 
 def _best_wall(run: Callable[[], Trajectory], k: int) -> Trajectory:

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from s2gen.runtime import IntegrationError, Options, simulate
+from s2gen import IntegrationError, Options, simulate
 
 from .common import Log, _why, kinetic_energy
 from .long_runs import _long_adaptive, _long_fixed, _Tracker, _tracker

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from s2gen.system import SpecError
+from s2gen import SpecError
 
 from .command import DEFAULT_EXAMPLES, command_line
 from .common import Log, _print, example_system

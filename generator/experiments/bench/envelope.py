@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.runtime import IntegrationError, Options, get_backend, simulate
-from s2gen.system import System
+from s2gen import IntegrationError, Options, System, simulate
+from s2gen.inspect import get_backend
 
 from .common import Log, _fmt, _print, _why, example_system, kinetic_energy
 from .model import FIXED, SAMPLES, StabilityCase, StabRow
@@ -27,13 +27,13 @@ from .model import FIXED, SAMPLES, StabilityCase, StabRow
 
 def _lj_encounter() -> System:
     """Three Lennard-Jones particles; bodies 1 and 2 meet head-on (closest approach ~0.8 sigma)."""
-    from s2gen.spec import define_system
+    from s2gen import define
 
     a = 0.3
     q = [[math.cos(a), -math.sin(a), 0.0], [math.cos(a), math.sin(a), 0.0], [0.0, 0.0, 1.0]]
     w = [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.2, 0.0, 0.0]]
     r2 = "dot(qi-qj, qi-qj)"
-    return define_system(
+    return define(
         name="lj_encounter",
         bodies=3,
         parameters={"m": 1.0, "eps": 1.0, "sigma": 0.1},
@@ -59,10 +59,10 @@ def stability_cases(quick: bool = False) -> list[StabilityCase]:
         >>> [c.label for c in stability_cases(quick=True)][:2]
         ['poles: double pendulum', 'stiff rod kappa=1e+03']
     """
-    from s2gen.systems.paper import elastic_rod, molecular
+    from s2gen import paper
 
     dp = example_system("double_pendulum")
-    rod = elastic_rod(5 if quick else 10)
+    rod = paper.elastic_rod(5 if quick else 10)
     cases = [
         StabilityCase(
             "poles: double pendulum",
@@ -103,7 +103,7 @@ def stability_cases(quick: bool = False) -> list[StabilityCase]:
             )
         )
     if not quick:
-        big = elastic_rod(40)
+        big = paper.elastic_rod(40)
         cases.append(
             StabilityCase(
                 "large n: rod n=40",
@@ -113,7 +113,7 @@ def stability_cases(quick: bool = False) -> list[StabilityCase]:
                 "elastic_rod(n=40): coupled 40 x 40 inertia",
             )
         )
-        md = molecular(1)
+        md = paper.molecular(1)
         cases.append(
             StabilityCase(
                 "large n: LJ n=42",

@@ -6,8 +6,8 @@ definitions the equations give, before any pass) and after the passes (as printe
 context, per-member tables, the quadratic terms' coefficients) have no "as derived" count.
 
 Example:
-    >>> from s2gen.systems import builtin
-    >>> rows = {r["kernel"]: r for r in kernel_rows(builtin("double_pendulum"))}
+    >>> import s2gen
+    >>> rows = {r["kernel"]: r for r in kernel_rows(s2gen.load("double_pendulum"))}
     >>> rows["context"]["before"] is None, rows["d_body"]["after"].total < rows["d_body"]["before"].total
     (True, True)
 """
@@ -16,11 +16,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from s2gen.equations.assemble import sphere_module
-from s2gen.ir import Kernel, KernelDef
-from s2gen.passes import lower_system
-from s2gen.passes.opcount import definition_profile, kernel_profile
-from s2gen.system import System
+from s2gen import System
+from s2gen.inspect import Kernel, KernelDef, definition_profile, derived, kernel_profile, lowered
 
 from .common import _table
 
@@ -30,12 +27,12 @@ __all__ = ["kernel_rows", "md_kernel_ops"]
 def kernel_rows(system: System) -> list[dict[str, Any]]:
     """Per kernel: operations as derived ("before", None for kernels the passes add) and as
     printed after the passes ("after")."""
-    derived = {k.name: k for k in sphere_module(system).kernels if isinstance(k, KernelDef)}
+    as_derived = {k.name: k for k in derived(system).kernels if isinstance(k, KernelDef)}
     rows = []
-    for k in lower_system(system).kernels:
+    for k in lowered(system).kernels:
         if not isinstance(k, Kernel):
             continue
-        before = derived.get(k.name)
+        before = as_derived.get(k.name)
         rows.append(
             {
                 "kernel": k.name,

@@ -21,8 +21,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from s2gen.runtime import IntegrationError, Options, Trajectory, get_backend, simulate
-from s2gen.system import System
+from s2gen import IntegrationError, Options, System, Trajectory, simulate
+from s2gen.inspect import get_backend
 
 from .common import Log, _why
 from .model import LongSeries, LongSetup

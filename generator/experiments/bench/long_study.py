@@ -20,8 +20,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from s2gen.runtime import IntegrationError, Options, get_backend, simulate
-from s2gen.system import System
+from s2gen import IntegrationError, Options, System, simulate
+from s2gen.inspect import get_backend
 
 from .common import Log, _fmt, _print, _why, example_system
 from .crossover import CROSSOVER_TARGETS, Crossover, crossovers

@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.methods import METHODS, Family, method
-from s2gen.system import System
+from s2gen import METHODS, System
+from s2gen.inspect import Family, method
 
 #: The structure-preserving methods (the VI, RATTLE and their compositions), VI first, by order.
 VI_FAMILY = tuple(

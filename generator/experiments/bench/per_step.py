@@ -17,9 +17,8 @@ from __future__ import annotations
 from functools import partial
 from typing import Any
 
-from s2gen.methods import method as method_record
-from s2gen.runtime import IntegrationError, Options, simulate
-from s2gen.system import System
+from s2gen import IntegrationError, Options, System, simulate
+from s2gen.inspect import method as method_record
 
 from .common import Log, _best_wall, _fmt, _print, _why
 from .model import VI_FAMILY

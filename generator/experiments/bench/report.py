@@ -199,7 +199,7 @@ def _md_scaling(rows: Sequence[ScaleRow]) -> list[str]:
 
 
 def _machine() -> str:
-    from s2gen.build import compiler
+    from s2gen.inspect import compiler
 
     cpu = platform.processor() or platform.machine()
     with contextlib.suppress(OSError):

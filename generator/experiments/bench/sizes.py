@@ -29,8 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from s2gen.runtime import simulate
-from s2gen.system import System
+from s2gen import System, simulate
 
 from .common import Log, _print
 from .model import ScaleRow
@@ -63,23 +62,17 @@ def md_system(n: int, cutoff: float | None = None) -> System:
         >>> md_system(100).n
         100
     """
-    from s2gen.system import RunSettings
-    from s2gen.systems.paper import (
-        lennard_jones_sigma,
-        lennard_jones_system,
-        nearest_neighbour_distance,
-        vortex_axes,
-        vortex_velocities,
-    )
+    from s2gen import paper
+    from s2gen.inspect import RunSettings
 
     k = np.arange(n) + 0.5
     z = 1 - 2 * k / n
     phi = math.pi * (1 + math.sqrt(5)) * k
     r = np.sqrt(1 - z**2)
     pts = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
-    sig = lennard_jones_sigma(nearest_neighbour_distance(pts))
-    w = vortex_velocities(pts, vortex_axes(30.0), (1.0, 1.0), math.radians(15.0))
-    return lennard_jones_system(
+    sig = paper.lennard_jones_sigma(paper.nearest_neighbour_distance(pts))
+    w = paper.vortex_velocities(pts, paper.vortex_axes(30.0), (1.0, 1.0), math.radians(15.0))
+    return paper.lennard_jones_system(
         "md_fibonacci",
         pts,
         w,
@@ -125,9 +118,7 @@ def _per_step(
 def _scale_one(
     family: str, n: int, make: Callable[[], System], log: Log, h: float | None = None
 ) -> ScaleRow:
-    from s2gen.build import compile_shared
-    from s2gen.emit import clear_caches, emit
-    from s2gen.equations.structure import choose_solver
+    from s2gen.inspect import clear_caches, compile_shared, emit, solver
 
     t0 = time.process_time()
     system = make()
@@ -147,15 +138,15 @@ def _scale_one(
         nan = math.nan
         return ScaleRow(family, n, t1 - t0, nan, nan, 0, nan, nan, f"failed: {type(exc).__name__}")
     size = sum(len(v) for k, v in files.items() if k.endswith(".c"))
-    solver = choose_solver(system).value
+    solved_by = solver(system)
     step = h or system.run.h or 1e-3
     row = ScaleRow(
-        family, n, t1 - t0, t2 - t1, t3 - t2, size, vi, rk4, status, solver, step, newton
+        family, n, t1 - t0, t2 - t1, t3 - t2, size, vi, rk4, status, solved_by, step, newton
     )
     log(
         f"    {family:14s} n = {n:>6d}: create {row.create_s:6.2f} s, derive+emit "
         f"{row.emit_s:6.2f} s, gcc {row.gcc_s:6.2f} s; per step vi {vi:.3g} us "
-        f"({newton:.2f} Newton), rk4 {rk4:.3g} us ({solver} solves)"
+        f"({newton:.2f} Newton), rk4 {rk4:.3g} us ({solved_by} solves)"
     )
     return row
 
@@ -185,17 +176,17 @@ def scaling(quick: bool = False, log: Log = _print) -> list[ScaleRow]:
         >>> rows[0].family, rows[0].n  # doctest: +SKIP
         ('rod dense', 10)
     """
-    from s2gen.systems.paper import elastic_rod
+    from s2gen import paper
 
     rows: list[ScaleRow] = []
     log("scaling: generation and per-step time against n (fresh build cache)")
     dense, structured = rod_sizes(quick)
     with _fresh_cache():
         for n in dense:
-            make = lambda n=n: elastic_rod(n, solver="dense")  # type: ignore[misc]
+            make = lambda n=n: paper.elastic_rod(n, solver="dense")  # type: ignore[misc]
             rows.append(_scale_one(DENSE_ROD, n, make, log, ROD_H))
         for n in structured:
-            make = lambda n=n: elastic_rod(n, solver="structured")  # type: ignore[misc]
+            make = lambda n=n: paper.elastic_rod(n, solver="structured")  # type: ignore[misc]
             rows.append(_scale_one(STRUCTURED_ROD, n, make, log, ROD_H))
         for n in (100, 300) if quick else (100, 300, 1000, 3000, 10000):
             row = _scale_one("md all-pairs", n, lambda n=n: md_system(n), log)  # type: ignore[misc]

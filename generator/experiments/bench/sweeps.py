@@ -22,9 +22,9 @@ from functools import partial
 
 import numpy as np
 
+from s2gen import IntegrationError, Options, System, Trajectory, simulate
 from s2gen.experiments import peers
-from s2gen.runtime import IntegrationError, Options, Trajectory, get_backend, simulate
-from s2gen.system import System
+from s2gen.inspect import get_backend
 
 from .common import Log, _best_wall, _err, _ms, _print, _state, _why, example_system, kinetic_energy
 from .model import FIXED, REF_RTOL, SAMPLES, ExampleBench, Reference, WPRow

@@ -28,8 +28,8 @@ Their public names (and the private ones the tests use) are re-exported here, so
 `s2gen.compare_angles` reads as one module.
 
 Example:
-    >>> from s2gen.systems import builtin
-    >>> c = compare(builtin("double_pendulum"), Settings.quick(), "/tmp/ca")  # doctest: +SKIP
+    >>> import s2gen
+    >>> c = compare(s2gen.load("double_pendulum"), Settings.quick(), "/tmp/ca")  # doctest: +SKIP
     >>> c.accuracy[1].status  # doctest: +SKIP
     'PoleError'
 """

@@ -13,8 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-from s2gen.spec import define_system
-from s2gen.system import System
+from s2gen import System, define
 
 from .cost import _cost_line, costs, generic_state
 from .model import Cost
@@ -41,7 +40,7 @@ def chain_system(n: int) -> System:
     inertia = [[f"{tail(max(i, j))}*l{i}*l{j}" for j in range(1, n + 1)] for i in range(1, n + 1)]
     potential = " + ".join(f"-{tail(i)}*g*l{i}*q{i}[2]" for i in range(1, n + 1))
     q, w = generic_state(n)
-    return define_system(
+    return define(
         name=f"chain{n}",
         bodies=n,
         parameters=params,

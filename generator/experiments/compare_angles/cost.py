@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from s2gen.build import DEFAULT_FLAGS, compile_shared, compiler, header_macro
-from s2gen.system import System
+from s2gen import System
+from s2gen.inspect import DEFAULT_FLAGS, compile_shared, compiler, header_macro
 
 from .derive import derive_with_budget
 from .model import Cost
@@ -166,8 +166,8 @@ def costs(
     interleaved, best of `repeats`). Forms in `skip` are not tried (status given).
 
     Example:
-        >>> from s2gen.systems import builtin
-        >>> dp = builtin("double_pendulum")
+        >>> import s2gen
+        >>> dp = s2gen.load("double_pendulum")
         >>> [c.status for c in costs(dp, FORMS[:2], 60, 3)]  # doctest: +SKIP
         ['ok', 'ok']
     """

@@ -7,8 +7,8 @@ and the emitted C files; None when the budget runs out (a blow-up is reported, n
 for), {"error": ...} when the derivation fails.
 
 Example:
-    >>> from s2gen.systems import builtin
-    >>> _derive(builtin("double_pendulum"), "s2")["ops"] > 0  # doctest: +SKIP
+    >>> import s2gen
+    >>> _derive(s2gen.load("double_pendulum"), "s2")["ops"] > 0  # doctest: +SKIP
     True
 """
 
@@ -18,14 +18,16 @@ import multiprocessing
 import time
 from typing import Any
 
-from s2gen.equations.angles import derive_angles
-from s2gen.equations.continuous import continuous_kernels
-from s2gen.equations.structure import coupling_pairs, system_kernels, term_kernels
-from s2gen.ir import Kernel, Module
-from s2gen.passes import lower, lower_angles, lower_system
-from s2gen.printing import print_module
-from s2gen.render import render
-from s2gen.system import System
+from s2gen import System
+from s2gen.inspect import (
+    Kernel,
+    Module,
+    c_sources,
+    field_kernels,
+    lower_kernel,
+    lowered,
+    lowered_angles,
+)
 
 
 def _field_ops(module: Module) -> tuple[int, int, int]:
@@ -40,11 +42,8 @@ def _field_ops(module: Module) -> tuple[int, int, int]:
 def _s2_field_seconds(system: System) -> float:
     """Derivation + cse time of the S^2 vector field alone (continuous and system kernels)."""
     start = time.perf_counter()
-    coupled = bool(coupling_pairs(system))
-    defs = continuous_kernels(coupled) + system_kernels(system)
-    defs += [k for i, t in enumerate(system.terms) for k in term_kernels(system, i, t)]
-    for k in defs:
-        lower(k)
+    for k in field_kernels(system):
+        lower_kernel(k)
     return time.perf_counter() - start
 
 
@@ -57,17 +56,17 @@ def _derive(system: System, form: str) -> dict[str, Any]:
     if form == "s2":
         field = _s2_field_seconds(system)
         start = time.perf_counter()
-        module = lower_system(system)
+        module = lowered(system)
         whole = time.perf_counter() - start
-        files = render(print_module(module), "c")
+        files = c_sources(module)
         before, after, evaluated = _field_ops(module)
         dim = 3 * system.n if module.coupling is not None else 0
         solve = 2 * dim**3 // 3  # LU with partial pivoting, as the angle form
     else:
         start = time.perf_counter()
-        angles = lower_angles(derive_angles(system, simplify=form == "angles-simplified"))
+        angles = lowered_angles(system, simplify=form == "angles-simplified")
         field = whole = time.perf_counter() - start
-        files = render(print_module(angles), "c")
+        files = c_sources(angles)
         before, after, evaluated = _field_ops(angles)
         solve = 2 * (2 * system.n) ** 3 // 3
     return {
@@ -94,8 +93,8 @@ def derive_with_budget(system: System, form: str, budget: float) -> dict[str, An
     """`_derive` in a fresh subprocess (cold caches); None if it takes longer than `budget` s.
 
     Example:
-        >>> from s2gen.systems import builtin
-        >>> derive_with_budget(builtin("double_pendulum"), "angles", 60)["ops"]  # doctest: +SKIP
+        >>> import s2gen
+        >>> derive_with_budget(s2gen.load("double_pendulum"), "angles", 60)["ops"]  # doctest: +SKIP
         386
     """
     ctx = multiprocessing.get_context("spawn")

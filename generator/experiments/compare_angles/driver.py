@@ -22,7 +22,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from s2gen.system import System
+from s2gen import System
 
 from .chains import scaling
 from .command import settings_from_args
@@ -78,9 +78,9 @@ def write_all(result: Comparison, out: Path) -> list[Path]:
 
 def run(args: argparse.Namespace) -> int:
     """Run `compare-angles` from parsed arguments; 0 on success."""
-    from s2gen.systems import resolve
+    from s2gen import load
 
-    system = resolve(args.spec)
+    system = load(args.spec)
     if system.q0 is None or system.omega0 is None:
         print(f"error: {system.origin}: no initial state ([initial] q and omega)", file=sys.stderr)
         return 2

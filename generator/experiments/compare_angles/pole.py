@@ -17,8 +17,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from s2gen.runtime import simulate
-from s2gen.system import System
+from s2gen import System, simulate
 
 from .model import PoleCase, Settings
 from .trajectories import _run_line, accuracy, reference

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from s2gen.runtime import Options
+    from s2gen import Options
 
 __all__ = ["FORMS", "ZOOM", "Settings"]
 
@@ -54,7 +54,7 @@ class Settings:
 
     def options(self) -> Options:
         """The RK45 options of the runs compared."""
-        from s2gen.runtime import Options
+        from s2gen import Options
 
         return Options(rtol=self.rtol, atol=self.atol, control=self.control)
 
@@ -65,6 +65,6 @@ class Settings:
             >>> Settings().reference_options().rtol
             1e-12
         """
-        from s2gen.runtime import Options
+        from s2gen import Options
 
         return Options(rtol=_REFERENCE_RTOL, atol=_REFERENCE_ATOL, control=self.control)

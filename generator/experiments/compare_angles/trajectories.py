@@ -7,8 +7,8 @@ step counts, evaluations and wall time; the S² RK45 run also carries its accept
 rejected steps over time (`_s2_counts`).
 
 Example:
-    >>> from s2gen.systems import builtin
-    >>> dp, s = builtin("double_pendulum"), Settings(T=0.5)
+    >>> import s2gen
+    >>> dp, s = s2gen.load("double_pendulum"), Settings(T=0.5)
     >>> state = (dp.q0, dp.omega0)
     >>> runs = accuracy(dp, s, state, reference(dp, s, state))  # doctest: +SKIP
     >>> [(r.form, r.method, r.status) for r in runs][:2]  # doctest: +SKIP
@@ -21,10 +21,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from s2gen import metrics
-from s2gen.runtime import IntegrationError, get_backend, simulate
-from s2gen.runtime.angles import AngleIntegrationError, PoleError, simulate_angles
-from s2gen.system import System
+from s2gen import IntegrationError, System, metrics, simulate
+from s2gen.inspect import AngleIntegrationError, PoleError, get_backend, simulate_angles
 
 from .model import Run
 from .settings import ZOOM, Settings

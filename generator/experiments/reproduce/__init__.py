@@ -2,6 +2,7 @@
 
 The package, one responsibility per module: `paper` (the examples, their runs and the printed
 values), `records` (results), `runner` (running and the tables), `figures` (paper-style PNGs),
+`band` (the chaos bands: the examples' runs as ensembles of perturbed members, on `s2gen.ensemble`),
 `command` (the command-line parser). Public names are re-exported here and imported on first
 use, so the command-line parser does not import the rest.
 
@@ -18,6 +19,7 @@ from typing import Any
 
 _WHERE = {
     "ADAPTIVE": "runner",
+    "Band": "band",
     "COLUMN_DEFINITIONS": "runner",
     "CSV_COLUMNS": "runner",
     "EXAMPLES": "paper",
@@ -29,6 +31,7 @@ _WHERE = {
     "Report": "records",
     "RunResult": "records",
     "add_parser": "command",
+    "chaos_band": "band",
     "example_figures": "figures",
     "face_kinetic_energy": "figures",
     "integrate": "runner",
@@ -47,12 +50,14 @@ __all__ = [
     "EXAMPLES",
     "METRICS",
     "PAPER_METRICS",
+    "Band",
     "Example",
     "ExampleResult",
     "PaperRun",
     "Report",
     "RunResult",
     "add_parser",
+    "chaos_band",
     "example_figures",
     "face_kinetic_energy",
     "integrate",

@@ -18,7 +18,7 @@ import sys
 import time
 from typing import Any
 
-from s2gen.methods import BACKENDS
+from s2gen.inspect import BACKENDS
 
 from .paper import EXAMPLES
 

@@ -41,7 +41,7 @@ from matplotlib.colors import LinearSegmentedColormap, Normalize
 from matplotlib.figure import Figure
 
 if TYPE_CHECKING:
-    from s2gen.system import System
+    from s2gen import System
 
     from .records import ExampleResult, RunResult
 
@@ -437,8 +437,8 @@ def kinetic_energy(system: System, q: np.ndarray, omega: np.ndarray) -> np.ndarr
     """Per-body kinetic energy ½ M_ii |ω_i × q_i|² for a diagonal inertia matrix.
 
     Example:
-        >>> from s2gen.systems.paper import three_bodies
-        >>> s = three_bodies()  # unit masses
+        >>> from s2gen import paper
+        >>> s = paper.three_bodies()  # unit masses
         >>> kinetic_energy(s, s.q0, s.omega0).round(3).tolist()
         [0.605, 0.5, 0.5]
     """
@@ -524,8 +524,8 @@ def plot_kinetic_distribution(
     """Draw the near hemisphere's faces, orthographically, coloured by `values` (NaN: grey).
 
     Example:
-        >>> from s2gen.systems.paper import icosphere
-        >>> v, f = icosphere(1)
+        >>> from s2gen import paper
+        >>> v, f = paper.icosphere(1)
         >>> ax = Figure().add_subplot()
         >>> plot_kinetic_distribution(ax, np.ones(len(f)), v, f, np.array([0, 0, 1.0]),
         ...                           Normalize(0, 2))
@@ -547,13 +547,13 @@ def plot_kinetic_distribution(
 
 def _kinetic_figure(ex: ExampleResult, path: Path) -> Path:
     """Kinetic-energy distributions at the paper's times (those within the run's horizon)."""
-    from s2gen.systems.paper import icosphere
+    from s2gen import paper
 
     assert ex.system is not None
     r = _motion_run(ex)
     tr = r.trajectory
     assert tr is not None
-    vertices, faces = (np.asarray(a) for a in icosphere(4))
+    vertices, faces = (np.asarray(a) for a in paper.icosphere(4))
     times = [t for t in KINETIC_TIMES if t <= tr.t[-1] + 1e-12] or [float(tr.t[-1])]
     if times[-1] < tr.t[-1] - 1e-12 and len(times) < len(KINETIC_TIMES):
         times.append(float(tr.t[-1]))

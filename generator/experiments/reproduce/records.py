@@ -13,8 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from s2gen.runtime.trajectory import Trajectory
-from s2gen.system import System
+from s2gen import System, Trajectory
 
 from .paper import Example, PaperRun
 

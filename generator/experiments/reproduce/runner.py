@@ -25,10 +25,9 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from s2gen import metrics
-from s2gen.runtime import IntegrationError, Options, Trajectory, get_backend, simulate
-from s2gen.system import System
-from s2gen.systems import builtin
+import s2gen
+from s2gen import IntegrationError, Options, System, Trajectory, metrics, simulate
+from s2gen.inspect import get_backend
 
 from .paper import EXAMPLES, Example, PaperRun
 from .records import ExampleResult, Report, RunResult
@@ -144,8 +143,8 @@ def integrate(system: System, run: PaperRun, backend: str = "c", log: Log = _pri
     depend on it). A failure raises `IntegrationError` with the valid samples in `.partial`.
 
     Example:
-        >>> from s2gen.systems import builtin
-        >>> tr = integrate(builtin("double_pendulum"), PaperRun("vi", 0.01, 1.0), log=print)
+        >>> import s2gen
+        >>> tr = integrate(s2gen.load("double_pendulum"), PaperRun("vi", 0.01, 1.0), log=print)
         >>> tr.q.shape
         (101, 2, 3)
     """
@@ -223,7 +222,7 @@ def run_example(
     runs = example.quick if quick and example.quick else example.runs
     try:
         start = time.perf_counter()
-        result.system = builtin(example.system)
+        result.system = s2gen.load(example.system)
         get_backend(result.system, backend)
         log(f"[{example.name}] system {example.system} (n = {result.system.n}) ready on "
             f"{backend} in {time.perf_counter() - start:.2f} s")  # fmt: skip
@@ -398,7 +397,7 @@ def reproduce(
 ) -> Report:
     """Run the selected examples, write results.csv, results.md and the figures into `out`;
     with `bands` > 0 (full runs, the rod selected), also the rod's chaos bands: each of its
-    runs as an ensemble of `bands` members perturbed by 1e-13 (`s2gen.experiments.ensemble`,
+    runs as an ensemble of `bands` members perturbed by 1e-13 (`band`, on `s2gen.ensemble`,
     on a local Dask cluster), in results.md and under out/chaos_band.
 
     The tables are rewritten after each example, so an interrupted run keeps what it did.
@@ -427,7 +426,7 @@ def reproduce(
 
 def _chaos_bands(report: Report, members: int, log: Log) -> None:
     """The rod's runs as ensembles of perturbed members: their band of mean |E - E0|."""
-    from s2gen.experiments.ensemble.band import band_markdown, chaos_band
+    from .band import band_markdown, chaos_band
 
     try:
         found = chaos_band(

@@ -20,6 +20,7 @@ Example:
 
 from __future__ import annotations
 
+import argparse
 import csv
 import math
 import time
@@ -30,13 +31,20 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.runtime.options import Options
+import s2gen
+from s2gen.ensemble import (
+    CONNECT_TIMEOUT,
+    DEFAULT_OUT,
+    EnsembleError,
+    EnsembleStore,
+    Progress,
+    ProgressBar,
+    connect,
+    ensemble,
+    summarize,
+)
 
-from .cluster import CONNECT_TIMEOUT, connect
-from .dispatch import Progress, ensemble
-from .members import EnsembleError
-from .store import EnsembleStore
-from .summary import summarize
+from .paper import EXAMPLES
 
 __all__ = [
     "DEFAULT_MEMBERS",
@@ -47,6 +55,7 @@ __all__ = [
     "band_markdown",
     "chaos_band",
     "paper_example",
+    "run_band",
     "write_band",
 ]
 
@@ -89,9 +98,12 @@ class Band:
 
 
 def paper_example(name: str) -> Any:
-    """The `s2gen reproduce` example `name` (an `EnsembleError` if there is none)."""
-    from s2gen.experiments.reproduce.paper import EXAMPLES
+    """The `s2gen reproduce` example `name` (an `EnsembleError` if there is none).
 
+    Example:
+        >>> [run.method for run in paper_example("elastic_rod").runs]
+        ['vi', 'rk45']
+    """
     if name not in EXAMPLES:
         raise EnsembleError(
             f"--chaos-band needs a paper example, not {name!r}; choose from {', '.join(EXAMPLES)}"
@@ -117,8 +129,6 @@ def chaos_band(
     """Run each full run of `example` as an ensemble of `members` perturbed members (plus the
     unperturbed reference) and write band.md and band.csv into `out`, and each run's summary
     (with its divergence and Lyapunov fit) beside its store."""
-    import s2gen
-
     ex = paper_example(example)
     if members < 1:
         raise EnsembleError(f"members must be at least 1 (got {members})")
@@ -144,7 +154,7 @@ def chaos_band(
                 workers=0 if c is None else None,
                 out=folder / f"{run.method}_h{run.h:g}",
                 seed=seed,
-                options=Options(rtol=run.rtol, atol=run.atol, control=run.control),
+                options=s2gen.Options(rtol=run.rtol, atol=run.atol, control=run.control),
                 progress=progress,
                 overwrite=overwrite,
                 command=f"chaos band of {example}",
@@ -223,9 +233,11 @@ def band_markdown(bands: tuple[Band, ...]) -> str:
 def band_figure(bands: tuple[Band, ...], path: Path) -> Path:
     """band.png: one row per run, every perturbed member's mean |E - E0| on a log axis, the
     band's min, median and max, the unperturbed member and the paper's printed value."""
-    from .figures import _plt
+    import matplotlib
 
-    plt = _plt()
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     fig, axes = plt.subplots(len(bands), 1, figsize=(7.5, 1.2 + 1.3 * len(bands)), squeeze=False)
     rng = np.random.default_rng(0)  # vertical jitter only, so the dots do not hide each other
     for ax, b in zip(axes[:, 0], bands, strict=True):
@@ -278,3 +290,33 @@ def write_band(bands: tuple[Band, ...], out: Path) -> list[Path]:
     if any(b.values for b in bands):
         paths.append(band_figure(bands, out / "band.png"))
     return paths
+
+
+def run_band(args: argparse.Namespace, perturb: dict[str, float]) -> int:
+    """Carry out `s2gen ensemble SPEC --chaos-band` (arguments checked by the ensemble
+    command, which the command line gives this runner): the bands of example SPEC with a
+    progress bar, their table on stdout; exit code 1 if a band has no finite median."""
+    members = args.members or DEFAULT_MEMBERS
+    out = args.out if args.out != DEFAULT_OUT else "out/chaos_band"
+    runs = len(paper_example(args.spec).runs)
+    bar = ProgressBar(runs * (members + 1), f"{args.spec} bands")
+    try:
+        bands = chaos_band(
+            args.spec,
+            members=members,
+            perturb=perturb or None,
+            client=args.scheduler,
+            workers=args.workers,
+            out=out,
+            seed=args.seed,
+            progress=bar,
+            timeout=args.timeout,
+            overwrite=args.overwrite,
+            figures=not args.no_figures,
+            log=bar.write,
+        )
+    finally:
+        bar.close()
+    print(band_markdown(bands), end="")
+    print(f"  {out}/band.md, {out}/band.csv, {out}/band.png")
+    return 0 if all(math.isfinite(b.median) for b in bands) else 1

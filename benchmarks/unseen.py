@@ -1,4 +1,4 @@
-"""``python -m s2gen.experiments.unseen``: emitted C against hand-written C on two new systems.
+"""``python benchmarks/unseen.py``: emitted C against hand-written C on two new systems.
 
 Input: command-line options (``--cases``, ``--flavours``, ``--launches``, ``--steps``,
 ``--json``, ``--keep``). Output: a table on stdout, one row per case and flavour: the median
@@ -35,9 +35,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-
-from s2gen.experiments.unseen.cases import CASES
-from s2gen.experiments.unseen.programs import COMMON, FLAVOURS, Result, build, run
+from unseen_systems.cases import CASES
+from unseen_systems.programs import COMMON, FLAVOURS, Result, build, run
 
 __all__ = ["AGREEMENT", "Row", "agreement", "main", "parse_args"]
 
@@ -81,7 +80,7 @@ def agreement(hand: Result, emitted: Result) -> float:
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(
-        prog="python -m s2gen.experiments.unseen",
+        prog="python benchmarks/unseen.py",
         description="Per-step speed of the emitted C against hand-written C (same algorithm, "
         "same flags) on two systems the tests never see: yukawa (all pairs, exp and sqrt, "
         "per-body data; explicit VI) and chain (coupled inertia; implicit VI).",
@@ -222,3 +221,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{max(r.cpu_ratio for r in rows):.2f} (CPU time)"
     )
     return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -23,11 +23,22 @@ from contextlib import contextmanager
 from typing import Any
 
 from .members import EnsembleError
+from .requirements import require
 
 __all__ = ["CONNECT_TIMEOUT", "connect", "worker_count"]
 
 #: Seconds to wait for a scheduler to answer and to have a worker.
 CONNECT_TIMEOUT = 10.0
+
+
+def needs_cluster(client: Any = None, workers: int | None = None) -> tuple[str, ...]:
+    """The packages `connect` needs for `client` and `workers`: none for a serial run.
+
+    Example:
+        >>> needs_cluster(None, 0), needs_cluster(None, 2)
+        ((), ('dask', 'distributed'))
+    """
+    return () if client is None and workers == 0 else ("dask", "distributed")
 
 
 @contextmanager
@@ -42,6 +53,7 @@ def connect(
     if client is None and scheduler is None and workers == 0:
         yield None
         return
+    require(*needs_cluster(client or scheduler, workers))
     from distributed import Client, LocalCluster
 
     if client is not None:

@@ -1,6 +1,6 @@
 """Emitted C against hand-written C on two systems the tests never see.
 
-``python -m s2gen.experiments.unseen [--launches 5]`` emits each system with s2gen, builds the
+``python benchmarks/unseen.py [--launches 5]`` emits each system with s2gen, builds the
 emitted C (driven through ``NAME_integrate``) and a hand-written C99 program of the same
 variational integrator with the same gcc flags in two flavours (``-O2``; ``-O3
 -march=native``), checks that both end in the same state, and prints per-step times, their
@@ -15,15 +15,15 @@ The systems (TOML specs beside this module, written by `specs`):
   between neighbours; the implicit VI, Newton on 30 Cayley parameters (``chain.c``).
 
 Modules: `specs` (the TOML files from closed formulas), `cases` (the cases and the C data
-headers read from the loaded System), `programs` (build and run both programs), `command`
-(alternating launches and the table). ``emitted_driver.c`` is the driver of the emitted C.
+headers read from the loaded System), `programs` (build and run both programs); ``../unseen.py``
+(alternating launches and the table) runs them. ``emitted_driver.c`` is the driver of the
+emitted C.
 
 Example:
     >>> sorted(CASES)
     ['chain', 'yukawa']
 """
 
-from s2gen.experiments.unseen.cases import CASES, Case
-from s2gen.experiments.unseen.command import main
+from unseen_systems.cases import CASES, Case
 
-__all__ = ["CASES", "Case", "main"]
+__all__ = ["CASES", "Case"]

@@ -1,6 +1,7 @@
 """The two benchmark systems as TOML specs, and the formulas their numbers come from.
 
-Input: nothing (``python -m s2gen.experiments.unseen.specs [FOLDER]`` rewrites the files).
+Input: nothing (from ``benchmarks/``, ``python -m unseen_systems.specs [FOLDER]`` rewrites the
+files).
 Output: ``yukawa.toml`` and ``chain.toml`` (by default beside this module, where the benchmark
 reads them), written from `yukawa_spec` and `chain_spec`. The numbers (masses, charges, lengths,
 spring constants, initial states) follow from short closed formulas so that the files can be
@@ -97,7 +98,7 @@ def yukawa_spec(n: int = 100) -> str:
 # pairs = "all" takes no data, so the pairs are listed, every i < j in loop order, with the
 # charges of each pair's bodies as per-pair data ci and cj.
 #
-# Written by s2gen.experiments.unseen.specs: Fibonacci lattice positions; mass
+# Written by unseen_systems.specs: Fibonacci lattice positions; mass
 # 1 + frac(k g)/2, charge 1/2 + frac(k sqrt 2) for body k (g = (sqrt 5 - 1)/2); tangent
 # angular velocities of size 0.4 + 0.2 frac(k sqrt 3).
 
@@ -176,7 +177,7 @@ def chain_spec(n: int = 10) -> str:
 # couples every pair of links, so the variational integrator is implicit (Newton on the
 # Cayley parameters).
 #
-# Written by s2gen.experiments.unseen.specs: mass 0.5 + 0.1 ((3k) mod 7), length
+# Written by unseen_systems.specs: mass 0.5 + 0.1 ((3k) mod 7), length
 # 0.2 + 0.02 ((5k) mod 6), spring 2 + k/2 for link k; q_k tilted 0.2 + 0.03 k rad from e3 at
 # azimuth 0.7 k; tangent angular velocities of size 1 + 0.1 k.
 

@@ -20,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
+from .divergence import Divergence, point_label, swept_names
 from .store import NOT_WRITTEN
-from .summary import Divergence, point_label, swept_names
 
 __all__ = ["divergence_figure", "energy_figure", "sweep_figure", "write_figures"]
 

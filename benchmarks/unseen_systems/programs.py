@@ -25,7 +25,7 @@ from string import Template
 
 import numpy as np
 
-from s2gen.experiments.unseen.cases import HERE, Case, data_header, state_header
+from unseen_systems.cases import HERE, Case, data_header, state_header
 
 __all__ = ["COMMON", "FLAVOURS", "Programs", "Result", "build", "run"]
 

@@ -192,7 +192,7 @@ def _plain(settings: dict[str, Any], part: int, parts: int) -> float:
 
 def _spawn(job: dict[str, Any]) -> subprocess.Popen[str]:
     return subprocess.Popen(
-        [sys.executable, "-m", "s2gen.experiments.ensemble.bench", json.dumps(job)],
+        [sys.executable, "-m", "s2gen.ensemble.bench", json.dumps(job)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

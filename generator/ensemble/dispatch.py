@@ -40,8 +40,9 @@ from typing import TYPE_CHECKING, Any
 
 from s2gen.runtime.options import Options
 
-from .cluster import CONNECT_TIMEOUT, connect, worker_count
+from .cluster import CONNECT_TIMEOUT, connect, needs_cluster, worker_count
 from .members import EnsembleError, MemberTable, initial_state, member_table
+from .requirements import require
 from .store import EnsembleStore
 from .worker import MemberResult, Payload, Task, failed_task, make_payload, run_member
 
@@ -162,6 +163,7 @@ def ensemble(
     from s2gen.methods import check_method
 
     start = time.perf_counter()
+    require("zarr", *needs_cluster(client, workers))
     system = _resolve(system)
     method = method or system.run.method or "vi"
     check_method(method, "c")

@@ -1,35 +1,42 @@
 """The `s2gen ensemble` command: check the arguments, run with a progress bar, summarise.
 
 Input: arguments parsed by `command.add_parser`. Output: the store and the summary files in
---out (or, with --bench, the benchmark's printed numbers; with --chaos-band, band.md, band.png and
-band.csv); an exit code: 0 (failed integrations are results, counted in the summary), 1 when
+--out (or, with --bench, the benchmark's printed numbers; with --chaos-band, what the runner
+passed in by the command line writes: band.md, band.png and band.csv); an exit code: 0 (failed integrations are results, counted in the summary), 1 when
 a member's task raised, 2 on bad input (raised as a one-line ValueError for the CLI to print),
 130 when interrupted (the members written so far stay in the store).
 
 Example:
-    >>> from s2gen.experiments.ensemble.command import add_parser
+    >>> from s2gen.ensemble.command import add_parser
     >>> p = argparse.ArgumentParser()
     >>> add_parser(p.add_subparsers(dest="command"))
     >>> run(p.parse_args(["ensemble", "double_pendulum", "--sweep", "g=1:2"]))
     ... # doctest: +IGNORE_EXCEPTION_DETAIL
     Traceback (most recent call last):
     ...
-    s2gen.experiments.ensemble.members.EnsembleError: sweep g=1:2: expected START:STOP:COUNT (e.g. 100:1000:10) or a list V1,V2,...
+    s2gen.ensemble.members.EnsembleError: sweep g=1:2: expected START:STOP:COUNT (e.g. 100:1000:10) or a list V1,V2,...
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import sys
+from collections.abc import Callable
 from typing import Any
 
 from s2gen.runtime.options import Options
 
+from .cluster import needs_cluster
 from .command import DEFAULT_OUT, command_line
 from .members import EnsembleError, member_table, parse_assignment, sweep_values
+from .requirements import require
 
-__all__ = ["perturbations", "run", "sweeps"]
+__all__ = ["BandRun", "ProgressBar", "perturbations", "run", "sweeps"]
+
+#: What runs `--chaos-band`: given the parsed arguments and the --perturb sizes, an exit code.
+#: The paper examples the band needs belong to `s2gen reproduce`, so the command line passes
+#: its runner in (`s2gen.experiments.reproduce.band.run_band`).
+BandRun = Callable[[argparse.Namespace, dict[str, float]], int]
 
 
 def perturbations(items: list[str]) -> dict[str, float]:
@@ -64,9 +71,17 @@ def _options(args: argparse.Namespace) -> Options:
     return Options(rtol=args.rtol, atol=args.atol, control=args.control)
 
 
-class _Bar:
-    """A tqdm progress bar over members, drawn from the first member on (so that an error
-    while connecting stays a single line), counting failed members."""
+class ProgressBar:
+    """A tqdm progress bar over members (an `ensemble` `progress` callback), drawn from the
+    first member on (so that an error while connecting stays a single line), counting failed
+    members.
+
+    Example:
+        >>> bar = ProgressBar(4, "double_pendulum")
+        >>> bar.write("starting")
+        starting
+        >>> bar.close()
+    """
 
     def __init__(self, total: int, desc: str) -> None:
         self.total, self.desc, self.failed = total, desc, 0
@@ -96,8 +111,9 @@ class _Bar:
             self.bar.close()
 
 
-def run(args: argparse.Namespace) -> int:
-    """Carry out `s2gen ensemble` (see the module docstring for exit codes)."""
+def run(args: argparse.Namespace, chaos_band: BandRun | None = None) -> int:
+    """Carry out `s2gen ensemble` (see the module docstring for exit codes); `chaos_band`
+    runs --chaos-band (without one, --chaos-band is refused)."""
     perturb = perturbations(args.perturb)
     sweep = sweeps(args.sweep)
     if args.every < 1:
@@ -107,6 +123,7 @@ def run(args: argparse.Namespace) -> int:
     if args.bench:
         if sweep:
             raise EnsembleError("--bench times perturbed members; it takes no --sweep")
+        require("zarr", *needs_cluster(args.scheduler, args.workers or 2))
         return _bench(args, perturb)
     if args.chaos_band:
         given = [f"--{k}" for k in ("method", "h", "T") if getattr(args, k) is not None]
@@ -115,7 +132,11 @@ def run(args: argparse.Namespace) -> int:
                 given + (["--sweep"] if sweep else []) + (["--every"] * (args.every != 1))
             )
             raise EnsembleError(f"--chaos-band runs the paper example's own runs; drop {extra}")
-        return _chaos_band(args, perturb)
+        if chaos_band is None:
+            raise EnsembleError("--chaos-band needs the paper examples of s2gen reproduce")
+        require("zarr", *needs_cluster(args.scheduler, args.workers))
+        return chaos_band(args, perturb)
+    require("zarr", *needs_cluster(args.scheduler, args.workers))
     import s2gen
 
     from .dispatch import ensemble
@@ -130,7 +151,7 @@ def run(args: argparse.Namespace) -> int:
         else f"{args.workers or 'one per core'} local worker process(es)"
     )
     print(f"{system.name}: {len(table)} members on {where}; store {args.out}/", flush=True)
-    bar = _Bar(len(table), system.name)
+    bar = ProgressBar(len(table), system.name)
     try:
         result = ensemble(
             system,
@@ -202,32 +223,3 @@ def _bench(args: argparse.Namespace, perturb: dict[str, float]) -> int:
     for line in report.lines():
         print(line)
     return 0
-
-
-def _chaos_band(args: argparse.Namespace, perturb: dict[str, float]) -> int:
-    from .band import DEFAULT_MEMBERS, band_markdown, chaos_band, paper_example
-
-    members = args.members or DEFAULT_MEMBERS
-    out = args.out if args.out != DEFAULT_OUT else "out/chaos_band"
-    runs = len(paper_example(args.spec).runs)
-    bar = _Bar(runs * (members + 1), f"{args.spec} bands")
-    try:
-        bands = chaos_band(
-            args.spec,
-            members=members,
-            perturb=perturb or None,
-            client=args.scheduler,
-            workers=args.workers,
-            out=out,
-            seed=args.seed,
-            progress=bar,
-            timeout=args.timeout,
-            overwrite=args.overwrite,
-            figures=not args.no_figures,
-            log=bar.write,
-        )
-    finally:
-        bar.close()
-    print(band_markdown(bands), end="")
-    print(f"  {out}/band.md, {out}/band.csv, {out}/band.png")
-    return 0 if all(math.isfinite(b.median) for b in bands) else 1

@@ -26,7 +26,7 @@ the end), ``status`` last, so a member whose status is -1 is absent, whatever it
 
 Example:
     >>> import tempfile, s2gen
-    >>> from s2gen.experiments.ensemble.members import member_table
+    >>> from s2gen.ensemble.members import member_table
     >>> s = s2gen.load("double_pendulum")
     >>> with tempfile.TemporaryDirectory() as d:
     ...     st = EnsembleStore.create(d, member_table(s), n=2, samples=11, attrs={})
@@ -44,6 +44,7 @@ from typing import Any, Literal
 import numpy as np
 
 from .members import EnsembleError, MemberTable
+from .requirements import require
 from .worker import TASK_ERROR, MemberResult
 
 __all__ = [
@@ -136,6 +137,7 @@ class EnsembleStore:
     ) -> EnsembleStore:
         """A new store ``folder/ensemble.zarr`` for `table` (refuses to replace one unless
         `overwrite`)."""
+        require("zarr")
         import zarr
 
         path = Path(folder) / STORE_NAME
@@ -188,6 +190,7 @@ class EnsembleStore:
     @classmethod
     def open(cls, path: str | Path, mode: Literal["r", "r+"] = "r") -> EnsembleStore:
         """Open an existing store (the ``ensemble.zarr`` folder or the folder holding it)."""
+        require("zarr")
         import zarr
 
         p = Path(path)
