@@ -39,7 +39,8 @@ from s2gen.inertia import (
     chain_structure,
     detect,
 )
-from s2gen.symbols import local_vector, q_symbol
+from s2gen.symbols import q_symbol
+from s2gen.terms import Selection, Term, TermData, TermKind, spellings
 
 __all__ = [
     "INERTIA_SOLVERS",
@@ -143,87 +144,20 @@ class RunSettings:
     atol: float | None = None
 
 
-@dataclass(frozen=True)
-class TermData:
-    """Per-member data of a term: `width` 1 (a scalar symbol `name`) or 3 (a vector, symbols
-    name_0..2), with `width` values per member, member-major."""
-
-    name: str
-    width: int
-    values: tuple[float, ...]
-
-    def symbols(self) -> tuple[sp.Symbol, ...]:
-        if self.width == 1:
-            return (sp.Symbol(self.name, real=True),)
-        return local_vector(self.name)
-
-
-@dataclass(frozen=True)
-class Term:
-    """A structured part of the potential: a sum of one expression over a list of members.
-
-    kind "body": expr in the body's vector q (symbols `local_vector("q")`), summed over bodies;
-    kind "pair": expr in qi, qj, summed over pairs (i, j). `select` is "all" (every body, or
-    every pair i < j), "chain" (pairs (i, i+1)) or "list" (`members`, 0-based). Per-member data
-    (spring constants, offsets, ...) enter as extra symbols; parameters as usual.
-    """
-
-    kind: str
-    expr: sp.Expr
-    select: str = "all"
-    members: tuple[tuple[int, ...], ...] = ()
-    data: tuple[TermData, ...] = ()
-    label: str = "term"
-    cutoff: float | None = None  # pair terms over all pairs: only pairs with |q_i - q_j| < cutoff
-
-    def count(self, n: int) -> int:
-        """Number of members for n bodies."""
-        if self.select == "list":
-            return len(self.members)
-        if self.kind == "body":
-            return n
-        return n - 1 if self.select == "chain" else n * (n - 1) // 2
-
-    def member_list(self, n: int) -> list[tuple[int, ...]]:
-        """The members (0-based) for n bodies, in loop order."""
-        if self.select == "list":
-            return list(self.members)
-        if self.kind == "body":
-            return [(i,) for i in range(n)]
-        if self.select == "chain":
-            return [(i, i + 1) for i in range(n - 1)]
-        return [(i, j) for i in range(n) for j in range(i + 1, n)]
-
-    def roles(self) -> tuple[str, ...]:
-        return ("q",) if self.kind == "body" else ("qi", "qj")
-
-    def position_symbols(self) -> tuple[sp.Symbol, ...]:
-        return tuple(s for role in self.roles() for s in local_vector(role))
-
-    def data_symbols(self) -> tuple[sp.Symbol, ...]:
-        return tuple(s for d in self.data for s in d.symbols())
-
-    def instance(self, member: tuple[int, ...], index: int) -> sp.Expr:
-        """The term of one member written in the global symbols q{i}_{c} (for checks)."""
-        subs: dict[sp.Symbol, sp.Expr] = {}
-        for role, body in zip(self.roles(), member):
-            subs.update(dict(zip(local_vector(role), (q_symbol(body + 1, c) for c in range(3)))))
-        for d in self.data:
-            vals = d.values[index * d.width : (index + 1) * d.width]
-            subs.update({s: sp.Float(v) for s, v in zip(d.symbols(), vals)})
-        return self.expr.xreplace(subs)
-
-
 def _validate_term(term: Term, n: int, psyms: set[sp.Symbol], where: str) -> None:
     """Check kind, selection, members, data sizes and the symbols of one term."""
     at = f"{where}: {term.label}"
-    if term.kind not in ("body", "pair"):
-        raise SpecError(f"{at}: kind must be 'body' or 'pair', got {shown(term.kind)}")
-    allowed = ("all", "list") if term.kind == "body" else ("all", "chain", "list")
+    if not isinstance(term.kind, TermKind):
+        kinds = " or ".join(repr(k.value) for k in TermKind)
+        raise SpecError(f"{at}: kind must be {kinds}, got {shown(term.kind)}")
+    allowed = spellings(term.kind)
     if term.select not in allowed:
         raise SpecError(f"{at}: selection must be one of {allowed}, got {shown(term.select)}")
-    if term.select == "list":
-        width = 1 if term.kind == "body" else 2
+    selection = Selection.of(term.kind, term.select, term.cutoff is not None)
+    if selection is None:
+        raise SpecError(f"{at}: a cutoff applies only to pair terms over all pairs")
+    if selection.listed:
+        width = term.kind.arity
         for k, mem in enumerate(term.members):
             if len(mem) != width or not all(0 <= b < n for b in mem):
                 one_based = [b + 1 for b in mem]
@@ -234,18 +168,22 @@ def _validate_term(term: Term, n: int, psyms: set[sp.Symbol], where: str) -> Non
                 raise SpecError(f"{at}: member {k + 1} pairs body {mem[0] + 1} with itself")
     elif term.members:
         raise SpecError(f"{at}: members are given but the selection is {shown(term.select)}")
-    if term.cutoff is not None:
-        if term.kind != "pair" or term.select != "all":
-            raise SpecError(f"{at}: a cutoff applies only to pair terms over all pairs")
-        if not (np.isfinite(term.cutoff) and 0.0 < term.cutoff <= MAX_CUTOFF):
-            raise SpecError(
-                f"{at}: cutoff must be a positive distance of at most {MAX_CUTOFF:g} (unit "
-                f"vectors lie within 2 of each other), got {shown(term.cutoff)}"
-            )
+    if n < selection.rule.minimum:
+        raise SpecError(
+            f"{at}: the selection {shown(term.select)} needs at least {selection.rule.minimum} "
+            f"bodies, the system has {n}"
+        )
+    if term.cutoff is not None and not (
+        np.isfinite(term.cutoff) and 0.0 < term.cutoff <= MAX_CUTOFF
+    ):
+        raise SpecError(
+            f"{at}: cutoff must be a positive distance of at most {MAX_CUTOFF:g} (unit "
+            f"vectors lie within 2 of each other), got {shown(term.cutoff)}"
+        )
     count = term.count(n)
     _check_data_names(term, at)
     for d in term.data:
-        if term.select == "all" and term.kind == "pair":
+        if not selection.rule.data:
             raise SpecError(
                 f"{at}: per-pair data '{d.name}' needs an explicit pair list or a chain "
                 "(a value common to all pairs is a parameter)"
@@ -275,7 +213,7 @@ def _validate_term(term: Term, n: int, psyms: set[sp.Symbol], where: str) -> Non
 
 #: Names of a term's emitted member tables: C `NAME_t<k>_i`, `_j`; NumPy `T<k>_I`, `_J` (data
 #: tables are `NAME_t<k>_<name>` and `T<k>_<NAME>`, upper-cased, in the same namespaces).
-_MEMBER_TABLES = frozenset({"I", "J"})
+_MEMBER_TABLES = frozenset(i.upper() for k in TermKind for i in k.indices)
 
 
 def _check_data_names(term: Term, at: str) -> None:

@@ -85,8 +85,6 @@ import sympy as sp
 from s2gen.spec.inertia import chain_inertia
 from s2gen.spec.parser import RESERVED_NAMES, parse_expression
 from s2gen.spec.tables import (
-    _BODY,
-    _PAIR,
     _bodies,
     _check_keys,
     _inertia,
@@ -97,6 +95,7 @@ from s2gen.spec.tables import (
     _terms,
 )
 from s2gen.system import INERTIA_SOLVERS, RunSettings, SpecError, System, shown
+from s2gen.terms import TermKind
 
 __all__ = [
     "RESERVED_NAMES",
@@ -163,8 +162,8 @@ def define_system(
     matrix = _any_inertia(inertia, diagonal, max_index, scale, inertia_data, n, params, origin)
     general = sp.Integer(0) if potential is None else _potential(potential, n, names, origin)
     terms = [
-        *_terms(body_terms, _BODY, n, params, origin),
-        *_terms(pair_terms, _PAIR, n, params, origin),
+        *_terms(body_terms, TermKind.BODY, n, params, origin),
+        *_terms(pair_terms, TermKind.PAIR, n, params, origin),
     ]
     if potential is None and not terms:
         raise SpecError(

@@ -25,6 +25,7 @@ import sympy as sp
 
 from s2gen.symbols import local_vector, q_vector
 from s2gen.system import SpecError, shown
+from s2gen.terms import TermKind
 
 __all__ = ["RESERVED_NAMES", "Value", "parse_expression"]
 
@@ -44,7 +45,7 @@ RESERVED_NAMES = frozenset({"pi", *_SCALAR_FUNCTIONS, *_VECTOR_FUNCTIONS, *_AXES
 _Q_NAME = re.compile(r"q([0-9]+)")
 _Q_RESERVED = re.compile(r"q[0-9]+(_[0-9]+)?")
 #: The own vectors of term expressions: q (one-body terms), qi and qj (pair terms).
-_ROLES = ("q", "qi", "qj")
+_ROLES = tuple(role for kind in TermKind for role in kind.roles)
 #: Limits of the language, each stated in the error that enforces it.
 _MAX_LENGTH = 100_000  # characters of one expression
 _MAX_DIGITS = 1000  # decimal digits of an exact number (numerator and denominator together)

@@ -17,7 +17,7 @@ import keyword
 import math
 import numbers
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from typing import Any
 
 import numpy as np
@@ -27,6 +27,7 @@ from s2gen.methods import NAMES
 from s2gen.spec.parser import _Q_RESERVED, _ROLES, RESERVED_NAMES, parse_expression
 from s2gen.symbols import local_vector
 from s2gen.system import MAX_BODIES, RunSettings, SpecError, Term, TermData, shown
+from s2gen.terms import Selection, TermKind, spellings
 
 
 def _bodies(bodies: Any, origin: str) -> int:
@@ -140,41 +141,8 @@ def _potential(potential: Any, n: int, names: Sequence[str], origin: str) -> sp.
 
 
 # ---------------------------------------------------------------------- structured potentials
-@dataclass(frozen=True)
-class _TermKind:
-    """How one kind of term is written: its table, selection key, own vectors and selections."""
-
-    kind: str  # "body" or "pair" (Term.kind)
-    table: str  # the TOML array of tables, also the label prefix
-    select_key: str
-    roles: tuple[str, ...]
-    selections: tuple[str, ...]
-    options: str  # what the selection may be, for messages
-    default: str | None  # the selection when the key is omitted (None: required)
-
-
-_BODY = _TermKind(
-    "body",
-    "[[potential.body]]",
-    "bodies",
-    ("q",),
-    ("all",),
-    '"all" or a list of body indices',
-    "all",
-)
-_PAIR = _TermKind(
-    "pair",
-    "[[potential.pair]]",
-    "pairs",
-    ("qi", "qj"),
-    ("all", "chain"),
-    '"all", "chain" or a list of pairs [i, j] of body indices',
-    None,
-)
-
-
 def _terms(
-    entries: Any, kind: _TermKind, n: int, params: Mapping[str, float], origin: str
+    entries: Any, kind: TermKind, n: int, params: Mapping[str, float], origin: str
 ) -> list[Term]:
     """The terms of one kind (None: none), labelled "[[potential.body]] #k" (k from 1)."""
     if entries is None:
@@ -188,7 +156,7 @@ def _terms(
 
 
 def _term(
-    entry: Any, kind: _TermKind, k: int, n: int, params: Mapping[str, float], origin: str
+    entry: Any, kind: TermKind, k: int, n: int, params: Mapping[str, float], origin: str
 ) -> Term:
     """One term table: its key V, its selection and its per-member data."""
     label = f"{kind.table} #{k}"
@@ -197,7 +165,8 @@ def _term(
         raise SpecError(
             f"{where}: expected a table (V, {kind.select_key}, data), got {shown(entry)}"
         )
-    allowed = ("V", kind.select_key, "data") + (("cutoff",) if kind.kind == "pair" else ())
+    cutoff_allowed = Selection.of(kind, "all", cutoff=True) is not None
+    allowed = ("V", kind.select_key, "data") + (("cutoff",) if cutoff_allowed else ())
     _check_keys(entry, allowed, where)
     for key in ("V", kind.select_key):
         if key not in entry and not (key == kind.select_key and kind.default):
@@ -209,7 +178,7 @@ def _term(
                 "(rename the parameter)"
             )
     select, members = _selection(entry.get(kind.select_key, kind.default), kind, n, where)
-    count = Term(kind.kind, sp.Integer(0), select, members).count(n)
+    count = Term(kind, sp.Integer(0), select, members).count(n)
     data = _term_data(entry.get("data"), kind, select, count, params, where)
     _check_symbols(kind, data, params, where)
     local = {**{role: 3 for role in kind.roles}, **{d.name: d.width for d in data}}
@@ -217,33 +186,41 @@ def _term(
     cutoff = None
     if entry.get("cutoff") is not None:
         cutoff = _number(entry["cutoff"], f"{where} cutoff", params)
-        if not cutoff > 0.0 or select != "all":
+        if not cutoff > 0.0 or Selection.of(kind, select, cutoff=True) is None:
             raise SpecError(
                 f"{where} cutoff: must be a positive distance, on a term over all pairs "
                 f"(got {shown(entry['cutoff'])} with pairs = {shown(select)})"
             )
-    return Term(kind.kind, expr, select, members, data, label, cutoff)
+    return Term(kind, expr, select, members, data, label, cutoff)
+
+
+def _options(kind: TermKind) -> str:
+    """What a selection key may be, for messages: its named selections or a list."""
+    named = [f'"{s}"' for s in spellings(kind, named=True)]
+    words = ", ".join(named)
+    return f"{words} or a list of {kind.listing}"
 
 
 def _selection(
-    value: Any, kind: _TermKind, n: int, where: str
+    value: Any, kind: TermKind, n: int, where: str
 ) -> tuple[str, tuple[tuple[int, ...], ...]]:
     """The selection key: a named selection, or a list of members (1-based -> 0-based)."""
     where = f"{where} {kind.select_key}"
-    if isinstance(value, str) and value in kind.selections:
+    if isinstance(value, str) and value in spellings(kind, named=True):
         return value, ()
     if isinstance(value, np.ndarray):
         value = value.tolist()
     if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or not value:
-        raise SpecError(f"{where}: expected {kind.options} 1..{n}, got {shown(value)}")
-    return "list", tuple(
+        raise SpecError(f"{where}: expected {_options(kind)} 1..{n}, got {shown(value)}")
+    listed = next(s for s in spellings(kind) if s not in spellings(kind, named=True))
+    return listed, tuple(
         _member(item, kind, n, f"{where}[{m + 1}]") for m, item in enumerate(value)
     )
 
 
-def _member(item: Any, kind: _TermKind, n: int, where: str) -> tuple[int, ...]:
+def _member(item: Any, kind: TermKind, n: int, where: str) -> tuple[int, ...]:
     """One listed body (i,) or pair (i, j), 0-based."""
-    if kind.kind == "body":
+    if kind.arity == 1:
         return (_body_index(item, n, where) - 1,)
     if isinstance(item, np.ndarray):
         item = item.tolist()
@@ -269,7 +246,7 @@ def _body_index(value: Any, n: int, where: str) -> int:
 
 def _term_data(
     data: Any,
-    kind: _TermKind,
+    kind: TermKind,
     select: str,
     count: int,
     params: Mapping[str, float],
@@ -291,7 +268,7 @@ def _term_data(
 def _datum(
     name: Any,
     values: Any,
-    kind: _TermKind,
+    kind: TermKind,
     select: str,
     count: int,
     params: Mapping[str, float],
@@ -299,12 +276,15 @@ def _datum(
 ) -> TermData:
     """One datum: its name checked, one value per member, all numbers or all 3-vectors."""
     _check_data_name(name, params, where)
-    if kind.kind == "pair" and select == "all":
+    selection = Selection.of(kind, select)
+    assert selection is not None, "the selection was read by _selection"
+    if not selection.rule.data:
+        named = [f'"{w}"' for w in spellings(kind, named=True) if _carries_data(kind, w)]
         raise SpecError(
-            f'{where}: per-pair data need an explicit list of pairs or "chain" '
-            '(with pairs = "all", a value common to all pairs is a parameter)'
+            f"{where}: per-pair data need an explicit list of pairs or {' or '.join(named)} "
+            f'(with {kind.select_key} = "{select}", a value common to all pairs is a parameter)'
         )
-    member = {"all": "body", "chain": "pair of the chain"}.get(select, f"listed {kind.kind}")
+    member = selection.rule.member
     entries = _rows(values, count, where, f"values (one per {member})")
     widths = [_entry_width(entry, f"{where}[{m + 1}]") for m, entry in enumerate(entries)]
     for m, width in enumerate(widths):
@@ -320,6 +300,12 @@ def _datum(
         for c, value in enumerate(_vector_items(entry) or [entry])
     ]
     return TermData(name, widths[0] if widths else 1, tuple(flat))
+
+
+def _carries_data(kind: TermKind, spelling: str) -> bool:
+    """True when the named selection `spelling` of `kind` allows per-member data."""
+    selection = Selection.of(kind, spelling)
+    return selection is not None and selection.rule.data
 
 
 def _entry_width(entry: Any, where: str) -> int:
@@ -365,7 +351,7 @@ def _check_data_name(name: Any, params: Mapping[str, float], where: str) -> None
 
 
 def _check_symbols(
-    kind: _TermKind, data: Sequence[TermData], params: Mapping[str, float], where: str
+    kind: TermKind, data: Sequence[TermData], params: Mapping[str, float], where: str
 ) -> None:
     """No two of the parameters, the term's own vectors and its data may share a SymPy
     symbol (a vector datum r owns r_0, r_1, r_2; the vector q owns q_0, q_1, q_2)."""
@@ -383,7 +369,7 @@ def _check_symbols(
 
 def _term_expression(
     value: Any,
-    kind: _TermKind,
+    kind: TermKind,
     n: int,
     local: Mapping[str, int],
     params: Mapping[str, float],
