@@ -4,7 +4,7 @@ Input: nothing (this module is data). Output: `TermKind` (a term over one body o
 bodies: its arity, its own vectors and loop indices, how a spec writes it) and `Selection` (which
 members a term or loop visits: every body, listed bodies, the chain, listed pairs, every pair,
 the pairs within a cutoff, the coupled pairs of M), each with the record `Rule` saying how its
-members are enumerated and described. Spec parsing, `System` validation, the IR (`ir.LoopKind`
+members are enumerated and described (the ring is the chain closed by the pair (n, 1)). Spec parsing, `System` validation, the IR (`ir.LoopKind`
 is `Selection`), assembly, the passes and both printers read these records; the printers turn a
 rule's `Enumeration` into a C loop and NumPy index arrays, so a new selection whose members
 follow one of the existing enumerations is one entry here.
@@ -137,6 +137,16 @@ class Selection(enum.Enum):
         data=False,
     )
     CHAIN = Rule(_P, "chain", _SHIFTED, "sum over pairs (chain)", "pair of the chain", (0, 1))
+    RING = Rule(
+        _P,
+        "ring",
+        _SHIFTED,
+        "sum over pairs (ring)",
+        "pair of the ring",
+        (0, 1),
+        wrap=True,
+        minimum=3,
+    )
     PAIR_LIST = Rule(_P, "list", _TABLE, "sum over pairs (list)", "listed pair")
     COUPLING = Rule(_P, None, _TABLE, "sum over the coupled pairs of M", "coupled pair")
 
@@ -221,7 +231,7 @@ def spellings(kind: TermKind, named: bool = False) -> tuple[str, ...]:
 
     Example:
         >>> spellings(TermKind.PAIR), spellings(TermKind.BODY, named=True)
-        (('all', 'chain', 'list'), ('all',))
+        (('all', 'chain', 'ring', 'list'), ('all',))
     """
     out: list[str] = []
     for s in Selection:

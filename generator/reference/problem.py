@@ -186,6 +186,9 @@ def _term_indices(term: Term, n: int) -> tuple[Array, ...]:
         return (np.arange(n, dtype=np.intp),)
     if selection is Selection.CHAIN:
         return np.arange(n - 1, dtype=np.intp), np.arange(1, n, dtype=np.intp)
+    if selection is Selection.RING:
+        i = np.arange(n, dtype=np.intp)
+        return i, np.roll(i, -1)  # (1, 2), ..., (n - 1, n), (n, 1)
     if selection in (Selection.ALL_PAIRS, Selection.CUTOFF_PAIRS):
         i, j = np.triu_indices(n, k=1)  # row-major i < j
         return i.astype(np.intp), j.astype(np.intp)

@@ -32,6 +32,7 @@ one-body and pair terms, each a sum of one expression over its members::
     [[potential.pair]]       # a pair term, in the pair's vectors qi and qj
     V = "k/2*(norm(r + l/2*qj - l/2*qi) - norm(r))**2"
     pairs = [[1, 2], [2, 3], [3, 4], [4, 1]]   # or "chain" (i, i+1) or "all" (every i < j)
+                             # or "ring" (the chain and (n, 1); this list for n = 4; n >= 3)
     [potential.pair.data]    # per-pair data (not with pairs = "all": use a parameter there)
     k = [10, 20, 30, 40]
     r = [[0.1, 0, 0], [0, -0.1, 0], [-0.1, 0, 0], [0, 0.1, 0]]
