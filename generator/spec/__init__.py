@@ -93,8 +93,8 @@ from s2gen.spec.tables import (
     _parameters,
     _potential,
     _run_settings,
-    _terms,
 )
+from s2gen.spec.term_tables import _terms
 from s2gen.system import INERTIA_SOLVERS, RunSettings, SpecError, System, shown
 from s2gen.terms import TermKind
 
