@@ -4,11 +4,13 @@ The reference (`s2gen.reference.problem`) enumerates a term's members with NumPy
 definition of each selection; `Selection.members` is what the spec, the IR and both printers
 use. They must agree on every selection, for every n, on random member lists, and (for the
 cutoff) on which pairs lie within the distance at random positions. Every selection a spec can
-name must also come out of a spec with that name.
+name must also come out of a spec with that name, and the loops the C and NumPy printers write
+for it must give the reference's gradient.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 
 import numpy as np
@@ -16,9 +18,10 @@ import pytest
 import sympy as sp
 
 from s2gen.reference.problem import _compile_term, _term_indices
+from s2gen.runtime import get_backend
 from s2gen.spec import define_system
 from s2gen.symbols import local_vector
-from s2gen.system import System, Term
+from s2gen.system import System, Term, TermData
 from s2gen.terms import Selection, TermKind, spellings
 
 QV = sp.Matrix(local_vector("q"))
@@ -130,3 +133,48 @@ def test_a_spec_names_every_selection(selection: Selection) -> None:
     (term,) = system.terms
     assert term.selection is selection
     assert term.member_list(n) == reference_members(term, n)
+
+
+def loop_system(selection: Selection, n: int, rng: np.random.Generator) -> System:
+    """A system whose only potential is one term over `selection`: not polynomial (no K),
+    asymmetric in i and j, with a datum that differs per member where the selection allows
+    data, so a member visited twice, missed, swapped or paired with another's datum shows."""
+    rule = selection.rule
+    term = term_of(selection, n, rng)
+    count = term.count(n)
+    c = sp.Symbol("c", real=True)
+    if selection.pairs:
+        expr = sp.exp(QI[0] * QJ[1] + QI[2] / 2)
+    else:
+        expr = sp.exp(QV[2] * QV[0])
+    data: tuple[TermData, ...] = ()
+    if rule.data:
+        expr = c * expr
+        data = (TermData("c", 1, tuple(1.0 + 0.5 * k for k in range(count))),)
+    name = f"sel_{selection.name.lower()}"
+    return System.create(
+        name=name,
+        n=n,
+        parameters={},
+        inertia=sp.eye(n),
+        potential=sp.Integer(0),
+        terms=[dataclasses.replace(term, expr=expr, data=data, label=name)],
+    )
+
+
+@pytest.mark.parametrize("selection", TERM_SELECTIONS, ids=lambda s: s.name)
+def test_c_and_numpy_loops_visit_the_reference_s_members(selection: Selection) -> None:
+    n = max(selection.rule.minimum, 6)
+    rng = np.random.default_rng(100 + TERM_SELECTIONS.index(selection))
+    system = loop_system(selection, n, rng)
+    q = rng.normal(size=(n, 3))
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    p = np.zeros(0)
+    g_ref = get_backend(system, "reference")._problem(p).grad(q)
+    scale = np.max(np.abs(g_ref))
+    assert scale > 0.1
+    c = get_backend(system, "c")
+    _, dw = c.rhs(q, np.zeros_like(q), p)  # with workspace: member tables, rows, cell lists
+    for g in (c.gradient(q, p), get_backend(system, "numpy").gradient(q, p)):
+        assert np.max(np.abs(g - g_ref)) < 1e-12 * scale
+    assert np.max(np.abs(dw + np.cross(q, g_ref))) < 1e-12 * scale  # M = 1: dw = -q x g
