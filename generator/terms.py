@@ -2,12 +2,14 @@
 
 Input: nothing (this module is data). Output: `TermKind` (a term over one body or over a pair of
 bodies: its arity, its own vectors and loop indices, how a spec writes it) and `Selection` (which
-members a term or loop visits: every body, listed bodies, the chain, listed pairs, every pair,
-the pairs within a cutoff, the coupled pairs of M), each with the record `Rule` saying how its
-members are enumerated and described (the ring is the chain closed by the pair (n, 1)). Spec parsing, `System` validation, the IR (`ir.LoopKind`
-is `Selection`), assembly, the passes and both printers read these records; the printers turn a
-rule's `Enumeration` into a C loop and NumPy index arrays, so a new selection whose members
-follow one of the existing enumerations is one entry here.
+members a term or loop visits: every body, listed bodies, the chain, the ring (the chain closed
+by the pair (n, 1)), listed pairs, every pair, the pairs within a cutoff, the coupled pairs of
+M), each with the record `Rule` saying how its members are enumerated and described; and the
+`Term` record itself, with its per-member `TermData`. Spec parsing, `System` validation, the IR
+(`ir.LoopKind` is `Selection`), assembly, the passes and both printers read these records; the
+printers turn a rule's `Enumeration` into a C loop and NumPy index arrays. A new selection whose
+members follow one of the existing enumerations is one entry here, plus its branch in the
+reference's own enumerator (`s2gen.reference.problem`), its words in the spec docs and a test.
 
 Example:
     >>> Selection.of(TermKind.PAIR, "chain").members(4)
