@@ -123,6 +123,7 @@ _B, _P = TermKind.BODY, TermKind.PAIR
 _SHIFTED, _TABLE = Enumeration.SHIFTED, Enumeration.TABLE
 
 
+@enum.unique  # two equal rules would silently make one selection an alias of the other
 class Selection(enum.Enum):
     """The selections, in the order messages list them; each value is its `Rule`."""
 
