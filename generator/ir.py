@@ -39,6 +39,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from s2gen.inertia import InertiaKind
+from s2gen.terms import Selection
 
 __all__ = [
     "Argument",
@@ -141,34 +142,17 @@ class ModuleKind(enum.Enum):
     ANGLES = "angles"
 
 
-class LoopKind(enum.Enum):
-    """How a loop enumerates its members: every body, listed bodies, the chain (i, i+1), listed
-    pairs, every pair i < j (optionally only those within a cutoff), or the coupled pairs of M."""
-
-    BODIES = "bodies"
-    BODY_LIST = "body list"
-    CHAIN = "chain"
-    PAIR_LIST = "pair list"
-    ALL_PAIRS = "all pairs"
-    CUTOFF_PAIRS = "pairs within a cutoff"
-    COUPLING = "coupled pairs of M"
-
-    @property
-    def pairs(self) -> bool:
-        """True when a member is a pair of bodies."""
-        return self not in (LoopKind.BODIES, LoopKind.BODY_LIST)
-
-    @property
-    def listed(self) -> bool:
-        """True when members are read from index tables."""
-        return self in (LoopKind.BODY_LIST, LoopKind.PAIR_LIST, LoopKind.COUPLING)
+#: How a loop enumerates its members: a term selection of `s2gen.terms` (every body, listed
+#: bodies, the chain, listed pairs, every pair i < j, the pairs within a cutoff) or the coupled
+#: pairs of M.
+LoopKind = Selection
 
 
 @dataclass(frozen=True)
 class Loop:
     """A loop over `count` members of one kind; list kinds read `members` (0-based bodies)."""
 
-    kind: LoopKind
+    kind: Selection
     count: int
     members: tuple[tuple[int, ...], ...] = ()
     cutoff: float | None = None  # CUTOFF_PAIRS: chord distance; pairs farther apart are skipped

@@ -14,6 +14,7 @@ import sympy as sp
 from s2gen.spec import define_system, load_spec, load_spec_text, parse_expression
 from s2gen.symbols import local_vector, q_symbol, q_vector
 from s2gen.system import SpecError, System, Term, TermData
+from s2gen.terms import TermKind, spellings
 
 SPECS = Path(__file__).parent / "specs"
 PARAMS = {"m": 0.1, "l": 0.1, "g": 9.81}
@@ -383,6 +384,8 @@ R_LINE = "r = [[0.1, 0, 0], [0, -0.1, 0], [-0.1, 0, 0], [0, 0.1, 0]]"
 PAIRS_LINE = "pairs = [[1, 2], [2, 3], [3, 4], [4, 1]]"
 CHAIN_V = 'V = "c*dot(qi, qj)"'
 P1 = "[[potential.pair]] #1"
+#: The named pair selections as the message lists them ("all", "chain", ...), in table order.
+NAMED_PAIRS = ", ".join(f'"{w}"' for w in spellings(TermKind.PAIR, named=True))
 P2 = "[[potential.pair]] #2"
 B1 = "[[potential.body]] #1"
 
@@ -481,8 +484,8 @@ B1 = "[[potential.body]] #1"
         (PAIRS_LINE, "pairs = [[1, 2.0]]", [f"{P1} pairs[1]: expected a body index 1..4, got 2.0"]),
         (
             PAIRS_LINE,
-            'pairs = "ring"',
-            [f'{P1} pairs: expected "all", "chain" or a list of pairs', "got 'ring'"],
+            'pairs = "spiral"',
+            [f"{P1} pairs: expected {NAMED_PAIRS} or a list of pairs", "got 'spiral'"],
         ),
         (PAIRS_LINE, "pairs = []", [f"{P1} pairs: expected", "got []"]),
         (PAIRS_LINE, "", [f"{P1}: missing required key 'pairs'"]),

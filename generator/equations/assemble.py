@@ -96,17 +96,12 @@ def clear_caches() -> None:
 
 
 def _term_loop(index: int, term: Term, n: int) -> TermLoop:
-    if term.cutoff is not None:
-        loop = Loop(LoopKind.CUTOFF_PAIRS, term.count(n), (), term.cutoff, cell_grid(term.cutoff))
-    elif term.select == "list":
-        kind = LoopKind.BODY_LIST if term.kind == "body" else LoopKind.PAIR_LIST
-        loop = Loop(kind, term.count(n), term.members)
-    elif term.kind == "body":
-        loop = Loop(LoopKind.BODIES, term.count(n))
-    elif term.select == "chain":
-        loop = Loop(LoopKind.CHAIN, term.count(n))
+    selection = term.selection
+    if selection.fixed:
+        loop = Loop(selection, term.count(n), term.members)
     else:
-        loop = Loop(LoopKind.ALL_PAIRS, term.count(n))
+        assert term.cutoff is not None, "members found per call are those within the cutoff"
+        loop = Loop(selection, term.count(n), (), term.cutoff, cell_grid(term.cutoff))
     return TermLoop(
         index=index,
         loop=loop,
@@ -151,7 +146,7 @@ def sphere_module(system: System) -> Module:
         kernels += term_kernels(system, k, t)
     kernels += generic_kernel_defs(coupled, solver)
     loops = tuple(_term_loop(k, t, system.n) for k, t in terms)
-    cutoff = any(t.loop.kind is LoopKind.CUTOFF_PAIRS for t in loops)
+    cutoff = any(not t.loop.kind.fixed for t in loops)
     per_body = per_body_inertia(system, solver) is not None
     uniform = system.n > 1 and not per_body and kernels[0].outputs[0].size == 1
     general = has_general_potential(system)

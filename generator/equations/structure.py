@@ -229,7 +229,7 @@ def term_kernels(system: System, index: int, term: Term) -> tuple[KernelDef, Ker
     data = [Argument(f"d_{d.name}", d.symbols(), scalar=d.width == 1) for d in term.data]
     inputs = (p, *positions, *data)
     stages = (("p", 0), *((a.name, 1) for a in data))
-    where = f"{term.label}: {'sum over bodies' if term.kind == 'body' else 'sum over pairs'}"
+    where = f"{term.label}: sum over {term.kind.plural}"
     grads = [
         Output(f"g{role[1:]}" if role != "q" else "g", tuple(sp.diff(term.expr, s) for s in pos))
         for role, pos in zip(term.roles(), (a.symbols for a in positions))

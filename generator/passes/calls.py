@@ -186,16 +186,11 @@ def _term_sites(module: Module, t: TermLoop) -> list[Site]:
     """The value, gradient and table sites of one term loop (data read at member m; the
     member's table row at `tab`, the context constants at cx->cc)."""
     pre, up = f"{module.name}_t{t.index}", f"T{t.index}"
-    c = {
-        "q": "q + 3 * i",
-        "qi": "q + 3 * i",
-        "qj": "q + 3 * j",
-        "v": "&v",
-        "g": "gb",
-        "cc": "cx->cc",
-        "tab": "tab",
-    }
-    py = {"q": f"q[{up}_I]", "qi": f"q[{up}_I]", "qj": f"q[{up}_J]", "tab": f"tab{t.index}"}
+    kind = t.loop.kind.kind
+    c = {role: f"q + 3 * {i}" for role, i in zip(kind.roles, kind.indices)}
+    c.update({"v": "&v", "g": "gb", "cc": "cx->cc", "tab": "tab"})
+    py = {role: f"q[{up}_{i.upper()}]" for role, i in zip(kind.roles, kind.indices)}
+    py["tab"] = f"tab{t.index}"
     for name, width, _ in t.data:
         c[f"d_{name}"] = f"{pre}_{name}[m]" if width == 1 else f"{pre}_{name} + 3 * m"
         py[f"d_{name}"] = f"{up}_{name.upper()}"

@@ -26,7 +26,7 @@ from dataclasses import replace
 
 import sympy as sp
 
-from s2gen.ir import KernelDef, LoopKind, Module, Output, TermLoop
+from s2gen.ir import KernelDef, Module, Output, TermLoop
 
 __all__ = ["CONSTANT_ENTRY", "LINEAR", "MAX_BODIES", "quadratic_pass"]
 
@@ -99,7 +99,7 @@ def quadratic_pass(module: Module) -> Module:
         return module
     found: list[tuple[TermLoop, KernelDef, list[tuple[int, int, sp.Expr]]]] = []
     for t in module.terms:
-        if t.loop.kind is LoopKind.CUTOFF_PAIRS:
+        if not t.loop.kind.fixed:  # members found per call: no constant matrix
             continue
         value = module.kernel(t.value)
         assert isinstance(value, KernelDef)

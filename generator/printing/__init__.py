@@ -20,7 +20,7 @@ from typing import Any
 
 from s2gen.inertia import InertiaKind
 from s2gen.interface import interface
-from s2gen.ir import Kernel, LoopKind, Module, ModuleKind, PassRecord, TermLoop
+from s2gen.ir import Kernel, Module, ModuleKind, PassRecord
 from s2gen.methods import COMPOSITIONS, METHODS, Family, Status
 from s2gen.passes.opcount import kernel_profile
 from s2gen.passes.workspace import CONTEXT, padded
@@ -30,13 +30,13 @@ from s2gen.printing.c import (
     c_field_decl,
     c_inline,
     c_kernel,
-    c_loop,
     c_term_tables,
     nullable_note,
     rows,
 )
-from s2gen.printing.numpy import py_call, py_kernel, py_term_setup
+from s2gen.printing.numpy import py_call, py_kernel
 from s2gen.printing.tableau import print_tableau
+from s2gen.printing.terms import PrintedTerm, print_term, py_quad_lines, quad_init
 from s2gen.tableaus import DOP853
 from s2gen.version import __version__
 
@@ -58,44 +58,6 @@ class PrintedKernel:
     profile: str  # ops_after by kind
     temporaries: int
     c_function: bool = True  # False: the C code writes it inline only (no function emitted)
-
-
-@dataclass(frozen=True)
-class PrintedTerm:
-    """A structured term as text: its loop, the calls it makes and how gradients accumulate.
-
-    C: `c_open`/`c_close` bracket a member loop (m the member, i and j its bodies), or
-    `c_*_part` name the cell-list partials of a cutoff term. NumPy: `py_setup` defines index and
-    data arrays, `py_index` names the index arrays used to scatter gradients.
-    """
-
-    index: int
-    doc: str
-    count: int
-    c_open: tuple[str, ...]
-    c_close: tuple[str, ...]
-    c_value_part: str
-    c_gradient_part: str
-    layout: str  # "rows", "quadratic" (in K), "cutoff" or "" (the member loop): its partials
-    c_value_call: str
-    c_gradient_call: str
-    c_table_lines: tuple[str, ...]
-    c_rows_value: tuple[str, ...]  # the kernels inline, for the rows layout
-    c_rows_gradient: tuple[str, ...]
-    c_rows_constants: tuple[str, ...]  # the context constants they read (c<k>)
-    c_rows_constants_gradient: tuple[str, ...]
-    c_gradient_locals: str
-    c_gradient_accumulate: tuple[str, ...]
-    py_setup: tuple[str, ...]
-    py_value_part: str
-    py_gradient_part: str
-    py_value_call: str
-    py_gradient_call: str
-    py_gradient_accumulate: tuple[str, ...]
-    py_index: tuple[str, ...]
-    cutoff: str  # round-trip literal of the cutoff distance ("" without cutoff)
-    rc2: str  # its square
-    cells: int  # neighbour-list cells per axis
 
 
 @dataclass(frozen=True)
@@ -191,94 +153,6 @@ def print_kernel(kernel: Kernel, restrict: str) -> PrintedKernel:
     )
 
 
-_TERM_DOC = {
-    LoopKind.BODIES: "sum over bodies (all)",
-    LoopKind.BODY_LIST: "sum over bodies (list)",
-    LoopKind.CHAIN: "sum over pairs (chain)",
-    LoopKind.PAIR_LIST: "sum over pairs (list)",
-    LoopKind.ALL_PAIRS: "sum over pairs (all)",
-    LoopKind.CUTOFF_PAIRS: "sum over pairs within the cutoff",
-}
-
-
-def _print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTerm:
-    kind = t.loop.kind
-    cutoff = kind is LoopKind.CUTOFF_PAIRS
-    c_open, c_close = ((), ()) if cutoff else c_loop(module.name, t, module.n)
-    if kind.pairs:
-        locals_, acc = (
-            "double gi[3], gj[3];",
-            [
-                f"g[3 * {i}{s}] += g{i}[{c}];"
-                for i in "ij"
-                for c, s in enumerate(("", " + 1", " + 2"))
-            ],
-        )
-    else:
-        locals_, acc = (
-            "double gb[3];",
-            [f"g[3 * i{s}] += gb[{c}];" for c, s in enumerate(("", " + 1", " + 2"))],
-        )
-    setup, index = py_term_setup(t)
-    value, gradient = calls[f"t{t.index}_value"], calls[f"t{t.index}_gradient"]
-    py_acc: tuple[str, ...]
-    if kind.pairs:
-        py_acc = (
-            f"gi, gj = {gradient['py']}",
-            f"numpy.add.at(g, {index[0]}, gi)",
-            f"numpy.add.at(g, {index[1]}, gj)",
-        )
-    else:
-        py_acc = (f"numpy.add.at(g, {index[0]}, {gradient['py']})",)
-    suffix = "_cutoff" if cutoff else "_quadratic" if t.quadratic else "_rows" if t.rows else ""
-    rows_value = rows_gradient = constants_value = constants_gradient = ()
-    if t.rows:
-        value_kernel, gradient_kernel = module.kernel(t.value), module.kernel(t.gradient)
-        assert isinstance(value_kernel, Kernel) and isinstance(gradient_kernel, Kernel)
-        constants_value, rows_value = c_inline(value_kernel)
-        constants_gradient, rows_gradient = c_inline(gradient_kernel)
-    label = module.kernel(t.value).doc.split(":")[0]
-    table_lines: tuple[str, ...] = ()
-    if t.table:
-        k = t.index
-        table_lines = (
-            f"double row[{t.table}];",
-            f"const double *tab = cx->t{k} ? cx->t{k} + {t.table} * m : row;",
-            f"if (!cx->t{k}) {{",
-            f"    {calls[f't{k}_table']['c']};",
-            "}",
-        )
-    return PrintedTerm(
-        index=t.index,
-        doc=f"term {t.index}, {label}: {_TERM_DOC[kind]}",
-        count=t.loop.count,
-        c_open=c_open,
-        c_close=c_close,
-        layout=suffix[1:],
-        c_value_part=f"c/_term_value{suffix}.jinja",
-        c_gradient_part=f"c/_term_gradient{suffix}.jinja",
-        c_value_call=value["c"],
-        c_gradient_call=gradient["c"],
-        c_table_lines=table_lines,
-        c_rows_value=rows_value,
-        c_rows_gradient=rows_gradient,
-        c_rows_constants=constants_value,
-        c_rows_constants_gradient=constants_gradient,
-        c_gradient_locals=locals_,
-        c_gradient_accumulate=tuple(acc),
-        py_setup=setup,
-        py_value_part=f"numpy/_term_value{suffix}.jinja",
-        py_gradient_part=f"numpy/_term_gradient{suffix}.jinja",
-        py_value_call=value["py"],
-        py_gradient_call=gradient["py"],
-        py_gradient_accumulate=py_acc,
-        py_index=index,
-        cutoff="" if t.loop.cutoff is None else repr(float(t.loop.cutoff)),
-        rc2="" if t.loop.cutoff is None else repr(float(t.loop.cutoff) ** 2),
-        cells=t.loop.cells,
-    )
-
-
 _INLINE_SCALARS = ("q", "w", "g", "qn", "gn", "wh")
 
 
@@ -304,56 +178,6 @@ def _inline(module: Module) -> dict[str, tuple[str, ...]]:
     if out:
         out["loads"] = tuple(loads)
     return out
-
-
-def _coordinate(r: int, n: int, index: tuple[str, ...]) -> str:
-    """Component-major index (u n + body) in K of a member's local coordinate r (component
-    r % 3 of body i for r < 3, else of body j)."""
-    return f"{r % 3 * n} + {index[r // 3]}"
-
-
-def _quad_init(module: Module, t: TermLoop, calls: dict[str, Any]) -> dict[str, Any]:
-    """C text adding one quadratic term's members into K and b (once per call)."""
-    c_open, c_close = c_loop(module.name, t, module.n)
-    n3 = 3 * module.n
-    roles = ("i", "j")
-    lines = []
-    for slot, r, c in t.quadratic:
-        if r < 0:
-            lines.append(f"kb[{n3}] += row[{slot}];")
-        elif c < 0:
-            lines.append(f"kb[{_coordinate(r, module.n, roles)}] += row[{slot}];")
-        else:
-            row_i, col_i = _coordinate(r, module.n, roles), _coordinate(c, module.n, roles)
-            lines.append(f"kq[({row_i}) * {n3} + {col_i}] += row[{slot}];")
-            if r != c:
-                lines.append(f"kq[({col_i}) * {n3} + {row_i}] += row[{slot}];")
-    return {
-        "c_open": c_open,
-        "c_close": c_close,
-        "slots": len(t.quadratic),
-        "call": calls[f"t{t.index}_quad"]["c"],
-        "scatter": tuple(lines),
-    }
-
-
-def _py_quad(t: TermLoop, calls: dict[str, Any], n: int) -> tuple[str, ...]:
-    """NumPy lines adding one quadratic term's members into K and kb (component-major)."""
-    up = f"T{t.index}"
-    index = (f"{up}_I", f"{up}_J")
-    lines = [f"coef = {calls[f't{t.index}_quad']['py']}"]
-    for slot, r, c in t.quadratic:
-        value = f"numpy.broadcast_to(coef[..., {slot}], {index[0]}.shape)"
-        if r < 0:
-            lines.append(f"kb[-1] += float(numpy.sum({value}))")
-        elif c < 0:
-            lines.append(f"numpy.add.at(kb, {_coordinate(r, n, index)}, {value})")
-        else:
-            row_i, col_i = _coordinate(r, n, index), _coordinate(c, n, index)
-            lines.append(f"numpy.add.at(kq, ({row_i}, {col_i}), {value})")
-            if r != c:
-                lines.append(f"numpy.add.at(kq, ({col_i}, {row_i}), {value})")
-    return tuple(lines)
 
 
 def _doc(buffers: list[tuple[str, int]]) -> str:
@@ -529,7 +353,7 @@ def print_module(module: Module) -> PrintedModule:
         for k in module.kernels
         if isinstance(k, Kernel)
     )
-    terms = tuple(_print_term(module, t, calls) for t in module.terms)
+    terms = tuple(print_term(module, t, calls) for t in module.terms)
     tables: list[tuple[str, str, int, tuple[str, ...]]] = []
     if module.coupling is not None:
         for r, role in enumerate(("i", "j")):
@@ -630,9 +454,9 @@ def print_module(module: Module) -> PrintedModule:
         py_tables=tuple(calls[f"t{t.index}_table"]["py"] for t in module.terms if t.table),
         py_table_names=tuple(f"tab{t.index}" for t in module.terms if t.table),
         quadratic=module.quadratic,
-        quad_inits=tuple(_quad_init(module, t, calls) for t in module.terms if t.quadratic),
+        quad_inits=tuple(quad_init(module, t, calls) for t in module.terms if t.quadratic),
         py_quad_lines=tuple(
-            line for t in module.terms if t.quadratic for line in _py_quad(t, calls, module.n)
+            line for t in module.terms if t.quadratic for line in py_quad_lines(t, calls, module.n)
         ),
         c_parts=tuple(f"c/_{p}.jinja" for p in module.parts),
         py_parts=tuple(f"numpy/_{p}.jinja" for p in module.parts if p not in module.c_only),

@@ -20,7 +20,8 @@ import sympy as sp
 from sympy.printing.c import C99CodePrinter
 
 from s2gen.interface import Field, Function, Kind, Param
-from s2gen.ir import Call, Kernel, LoopKind, TermLoop
+from s2gen.ir import Call, Kernel, TermLoop
+from s2gen.terms import Enumeration, Rule, TermKind
 
 __all__ = [
     "EXACT_INTEGER",
@@ -33,6 +34,9 @@ __all__ = [
     "c_inline",
     "c_kernel",
     "c_loop",
+    "c_quad_scatter",
+    "c_term_gradient",
+    "c_term_row",
     "c_term_tables",
     "double_literal",
     "rows",
@@ -219,35 +223,48 @@ def rows(values: list[str], per_row: int = 6) -> tuple[str, ...]:
 
 
 def c_term_tables(prefix: str, t: TermLoop) -> list[tuple[str, str, int, tuple[str, ...]]]:
-    """The static tables of one term loop: member body indices (list kinds) and data."""
+    """The static tables of one term loop: member body indices (listed selections) and data."""
     pre = f"{prefix}_t{t.index}"
     tables: list[tuple[str, str, int, tuple[str, ...]]] = []
     if t.loop.kind.listed:
-        for r, role in enumerate(("i", "j")[: len(t.loop.members[0]) if t.loop.members else 1]):
+        for r, index in enumerate(t.loop.kind.kind.indices):
             idx = [str(mem[r]) for mem in t.loop.members]
-            tables.append(("int", f"{pre}_{role}", t.loop.count, rows(idx, 16)))
+            tables.append(("int", f"{pre}_{index}", t.loop.count, rows(idx, 16)))
     for dname, _, values in t.data:
         lits = [repr(float(v)) for v in values]
         tables.append(("double", f"{pre}_{dname}", len(values), rows(lits)))
     return tables
 
 
+def _shifted(shift: int, rule: Rule, n: int) -> str:
+    """The body m + shift of a SHIFTED member m (mod n when the rule wraps)."""
+    if shift == 0:
+        return "m"
+    return f"(m + {shift}) % {n}" if rule.wrap else f"m + {shift}"
+
+
 def c_loop(prefix: str, t: TermLoop, n: int) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """(opening lines, closing lines) of a term's member loop; inside, m is the member and
-    i (and j) its bodies."""
+    i (and j) its bodies.
+
+    Example:
+        >>> from s2gen.ir import Loop, LoopKind
+        >>> t = TermLoop(0, Loop(LoopKind.CHAIN, 3), (), "t0_value", "t0_gradient")
+        >>> c_loop("s", t, 4)[0][-1].strip()
+        'const long i = m, j = m + 1;'
+    """
     pre, count = f"{prefix}_t{t.index}", t.loop.count
-    kind = t.loop.kind
-    decl = "long m, pi = 0, pj = 1;" if kind is LoopKind.ALL_PAIRS else "long m;"
+    rule, indices = t.loop.kind.rule, t.loop.kind.kind.indices
+    triangle = rule.enumeration is Enumeration.TRIANGLE
+    decl = "long m, pi = 0, pj = 1;" if triangle else "long m;"
     head = ["    {", f"        {decl}", f"        for (m = 0; m < {count}; ++m) {{"]
-    if kind is LoopKind.BODIES:
-        head.append("            const long i = m;")
-    elif kind is LoopKind.BODY_LIST:
-        head.append(f"            const long i = {pre}_i[m];")
-    elif kind is LoopKind.CHAIN:
-        head.append("            const long i = m, j = m + 1;")
-    elif kind is LoopKind.PAIR_LIST:
-        head.append(f"            const long i = {pre}_i[m], j = {pre}_j[m];")
-    elif kind is LoopKind.ALL_PAIRS:
+    if rule.enumeration is Enumeration.SHIFTED:
+        bodies = ", ".join(f"{i} = {_shifted(s, rule, n)}" for i, s in zip(indices, rule.shifts))
+        head.append(f"            const long {bodies};")
+    elif rule.enumeration is Enumeration.TABLE:
+        bodies = ", ".join(f"{i} = {pre}_{i}[m]" for i in indices)
+        head.append(f"            const long {bodies};")
+    elif triangle:
         head += [
             "            /* every pair i < j, in row order; m counts pairs */",
             "            const long i = pi, j = pj;",
@@ -257,8 +274,59 @@ def c_loop(prefix: str, t: TermLoop, n: int) -> tuple[tuple[str, ...], tuple[str
             "            }",
         ]
     else:
-        raise ValueError(f"{kind} is not a member loop")
+        raise ValueError(f"{t.loop.kind} is not a member loop")
     return tuple(head), ("        }", "    }")
+
+
+def c_term_gradient(kind: TermKind) -> tuple[str, tuple[str, ...]]:
+    """(declaration of the member's gradient blocks, lines adding them into g) of a term.
+
+    Example:
+        >>> c_term_gradient(TermKind.BODY)
+        ('double gb[3];', ('g[3 * i] += gb[0];', 'g[3 * i + 1] += gb[1];', 'g[3 * i + 2] += gb[2];'))
+    """
+    names = ["gb"] if kind.arity == 1 else [f"g{i}" for i in kind.indices]
+    declare = f"double {', '.join(f'{g}[3]' for g in names)};"
+    add = tuple(
+        f"g[3 * {i}{s}] += {g}[{c}];"
+        for g, i in zip(names, kind.indices)
+        for c, s in enumerate(("", " + 1", " + 2"))
+    )
+    return declare, add
+
+
+def c_term_row(t: TermLoop, call: str) -> tuple[str, ...]:
+    """Lines pointing `tab` at member m's row of the term's table (in the context, or computed
+    into a local row by `call` when the context holds none)."""
+    k = t.index
+    return (
+        f"double row[{t.table}];",
+        f"const double *tab = cx->t{k} ? cx->t{k} + {t.table} * m : row;",
+        f"if (!cx->t{k}) {{",
+        f"    {call};",
+        "}",
+    )
+
+
+def c_quad_scatter(t: TermLoop, n: int) -> tuple[str, ...]:
+    """Lines adding member m's coefficients (`row`) into K (`kq`) and b, c (`kb`): local
+    coordinate r is component r % 3 of the member's body r // 3, at u n + body in K."""
+    indices, n3 = t.loop.kind.kind.indices, 3 * n
+
+    def at(r: int) -> str:
+        return f"{r % 3 * n} + {indices[r // 3]}"
+
+    lines = []
+    for slot, r, c in t.quadratic:
+        if r < 0:
+            lines.append(f"kb[{n3}] += row[{slot}];")
+        elif c < 0:
+            lines.append(f"kb[{at(r)}] += row[{slot}];")
+        else:
+            lines.append(f"kq[({at(r)}) * {n3} + {at(c)}] += row[{slot}];")
+            if r != c:
+                lines.append(f"kq[({at(c)}) * {n3} + {at(r)}] += row[{slot}];")
+    return tuple(lines)
 
 
 _C_TYPES = {

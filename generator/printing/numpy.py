@@ -18,10 +18,11 @@ import math
 import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
 
-from s2gen.ir import Call, Kernel, LoopKind, TermLoop
+from s2gen.ir import Call, Kernel, TermLoop
 from s2gen.printing.c import EXACT_INTEGER, ExactIntegers, LiteralError, double_literal
+from s2gen.terms import Enumeration
 
-__all__ = ["PyPrinter", "py_call", "py_kernel", "py_term_setup"]
+__all__ = ["PyPrinter", "py_call", "py_kernel", "py_quad", "py_term_gradient", "py_term_setup"]
 
 
 class PyPrinter(ExactIntegers, NumPyPrinter):
@@ -104,24 +105,74 @@ def py_call(call: Call) -> str:
     return f"_k_{call.kernel}({', '.join(call.py_args)})"
 
 
+def _index_names(t: TermLoop) -> tuple[str, ...]:
+    """The names of a term's member index arrays (T<k>_I, T<k>_J)."""
+    return tuple(f"T{t.index}_{i.upper()}" for i in t.loop.kind.kind.indices)
+
+
 def py_term_setup(t: TermLoop) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """(module-level set-up lines, index array names) of a term: member index arrays (none for
-    cutoff terms, whose pairs are found at each call) and data arrays."""
+    cutoff terms, whose pairs are found at each call) and data arrays.
+
+    Example:
+        >>> from s2gen.ir import Loop, LoopKind
+        >>> py_term_setup(TermLoop(2, Loop(LoopKind.CHAIN, 3), (), "t2_value", "t2_gradient"))
+        (('T2_I = numpy.arange(NBODIES - 1)', 'T2_J = T2_I + 1'), ('T2_I', 'T2_J'))
+    """
     up = f"T{t.index}"
-    kind = t.loop.kind
+    rule = t.loop.kind.rule
+    names = _index_names(t)
     setup: list[str] = []
-    roles = ("I", "J") if kind.pairs else ("I",)
-    if kind.listed:
-        for r, role in enumerate(roles):
+    if rule.enumeration is Enumeration.TABLE:
+        for r, name in enumerate(names):
             idx = ", ".join(str(mem[r]) for mem in t.loop.members)
-            setup.append(f"{up}_{role} = numpy.array([{idx}], dtype=int)")
-    elif kind is LoopKind.BODIES:
-        setup.append(f"{up}_I = numpy.arange(NBODIES)")
-    elif kind is LoopKind.CHAIN:
-        setup += [f"{up}_I = numpy.arange(NBODIES - 1)", f"{up}_J = {up}_I + 1"]
-    elif kind is LoopKind.ALL_PAIRS:
-        setup.append(f"{up}_I, {up}_J = numpy.triu_indices(NBODIES, 1)")
+            setup.append(f"{name} = numpy.array([{idx}], dtype=int)")
+    elif rule.enumeration is Enumeration.SHIFTED:
+        longest = 0 if rule.wrap else max(rule.shifts)
+        first = f"numpy.arange(NBODIES - {longest})" if longest else "numpy.arange(NBODIES)"
+        for name, s in zip(names, rule.shifts):
+            base = first if name == names[0] else names[0]
+            shifted = f"{base} + {s}" if s else base
+            setup.append(
+                f"{name} = ({shifted}) % NBODIES" if rule.wrap and s else f"{name} = {shifted}"
+            )
+    elif rule.enumeration is Enumeration.TRIANGLE:
+        setup.append(f"{', '.join(names)} = numpy.triu_indices(NBODIES, 1)")
     for dname, width, values in t.data:
         arr = f"numpy.array([{', '.join(repr(float(v)) for v in values)}])"
         setup.append(f"{up}_{dname.upper()} = {arr}" + ("" if width == 1 else ".reshape(-1, 3)"))
-    return tuple(setup), tuple(f"{up}_{role}" for role in roles)
+    return tuple(setup), names
+
+
+def py_term_gradient(t: TermLoop, call: str) -> tuple[str, ...]:
+    """Lines adding a term's member gradients, computed by `call`, into g (rows by body)."""
+    names = _index_names(t)
+    if len(names) == 1:
+        return (f"numpy.add.at(g, {names[0]}, {call})",)
+    blocks = [f"g{i}" for i in t.loop.kind.kind.indices]
+    return (
+        f"{', '.join(blocks)} = {call}",
+        *(f"numpy.add.at(g, {name}, {b})" for name, b in zip(names, blocks)),
+    )
+
+
+def py_quad(t: TermLoop, call: str, n: int) -> tuple[str, ...]:
+    """Lines adding one quadratic term's members, coefficients from `call`, into K (`kq`) and
+    b, c (`kb`), component-major: local coordinate r at u n + body."""
+    index = _index_names(t)
+
+    def at(r: int) -> str:
+        return f"{r % 3 * n} + {index[r // 3]}"
+
+    lines = [f"coef = {call}"]
+    for slot, r, c in t.quadratic:
+        value = f"numpy.broadcast_to(coef[..., {slot}], {index[0]}.shape)"
+        if r < 0:
+            lines.append(f"kb[-1] += float(numpy.sum({value}))")
+        elif c < 0:
+            lines.append(f"numpy.add.at(kb, {at(r)}, {value})")
+        else:
+            lines.append(f"numpy.add.at(kq, ({at(r)}, {at(c)}), {value})")
+            if r != c:
+                lines.append(f"numpy.add.at(kq, ({at(c)}, {at(r)}), {value})")
+    return tuple(lines)

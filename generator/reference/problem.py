@@ -19,6 +19,7 @@ import sympy as sp
 
 from s2gen.symbols import q_symbols
 from s2gen.system import System, Term
+from s2gen.terms import Selection
 
 __all__ = ["Array", "GradFn", "PotentialFn", "ReferenceProblem", "problem_from_system"]
 
@@ -175,16 +176,23 @@ def _general_part(
 
 
 def _term_indices(term: Term, n: int) -> tuple[Array, ...]:
-    """0-based body index arrays of a term's members, one per role, in `member_list` order."""
-    if term.select == "list":
+    """0-based body index arrays of a term's members, one per role, in loop order (written
+    here from the definition of each selection, independently of `s2gen.terms`)."""
+    selection = term.selection
+    if selection.listed:
         members = np.array(term.members, dtype=np.intp).reshape(len(term.members), -1)
         return tuple(np.ascontiguousarray(members[:, r]) for r in range(members.shape[1]))
-    if term.kind == "body":
+    if selection is Selection.BODIES:
         return (np.arange(n, dtype=np.intp),)
-    if term.select == "chain":
+    if selection is Selection.CHAIN:
         return np.arange(n - 1, dtype=np.intp), np.arange(1, n, dtype=np.intp)
-    i, j = np.triu_indices(n, k=1)  # row-major i < j: the order of Term.member_list
-    return i.astype(np.intp), j.astype(np.intp)
+    if selection is Selection.RING:
+        i = np.arange(n, dtype=np.intp)
+        return i, np.roll(i, -1)  # (1, 2), ..., (n - 1, n), (n, 1)
+    if selection in (Selection.ALL_PAIRS, Selection.CUTOFF_PAIRS):
+        i, j = np.triu_indices(n, k=1)  # row-major i < j
+        return i.astype(np.intp), j.astype(np.intp)
+    raise ValueError(f"{term.label}: the reference has no enumeration of {selection}")
 
 
 @dataclass(frozen=True)

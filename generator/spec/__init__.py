@@ -32,6 +32,7 @@ one-body and pair terms, each a sum of one expression over its members::
     [[potential.pair]]       # a pair term, in the pair's vectors qi and qj
     V = "k/2*(norm(r + l/2*qj - l/2*qi) - norm(r))**2"
     pairs = [[1, 2], [2, 3], [3, 4], [4, 1]]   # or "chain" (i, i+1) or "all" (every i < j)
+                             # or "ring" (the chain and (n, 1); this list for n = 4; n >= 3)
     [potential.pair.data]    # per-pair data (not with pairs = "all": use a parameter there)
     k = [10, 20, 30, 40]
     r = [[0.1, 0, 0], [0, -0.1, 0], [-0.1, 0, 0], [0, 0.1, 0]]
@@ -85,8 +86,6 @@ import sympy as sp
 from s2gen.spec.inertia import chain_inertia
 from s2gen.spec.parser import RESERVED_NAMES, parse_expression
 from s2gen.spec.tables import (
-    _BODY,
-    _PAIR,
     _bodies,
     _check_keys,
     _inertia,
@@ -94,9 +93,10 @@ from s2gen.spec.tables import (
     _parameters,
     _potential,
     _run_settings,
-    _terms,
 )
+from s2gen.spec.term_tables import _terms
 from s2gen.system import INERTIA_SOLVERS, RunSettings, SpecError, System, shown
+from s2gen.terms import TermKind
 
 __all__ = [
     "RESERVED_NAMES",
@@ -163,8 +163,8 @@ def define_system(
     matrix = _any_inertia(inertia, diagonal, max_index, scale, inertia_data, n, params, origin)
     general = sp.Integer(0) if potential is None else _potential(potential, n, names, origin)
     terms = [
-        *_terms(body_terms, _BODY, n, params, origin),
-        *_terms(pair_terms, _PAIR, n, params, origin),
+        *_terms(body_terms, TermKind.BODY, n, params, origin),
+        *_terms(pair_terms, TermKind.PAIR, n, params, origin),
     ]
     if potential is None and not terms:
         raise SpecError(

@@ -1,11 +1,10 @@
 """Spec tables and API values, checked one by one and turned into the pieces of a `System`.
 
 Input: the values of one TOML table or `define_system` argument (parameters, bodies, the
-inertia M or its diagonal, the general potential V, [[potential.body]] / [[potential.pair]]
-term tables with their selections and data, [initial] q and omega, [run]) plus the `origin`
-that names the spec in messages.
+inertia M or its diagonal, the general potential V, [initial] q and omega, [run]) plus the
+`origin` that names the spec in messages; the term tables are `s2gen.spec.term_tables`'.
 Output: parameter values (dict), the body count, the SymPy inertia matrix and potential,
-`Term`s (with `TermData`), initial vectors as lists of floats and `RunSettings` (a [run]
+initial vectors as lists of floats and `RunSettings` (a [run]
 method is one of `s2gen.methods.NAMES`); or a `SpecError` naming the file, the table and key
 (list indices 1-based) and the offending item.
 Semantic checks on the whole system (e.g. M positive definite) are `System.create`'s.
@@ -17,16 +16,16 @@ import keyword
 import math
 import numbers
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from typing import Any
 
 import numpy as np
 import sympy as sp
 
 from s2gen.methods import NAMES
-from s2gen.spec.parser import _Q_RESERVED, _ROLES, RESERVED_NAMES, parse_expression
-from s2gen.symbols import local_vector
-from s2gen.system import MAX_BODIES, RunSettings, SpecError, Term, TermData, shown
+from s2gen.spec.names import _Q_RESERVED, _ROLES, RESERVED_NAMES
+from s2gen.spec.parser import parse_expression
+from s2gen.system import MAX_BODIES, RunSettings, SpecError, shown
 
 
 def _bodies(bodies: Any, origin: str) -> int:
@@ -139,211 +138,6 @@ def _potential(potential: Any, n: int, names: Sequence[str], origin: str) -> sp.
     )
 
 
-# ---------------------------------------------------------------------- structured potentials
-@dataclass(frozen=True)
-class _TermKind:
-    """How one kind of term is written: its table, selection key, own vectors and selections."""
-
-    kind: str  # "body" or "pair" (Term.kind)
-    table: str  # the TOML array of tables, also the label prefix
-    select_key: str
-    roles: tuple[str, ...]
-    selections: tuple[str, ...]
-    options: str  # what the selection may be, for messages
-    default: str | None  # the selection when the key is omitted (None: required)
-
-
-_BODY = _TermKind(
-    "body",
-    "[[potential.body]]",
-    "bodies",
-    ("q",),
-    ("all",),
-    '"all" or a list of body indices',
-    "all",
-)
-_PAIR = _TermKind(
-    "pair",
-    "[[potential.pair]]",
-    "pairs",
-    ("qi", "qj"),
-    ("all", "chain"),
-    '"all", "chain" or a list of pairs [i, j] of body indices',
-    None,
-)
-
-
-def _terms(
-    entries: Any, kind: _TermKind, n: int, params: Mapping[str, float], origin: str
-) -> list[Term]:
-    """The terms of one kind (None: none), labelled "[[potential.body]] #k" (k from 1)."""
-    if entries is None:
-        return []
-    if isinstance(entries, (Mapping, str, bytes)) or not isinstance(entries, Sequence):
-        raise SpecError(
-            f"{origin}: {kind.table}: expected a list of term tables (in TOML an array of "
-            f"tables, written {kind.table}), got {shown(entries)}"
-        )
-    return [_term(entry, kind, k + 1, n, params, origin) for k, entry in enumerate(entries)]
-
-
-def _term(
-    entry: Any, kind: _TermKind, k: int, n: int, params: Mapping[str, float], origin: str
-) -> Term:
-    """One term table: its key V, its selection and its per-member data."""
-    label = f"{kind.table} #{k}"
-    where = f"{origin}: {label}"
-    if not isinstance(entry, Mapping):
-        raise SpecError(
-            f"{where}: expected a table (V, {kind.select_key}, data), got {shown(entry)}"
-        )
-    allowed = ("V", kind.select_key, "data") + (("cutoff",) if kind.kind == "pair" else ())
-    _check_keys(entry, allowed, where)
-    for key in ("V", kind.select_key):
-        if key not in entry and not (key == kind.select_key and kind.default):
-            raise SpecError(f"{where}: missing required key {shown(key)}")
-    for role in kind.roles:
-        if role in params:
-            raise SpecError(
-                f"{where}: the parameter {shown(role)} clashes with the term's own vector {role} "
-                "(rename the parameter)"
-            )
-    select, members = _selection(entry.get(kind.select_key, kind.default), kind, n, where)
-    count = Term(kind.kind, sp.Integer(0), select, members).count(n)
-    data = _term_data(entry.get("data"), kind, select, count, params, where)
-    _check_symbols(kind, data, params, where)
-    local = {**{role: 3 for role in kind.roles}, **{d.name: d.width for d in data}}
-    expr = _term_expression(entry["V"], kind, n, local, params, f"{where} V")
-    cutoff = None
-    if entry.get("cutoff") is not None:
-        cutoff = _number(entry["cutoff"], f"{where} cutoff", params)
-        if not cutoff > 0.0 or select != "all":
-            raise SpecError(
-                f"{where} cutoff: must be a positive distance, on a term over all pairs "
-                f"(got {shown(entry['cutoff'])} with pairs = {shown(select)})"
-            )
-    return Term(kind.kind, expr, select, members, data, label, cutoff)
-
-
-def _selection(
-    value: Any, kind: _TermKind, n: int, where: str
-) -> tuple[str, tuple[tuple[int, ...], ...]]:
-    """The selection key: a named selection, or a list of members (1-based -> 0-based)."""
-    where = f"{where} {kind.select_key}"
-    if isinstance(value, str) and value in kind.selections:
-        return value, ()
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
-    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or not value:
-        raise SpecError(f"{where}: expected {kind.options} 1..{n}, got {shown(value)}")
-    return "list", tuple(
-        _member(item, kind, n, f"{where}[{m + 1}]") for m, item in enumerate(value)
-    )
-
-
-def _member(item: Any, kind: _TermKind, n: int, where: str) -> tuple[int, ...]:
-    """One listed body (i,) or pair (i, j), 0-based."""
-    if kind.kind == "body":
-        return (_body_index(item, n, where) - 1,)
-    if isinstance(item, np.ndarray):
-        item = item.tolist()
-    if isinstance(item, (str, bytes)) or not isinstance(item, Sequence) or len(item) != 2:
-        raise SpecError(
-            f"{where}: expected a pair [i, j] of body indices 1..{n}, got {shown(item)}"
-        )
-    i, j = (_body_index(b, n, where) for b in item)
-    if i == j:
-        raise SpecError(f"{where}: the pair [{i}, {j}] joins body {i} with itself")
-    return (i - 1, j - 1)
-
-
-def _body_index(value: Any, n: int, where: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise SpecError(f"{where}: expected a body index 1..{n}, got {shown(value)}")
-    value = int(value)
-    if not 1 <= value <= n:
-        hint = " (indices are 1-based)" if value == 0 else ""
-        raise SpecError(f"{where}: body {value} is not one of 1..{n}{hint}")
-    return value
-
-
-def _term_data(
-    data: Any,
-    kind: _TermKind,
-    select: str,
-    count: int,
-    params: Mapping[str, float],
-    where: str,
-) -> tuple[TermData, ...]:
-    """The data table: name = one number or 3-vector per member."""
-    if data is None:
-        return ()
-    if not isinstance(data, Mapping):
-        raise SpecError(
-            f"{where} data: expected a table of name = list of values, got {shown(data)}"
-        )
-    return tuple(
-        _datum(name, values, kind, select, count, params, f"{where} data.{_key(name)}")
-        for name, values in data.items()
-    )
-
-
-def _datum(
-    name: Any,
-    values: Any,
-    kind: _TermKind,
-    select: str,
-    count: int,
-    params: Mapping[str, float],
-    where: str,
-) -> TermData:
-    """One datum: its name checked, one value per member, all numbers or all 3-vectors."""
-    _check_data_name(name, params, where)
-    if kind.kind == "pair" and select == "all":
-        raise SpecError(
-            f'{where}: per-pair data need an explicit list of pairs or "chain" '
-            '(with pairs = "all", a value common to all pairs is a parameter)'
-        )
-    member = {"all": "body", "chain": "pair of the chain"}.get(select, f"listed {kind.kind}")
-    entries = _rows(values, count, where, f"values (one per {member})")
-    widths = [_entry_width(entry, f"{where}[{m + 1}]") for m, entry in enumerate(entries)]
-    for m, width in enumerate(widths):
-        if width != widths[0]:
-            kinds = {1: "a number", 3: "a 3-vector"}
-            raise SpecError(
-                f"{where}[{m + 1}]: {kinds[width]}, but entry 1 is {kinds[widths[0]]} "
-                "(a datum is all numbers or all 3-vectors)"
-            )
-    flat = [
-        _number(value, f"{where}[{m + 1}]" + (f"[{c + 1}]" if width == 3 else ""), params)
-        for m, (entry, width) in enumerate(zip(entries, widths))
-        for c, value in enumerate(_vector_items(entry) or [entry])
-    ]
-    return TermData(name, widths[0] if widths else 1, tuple(flat))
-
-
-def _entry_width(entry: Any, where: str) -> int:
-    """1 for a scalar entry, 3 for a 3-vector; anything else is an error."""
-    if isinstance(entry, (str, sp.Expr)) or (
-        isinstance(entry, numbers.Real) and not isinstance(entry, bool)
-    ):
-        return 1
-    items = _vector_items(entry)
-    if items is not None and len(items) == 3:
-        return 3
-    got = repr(entry) if items is None else f"a list of {len(items)}"
-    raise SpecError(f"{where}: expected a number or a 3-vector, got {got}")
-
-
-def _vector_items(entry: Any) -> list[Any] | None:
-    """The components of a list-like entry (None if it is not one)."""
-    if isinstance(entry, (np.ndarray, sp.MatrixBase)):
-        return list(np.asarray(entry, dtype=object).ravel())
-    if isinstance(entry, Sequence) and not isinstance(entry, (str, bytes)):
-        return list(entry)
-    return None
-
-
 def _check_data_name(name: Any, params: Mapping[str, float], where: str) -> None:
     if not isinstance(name, str) or not name.isidentifier() or not name.isascii():
         raise SpecError(f"{where}: data name {shown(name)} is not an identifier")
@@ -362,65 +156,6 @@ def _check_data_name(name: Any, params: Mapping[str, float], where: str) -> None
             f"{where}: data name {shown(name)} is a reserved name (q1.., e1..e3, pi and the "
             "function names have fixed meanings)"
         )
-
-
-def _check_symbols(
-    kind: _TermKind, data: Sequence[TermData], params: Mapping[str, float], where: str
-) -> None:
-    """No two of the parameters, the term's own vectors and its data may share a SymPy
-    symbol (a vector datum r owns r_0, r_1, r_2; the vector q owns q_0, q_1, q_2)."""
-    owners = {p: f"the parameter {shown(p)}" for p in params}
-    claims = [(s.name, f"the term's vector {r}") for r in kind.roles for s in local_vector(r)]
-    claims += [(s.name, f"the datum {shown(d.name)}") for d in data for s in d.symbols()]
-    for symbol, owner in claims:
-        if symbol in owners:
-            raise SpecError(
-                f"{where}: {owner} uses the symbol {symbol}, which is also {owners[symbol]} "
-                "(rename one of them)"
-            )
-        owners[symbol] = owner
-
-
-def _term_expression(
-    value: Any,
-    kind: _TermKind,
-    n: int,
-    local: Mapping[str, int],
-    params: Mapping[str, float],
-    where: str,
-) -> sp.Expr:
-    """A term's V: a string in its local names, or a SymPy scalar in their symbols."""
-    if isinstance(value, str):
-        return parse_expression(value, n=n, parameters=list(params), where=where, local=local)
-    if isinstance(value, sp.MatrixBase):
-        raise SpecError(f"{where}: the term is a {value.shape} matrix, not a scalar")
-    if not isinstance(value, sp.Expr) and (
-        isinstance(value, bool) or not isinstance(value, numbers.Real)
-    ):
-        raise SpecError(
-            f"{where}: expected an expression string or a SymPy scalar, got {shown(value)}"
-        )
-    expr = _scalar(value, where, list(params))
-    own = " and ".join(kind.roles)
-    names = {s.name for s in expr.free_symbols}
-    global_q = sorted(name for name in names if _Q_RESERVED.fullmatch(name))
-    if global_q:
-        raise SpecError(
-            f"{where}: the global positions {', '.join(global_q)} are not allowed in a term "
-            f"expression (a term sees only its own vectors, here {own})"
-        )
-    allowed = {s.name for name, width in local.items() for s in _local_symbols(name, width)}
-    extra = sorted(names - allowed - set(params))
-    if extra:
-        raise SpecError(
-            f"{where}: depends on {', '.join(extra)}, which is not one of the term's vectors "
-            f"({own}), its data or a parameter"
-        )
-    return expr
-
-
-def _local_symbols(name: str, width: int) -> tuple[sp.Symbol, ...]:
-    return local_vector(name) if width == 3 else (sp.Symbol(name, real=True),)
 
 
 def _initial(

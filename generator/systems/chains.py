@@ -29,6 +29,7 @@ import sympy as sp
 from s2gen.inertia import ChainInertia
 from s2gen.symbols import vector
 from s2gen.system import INERTIA_SOLVERS, RunSettings, System, Term, TermData
+from s2gen.terms import TermKind
 
 __all__ = ["default_step", "rope"]
 
@@ -108,12 +109,14 @@ def rope(
     )
     q, qi, qj = vector("q"), vector("qi"), vector("qj")
     gravity = Term(
-        "body",
+        TermKind.BODY,
         m * g * L * w_s * q[2],
         data=(TermData("w", 1, tuple(lam * tail)),),
         label="gravity",
     )
-    bending = Term("pair", kappa_s * (1 - qi.dot(qj)), select="chain", label="bending springs")
+    bending = Term(
+        TermKind.PAIR, kappa_s * (1 - qi.dot(qj)), select="chain", label="bending springs"
+    )
     angle = math.radians(angle_deg)
     q0 = np.tile([math.sin(angle), 0.0, -math.cos(angle)], (n, 1))
     options = f"n={n}" + ("" if solver == "auto" else f", solver={solver!r}")

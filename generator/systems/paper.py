@@ -26,6 +26,7 @@ from s2gen.inertia import INDEX, ChainInertia
 from s2gen.symbols import vector
 from s2gen.system import INERTIA_SOLVERS, RunSettings, System, Term, TermData
 from s2gen.systems.meshes import icosphere, nearest_neighbour_distance
+from s2gen.terms import TermKind
 
 __all__ = [
     "DIPOLE_NUMBERINGS",
@@ -71,7 +72,7 @@ def three_bodies() -> System:
     """
     m, gamma = _sym("m"), _sym("gamma")
     c = vector("qi").dot(vector("qj"))
-    term = Term("pair", -gamma * c / sp.sqrt(1 - c**2), label="cotangent attraction")
+    term = Term(TermKind.PAIR, -gamma * c / sp.sqrt(1 - c**2), label="cotangent attraction")
     return System.create(
         name="three_bodies",
         n=3,
@@ -101,13 +102,13 @@ def four_pendula() -> System:
     """
     m, l, g, kappa = _sym("m"), _sym("l"), _sym("g"), _sym("kappa")
     q, qi, qj, r = vector("q"), vector("qi"), vector("qj"), vector("r")
-    gravity = Term("body", -m * g * l * q[2], label="gravity")
+    gravity = Term(TermKind.BODY, -m * g * l * q[2], label="gravity")
     stretch = sp.sqrt((l * r + l / 2 * (qj - qi)).dot(l * r + l / 2 * (qj - qi))) - l * sp.sqrt(
         r.dot(r)
     )
     offsets = ((1, 0, 0), (0, -1, 0), (-1, 0, 0), (0, 1, 0))  # r_ij in units of l
     springs = Term(
-        "pair",
+        TermKind.PAIR,
         kappa / 2 * stretch**2,
         select="list",
         members=((0, 1), (1, 2), (2, 3), (3, 0)),
@@ -194,13 +195,13 @@ def elastic_rod(n: int = 10, inertia: str = "paper", solver: str = "auto") -> Sy
     q, qi, qj, w, clamp = vector("q"), vector("qi"), vector("qj"), _sym("w"), vector("clamp")
     # sum_i m_i g (sum_{j<i} l_j q_j + l_i q_i / 2).e3 = m g l/(n+1)^2 sum_j (n - j + 1/2) q_j.e3
     gravity = Term(
-        "body",
+        TermKind.BODY,
         -m * g * l / (n + 1) ** 2 * w * q[2],
         data=(TermData("w", 1, tuple(n - j + 0.5 for j in range(1, n + 1))),),
         label="gravity",
     )
     first = Term(
-        "body",
+        TermKind.BODY,
         kappa / 2 * (1 - clamp.dot(q)) ** 2,
         select="list",
         members=((0,),),
@@ -208,7 +209,7 @@ def elastic_rod(n: int = 10, inertia: str = "paper", solver: str = "auto") -> Sy
         label="clamp spring",
     )
     bending = Term(
-        "pair", kappa / 2 * (1 - qi.dot(qj)) ** 2, select="chain", label="bending springs"
+        TermKind.PAIR, kappa / 2 * (1 - qi.dot(qj)) ** 2, select="chain", label="bending springs"
     )
     omega0 = np.zeros((n, 3))
     omega0[min(5, n) - 1] = (0.0, 0.0, 10.0)
@@ -288,7 +289,7 @@ def dipoles(plane: str = "xy", numbering: str = "row") -> System:
     pairs = tuple((i, j) for i in range(16) for j in range(i + 1, 16))
     offsets = tuple(float(x) for i, j in pairs for x in pos[j] - pos[i])
     term = Term(
-        "pair",
+        TermKind.PAIR,
         energy,
         select="list",
         members=pairs,
@@ -429,7 +430,7 @@ def lennard_jones_system(
     m, eps, sg = _sym("m"), _sym("eps"), _sym("sigma")
     d = vector("qi") - vector("qj")
     s6 = (sg**2 / d.dot(d)) ** 3
-    lj = Term("pair", 4 * eps * (s6**2 - s6), label="Lennard-Jones", cutoff=cutoff)
+    lj = Term(TermKind.PAIR, 4 * eps * (s6**2 - s6), label="Lennard-Jones", cutoff=cutoff)
     n = len(q0)
     return System.create(
         name=name,

@@ -1,0 +1,128 @@
+"""Print a module's structured terms: their loops, calls, tables and gradient scatters.
+
+Input: a lowered `Module`, one of its `TermLoop`s and the printed call sites (site ->
+{"c": ..., "py": ...}). Output: a `PrintedTerm` per term (and the quadratic terms' K
+assembly), built from the C printer's and the NumPy printer's term functions; the loop shape
+follows the term's `s2gen.terms.Selection`.
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> from s2gen.passes import lower_system
+    >>> from s2gen.printing import print_module
+    >>> print_module(lower_system(builtin("dipoles"))).terms[0].doc
+    'term 0, dipole-dipole: sum over pairs (list)'
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from s2gen.ir import Kernel, Module, TermLoop
+from s2gen.printing.c import c_inline, c_loop, c_quad_scatter, c_term_gradient, c_term_row
+from s2gen.printing.numpy import py_quad, py_term_gradient, py_term_setup
+
+__all__ = ["PrintedTerm", "print_term", "py_quad_lines", "quad_init"]
+
+
+@dataclass(frozen=True)
+class PrintedTerm:
+    """A structured term as text: its loop, the calls it makes and how gradients accumulate.
+
+    C: `c_open`/`c_close` bracket a member loop (m the member, i and j its bodies), or
+    `c_*_part` name the cell-list partials of a cutoff term. NumPy: `py_setup` defines index and
+    data arrays, `py_index` names the index arrays used to scatter gradients.
+    """
+
+    index: int
+    doc: str
+    count: int
+    c_open: tuple[str, ...]
+    c_close: tuple[str, ...]
+    c_value_part: str
+    c_gradient_part: str
+    layout: str  # "rows", "quadratic" (in K), "cutoff" or "" (the member loop): its partials
+    c_value_call: str
+    c_gradient_call: str
+    c_table_lines: tuple[str, ...]
+    c_rows_value: tuple[str, ...]  # the kernels inline, for the rows layout
+    c_rows_gradient: tuple[str, ...]
+    c_rows_constants: tuple[str, ...]  # the context constants they read (c<k>)
+    c_rows_constants_gradient: tuple[str, ...]
+    c_gradient_locals: str
+    c_gradient_accumulate: tuple[str, ...]
+    py_setup: tuple[str, ...]
+    py_value_part: str
+    py_gradient_part: str
+    py_value_call: str
+    py_gradient_call: str
+    py_gradient_accumulate: tuple[str, ...]
+    py_index: tuple[str, ...]
+    cutoff: str  # round-trip literal of the cutoff distance ("" without cutoff)
+    rc2: str  # its square
+    cells: int  # neighbour-list cells per axis
+
+
+def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTerm:
+    """One term of `module` as text for both languages (`calls`: the printed call sites)."""
+    selection = t.loop.kind
+    fixed = selection.fixed
+    c_open, c_close = c_loop(module.name, t, module.n) if fixed else ((), ())
+    locals_, acc = c_term_gradient(selection.kind)
+    setup, index = py_term_setup(t)
+    value, gradient = calls[f"t{t.index}_value"], calls[f"t{t.index}_gradient"]
+    suffix = "_cutoff" if not fixed else "_quadratic" if t.quadratic else "_rows" if t.rows else ""
+    rows_value = rows_gradient = constants_value = constants_gradient = ()
+    if t.rows:
+        value_kernel, gradient_kernel = module.kernel(t.value), module.kernel(t.gradient)
+        assert isinstance(value_kernel, Kernel) and isinstance(gradient_kernel, Kernel)
+        constants_value, rows_value = c_inline(value_kernel)
+        constants_gradient, rows_gradient = c_inline(gradient_kernel)
+    label = module.kernel(t.value).doc.split(":")[0]
+    table_lines = c_term_row(t, calls[f"t{t.index}_table"]["c"]) if t.table else ()
+    return PrintedTerm(
+        index=t.index,
+        doc=f"term {t.index}, {label}: {selection.doc}",
+        count=t.loop.count,
+        c_open=c_open,
+        c_close=c_close,
+        layout=suffix[1:],
+        c_value_part=f"c/_term_value{suffix}.jinja",
+        c_gradient_part=f"c/_term_gradient{suffix}.jinja",
+        c_value_call=value["c"],
+        c_gradient_call=gradient["c"],
+        c_table_lines=table_lines,
+        c_rows_value=rows_value,
+        c_rows_gradient=rows_gradient,
+        c_rows_constants=constants_value,
+        c_rows_constants_gradient=constants_gradient,
+        c_gradient_locals=locals_,
+        c_gradient_accumulate=acc,
+        py_setup=setup,
+        py_value_part=f"numpy/_term_value{suffix}.jinja",
+        py_gradient_part=f"numpy/_term_gradient{suffix}.jinja",
+        py_value_call=value["py"],
+        py_gradient_call=gradient["py"],
+        py_gradient_accumulate=py_term_gradient(t, gradient["py"]),
+        py_index=index,
+        cutoff="" if t.loop.cutoff is None else repr(float(t.loop.cutoff)),
+        rc2="" if t.loop.cutoff is None else repr(float(t.loop.cutoff) ** 2),
+        cells=t.loop.cells,
+    )
+
+
+def quad_init(module: Module, t: TermLoop, calls: dict[str, Any]) -> dict[str, Any]:
+    """C text adding one quadratic term's members into K and b (once per call)."""
+    c_open, c_close = c_loop(module.name, t, module.n)
+    return {
+        "c_open": c_open,
+        "c_close": c_close,
+        "slots": len(t.quadratic),
+        "call": calls[f"t{t.index}_quad"]["c"],
+        "scatter": c_quad_scatter(t, module.n),
+    }
+
+
+def py_quad_lines(t: TermLoop, calls: dict[str, Any], n: int) -> tuple[str, ...]:
+    """NumPy lines adding one quadratic term's members into K and kb (component-major)."""
+    return py_quad(t, calls[f"t{t.index}_quad"]["py"], n)
