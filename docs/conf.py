@@ -16,7 +16,7 @@ sys.path.insert(0, str(HERE / "_ext"))
 
 project = "s2gen"
 author = "the s2gen authors"
-copyright = "the s2gen authors"  # noqa: A001 (Sphinx's name)
+copyright = "the s2gen authors"
 release = s2gen.__version__
 version = release
 
@@ -27,6 +27,7 @@ extensions = [
     "sphinx.ext.mathjax",
     "sphinx_gallery.gen_gallery",
     "s2gen_capi",
+    "s2gen_docstrings",
     "s2gen_run",
     "s2gen_tables",
 ]
@@ -44,8 +45,15 @@ autodoc_typehints = "signature"
 autodoc_default_options = {"members": True, "show-inheritance": False}
 autosummary_generate = False
 
-exclude_patterns = ["_build", "paper-setup.md", "auto_examples/*.ipynb", "auto_examples/*.py",
-                    "auto_examples/*.zip", "auto_examples/*.md5", "auto_examples/*.pickle"]
+exclude_patterns = [
+    "_build",
+    "paper-setup.md",
+    "auto_examples/*.ipynb",
+    "auto_examples/*.py",
+    "auto_examples/*.zip",
+    "auto_examples/*.md5",
+    "auto_examples/*.pickle",
+]
 templates_path: list[str] = []
 
 sphinx_gallery_conf = {

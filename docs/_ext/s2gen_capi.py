@@ -14,15 +14,15 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from sphinx.util.docutils import SphinxDirective
-
 from s2gen.interface import Field, Function, Interface, Kind, interface
 from s2gen.ir import ModuleKind
 from s2gen.methods import CONTROLS, METHODS, Status
 from s2gen.printing.c import c_decl, c_field_decl, nullable_note
 
-#: The prefix shown for a module's name (the spec's `name`; upper case for constants).
+#: The prefix shown for a module's name (the spec's `name`; upper case for constants); the
+#: angle module of a system is called NAME_angles.
 PREFIX = "NAME"
+PREFIXES = {ModuleKind.SPHERE: PREFIX, ModuleKind.ANGLES: f"{PREFIX}_angles"}
 
 _KIND_WORDS = {
     Kind.DOUBLE: "a double",
@@ -79,15 +79,18 @@ def _table(title: str, header: tuple[str, ...], rows: list[tuple[str, ...]]) -> 
     return [*out, ""]
 
 
-def _function(f: Function) -> list[str]:
-    decl = " ".join(part.strip() for part in c_decl(PREFIX, f).splitlines())
+def _function(f: Function, prefix: str, sizes: dict[str, str]) -> list[str]:
+    decl = " ".join(part.strip() for part in c_decl(prefix, f).splitlines())
     note = nullable_note(f.params)
     doc = f.doc + (" " + note if note and "NULL" not in f.doc else "")
     out = [f".. c:function:: {decl}", "", f"   {esc(doc)}", ""]
     for p in f.params:
-        words = _KIND_WORDS[p.kind]
-        size = _SIZES.get(p.name)
-        text = words + (f" of {size}" if size and p.kind in (Kind.CONST_ARRAY, Kind.ARRAY) else "")
+        size = sizes.get(p.name)
+        text = _KIND_WORDS[p.kind]
+        if size and p.kind is Kind.CONST_ARRAY:
+            text = f"input, {size}"
+        elif size and p.kind is Kind.ARRAY:
+            text = f"{'workspace' if p.name == 'work' else 'output'}, {size}"
         if p.nullable:
             text += "; may be NULL"
         out.append(f"   :param {p.name}: {text}")
@@ -97,13 +100,17 @@ def _function(f: Function) -> list[str]:
     return [*out, ""]
 
 
-def _struct(name: str, fields: tuple[Field, ...], what: str) -> list[str]:
-    out = [f".. c:struct:: {PREFIX}_{name}", "", f"   {what}", ""]
+def _struct(
+    name: str, fields: tuple[Field, ...], what: str, prefix: str, defaults: bool
+) -> list[str]:
+    upper = prefix.upper()
+    out = [f".. c:struct:: {prefix}_{name}", "", f"   {what}", ""]
     for f in fields:
-        default = f"{PREFIX}_{f.default}" if f.default.startswith("CONTROL_") else f.default
-        doc = f.doc.replace("CONTROL_", f"{PREFIX}_CONTROL_")
-        out += [f"   .. c:member:: {c_field_decl(PREFIX, f)}", "", f"      {esc(doc)}", ""]
-        out += [f"      Default: ``{default}``.", ""]
+        default = f"{upper}_{f.default}" if f.default.startswith("CONTROL_") else f.default
+        doc = f.doc.replace("CONTROL_", f"{upper}_CONTROL_")
+        out += [f"   .. c:member:: {c_field_decl(prefix, f)}", "", f"      {esc(doc)}", ""]
+        if defaults:
+            out += [f"      Default: ``{default}``.", ""]
     return out
 
 
@@ -113,48 +120,67 @@ def c_api_rst(kind: ModuleKind) -> str:
     Example:
         >>> "NAME_integrate" in c_api_rst(ModuleKind.SPHERE)
         True
+        >>> "NAME_angles_to_sphere" in c_api_rst(ModuleKind.ANGLES)
+        True
     """
     api: Interface = interface(kind)
+    prefix = PREFIXES[kind]
+    upper = prefix.upper()
+    sizes = _SIZES if kind is ModuleKind.SPHERE else {"work": f"{upper}_WORK_SIZE doubles"}
     lines: list[str] = []
     lines += _table(
         "Status codes (``enum``)",
         ("constant", "value", "meaning"),
-        [(f"``{PREFIX}_{s.c_name}``", str(int(s)), esc(s.message)) for s in _statuses(kind)],
+        [(f"``{upper}_{s.c_name}``", str(int(s)), esc(s.message)) for s in _statuses(kind)],
     )
     lines += _table(
         "Methods (``enum``; the ``method`` argument)",
         ("constant", "value", "order", "what it is"),
-        [(f"``{PREFIX}_{m.c_name}``", str(m.code), str(m.order), esc(m.summary)) for m in _methods(kind)],
+        [
+            (f"``{upper}_{m.c_name}``", str(m.code), str(m.order), esc(m.summary))
+            for m in _methods(kind)
+        ],
     )
     lines += _table(
         "RK45 error control (``enum``; the ``control`` option)",
         ("constant", "value"),
-        [(f"``{PREFIX}_CONTROL_{c.upper()}``", str(k)) for k, c in enumerate(CONTROLS)],
+        [(f"``{upper}_CONTROL_{c.upper()}``", str(k)) for k, c in enumerate(CONTROLS)],
     )
     lines += _struct(
         "options",
         api.options,
-        f"Integrator options; ``{PREFIX}_default_options`` fills it with the defaults below.",
+        f"Integrator options; ``{prefix}_default_options`` fills it with the defaults below.",
+        prefix,
+        defaults=True,
     )
-    lines += _struct("stats", api.stats, "What a call of ``integrate`` did (may be NULL).")
+    lines += _struct(
+        "stats",
+        api.stats,
+        "What a call of ``integrate`` did; ``integrate`` fills it (the pointer may be NULL).",
+        prefix,
+        defaults=False,
+    )
     for f in api.functions:
-        lines += _function(f)
+        lines += _function(f, prefix, sizes)
     return "\n".join(lines) + "\n"
 
 
-class CApiDirective(SphinxDirective):
-    """``.. s2gen-c-api:: sphere|angles``: the generated C reference of that module kind."""
-
-    required_arguments = 1
-
-    def run(self) -> list[Any]:
-        kinds = {"sphere": ModuleKind.SPHERE, "angles": ModuleKind.ANGLES}
-        kind = kinds.get(self.arguments[0])
-        if kind is None:
-            raise self.error(f"unknown module kind {self.arguments[0]!r}; use sphere or angles")
-        return self.parse_text_to_nodes(c_api_rst(kind))
-
-
 def setup(app: Any) -> dict[str, Any]:
+    """Register ``.. s2gen-c-api:: sphere|angles`` (Sphinx is imported here only, so that the
+    tests can call `c_api_rst` without it)."""
+    from sphinx.util.docutils import SphinxDirective
+
+    class CApiDirective(SphinxDirective):
+        """``.. s2gen-c-api:: sphere|angles``: the generated C reference of that module kind."""
+
+        required_arguments = 1
+
+        def run(self) -> list[Any]:
+            kinds = {"sphere": ModuleKind.SPHERE, "angles": ModuleKind.ANGLES}
+            kind = kinds.get(self.arguments[0])
+            if kind is None:
+                raise self.error(f"unknown module kind {self.arguments[0]!r}; use sphere or angles")
+            return self.parse_text_to_nodes(c_api_rst(kind))
+
     app.add_directive("s2gen-c-api", CApiDirective)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

@@ -6,7 +6,8 @@ output, and the one-line message of an exception when ``:raises:`` names its cla
 exception fails the build, so a page can never show output its code no longer gives.
 
 Options: ``:raises: SpecError`` (the block must raise that exception; its message is shown),
-``:hide-code:`` (only the output), ``:language: toml`` with ``:file: NAME`` (the content is
+``:hide-code:`` (only the output), ``:image: NAME.png`` (a figure the code wrote in the scratch
+folder, shown after the output), ``:language: toml`` with ``:file: NAME`` (the content is
 written to NAME in the scratch folder and shown as a file, nothing runs).
 """
 
@@ -15,10 +16,12 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import shutil
 import tempfile
 import textwrap
 import traceback
-from typing import Any
+from pathlib import Path
+from typing import Any, ClassVar
 
 from docutils import nodes
 from docutils.parsers.rst import directives
@@ -56,7 +59,7 @@ def run_block(code: str, namespace: dict[str, Any], folder: str, raises: str = "
             + code
             + "\n"
             + "".join(traceback.format_exception(exc))
-        ) from None
+        ) from exc
     finally:
         os.chdir(before)
     if raises:
@@ -68,11 +71,12 @@ class RunDirective(SphinxDirective):
     """Show Python code and run it, showing its output."""
 
     has_content = True
-    option_spec = {
+    option_spec: ClassVar[dict[str, Any]] = {
         "raises": directives.unchanged,
         "hide-code": directives.flag,
         "language": directives.unchanged,
         "file": directives.unchanged,
+        "image": directives.unchanged,
     }
 
     def run(self) -> list[nodes.Node]:
@@ -96,7 +100,19 @@ class RunDirective(SphinxDirective):
             raise self.error(str(exc)) from None
         if output:
             shown.append(nodes.literal_block(output, output, language="text", classes=["output"]))
+        if "image" in self.options:
+            shown.append(self._image(folder, self.options["image"]))
         return shown
+
+    def _image(self, folder: str, name: str) -> nodes.Node:
+        """The figure `name` the block wrote, copied beside the sources (docs/_generated)."""
+        target = (
+            Path(self.env.srcdir) / "_generated" / f"{self.env.docname.replace('/', '-')}-{name}"
+        )
+        target.parent.mkdir(exist_ok=True)
+        shutil.copyfile(Path(folder) / name, target)
+        self.env.note_dependency(str(target))
+        return nodes.image(uri="/" + target.relative_to(self.env.srcdir).as_posix(), width="80%")
 
 
 def _forget(app: Any, env: Any, docnames: Any) -> None:

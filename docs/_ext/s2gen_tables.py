@@ -9,6 +9,7 @@ the built-in systems with their options and defaults (`s2gen.systems`).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from sphinx.util.docutils import SphinxDirective
@@ -23,10 +24,10 @@ MEANINGS: dict[tuple[str, str], str] = {
     ("", "bodies"): f"the number n of bodies, a positive integer (at most {MAX_BODIES:,})",
     ("", "parameters"): "a table ``name = number``; the parameters the expressions may use "
     "(the emitted code takes them as an array, defaults from here)",
-    ("", "inertia"): "the constant inertia matrix M (table below)",
-    ("", "potential"): "the potential V (table below)",
-    ("", "initial"): "the initial state (table below; optional)",
-    ("", "run"): "default run settings (table below; optional)",
+    ("", "inertia"): "the constant inertia matrix M (its keys below)",
+    ("", "potential"): "the potential V (its keys below)",
+    ("", "initial"): "the initial state (its keys below; optional)",
+    ("", "run"): "default run settings (its keys below; optional)",
     ("inertia", "M"): "the n × n entries of M, numbers or expressions in the parameters",
     ("inertia", "diagonal"): "the diagonal of M: a list of n entries, or one expression per "
     "body in ``i`` (1…n), ``n``, the parameters and the data",
@@ -62,7 +63,7 @@ def _row(cells: tuple[str, ...]) -> list[str]:
     return [f"   * - {cells[0]}", *(f"     - {c}" for c in cells[1:])]
 
 
-def _list_table(title: str, header: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
+def _list_table(title: str, header: tuple[str, ...], rows: Sequence[tuple[str, ...]]) -> str:
     lines = [f".. list-table:: {title}", "   :header-rows: 1", ""]
     for cells in (header, *rows):
         lines += _row(cells)
@@ -122,8 +123,14 @@ def methods_rst() -> str:
         )
         for m in METHODS
     ]
-    header = ("method", "order", "gradients per step", "implicit when M is coupled",
-              "backends", "what it is")
+    header = (
+        "method",
+        "order",
+        "gradients per step",
+        "implicit when M is coupled",
+        "backends",
+        "what it is",
+    )
     return _list_table("Methods", header, rows)
 
 

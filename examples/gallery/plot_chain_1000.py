@@ -20,9 +20,11 @@ print(rope.n, "links; inertia:", rope.structure.kind.name, "; default h =", rope
 model = s2gen.compile(rope)
 tr = model.integrate("vi", h=2e-5, T=0.1, every=50)
 stats = tr.stats
-print(f"{stats['steps']} steps in {tr.wall_time:.2f} s "
-      f"({1e3 * tr.wall_time / stats['steps']:.2f} ms per step), "
-      f"{stats['newton_iters'] / stats['steps']:.2f} Newton iterations per step")
+print(
+    f"{stats['steps']} steps in {tr.wall_time:.2f} s "
+    f"({1e3 * tr.wall_time / stats['steps']:.2f} ms per step), "
+    f"{stats['newton_iters'] / stats['steps']:.2f} Newton iterations per step"
+)
 print(f"max |E - E0| = {np.max(np.abs(tr.energy - tr.energy[0])):.2e} J")
 
 # %%

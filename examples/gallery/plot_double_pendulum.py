@@ -27,8 +27,10 @@ par = model.parameters
 unit = par["m1"] * par["g"] * par["l1"]
 for tr in (vi, rk45):
     dE = np.abs(tr.energy - tr.energy[0]) / unit
-    print(f"{tr.method:5s} mean |E - E0| = {dE.mean():.4e}, max = {dE.max():.4e}, "
-          f"steps {tr.stats['steps']}, {1e3 * tr.wall_time:.1f} ms")
+    print(
+        f"{tr.method:5s} mean |E - E0| = {dE.mean():.4e}, max = {dE.max():.4e}, "
+        f"steps {tr.stats['steps']}, {1e3 * tr.wall_time:.1f} ms"
+    )
 
 # %%
 # The energy error against time, and how far each q_i strays from unit length.

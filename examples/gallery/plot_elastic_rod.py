@@ -31,19 +31,21 @@ n = rod.n
 ell = 1.1 / (n + 1)
 fig, (ax_s, ax_e) = plt.subplots(1, 2, figsize=(10, 4))
 for k, t in enumerate((0.0, 0.05, 0.1, 0.2, 0.4)):
-    j = int(round(t / vi.h))
+    j = round(t / vi.h)
     joints = [ell, 0, 0] + ell * np.cumsum(vi.q[j], axis=0)
     points = np.vstack([[0, 0, 0], [ell, 0, 0], joints])
-    ax_s.plot(points[:, 0], points[:, 1], "o-", ms=3, color=plt.cm.viridis(k / 4),
-              label=f"t = {t:g}")
+    ax_s.plot(
+        points[:, 0], points[:, 1], "o-", ms=3, color=plt.cm.viridis(k / 4), label=f"t = {t:g}"
+    )
 ax_s.set_xlabel("x (m)")
 ax_s.set_ylabel("y (m)")
 ax_s.set_aspect("equal")
 ax_s.legend(fontsize=8)
 ax_s.set_title("top view")
 for tr, colour in ((vi, "C0"), (rk45, "C3")):
-    ax_e.semilogy(tr.t[1:], np.abs(tr.energy - tr.energy[0])[1:], lw=0.6, color=colour,
-                  label=tr.method)
+    ax_e.semilogy(
+        tr.t[1:], np.abs(tr.energy - tr.energy[0])[1:], lw=0.6, color=colour, label=tr.method
+    )
 ax_e.set_xlabel("t (s)")
 ax_e.set_ylabel(r"$|E - E_0|$ (J)")
 ax_e.legend()

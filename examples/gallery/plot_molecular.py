@@ -22,8 +22,8 @@ dE = np.abs(tr.energy - tr.energy[0])
 print(f"VI: {tr.stats['steps']} steps in {tr.wall_time:.2f} s, mean |E - E0| = {dE.mean():.3e}")
 
 # %%
-# The particles of the upper hemisphere (z > 0) seen from above, coloured by their
-# speed |omega_i|, and the energy error of the run.
+# The particles of the upper hemisphere (z > 0) seen from above, coloured by the norm of
+# omega_i, and the energy error of the run.
 fig, (ax_p, ax_e) = plt.subplots(1, 2, figsize=(10, 4.5))
 q, speed = tr.q[-1], np.linalg.norm(tr.omega[-1], axis=1)
 upper = q[:, 2] > 0
