@@ -4,10 +4,17 @@ The package's docstrings write |x| for absolute values and norms (``max over bod
 | |q_i| - 1 |``, ``|E - E_0|``) and use no reStructuredText substitutions, which docutils would
 read ``|q_i|`` as (an undefined substitution, an error). This hook escapes the bars of prose
 lines; code spans, doctest blocks and literal blocks are left as written.
+
+A second hook, after napoleon, undoes napoleon's reading of a property's first line as
+``type: description`` (Google style's inline attribute type, which our docstrings never use):
+"M as a SymPy matrix (built from `chain` on first use: n^2 entries)" would become the type "M
+as a SymPy matrix (built ... use" and the text "n^2 entries)". Such a property keeps its own
+docstring, bars escaped.
 """
 
 from __future__ import annotations
 
+import inspect
 import re
 from typing import Any
 
@@ -44,10 +51,17 @@ def escape_bars(lines: list[str]) -> list[str]:
     return lines
 
 
-def _process(app: Any, what: str, name: str, obj: Any, options: Any, lines: list[str]) -> None:
+def _bars(app: Any, what: str, name: str, obj: Any, options: Any, lines: list[str]) -> None:
     escape_bars(lines)
 
 
+def _property(app: Any, what: str, name: str, obj: Any, options: Any, lines: list[str]) -> None:
+    doc = inspect.getdoc(obj) if what == "property" else None
+    if doc and ":" in doc.splitlines()[0]:
+        lines[:] = escape_bars(doc.splitlines())
+
+
 def setup(app: Any) -> dict[str, Any]:
-    app.connect("autodoc-process-docstring", _process)
+    app.connect("autodoc-process-docstring", _bars, priority=400)  # napoleon's is 500
+    app.connect("autodoc-process-docstring", _property, priority=600)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
