@@ -95,3 +95,15 @@ def test_the_angle_module_page_matches_its_records() -> None:
     names = re.findall(r"c:function:: [\w ]*?\bNAME_angles_(\w+)\(", page)
     assert names == [f.name for f in interface(ModuleKind.ANGLES).functions]
     assert "``NAME_ANGLES_ERR_POLE``" in page and "``NAME_ANGLES_ERR_NEWTON``" not in page
+
+
+def test_every_spec_key_is_described() -> None:
+    """The spec page's key table is written from the reader's own key tables; a key the
+    reader accepts without a description would fail the build (KeyError here)."""
+    from s2gen import spec
+
+    page = _extension("s2gen_tables").spec_keys_rst()
+    keys = set(spec._TOP_KEYS) | {k for keys in spec._TABLE_KEYS.values() for k in keys or ()}
+    keys |= {spec._BODY.select_key, spec._PAIR.select_key, "cutoff"}
+    for key in keys:
+        assert f"* - ``{key}``" in page, key

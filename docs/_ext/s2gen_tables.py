@@ -12,8 +12,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from sphinx.util.docutils import SphinxDirective
-
 from s2gen.methods import METHODS
 from s2gen.system import INERTIA_SOLVERS, MAX_BODIES
 
@@ -150,19 +148,19 @@ def builtins_rst() -> str:
     return _list_table("Built-in systems", ("name", "options (defaults)"), rows)
 
 
-class _TableDirective(SphinxDirective):
-    make: Any = None
-
-    def run(self) -> list[Any]:
-        return self.parse_text_to_nodes(type(self).make())
-
-
-def _directive(make: Any) -> type[SphinxDirective]:
-    return type("Table", (_TableDirective,), {"make": staticmethod(make)})
-
-
 def setup(app: Any) -> dict[str, Any]:
-    app.add_directive("s2gen-spec-keys", _directive(spec_keys_rst))
-    app.add_directive("s2gen-methods", _directive(methods_rst))
-    app.add_directive("s2gen-builtins", _directive(builtins_rst))
+    """Register the table directives (Sphinx is imported here only, so that the tests can
+    call the functions above without it)."""
+    from sphinx.util.docutils import SphinxDirective
+
+    def directive(make: Any) -> type[SphinxDirective]:
+        class Table(SphinxDirective):
+            def run(self) -> list[Any]:
+                return self.parse_text_to_nodes(make())
+
+        return Table
+
+    app.add_directive("s2gen-spec-keys", directive(spec_keys_rst))
+    app.add_directive("s2gen-methods", directive(methods_rst))
+    app.add_directive("s2gen-builtins", directive(builtins_rst))
     return {"parallel_read_safe": True, "parallel_write_safe": True}
