@@ -42,18 +42,10 @@ default_role = "code"
 
 autodoc_member_order = "bysource"
 autodoc_typehints = "signature"
-autodoc_default_options = {"members": True, "show-inheritance": False}
+autodoc_default_options = {"members": True}
 autosummary_generate = False
 
-exclude_patterns = [
-    "_build",
-    "paper-setup.md",
-    "auto_examples/*.ipynb",
-    "auto_examples/*.py",
-    "auto_examples/*.zip",
-    "auto_examples/*.md5",
-    "auto_examples/*.pickle",
-]
+exclude_patterns = ["_build"]
 templates_path: list[str] = []
 
 sphinx_gallery_conf = {

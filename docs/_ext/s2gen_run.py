@@ -1,9 +1,9 @@
 """Code shown with its real output: ``.. s2gen-run::`` runs its Python content during the build.
 
-The blocks of one page share a namespace and run in order, in a scratch folder of their own, so
-a page reads as one session. The directive shows the code, then what it printed (standard
-output, and the one-line message of an exception when ``:raises:`` names its class). Any other
-exception fails the build, so a page can never show output its code no longer gives.
+The blocks of one page share a namespace and run in order, in a scratch folder of their own,
+so a page reads as one continuous script. The directive shows the code, then what it printed
+(standard output, and the one-line message of an exception when ``:raises:`` names its class).
+Any other exception fails the build, so a page can never show output its code no longer gives.
 
 Options: ``:raises: SpecError`` (the block must raise that exception; its message is shown),
 ``:hide-code:`` (only the output), ``:image: NAME.png`` (a figure the code wrote in the scratch

@@ -38,7 +38,9 @@ fig, (ax_e, ax_u) = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5))
 for tr, colour in ((vi, "C0"), (rk45, "C3")):
     dE = np.abs(tr.energy - tr.energy[0]) / unit
     ax_e.semilogy(tr.t[1:], dE[1:], lw=0.6, color=colour, label=tr.method)
-    ax_u.semilogy(tr.t[1:], tr.unit_length_error()[1:] + 1e-17, lw=0.6, color=colour)
+    unit_error = tr.unit_length_error()
+    shown = np.where(unit_error > 0, unit_error, np.nan)  # exact zeros have no place on a log axis
+    ax_u.semilogy(tr.t[1:], shown[1:], lw=0.6, color=colour)
 ax_e.set_ylabel(r"$|E - E_0|\ /\ m_1 g l_1$")
 ax_u.set_ylabel(r"$\max_i\,|\,\|q_i\| - 1\,|$")
 ax_u.set_xlabel("t")
