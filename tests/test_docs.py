@@ -107,3 +107,12 @@ def test_every_spec_key_is_described() -> None:
     keys |= {spec._BODY.select_key, spec._PAIR.select_key, "cutoff"}
     for key in keys:
         assert f"* - ``{key}``" in page, key
+
+
+@pytest.mark.parametrize("name", ["s2gen_capi", "s2gen_docstrings", "s2gen_tables"])
+def test_extension_examples_run(name: str) -> None:
+    """The docstring examples of the site's own extensions (those that need no Sphinx)."""
+    import doctest
+
+    result = doctest.testmod(_extension(name))
+    assert result.attempted > 0 and result.failed == 0, result
