@@ -1,0 +1,186 @@
+"""The C API reference, written at build time from `s2gen.interface` and `s2gen.methods`.
+
+The header of every emitted module is rendered from the same records (functions with their
+parameters and comments, the options and statistics structs with their defaults, the method
+and status tables), and the prototypes here are written by the C printer that writes the
+header's, so the reference and the header cannot disagree.
+
+``.. s2gen-c-api:: sphere`` (or ``angles``) inserts the reference of one module kind;
+`c_api_rst(kind)` is the text it inserts (reStructuredText), usable without Sphinx.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+from s2gen.interface import Field, Function, Interface, Kind, interface
+from s2gen.ir import ModuleKind
+from s2gen.methods import CONTROLS, METHODS, Status
+from s2gen.printing.c import c_decl, c_field_decl, nullable_note
+
+#: The prefix shown for a module's name (the spec's `name`; upper case for constants); the
+#: angle module of a system is called NAME_angles.
+PREFIX = "NAME"
+PREFIXES = {ModuleKind.SPHERE: PREFIX, ModuleKind.ANGLES: f"{PREFIX}_angles"}
+
+_KIND_WORDS = {
+    Kind.DOUBLE: "a double",
+    Kind.INT: "an int",
+    Kind.LONG: "a long",
+    Kind.CONST_ARRAY: "input array of doubles",
+    Kind.ARRAY: "output (or scratch) array of doubles",
+    Kind.LONG_ARRAY: "output array of longs",
+    Kind.INT_OUT: "output int",
+    Kind.OPTIONS: "the options (read only)",
+    Kind.OPTIONS_OUT: "the options struct to fill",
+    Kind.STATS: "the statistics struct to fill",
+    Kind.VECTOR3: "output 3-vector",
+}
+
+_SIZES = {
+    "p": f"{PREFIX}_NPARAMS doubles",
+    "q": f"{PREFIX}_NSTATE doubles",
+    "w": f"{PREFIX}_NSTATE doubles",
+    "g": f"{PREFIX}_NSTATE doubles",
+    "q0": f"{PREFIX}_NSTATE doubles",
+    "w0": f"{PREFIX}_NSTATE doubles",
+    "qn": f"{PREFIX}_NSTATE doubles",
+    "wn": f"{PREFIX}_NSTATE doubles",
+    "dq": f"{PREFIX}_NSTATE doubles",
+    "dw": f"{PREFIX}_NSTATE doubles",
+    "work": f"{PREFIX}_WORK_SIZE doubles",
+}
+
+
+def esc(text: str) -> str:
+    """Plain text as reStructuredText: bars, stars and underscores are not markup here."""
+    return re.sub(r"([\\|*_])", r"\\\1", text)
+
+
+def _statuses(kind: ModuleKind) -> list[Status]:
+    """The status codes a module kind's header declares: the sphere module never meets a pole,
+    the angle module has no VI (so no infeasible step and no Newton)."""
+    if kind is ModuleKind.SPHERE:
+        return [s for s in Status if s is not Status.POLE]
+    return [s for s in Status if s not in (Status.INFEASIBLE, Status.NEWTON)]
+
+
+def _methods(kind: ModuleKind) -> list[Any]:
+    names = None if kind is ModuleKind.SPHERE else {"rk45", "rk4"}
+    return [m for m in METHODS if names is None or m.name in names]
+
+
+def _table(title: str, header: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:
+    out = [f".. list-table:: {title}", "   :header-rows: 1", ""]
+    for row in (header, *rows):
+        out.append(f"   * - {row[0]}")
+        out.extend(f"     - {cell}" for cell in row[1:])
+    return [*out, ""]
+
+
+def _function(f: Function, prefix: str, sizes: dict[str, str]) -> list[str]:
+    decl = " ".join(part.strip() for part in c_decl(prefix, f).splitlines())
+    note = nullable_note(f.params)
+    doc = f.doc + (" " + note if note and "NULL" not in f.doc else "")
+    out = [f".. c:function:: {decl}", "", f"   {esc(doc)}", ""]
+    for p in f.params:
+        size = sizes.get(p.name)
+        text = _KIND_WORDS[p.kind]
+        if size and p.kind is Kind.CONST_ARRAY:
+            text = f"input, {size}"
+        elif size and p.kind is Kind.ARRAY:
+            text = f"{'workspace' if p.name == 'work' else 'output'}, {size}"
+        if p.nullable:
+            text += "; may be NULL"
+        out.append(f"   :param {p.name}: {text}")
+    if f.returns is not Kind.VOID:
+        what = "a status code (OK on success)" if f.returns is Kind.INT else "the value"
+        out.append(f"   :returns: {what}")
+    return [*out, ""]
+
+
+def _struct(
+    name: str, fields: tuple[Field, ...], what: str, prefix: str, defaults: bool
+) -> list[str]:
+    upper = prefix.upper()
+    out = [f".. c:struct:: {prefix}_{name}", "", f"   {what}", ""]
+    for f in fields:
+        default = f"{upper}_{f.default}" if f.default.startswith("CONTROL_") else f.default
+        doc = f.doc.replace("CONTROL_", f"{upper}_CONTROL_")
+        out += [f"   .. c:member:: {c_field_decl(prefix, f)}", "", f"      {esc(doc)}", ""]
+        if defaults:
+            out += [f"      Default: ``{default}``.", ""]
+    return out
+
+
+def c_api_rst(kind: ModuleKind) -> str:
+    """The reference of one module kind's C interface, as reStructuredText.
+
+    Example:
+        >>> "NAME_integrate" in c_api_rst(ModuleKind.SPHERE)
+        True
+        >>> "NAME_angles_to_sphere" in c_api_rst(ModuleKind.ANGLES)
+        True
+    """
+    api: Interface = interface(kind)
+    prefix = PREFIXES[kind]
+    upper = prefix.upper()
+    sizes = _SIZES if kind is ModuleKind.SPHERE else {"work": f"{upper}_WORK_SIZE doubles"}
+    lines: list[str] = []
+    lines += _table(
+        "Status codes (``enum``)",
+        ("constant", "value", "meaning"),
+        [(f"``{upper}_{s.c_name}``", str(int(s)), esc(s.message)) for s in _statuses(kind)],
+    )
+    lines += _table(
+        "Methods (``enum``; the ``method`` argument)",
+        ("constant", "value", "order", "what it is"),
+        [
+            (f"``{upper}_{m.c_name}``", str(m.code), str(m.order), esc(m.summary))
+            for m in _methods(kind)
+        ],
+    )
+    lines += _table(
+        "RK45 error control (``enum``; the ``control`` option)",
+        ("constant", "value"),
+        [(f"``{upper}_CONTROL_{c.upper()}``", str(k)) for k, c in enumerate(CONTROLS)],
+    )
+    lines += _struct(
+        "options",
+        api.options,
+        f"Integrator options; ``{prefix}_default_options`` fills it with the defaults below.",
+        prefix,
+        defaults=True,
+    )
+    lines += _struct(
+        "stats",
+        api.stats,
+        "What a call of ``integrate`` did; ``integrate`` fills it (the pointer may be NULL).",
+        prefix,
+        defaults=False,
+    )
+    for f in api.functions:
+        lines += _function(f, prefix, sizes)
+    return "\n".join(lines) + "\n"
+
+
+def setup(app: Any) -> dict[str, Any]:
+    """Register ``.. s2gen-c-api:: sphere|angles`` (Sphinx is imported here only, so that the
+    tests can call `c_api_rst` without it)."""
+    from sphinx.util.docutils import SphinxDirective
+
+    class CApiDirective(SphinxDirective):
+        """``.. s2gen-c-api:: sphere|angles``: the generated C reference of that module kind."""
+
+        required_arguments = 1
+
+        def run(self) -> list[Any]:
+            kinds = {"sphere": ModuleKind.SPHERE, "angles": ModuleKind.ANGLES}
+            kind = kinds.get(self.arguments[0])
+            if kind is None:
+                raise self.error(f"unknown module kind {self.arguments[0]!r}; use sphere or angles")
+            return self.parse_text_to_nodes(c_api_rst(kind))
+
+    app.add_directive("s2gen-c-api", CApiDirective)
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
