@@ -3,6 +3,7 @@
 Input: arrays from a `Trajectory` (q: (N+1, n, 3), energy: (N+1,)). Output: floats.
 
 Definitions used throughout (and in the reports):
+
 - energy variation: |E_k - E_0| over all samples k = 0..N (t = 0 included);
 - unit-length error: |‖q_i‖ - 1| (the geometric one) and |q_i.q_i - 1| (about twice as large;
   the definition the paper's printed numbers follow), averaged over samples and bodies.

@@ -18,7 +18,9 @@ from s2gen.ir import ModuleKind
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 API = DOCS / "api.rst"
-DIRECTIVE = re.compile(r"^\.\. auto(function|class|exception|data):: +(\S+)", re.MULTILINE)
+DIRECTIVE = re.compile(
+    r"^\.\. auto(function|class|exception|data|module):: +(?:s2gen\.)?(\S+)", re.MULTILINE
+)
 
 
 def _extension(name: str) -> ModuleType:
@@ -53,7 +55,7 @@ def test_public_name_has_a_docstring(name: str) -> None:
         # a dataclass without a docstring gets its signature as __doc__: not documentation
         own = vars(obj).get("__doc__") or ""
         assert own.strip() and not own.startswith(f"{obj.__name__}("), name
-    elif callable(obj):
+    elif callable(obj) or inspect.ismodule(obj):
         assert (obj.__doc__ or "").strip(), name
     else:
         # data (a tuple, a string) has no docstring of its own: the reference must say what
@@ -101,10 +103,11 @@ def test_every_spec_key_is_described() -> None:
     """The spec page's key table is written from the reader's own key tables; a key the
     reader accepts without a description would fail the build (KeyError here)."""
     from s2gen import spec
+    from s2gen.terms import TermKind
 
     page = _extension("s2gen_tables").spec_keys_rst()
     keys = set(spec._TOP_KEYS) | {k for keys in spec._TABLE_KEYS.values() for k in keys or ()}
-    keys |= {spec._BODY.select_key, spec._PAIR.select_key, "cutoff"}
+    keys |= {kind.select_key for kind in TermKind} | {"cutoff"}
     for key in keys:
         assert f"* - ``{key}``" in page, key
 

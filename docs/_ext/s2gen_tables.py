@@ -83,18 +83,20 @@ def spec_keys_rst() -> str:
         True
     """
     from s2gen import spec
+    from s2gen.terms import TermKind, spellings
 
     rows = [(f"``{k}``", "top level", _meaning("", k)) for k in spec._TOP_KEYS]
     for table, keys in spec._TABLE_KEYS.items():
         for key in keys or ():
             rows.append((f"``{key}``", f"``[{table}]``", _meaning(table, key)))
-    for kind in (spec._BODY, spec._PAIR):
+    for kind in TermKind:
         roles = ", ".join(f"``{r}``" for r in kind.roles)
         default = f" (default ``{kind.default}``)" if kind.default else " (required)"
-        keys = ("V", kind.select_key, "data") + (("cutoff",) if kind.kind == "pair" else ())
+        keys = ("V", kind.select_key, "data") + (("cutoff",) if kind is TermKind.PAIR else ())
+        named = ", ".join(f'"{word}"' for word in spellings(kind, named=True))
         for key in keys:
             if key == kind.select_key:
-                text = f"the members: {kind.options}{default}"
+                text = f"the members: {named} or a list of {kind.listing}{default}"
             else:
                 text = _meaning("term", key)
                 if key == "V":

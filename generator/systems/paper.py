@@ -1,8 +1,9 @@
 """The paper's numerical examples 2-6 as Python factories (example 1 is a TOML file).
 
 Input: a few choices the paper leaves open (keyword arguments with documented defaults).
-Output: validated `System`s whose pair and one-body interactions are structured `Term`s, so
-code generation emits each interaction once as a kernel plus a loop over its members.
+Output: validated systems (`System`) whose pair and one-body interactions are structured terms
+(`Term`), so code generation emits each interaction once as a kernel plus a loop over its
+members.
 
 Lee, Leok & McClamroch, "Lagrangian mechanics and variational integrators on two-spheres",
 section 3.5. Initial vectors are the exact unit vectors the printed 4-digit values round; see
