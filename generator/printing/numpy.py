@@ -18,10 +18,18 @@ import math
 import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
 
-from s2gen.ir import Call, Kernel, LoopKind, TermLoop
+from s2gen.ir import Call, Kernel, LoopKind, Module, ModuleKind, TermLoop
 from s2gen.printing.c import EXACT_INTEGER, ExactIntegers, LiteralError, double_literal
 
-__all__ = ["PyPrinter", "py_call", "py_kernel", "py_term_setup"]
+__all__ = [
+    "PyPrinter",
+    "py_call",
+    "py_docstring",
+    "py_inertia_setup",
+    "py_kernel",
+    "py_table_names",
+    "py_term_setup",
+]
 
 
 class PyPrinter(ExactIntegers, NumPyPrinter):
@@ -125,3 +133,44 @@ def py_term_setup(t: TermLoop) -> tuple[tuple[str, ...], tuple[str, ...]]:
         arr = f"numpy.array([{', '.join(repr(float(v)) for v in values)}])"
         setup.append(f"{up}_{dname.upper()} = {arr}" + ("" if width == 1 else ".reshape(-1, 3)"))
     return tuple(setup), tuple(f"{up}_{role}" for role in roles)
+
+
+def py_inertia_setup(module: Module) -> tuple[str, ...]:
+    """Module-level arrays of M's per-body data (and the body index its kernels read)."""
+    per_body = any(k.name == "inertia_body" for k in module.kernels)
+    lines = []
+    if module.inertia_data or module.kind is ModuleKind.SPHERE and per_body:
+        lines.append("INDEX = numpy.arange(1.0, NBODIES + 1.0)")
+    for name, values in module.inertia_data:
+        lits = ", ".join(repr(float(v)) for v in values)
+        lines.append(f"INERTIA_{name.upper()} = numpy.array([{lits}])")
+    return tuple(lines)
+
+
+def py_table_names(module: Module) -> tuple[str, ...]:
+    """The local names of the terms' member tables, in the order of their calls."""
+    return tuple(f"tab{t.index}" for t in module.terms if t.table)
+
+
+def py_docstring(module: Module) -> tuple[str, str]:
+    """(title, state paragraph) of the NumPy module's docstring."""
+    n, name = module.n, module.name
+    facts = dict(module.facts)
+    if module.kind is ModuleKind.SPHERE:
+        return (
+            f'Equations of motion and integrators for the system "{name}" on (S^2)^{n} (NumPy).',
+            f"States are arrays q, w of shape ({n}, 3).",
+        )
+    title = (
+        f'The classical spherical-angle form of the system "{facts.get("system", name)}" '
+        f"({n} bodies), NumPy."
+    )
+    state = (
+        "Body i has the angles (theta_i, phi_i) and q_i = (sin theta_i cos phi_i, "
+        "sin theta_i sin phi_i, cos theta_i); SymPy derived M(x) xdd = F(x, xd) from "
+        f"L = 1/2 sum_ij M_ij qdot_i . qdot_j - V(q) ({facts.get('derivation', '')}). States "
+        f"x = (theta_1, phi_1, ...) and xd are arrays of {2 * n}. Where sin theta_i = 0 "
+        "phi_i is arbitrary and M(x) singular: to_angles returns ERR_POLE when sin theta_i < "
+        "POLE_TOL, rhs returns ERR_SINGULAR when min |pivot| <= MIN_PIVOT_RATIO max |pivot|."
+    )
+    return title, state
