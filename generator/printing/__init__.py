@@ -94,12 +94,10 @@ class PrintedModule:
     name: str
     upper: str
     spec_hash: str
-    origin: str
     n: int
     n2: int  # 2 n: offset of the third component row in a component-major (SoA) copy
     n3: int
     nx: int
-    ns: int
     npairs: int
     npairs_or_one: int
     ncoupled: int  # doubles of mp: coupled entries (one per pair) or max-index generators (2n)
@@ -122,8 +120,6 @@ class PrintedModule:
     inline: dict[str, tuple[str, ...]]  # kernel -> its body inline (explicit VI loops)
     work: dict[str, dict[str, Any]]  # layout -> {buffer: offset, "doc": ..., "size": ...}
     context: tuple[dict[str, Any], ...]  # the per-call context buffers (name, offset, doc)
-    work_base: int
-    work_size: int
     constants: int
     constants_or_one: int
     table_inits: tuple[dict[str, Any], ...]  # per term with a table: index, count, table, call
@@ -156,7 +152,6 @@ class PrintedModule:
     derivation: str
     pole_tol: str
     min_pivot_ratio: str
-    solver: str  # InertiaKind value of the coupled solves
     band: dict[str, dict[str, int]]  # structured solves: name -> p, r, nrhs, kl, ku, rows, ...
     c_masses: str  # the partial that computes M's entries or generators (C, NumPy)
     py_masses: str
@@ -311,6 +306,10 @@ def print_module(module: Module) -> PrintedModule:
         print_kernel(k, f"{upper}_RESTRICT") for k in module.kernels if isinstance(k, Kernel)
     )
     terms = tuple(_print_term(module, t, calls) for t in module.terms)
+    # the terms' sites are written into their records (terms, table_inits, quad_inits)
+    consumed = {
+        f"t{t.index}_{s}" for t in module.terms for s in ("value", "gradient", "table", "quad")
+    }
     c_masses, py_masses = records.masses_partials(module)
     facts = dict(module.facts)
     n, npairs = module.n, len(module.pairs)
@@ -324,12 +323,10 @@ def print_module(module: Module) -> PrintedModule:
         name=name,
         upper=upper,
         spec_hash=module.spec_hash,
-        origin=module.origin,
         n=n,
         n2=2 * n,
         n3=3 * n,
         nx=2 * n,
-        ns=6 * n if sphere else 4 * n,
         npairs=npairs,
         npairs_or_one=max(npairs, 1),
         ncoupled=2 * n if module.solver is InertiaKind.MAX_INDEX else max(npairs, 1),
@@ -348,12 +345,10 @@ def print_module(module: Module) -> PrintedModule:
         terms=terms,
         soa_terms=tuple(t for t in terms if t.layout == "rows"),
         bridged_terms=tuple(t for t in terms if t.layout not in ("rows", "quadratic")),
-        call=calls,
+        call={site: text for site, text in calls.items() if site not in consumed},
         inline=inline,
         work=records.workspace(module),
         context=records.context(module),
-        work_base=module.work_base,
-        work_size=module.work_size,
         constants=module.constants,
         constants_or_one=max(1, module.constants),
         table_inits=tuple(
@@ -399,7 +394,6 @@ def print_module(module: Module) -> PrintedModule:
         derivation=str(facts.get("derivation", "")),
         pole_tol=str(facts.get("pole_tol", "")),
         min_pivot_ratio=str(facts.get("min_pivot_ratio", "")),
-        solver=module.solver.value,
         band=records.bands(module),
         c_masses=c_masses,
         py_masses=py_masses,

@@ -73,10 +73,12 @@ def print_kernel(kernel: Kernel, restrict: str) -> PrintedKernel:
 
 
 def workspace(module: Module) -> dict[str, dict[str, Any]]:
-    """Per workspace layout: each buffer's offset, the layout's `doc` (its buffers and sizes)
-    and its `size`."""
+    """Per workspace layout but the per-call context (see `context`): each buffer's offset,
+    the layout's `doc` (its buffers and sizes) and its `size`."""
     work: dict[str, dict[str, Any]] = {}
     for lay in module.layouts:
+        if lay.name == CONTEXT:
+            continue  # laid out by `context`
         entry: dict[str, Any] = {b.name: b.offset for b in lay.buffers}
         sized = [f"{b.name} ({b.size})" for b in lay.buffers if b.size]
         entry["doc"] = ", ".join(sized) or "none"
