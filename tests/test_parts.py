@@ -119,12 +119,12 @@ def banded_chain(n: int = 9) -> System:
 
 
 def per_body_diagonal() -> System:
-    """A diagonal M given as one expression per body: evaluated body by body."""
+    """A diagonal M given as one expression per body: evaluated body by body; no parameters."""
     return define_system(
         name="beads",
         bodies=3,
-        parameters={"m": 1.0},
-        diagonal="m*(1 + i/n)",
+        parameters={},
+        diagonal="1 + i/n",
         body_terms=[{"V": "q[2]"}],
         initial_q=[[1, 0, 0]] * 3,
         initial_omega=[[0, 1, 0]] * 3,
@@ -147,7 +147,7 @@ SYSTEMS = {
     "chain4": chain4_structured,  # max-index M from its matrix, general V
     "rope": lambda: builtin("rope"),  # max-index M per body, with per-body data
     "rope_dense": lambda: builtin("rope", n=8, solver="dense"),  # per-body M, dense solves
-    "beads": per_body_diagonal,  # per-body diagonal M
+    "beads": per_body_diagonal,  # per-body diagonal M, no parameters
     "springs4": lambda: resolve(str(SPECS / "springs4.toml")),  # diagonal M, general V only
     "springs4_terms": lambda: resolve(str(SPECS / "springs4_terms.toml")),  # listed terms
     "three_bodies": lambda: builtin("three_bodies"),  # pair terms laid out as rows
@@ -295,6 +295,8 @@ def test_every_template_is_rendered() -> None:
         pending += [*module.c_parts, *module.py_parts, module.c_masses, module.py_masses]
         for t in module.terms:
             pending += [t.c_value_part, t.c_gradient_part, t.py_value_part, t.py_gradient_part]
+        for chosen in (*module.c_sections.values(), *module.py_sections.values()):
+            pending += chosen
         while pending:
             name = pending.pop()
             if name in loaded:
@@ -331,6 +333,19 @@ def test_every_call_site_is_read() -> None:
     unread = {name: [s for s in sites if s not in UNREAD_SITES] for name, sites in unread.items()}
     unread = {name: sites for name, sites in unread.items() if sites}
     assert not unread, f"call sites no template reads: {unread}"
+
+
+def test_every_section_is_read() -> None:
+    """Each optional section a module declares (C and NumPy) is laid out by its templates."""
+    unread = {
+        f"{name}.{field}": sorted(
+            set(getattr(module, field)) - {p[1] for p in reads()[name] if p[0] == field and p[1:]}
+        )
+        for name, module in modules().items()
+        for field in ("c_sections", "py_sections")
+    }
+    unread = {where: keys for where, keys in unread.items() if keys}
+    assert not unread, f"sections no template lays out: {unread}"
 
 
 def test_every_workspace_buffer_is_read() -> None:

@@ -104,10 +104,7 @@ class PrintedModule:
     #: the VI's step is the explicit update (the assembler chose the "vi_explicit" partial):
     #: it has its own driver on component-major copies, and no Newton step exists
     explicit_vi: bool
-    general: bool
     soa_bridge: bool  # the component-major gradient needs the body-major one for some terms
-    uniform_mass: bool
-    neighbour_lists: bool
     parameters: tuple[tuple[str, str], ...]  # (name, value as a round-trip literal)
     pair_i: tuple[int, ...]
     pair_j: tuple[int, ...]
@@ -120,7 +117,6 @@ class PrintedModule:
     inline: dict[str, tuple[str, ...]]  # kernel -> its body inline (explicit VI loops)
     work: dict[str, dict[str, Any]]  # layout -> {buffer: offset, "doc": ..., "size": ...}
     context: tuple[dict[str, Any], ...]  # the per-call context buffers (name, offset, doc)
-    constants: int
     constants_or_one: int
     table_inits: tuple[dict[str, Any], ...]  # per term with a table: index, count, table, call
     py_tables: tuple[str, ...]  # calls computing the terms' member tables (NumPy)
@@ -129,6 +125,8 @@ class PrintedModule:
     py_quad_lines: tuple[str, ...]  # NumPy lines building K and b
     py_table_names: tuple[str, ...]
     c_parts: tuple[str, ...]
+    c_sections: dict[str, tuple[str, ...]]  # optional section -> the partials laying it out
+    py_sections: dict[str, tuple[str, ...]]
     py_parts: tuple[str, ...]
     parts: tuple[str, ...]
     c_macros: tuple[Macro, ...]
@@ -318,6 +316,7 @@ def print_module(module: Module) -> PrintedModule:
     variant = dict(module.variants)
     partials = tuple(variant.get(p, p) for p in module.parts)
     py_title, py_state = py_docstring(module)
+    c_sections, py_sections = records.sections(module)
     return PrintedModule(
         kind=module.kind.value,
         name=name,
@@ -331,10 +330,7 @@ def print_module(module: Module) -> PrintedModule:
         npairs_or_one=max(npairs, 1),
         ncoupled=2 * n if module.solver is InertiaKind.MAX_INDEX else max(npairs, 1),
         explicit_vi="vi_explicit" in module.parts,
-        general=bool(facts.get("general", False)),
         soa_bridge=module.body_major_terms,
-        uniform_mass=bool(facts.get("uniform_mass", False)),
-        neighbour_lists=bool(facts.get("neighbour_lists", False)),
         parameters=tuple(
             (p, repr(float(v))) for p, v in zip(module.parameter_names, module.parameter_values)
         ),
@@ -349,7 +345,6 @@ def print_module(module: Module) -> PrintedModule:
         inline=inline,
         work=records.workspace(module),
         context=records.context(module),
-        constants=module.constants,
         constants_or_one=max(1, module.constants),
         table_inits=tuple(
             {
@@ -372,6 +367,8 @@ def print_module(module: Module) -> PrintedModule:
         py_parts=tuple(
             f"numpy/_{v}.jinja" for p, v in zip(module.parts, partials) if p not in module.c_only
         ),
+        c_sections=c_sections,
+        py_sections=py_sections,
         parts=module.parts,
         c_macros=c_macro,
         h_macros=h_macro,

@@ -34,6 +34,7 @@ __all__ = [
     "masses_partials",
     "print_kernel",
     "schemes",
+    "sections",
     "workspace",
 ]
 
@@ -179,4 +180,116 @@ def schemes() -> tuple[dict[str, Any], ...]:
         }
         for m in METHODS
         if m.composition is not None
+    )
+
+
+Sections = dict[str, tuple[str, ...]]
+
+#: The partials that lay out each optional section (C, NumPy): a module declares a section
+#: only when it lays out one of them.
+_OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
+    {
+        "masses_locals": ("masses", "masses_generators"),
+        "masses_fill": ("masses", "masses_generators"),
+        "potential": ("potential",),
+        "gradient": ("potential",),
+        "soa_locals": ("vi_explicit",),
+        "soa_init": ("vi_explicit",),
+        "soa_bridge": ("vi_explicit",),
+        "bridge_init": ("soa_bridge",),
+        "constants": ("context",),
+        "quadratic_builder": ("context",),
+        "quadratic_build": ("context",),
+        "table_locals": ("context",),
+        "params_unused": ("context", "angles_context"),
+    },
+    {
+        "masses_fill": ("masses", "masses_coupled", "masses_generators"),
+        "constants": ("potential",),
+        "potential": ("potential",),
+        "gradient": ("potential",),
+        "imports": ("module",),
+    },
+)
+
+
+def _declared(chosen: Sections, owners: dict[str, tuple[str, ...]], laid: set[str]) -> Sections:
+    """The sections whose owner is laid out (a section's own partials may own others)."""
+    out: Sections = {}
+    for name, partials in chosen.items():
+        if set(owners[name]) & laid:
+            out[name] = partials
+            laid |= {p.rsplit("/_", 1)[1].removesuffix(".jinja") for p in partials}
+    return out
+
+
+def sections(module: Module) -> tuple[Sections, Sections]:
+    """(C, NumPy) partials of each optional section of the parts the module lays out, chosen
+    by what it has: the general potential or zeros, the quadratic terms' K, the kernels'
+    constants, M's uniform diagonal, the explicit VI's body-major bridge, member tables,
+    parameters and the library solvers it imports. A template lays out a section's partials
+    in order."""
+    facts = dict(module.facts)
+    general, quadratic = bool(facts.get("general", False)), module.quadratic > 0
+    uniform, bridge = bool(facts.get("uniform_mass", False)), module.body_major_terms
+
+    def pick(lang: str, *choices: tuple[bool, str]) -> tuple[str, ...]:
+        return tuple(f"{lang}/sections/_{stem}.jinja" for chosen, stem in choices if chosen)
+
+    c = {
+        "masses_locals": pick("c", (uniform, "uniform_locals")),
+        "masses_fill": pick("c", (uniform, "uniform_fill")),
+        "potential": pick("c", (general, "general_value"), (quadratic, "quadratic_value")),
+        "gradient": pick(
+            "c",
+            (general, "general_gradient"),
+            (not general, "zero_gradient"),
+            (quadratic, "quadratic_gradient"),
+        ),
+        "soa_locals": pick(
+            "c",
+            (bridge or not quadratic, "soa_counter"),
+            (bridge, "soa_bridge_locals"),
+            (not bridge, "soa_no_bridge"),
+        ),
+        "soa_init": pick("c", (quadratic, "soa_quadratic"), (not quadratic, "soa_zero")),
+        "soa_bridge": pick("c", (bridge, "soa_bridge")),
+        "bridge_init": pick("c", (general, "general_gradient"), (not general, "bridge_zero")),
+        "constants": pick("c", (module.constants > 0, "constants")),
+        "quadratic_builder": pick("c", (quadratic, "build_quadratic")),
+        "quadratic_build": pick("c", (quadratic, "build_quadratic_call")),
+        "table_locals": pick("c", (any(t.table for t in module.terms), "table_counter")),
+        "params_unused": pick("c", (not module.parameter_names, "unused_params")),
+    }
+    py = {
+        "masses_fill": pick("numpy", (uniform, "uniform_fill")),
+        "constants": pick(
+            "numpy", (module.constants > 0, "constants"), (not module.constants, "no_constants")
+        ),
+        "potential": pick(
+            "numpy",
+            (general, "general_value"),
+            (not general, "zero_value"),
+            (quadratic, "quadratic_value"),
+        ),
+        "gradient": pick(
+            "numpy",
+            (general, "general_gradient"),
+            (not general, "zero_gradient"),
+            (quadratic, "quadratic_gradient"),
+        ),
+        "imports": pick(
+            "numpy",
+            (bool(facts.get("neighbour_lists", False)), "import_kdtree"),
+            (bool(module.bands), "import_banded"),
+        ),
+    }
+    variant = dict(module.variants)
+    laid = {variant.get(p, p) for p in module.parts} | {"module"}
+    # the context part lays out the masses
+    masses = {p.rsplit("/_", 1)[1].removesuffix(".jinja") for p in masses_partials(module)}
+    masses = masses if "context" in laid else set()
+    return (
+        _declared(c, _OWNERS[0], laid | masses),
+        _declared(py, _OWNERS[1], laid | masses),
     )
