@@ -67,7 +67,15 @@ def c_macros(module: Module) -> tuple[tuple[Macro, ...], tuple[Macro, ...]]:
 
 def c_tables(module: Module) -> tuple[CTable, ...]:
     """The static tables of a module: coupled pairs, the terms' members and data, and the
-    per-body data of M."""
+    per-body data of M.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("double_pendulum"))
+        >>> c_tables(m)[0]
+        ('int', 'double_pendulum_pair_i', 1, ('0',))
+    """
     name = module.name
     tables: list[CTable] = []
     if module.coupling is not None:
@@ -93,7 +101,15 @@ def _wrap(text: str, width: int = 92) -> tuple[str, ...]:
 
 
 def c_functions(module: Module) -> tuple[dict[str, str | tuple[str, ...]], ...]:
-    """Per public function: its prototype (`c_decl`) and its comment wrapped (`doc_lines`)."""
+    """Per public function: its prototype (`c_decl`) and its comment wrapped (`doc_lines`).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("double_pendulum"))
+        >>> c_functions(m)[0]["c_decl"]
+        'void double_pendulum_default_params(double *p)'
+    """
     out: list[dict[str, str | tuple[str, ...]]] = []
     for f in interface(module.kind).functions:
         note = nullable_note(f.params)
@@ -104,7 +120,15 @@ def c_functions(module: Module) -> tuple[dict[str, str | tuple[str, ...]], ...]:
 
 def c_fields(module: Module, which: str) -> tuple[dict[str, str], ...]:
     """The options (`which` = "options") or statistics struct's fields: name, C declaration,
-    C default, NumPy default and comment (enum defaults and names with the module's prefix)."""
+    C default, NumPy default and comment (enum defaults and names with the module's prefix).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("double_pendulum"))
+        >>> c_fields(m, "options")[0]["c_decl"], c_fields(m, "options")[0]["c_default"]
+        ('double rtol', '1e-3')
+    """
     api = interface(module.kind)
     upper = module.name.upper()
     return tuple(
@@ -125,7 +149,16 @@ _INLINE_SCALARS = ("q", "w", "g", "qn", "gn", "wh")
 def c_inline_loops(module: Module) -> dict[str, tuple[str, ...]]:
     """The explicit VI kernels' bodies inline, for the SoA loops over bodies: vector operands
     q, w, g, qn, gn are scalars (q0, q1, q2, ...), h by name, outputs qn0.., s0, wn0...;
-    "loads" declares their other scalar inputs (the body's mass) as the call sites bind them."""
+    "loads" declares their other scalar inputs (the body's mass) as the call sites bind them;
+    empty without the explicit VI (coupled M).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("dipoles"))
+        >>> sorted(c_inline_loops(m))
+        ['loads', 'vi_pos', 'vi_vel']
+    """
     out: dict[str, tuple[str, ...]] = {}
     names = {k.name for k in module.kernels}
     loads: list[str] = []

@@ -136,7 +136,15 @@ def py_term_setup(t: TermLoop) -> tuple[tuple[str, ...], tuple[str, ...]]:
 
 
 def py_inertia_setup(module: Module) -> tuple[str, ...]:
-    """Module-level arrays of M's per-body data (and the body index its kernels read)."""
+    """Module-level arrays of M's per-body data (and the body index its kernels read).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("rope"))
+        >>> py_inertia_setup(m)[0]
+        'INDEX = numpy.arange(1.0, NBODIES + 1.0)'
+    """
     per_body = any(k.name == "inertia_body" for k in module.kernels)
     lines = []
     if module.inertia_data or module.kind is ModuleKind.SPHERE and per_body:
@@ -148,12 +156,28 @@ def py_inertia_setup(module: Module) -> tuple[str, ...]:
 
 
 def py_table_names(module: Module) -> tuple[str, ...]:
-    """The local names of the terms' member tables, in the order of their calls."""
+    """The local names of the terms' member tables, in the order of their calls.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("dipoles"))
+        >>> py_table_names(m)
+        ('tab0',)
+    """
     return tuple(f"tab{t.index}" for t in module.terms if t.table)
 
 
 def py_docstring(module: Module) -> tuple[str, str]:
-    """(title, state paragraph) of the NumPy module's docstring."""
+    """(title, state paragraph) of the NumPy module's docstring.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("double_pendulum"))
+        >>> py_docstring(m)[1]
+        'States are arrays q, w of shape (2, 3).'
+    """
     n, name = module.n, module.name
     facts = dict(module.facts)
     if module.kind is ModuleKind.SPHERE:

@@ -56,7 +56,15 @@ class PrintedKernel:
 
 
 def print_kernel(kernel: Kernel, restrict: str) -> PrintedKernel:
-    """One lowered kernel as text for both languages."""
+    """One lowered kernel as text for both languages.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("double_pendulum"))
+        >>> print_kernel(m.kernel("kin_body"), "R").py_params
+        'm, q, w'
+    """
     c_params, c_lines = c_kernel(kernel, restrict)
     py_params, py_lines = py_kernel(kernel)
     return PrintedKernel(
@@ -102,7 +110,15 @@ _CONTEXT_DOC = {
 
 
 def context(module: Module) -> tuple[dict[str, Any], ...]:
-    """The per-call context buffers: name, offset and what each holds."""
+    """The per-call context buffers: name, offset and what each holds.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("double_pendulum"))
+        >>> context(m)[0]
+        {'name': 'md', 'offset': 0, 'doc': 'M_ii, one per body'}
+    """
     chain = module.solver is InertiaKind.MAX_INDEX
     out = []
     for b in module.layout(CONTEXT).buffers:
@@ -117,7 +133,16 @@ Enum = tuple[tuple[str, int, str], ...]
 
 
 def enums(module: Module) -> tuple[Enum, Enum]:
-    """(statuses, methods) of a module kind: (C name, code, comment) each."""
+    """(statuses, methods) of a module kind: (C name, code, comment) each.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("double_pendulum"))
+        >>> statuses, methods = enums(m)
+        >>> statuses[0], methods[0][:2]
+        (('OK', 0, 'success'), ('METHOD_VI', 0))
+    """
     sphere = module.kind is ModuleKind.SPHERE
     names = {m.name for m in METHODS} if sphere else {"rk45", "rk4"}
     statuses = [s for s in Status if sphere or s not in (Status.INFEASIBLE, Status.NEWTON)]
@@ -132,7 +157,15 @@ def enums(module: Module) -> tuple[Enum, Enum]:
 def masses_partials(module: Module) -> tuple[str, str]:
     """(C, NumPy) partials of the masses: M's entries from one system kernel (NumPy: with or
     without the coupled entries), the max-index generators from one system kernel, or from a
-    per-body kernel in a loop."""
+    per-body kernel in a loop.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("double_pendulum"))
+        >>> masses_partials(m)
+        ('c/_masses.jinja', 'numpy/_masses_coupled.jinja')
+    """
     names = {k.name for k in module.kernels}
     c_stem = py_stem = "masses"
     if "inertia_body" in names and module.solver is InertiaKind.DIAGONAL:
@@ -147,13 +180,26 @@ def masses_partials(module: Module) -> tuple[str, str]:
 
 
 def bands(module: Module) -> dict[str, dict[str, int]]:
-    """Per structured solve: its block and band sizes."""
+    """Per structured solve: its block and band sizes.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("rope"))
+        >>> bands(m)["newton"]["kl"], bands(m)["newton"]["rows"]
+        (6, 120)
+    """
     keys = ("p", "r", "nrhs", "block", "rows", "kl", "ku", "size")
     return {b.name: {k: getattr(b, k) for k in keys} for b in module.bands}
 
 
 def compositions() -> tuple[dict[str, Any], ...]:
-    """The step fractions of every composition a geometric method uses, as literals."""
+    """The step fractions of every composition a geometric method uses, as literals.
+
+    Example:
+        >>> compositions()[0]["name"], compositions()[0]["fractions"]
+        ('plain', ('1.0',))
+    """
     used = {m.composition for m in METHODS if m.composition is not None}
     return tuple(
         {
@@ -170,7 +216,12 @@ def compositions() -> tuple[dict[str, Any], ...]:
 
 def schemes() -> tuple[dict[str, Any], ...]:
     """Per geometric method: its enum constant, whether its basic step is RATTLE's (else the
-    VI's), and its composition's table and length."""
+    VI's), and its composition's table and length.
+
+    Example:
+        >>> schemes()[0]
+        {'c_name': 'METHOD_VI', 'rattle': 0, 'count': 1, 'table': 'plain'}
+    """
     return tuple(
         {
             "c_name": m.c_name,
@@ -228,7 +279,16 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     by what it has: the general potential or zeros, the quadratic terms' K, the kernels'
     constants, M's uniform diagonal, the explicit VI's body-major bridge, member tables,
     parameters and the library solvers it imports. A template lays out a section's partials
-    in order."""
+    in order.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("dipoles"))
+        >>> c, py = sections(m)
+        >>> py["potential"]
+        ('numpy/sections/_zero_value.jinja', 'numpy/sections/_quadratic_value.jinja')
+    """
     facts = dict(module.facts)
     general, quadratic = bool(facts.get("general", False)), module.quadratic > 0
     uniform, bridge = bool(facts.get("uniform_mass", False)), module.body_major_terms
