@@ -340,7 +340,9 @@ def print_module(module: Module) -> PrintedModule:
         c_kernels=tuple(k for k in kernels if k.name not in inline),
         terms=terms,
         soa_terms=tuple(pt for pt, t in zip(terms, module.terms) if t.rows),
-        bridged_terms=tuple(p for p, t in zip(terms, module.terms) if not (t.rows or t.quadratic)),
+        bridged_terms=tuple(
+            pt for pt, t in zip(terms, module.terms) if not (t.rows or t.quadratic)
+        ),
         call={site: text for site, text in calls.items() if site not in consumed},
         inline=inline,
         work=records.workspace(module),
