@@ -267,7 +267,8 @@ class Module:
     """Everything the printers need for one emitted module, still language-neutral.
 
     `kernels` are `KernelDef`s before the lowering passes and `Kernel`s after; `parts` names the
-    partial templates (algorithm variants included) in the order they are laid out; `facts`
+    parts in the order they are laid out, each by the partial template of its name or by the
+    variant `variants` names for it (e.g. the energy of a coupled M); `facts`
     are the few other values the templates show (flags and sizes, decided in Python).
     """
 
@@ -281,6 +282,7 @@ class Module:
     kernels: tuple[KernelDef | Kernel, ...]
     parts: tuple[str, ...]
     c_only: tuple[str, ...] = ()  # parts the NumPy module does by library calls instead
+    variants: tuple[tuple[str, str], ...] = ()  # (part, the partial that lays it out)
     pairs: tuple[tuple[int, int], ...] = ()  # 0-based (i, j), i < j, M_ij not identically zero
     terms: tuple[TermLoop, ...] = ()
     coupling: Loop | None = None

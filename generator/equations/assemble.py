@@ -111,6 +111,14 @@ def _term_loop(index: int, term: Term, n: int) -> TermLoop:
     )
 
 
+def _variants(solver: InertiaKind) -> tuple[tuple[str, str], ...]:
+    """(part, partial) where a part is laid out by a variant: the energy and momentum of a
+    dense or banded M add the coupled pairs' kinetic terms."""
+    if solver in (InertiaKind.DENSE, InertiaKind.BANDED):
+        return (("energy", "energy_coupled"),)
+    return ()
+
+
 def _parts(solver: InertiaKind, tables: bool, cutoff: bool) -> tuple[str, ...]:
     """The partial templates of a sphere module, in order, for its inertia solver: explicit
     updates (diagonal M), dense solves over pair loops, or the structured solves (band
@@ -172,6 +180,7 @@ def sphere_module(system: System) -> Module:
         kernels=tuple(kernels),
         parts=parts,
         c_only=("cholesky", "lu", "band"),  # NumPy solves with numpy.linalg and scipy.linalg
+        variants=_variants(solver),
         pairs=pairs,
         terms=loops,
         coupling=Loop(LoopKind.COUPLING, len(pairs), pairs) if pairs else None,

@@ -115,7 +115,8 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     ns = 2 * m3
     coupled = module.solver is not InertiaKind.DIAGONAL
     structured = module.solver in _STRUCTURED
-    field = layout("field", ("g", m3), ("a", m3 * padded(m3) if coupled else 0))
+    # a coupled M: the dense field solves A(q) omegadot = b in a
+    field = layout("field", ("g", m3), *((("a", m3 * padded(m3)),) if coupled else ()))
     extra: list[Layout] = []
     if structured:
         field, vi, rattle = _structured(module, bands(module))
@@ -159,7 +160,7 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     # Newton's starting points: each substep's Cayley parameters (VI) or multipliers (RATTLE)
     # from the previous step, for the longest composition
     subs = max(len(m.composition.fractions) for m in METHODS if m.composition is not None)
-    starts = [("f", subs * m3 if coupled else 0), ("s", subs * n if coupled else 0)]
+    starts = [*((("f", subs * m3),) if coupled else ()), ("s", subs * n if coupled else 0)]
     # substeps alternate between (a, vc) and (b, vd); va, vb carry RATTLE's velocities
     geometric = layout(
         "geometric",

@@ -18,11 +18,21 @@ import math
 import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
 
-from s2gen.ir import Call, Kernel, TermLoop
+from s2gen.ir import Call, Kernel, Module, ModuleKind, TermLoop
 from s2gen.printing.c import EXACT_INTEGER, ExactIntegers, LiteralError, double_literal
 from s2gen.terms import Enumeration
 
-__all__ = ["PyPrinter", "py_call", "py_kernel", "py_quad", "py_term_gradient", "py_term_setup"]
+__all__ = [
+    "PyPrinter",
+    "py_call",
+    "py_docstring",
+    "py_inertia_setup",
+    "py_kernel",
+    "py_quad",
+    "py_table_names",
+    "py_term_gradient",
+    "py_term_setup",
+]
 
 
 class PyPrinter(ExactIntegers, NumPyPrinter):
@@ -176,3 +186,68 @@ def py_quad(t: TermLoop, call: str, n: int) -> tuple[str, ...]:
             if r != c:
                 lines.append(f"numpy.add.at(kq, ({at(c)}, {at(r)}), {value})")
     return tuple(lines)
+
+
+def py_inertia_setup(module: Module) -> tuple[str, ...]:
+    """Module-level arrays of M's per-body data (and the body index its kernels read).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("rope"))
+        >>> py_inertia_setup(m)[0]
+        'INDEX = numpy.arange(1.0, NBODIES + 1.0)'
+    """
+    per_body = any(k.name == "inertia_body" for k in module.kernels)
+    lines = []
+    if module.inertia_data or module.kind is ModuleKind.SPHERE and per_body:
+        lines.append("INDEX = numpy.arange(1.0, NBODIES + 1.0)")
+    for name, values in module.inertia_data:
+        lits = ", ".join(repr(float(v)) for v in values)
+        lines.append(f"INERTIA_{name.upper()} = numpy.array([{lits}])")
+    return tuple(lines)
+
+
+def py_table_names(module: Module) -> tuple[str, ...]:
+    """The local names of the terms' member tables, in the order of their calls.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("dipoles"))
+        >>> py_table_names(m)
+        ('tab0',)
+    """
+    return tuple(f"tab{t.index}" for t in module.terms if t.table)
+
+
+def py_docstring(module: Module) -> tuple[str, str]:
+    """(title, state paragraph) of the NumPy module's docstring.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("double_pendulum"))
+        >>> py_docstring(m)[1]
+        'States are arrays q, w of shape (2, 3).'
+    """
+    n, name = module.n, module.name
+    facts = dict(module.facts)
+    if module.kind is ModuleKind.SPHERE:
+        return (
+            f'Equations of motion and integrators for the system "{name}" on (S^2)^{n} (NumPy).',
+            f"States are arrays q, w of shape ({n}, 3).",
+        )
+    title = (
+        f'The classical spherical-angle form of the system "{facts.get("system", name)}" '
+        f"({n} bodies), NumPy."
+    )
+    state = (
+        "Body i has the angles (theta_i, phi_i) and q_i = (sin theta_i cos phi_i, "
+        "sin theta_i sin phi_i, cos theta_i); SymPy derived M(x) xdd = F(x, xd) from "
+        f"L = 1/2 sum_ij M_ij qdot_i . qdot_j - V(q) ({facts.get('derivation', '')}). States "
+        f"x = (theta_1, phi_1, ...) and xd are arrays of {2 * n}. Where sin theta_i = 0 "
+        "phi_i is arbitrary and M(x) singular: to_angles returns ERR_POLE when sin theta_i < "
+        "POLE_TOL, rhs returns ERR_SINGULAR when min |pivot| <= MIN_PIVOT_RATIO max |pivot|."
+    )
+    return title, state

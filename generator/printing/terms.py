@@ -41,7 +41,6 @@ class PrintedTerm:
     c_close: tuple[str, ...]
     c_value_part: str
     c_gradient_part: str
-    layout: str  # "rows", "quadratic" (in K), "cutoff" or "" (the member loop): its partials
     c_value_call: str
     c_gradient_call: str
     c_table_lines: tuple[str, ...]
@@ -86,7 +85,6 @@ def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTer
         count=t.loop.count,
         c_open=c_open,
         c_close=c_close,
-        layout=suffix[1:],
         c_value_part=f"c/_term_value{suffix}.jinja",
         c_gradient_part=f"c/_term_gradient{suffix}.jinja",
         c_value_call=value["c"],
