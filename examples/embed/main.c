@@ -9,7 +9,8 @@
  *   RTOL, ATOL  rk45 and dop853 tolerances (default: the header's default options)
  * Prints the final sample (t, q, omega, energy) with %.17g, then the integrator's counts.
  * Exit status: 0 on success, 1 if the integration failed (the last valid sample is printed),
- * 2 on bad arguments.
+ * 2 on bad arguments. The file is C99 that also compiles as C++ (a C++ project may build it as
+ * my_program.cpp against the same library target).
  *
  * The system is chosen at compile time: -DS2GEN_SYSTEM=name -DS2GEN_SYSTEM_UPPER=NAME (the
  * Makefile and CMakeLists.txt pass both; default double_pendulum). SYS(_integrate) is then
@@ -122,10 +123,10 @@ int main(int argc, char **argv)
     }
 
     samples = (size_t)nsteps + 1;
-    q = malloc(samples * NSTATE * sizeof *q);
-    w = malloc(samples * NSTATE * sizeof *w);
-    energy = malloc(samples * sizeof *energy);
-    work = malloc(SYS_MACRO(_WORK_SIZE) * sizeof *work);
+    q = (double *)malloc(samples * NSTATE * sizeof *q);
+    w = (double *)malloc(samples * NSTATE * sizeof *w);
+    energy = (double *)malloc(samples * sizeof *energy);
+    work = (double *)malloc(SYS_MACRO(_WORK_SIZE) * sizeof *work);
     if (!q || !w || !energy || !work) {
         fprintf(stderr, "integrate: out of memory for %lu samples\n", (unsigned long)samples);
         return 2;
