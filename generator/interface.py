@@ -39,6 +39,7 @@ class Kind(enum.Enum):
     OPTIONS = "const options *"
     OPTIONS_OUT = "options *"
     STATS = "stats *"
+    STEPPER = "stepper *"
     VECTOR3 = "double J[3]"
     VOID = "void"
 
@@ -79,6 +80,7 @@ class Interface:
     functions: tuple[Function, ...]
     options: tuple[Field, ...]
     stats: tuple[Field, ...]
+    stepper: tuple[Field, ...] = ()  # what step() keeps between steps besides the carry
 
     def function(self, name: str) -> Function:
         """The function called `name` (KeyError if absent)."""
@@ -169,8 +171,10 @@ _SPHERE = Interface(
                 _p("work", _A),
                 _p("iters", Kind.INT_OUT, True),
             ),
-            "One variational-integrator step (q, w) -> (qn, wn); iters (may be NULL) receives "
-            "the Newton iterations (0 for the explicit update). opt NULL means the defaults.",
+            "One variational-integrator step (q, w) -> (qn, wn), Newton started cold (step() "
+            "carries its solution from step to step, as integrate() does); iters (may be NULL) "
+            "receives the Newton iterations (0 for the explicit update). opt NULL means the "
+            "defaults.",
         ),
         Function(
             "rk_step",
@@ -186,6 +190,49 @@ _SPHERE = Interface(
                 _p("work", _A),
             ),
             "One fixed step of RK2, RK2 with projection or RK4 (method as in the enum).",
+        ),
+        Function(
+            "initial_state",
+            Kind.INT,
+            (_p("q", _A), _p("w", _A)),
+            "The spec's initial state (NSTATE doubles each, body-major), as s2gen holds it: "
+            "q_i normalized and omega_i projected onto the tangent plane when the spec's values "
+            "were unit only to their printed digits. Returns OK, or ERR_ARGUMENT (q and w "
+            "untouched) when the spec gives no initial state.",
+        ),
+        Function(
+            "step_start",
+            Kind.INT,
+            (_p("st", Kind.STEPPER), _p("method", Kind.INT), _p("t0", _D)),
+            "Start a run of step() with `method`, any fixed-step method (METHOD_*: not RK45 or "
+            "DOP853, whose steps are adaptive), at time t0: the next step starts Newton cold. "
+            "Returns OK, or ERR_ARGUMENT for another method.",
+        ),
+        Function(
+            "step",
+            Kind.INT,
+            (
+                _p("p", _CA),
+                _p("opt", Kind.OPTIONS, True),
+                _p("st", Kind.STEPPER),
+                _p("h", _D),
+                _p("q", _CA),
+                _p("w", _CA),
+                _p("qn", _A),
+                _p("wn", _A),
+                _p("carry", _A),
+                _p("work", _A),
+                _p("iters", Kind.INT_OUT, True),
+            ),
+            "One step of size h of st->method, (q, w) -> (qn, wn), as integrate() takes it. "
+            "carry: STEP_CARRY doubles of the caller's, kept between the steps of one run (not "
+            "workspace: not shared with other calls); when (q, w) is the state the previous "
+            "step of the run returned (equal bit for bit, as when stepping on from it), the "
+            "step reuses its gradient, RATTLE's velocities and each substep's Newton solution "
+            "as starting point, and a run of steps reproduces integrate() exactly, Newton "
+            "iterations included; from any other state it starts afresh. On OK, st->t advances "
+            "by h and st->steps by 1. iters (may be NULL) receives the Newton iterations of "
+            "all substeps. opt NULL means the defaults.",
         ),
         Function(
             "integrate",
@@ -264,6 +311,11 @@ _SPHERE = Interface(
             "-1",
             "ERR_ARGUMENT: the body (0-based) whose q0 is not a unit vector (else -1)",
         ),
+    ),
+    stepper=(
+        Field("t", Kind.DOUBLE, "0.0", "time of the state the last step returned (t0 + the h's)"),
+        Field("steps", Kind.LONG, "0", "steps taken since step_start()"),
+        Field("method", Kind.INT, "0", "METHOD_* of the steps (set by step_start())"),
     ),
 )
 

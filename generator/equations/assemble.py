@@ -136,7 +136,8 @@ def _parts(solver: InertiaKind, tables: bool, cutoff: bool) -> tuple[str, ...]:
         middle += ("vi_structured",)
         rattle = "rattle_structured"
     head = (*(("tables",) if tables else ()), *(("neighbours",) if cutoff else ()))
-    return (*head, "kernels", "helpers", *middle, "vi_step", rattle, "rk", "rk_step", "driver")
+    tail = ("vi_step", rattle, "rk", "rk_step", "driver", "step")
+    return (*head, "kernels", "helpers", *middle, *tail)
 
 
 def sphere_module(system: System) -> Module:
@@ -189,7 +190,15 @@ def sphere_module(system: System) -> Module:
         field_calls=tuple(field),
         solver=solver,
         inertia_data=tuple((d.name, d.values) for d in chain_data),
+        initial_state=_initial_state(system),
     )
+
+
+def _initial_state(system: System) -> tuple[float, ...]:
+    """The spec's initial q then omega, body-major, or () when the spec gives none."""
+    if system.q0 is None or system.omega0 is None:
+        return ()
+    return tuple(float(v) for v in (*system.q0.ravel(), *system.omega0.ravel()))
 
 
 def angle_module(eq: AngleEquations) -> Module:

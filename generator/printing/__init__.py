@@ -150,6 +150,8 @@ class PrintedModule:
     c_tables: tuple[tuple[str, str, int, tuple[str, ...]], ...]
     options: tuple[dict[str, str], ...]
     stats: tuple[dict[str, str], ...]
+    stepper: tuple[dict[str, str], ...]  # the fields of step()'s record (none: no step())
+    initial_rows: tuple[str, ...]  # the spec's q then omega as rows of literals (none: no state)
     functions: tuple[dict[str, Any], ...]
     statuses: tuple[tuple[str, int, str], ...]
     methods: tuple[tuple[str, int, str], ...]
@@ -410,7 +412,7 @@ def _wrap(text: str, width: int = 92) -> tuple[str, ...]:
 
 def _fields(module: Module, which: str, prefix: str) -> tuple[dict[str, str], ...]:
     api = interface(module.kind)
-    fields = api.options if which == "options" else api.stats
+    fields = {"options": api.options, "stats": api.stats, "stepper": api.stepper}[which]
     upper = prefix.upper()
     return tuple(
         {
@@ -564,6 +566,7 @@ def print_module(module: Module) -> PrintedModule:
             ("NCONST", str(module.constants), "constants of the kernels (computed once per call)"),
             ("WORK_BASE", str(module.work_base), "workspace doubles before the per-call context"),
             ("WORK_SIZE", str(module.work_size), "workspace doubles every `work` must hold"),
+            ("STEP_CARRY", str(module.layout("carry").size), "doubles of step()'s carry"),
         )
     else:
         c_macros = (
@@ -642,6 +645,8 @@ def print_module(module: Module) -> PrintedModule:
         c_tables=tuple(tables),
         options=_fields(module, "options", name),
         stats=_fields(module, "stats", name),
+        stepper=_fields(module, "stepper", name),
+        initial_rows=rows([repr(v) for v in module.initial_state]),
         functions=_functions(module, name),
         statuses=statuses,
         methods=meths,
