@@ -34,8 +34,10 @@ def _sh(cmd: list[str], cwd: Path) -> str:
     return proc.stdout
 
 
-def _final_state(program: Path, cwd: Path, method: str, h: float, n: int) -> dict[str, np.ndarray]:
-    out = _sh([str(program), "double_pendulum.init", method, repr(h), str(n)], cwd)
+def _final_state(
+    program: Path, cwd: Path, method: str, h: float, n: int, initial: str = "double_pendulum.init"
+) -> dict[str, np.ndarray]:
+    out = _sh([str(program), initial, method, repr(h), str(n)], cwd)
     rows = {}
     for line in out.splitlines():
         key, *values = line.split()
@@ -68,6 +70,9 @@ def expected(folder: Path) -> dict[str, dict[str, np.ndarray]]:
 def _check(program: Path, cwd: Path, expected: dict[str, dict[str, np.ndarray]]) -> None:
     for method, h, n in RUNS:
         got = _final_state(program, cwd, method, h, n)
+        from_spec = _final_state(program, cwd, method, h, n, "spec")  # NAME_initial_state
+        for key in got:
+            assert np.array_equal(got[key], from_spec[key]), key
         want = expected[method]
         assert got["t"][0] == pytest.approx(h * n, rel=1e-14)
         for key in ("q", "omega", "energy"):

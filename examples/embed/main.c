@@ -1,7 +1,8 @@
 /* integrate: run a system emitted by s2gen from a C program, through the header's API only.
  *
  * Usage: integrate INITIAL METHOD H NSTEPS [RTOL ATOL]
- *   INITIAL  a text file: q (NSTATE numbers, body-major), then omega (NSTATE numbers)
+ *   INITIAL  a text file: q (NSTATE numbers, body-major), then omega (NSTATE numbers), or
+ *            "spec" for the spec's initial state (the header's initial_state())
  *   METHOD   vi, vi4, vi6, vi8, rattle, rattle4, rattle6, rattle8, rk45, dop853, rk2, rk2-proj
  *            or rk4
  *   H        step size (rk45, dop853: spacing of the output samples; their steps are adaptive)
@@ -97,8 +98,12 @@ int main(int argc, char **argv)
 
     if (argc != 5 && argc != 7)
         return usage("wrong number of arguments");
-    if (!read_initial(argv[1], q0, w0))
+    if (strcmp(argv[1], "spec") == 0) {
+        if (SYS(_initial_state)(q0, w0) != SYS_MACRO(_OK))
+            return usage("the spec gives no initial state");
+    } else if (!read_initial(argv[1], q0, w0)) {
         return usage("cannot read 2 * NSTATE numbers from INITIAL");
+    }
     for (i = 0; i < sizeof methods / sizeof methods[0]; ++i)
         if (strcmp(argv[2], methods[i].name) == 0)
             method = methods[i].code;
