@@ -23,7 +23,19 @@ from dataclasses import dataclass
 
 from s2gen.ir import ModuleKind
 
-__all__ = ["Field", "Function", "Interface", "Kind", "Param", "interface"]
+__all__ = [
+    "INITIAL_STATE_MAX_BODIES",
+    "Field",
+    "Function",
+    "Interface",
+    "Kind",
+    "Param",
+    "interface",
+]
+
+#: initial_state() carries the spec's state up to this many bodies (6 doubles each, printed in
+#: full); a larger state would dominate the emitted code and its compilation.
+INITIAL_STATE_MAX_BODIES = 10_000
 
 
 class Kind(enum.Enum):
@@ -198,7 +210,8 @@ _SPHERE = Interface(
             "The spec's initial state (NSTATE doubles each, body-major), as s2gen holds it: "
             "q_i normalized and omega_i projected onto the tangent plane when the spec's values "
             "were unit only to their printed digits. Returns OK, or ERR_ARGUMENT (q and w "
-            "untouched) when the spec gives no initial state.",
+            "untouched) when the spec gives no initial state or has more than "
+            f"{INITIAL_STATE_MAX_BODIES} bodies (read such a state from a file).",
         ),
         Function(
             "step_start",

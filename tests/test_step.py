@@ -212,3 +212,35 @@ def test_readme_step_block_runs_as_integrate(tmp_path: Path) -> None:
                     if line])  # fmt: skip
     q_ref, w_ref, _ = _integrated(system, "rattle", 0.01, 1000)
     assert np.array_equal(got[:, 0], q_ref) and np.array_equal(got[:, 1], w_ref)
+
+
+def test_a_module_without_the_initial_state_says_so(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """Past INITIAL_STATE_MAX_BODIES (here lowered to 1) the modules carry no state:
+    initial_state returns ERR_ARGUMENT in NumPy and in C (the C compiled and run)."""
+    import subprocess
+
+    from s2gen.equations import assemble
+    from s2gen.passes import lower_system
+    from s2gen.printing import print_module
+    from s2gen.render import render
+
+    system = builtin("double_pendulum")
+    assert len(assemble.sphere_module(system).initial_state) == 12
+    monkeypatch.setattr(assemble, "INITIAL_STATE_MAX_BODIES", 1)
+    printed = print_module(lower_system(system))
+    assert printed.initial_rows == ()
+    source = render(printed, "numpy")["double_pendulum.py"]
+    mod = import_cached("double_pendulum.py", source)
+    assert mod.initial_state() == (mod.ERR_ARGUMENT, None, None)
+    for fname, text in render(printed, "c").items():
+        (tmp_path / fname).write_text(text)
+    (tmp_path / "main.c").write_text(
+        '#include "double_pendulum.h"\nint main(void)\n{\n    double q[6] = {0}, w[6] = {0};\n'
+        "    return double_pendulum_initial_state(q, w) == DOUBLE_PENDULUM_ERR_ARGUMENT"
+        " && q[0] == 0.0 ? 0 : 1;\n}\n"
+    )
+    cc = ["gcc", "-std=c99", "-Wall", "-Werror", "main.c", "double_pendulum.c", "-lm", "-o", "m"]
+    subprocess.run(cc, cwd=tmp_path, check=True)
+    assert subprocess.run(["./m"], cwd=tmp_path, check=False).returncode == 0

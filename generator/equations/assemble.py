@@ -35,6 +35,7 @@ from s2gen.equations.structure import (
     term_kernels,
 )
 from s2gen.inertia import InertiaKind
+from s2gen.interface import INITIAL_STATE_MAX_BODIES
 from s2gen.ir import KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
 from s2gen.system import System, Term
 
@@ -195,8 +196,9 @@ def sphere_module(system: System) -> Module:
 
 
 def _initial_state(system: System) -> tuple[float, ...]:
-    """The spec's initial q then omega, body-major, or () when the spec gives none."""
-    if system.q0 is None or system.omega0 is None:
+    """The spec's initial q then omega, body-major, or () when the spec gives none or it has
+    more bodies than the emitted modules carry (`INITIAL_STATE_MAX_BODIES`)."""
+    if system.q0 is None or system.omega0 is None or system.n > INITIAL_STATE_MAX_BODIES:
         return ()
     return tuple(float(v) for v in (*system.q0.ravel(), *system.omega0.ravel()))
 

@@ -700,7 +700,7 @@ void double_pendulum_default_params(double *p)
 /* The spec's initial state: q, then omega, body-major. */
 static const double double_pendulum_initial[12] = {
     0.8660254037844387, 0.0, 0.5000000000000001, 0.0, 0.0, 1.0,
-    -0.4330127018922194, 0.0, 0.7499999999999999, 0.0, 1.0, 0.0
+    -0.4330127018922194, 0.0, 0.7499999999999999, 0.0, 1.0, 0.0,
 };
 
 int double_pendulum_initial_state(double *q, double *w)

@@ -405,7 +405,7 @@ def default_params():
 
 def initial_state():
     """The spec's initial state (q, w), arrays of shape (NBODIES, 3): (status, q, w), with
-    ERR_ARGUMENT and None, None when the spec gives none."""
+    ERR_ARGUMENT and None, None when the module carries none (as initial_state in C)."""
     y = numpy.array([
         0.8660254037844387, 0.0, 0.5000000000000001, 0.0, 0.0, 1.0,
         -0.4330127018922194, 0.0, 0.7499999999999999, 0.0, 1.0, 0.0,

@@ -138,7 +138,7 @@ int four_pendula_rk_step(const double *p, int method, double h, const double *q,
 /* The spec's initial state (NSTATE doubles each, body-major), as s2gen holds it: q_i
  * normalized and omega_i projected onto the tangent plane when the spec's values were unit
  * only to their printed digits. Returns OK, or ERR_ARGUMENT (q and w untouched) when the spec
- * gives no initial state. */
+ * gives no initial state or has more than 10000 bodies (read such a state from a file). */
 int four_pendula_initial_state(double *q, double *w);
 
 /* Start a run of step() with `method`, any fixed-step method (METHOD_*: not RK45 or DOP853,

@@ -266,7 +266,7 @@ def default_params():
 
 def initial_state():
     """The spec's initial state (q, w), arrays of shape (NBODIES, 3): (status, q, w), with
-    ERR_ARGUMENT and None, None when the spec gives none."""
+    ERR_ARGUMENT and None, None when the module carries none (as initial_state in C)."""
     y = numpy.array([
         0.0, 0.0, 1.0, 0.0, 0.0, 1.0,
         0.46984631039295427, 0.17101007166283438, 0.8660254037844387, 0.0, 0.0, 1.0,

@@ -357,7 +357,7 @@ static const double lj_cutoff_initial[48] = {
     0.3, -0.3, 0.0, 0.0, 0.0, 0.0,
     0.0, 0.0, 0.0, 0.2, -0.2, 0.0,
     0.0, 0.0, 0.0, 0.1, 0.1, 0.0,
-    0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
 };
 
 int lj_cutoff_initial_state(double *q, double *w)
