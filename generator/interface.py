@@ -23,7 +23,19 @@ from dataclasses import dataclass
 
 from s2gen.ir import ModuleKind
 
-__all__ = ["Field", "Function", "Interface", "Kind", "Param", "interface"]
+__all__ = [
+    "INITIAL_STATE_MAX_BODIES",
+    "Field",
+    "Function",
+    "Interface",
+    "Kind",
+    "Param",
+    "interface",
+]
+
+#: initial_state() carries the spec's state up to this many bodies (6 doubles each, printed in
+#: full); a larger state would dominate the emitted code and its compilation.
+INITIAL_STATE_MAX_BODIES = 10_000
 
 
 class Kind(enum.Enum):
@@ -39,6 +51,7 @@ class Kind(enum.Enum):
     OPTIONS = "const options *"
     OPTIONS_OUT = "options *"
     STATS = "stats *"
+    STEPPER = "stepper *"
     VECTOR3 = "double J[3]"
     VOID = "void"
 
@@ -79,6 +92,7 @@ class Interface:
     functions: tuple[Function, ...]
     options: tuple[Field, ...]
     stats: tuple[Field, ...]
+    stepper: tuple[Field, ...] = ()  # what step() keeps between steps besides the carry
 
     def function(self, name: str) -> Function:
         """The function called `name` (KeyError if absent)."""
@@ -93,13 +107,6 @@ def _p(name: str, kind: Kind, nullable: bool = False) -> Param:
 
 
 _D, _CA, _A = Kind.DOUBLE, Kind.CONST_ARRAY, Kind.ARRAY
-
-_OPTIONS_RK45 = (
-    Field("rtol", Kind.DOUBLE, "1e-3", "RK45 relative tolerance (default 1e-3)"),
-    Field("atol", Kind.DOUBLE, "1e-6", "RK45 absolute tolerance (default 1e-6)"),
-    Field("hmax", Kind.DOUBLE, "0.0", "RK45 largest step; <= 0 means 0.1 * (final time)"),
-    Field("control", Kind.INT, "CONTROL_MATLAB", "CONTROL_MATLAB (default) or CONTROL_HAIRER"),
-)
 
 _OPTIONS_ADAPTIVE = (
     Field("rtol", Kind.DOUBLE, "1e-3", "RK45 and DOP853 relative tolerance (default 1e-3)"),
@@ -169,8 +176,10 @@ _SPHERE = Interface(
                 _p("work", _A),
                 _p("iters", Kind.INT_OUT, True),
             ),
-            "One variational-integrator step (q, w) -> (qn, wn); iters (may be NULL) receives "
-            "the Newton iterations (0 for the explicit update). opt NULL means the defaults.",
+            "One variational-integrator step (q, w) -> (qn, wn), Newton started cold (step() "
+            "carries its solution from step to step, as integrate() does); iters (may be NULL) "
+            "receives the Newton iterations (0 for the explicit update). opt NULL means the "
+            "defaults.",
         ),
         Function(
             "rk_step",
@@ -186,6 +195,50 @@ _SPHERE = Interface(
                 _p("work", _A),
             ),
             "One fixed step of RK2, RK2 with projection or RK4 (method as in the enum).",
+        ),
+        Function(
+            "initial_state",
+            Kind.INT,
+            (_p("q", _A), _p("w", _A)),
+            "The spec's initial state (NSTATE doubles each, body-major), as s2gen holds it: "
+            "q_i normalized and omega_i projected onto the tangent plane when the spec's values "
+            "were unit only to their printed digits. Returns OK, or ERR_ARGUMENT (q and w "
+            "untouched) when the spec gives no initial state or has more than "
+            f"{INITIAL_STATE_MAX_BODIES} bodies (read such a state from a file).",
+        ),
+        Function(
+            "step_start",
+            Kind.INT,
+            (_p("st", Kind.STEPPER), _p("method", Kind.INT), _p("t0", _D)),
+            "Start a run of step() with `method`, any fixed-step method (METHOD_*: not RK45 or "
+            "DOP853, whose steps are adaptive), at time t0: the next step starts Newton cold. "
+            "Returns OK, or ERR_ARGUMENT for another method.",
+        ),
+        Function(
+            "step",
+            Kind.INT,
+            (
+                _p("p", _CA),
+                _p("opt", Kind.OPTIONS, True),
+                _p("st", Kind.STEPPER),
+                _p("h", _D),
+                _p("q", _CA),
+                _p("w", _CA),
+                _p("qn", _A),
+                _p("wn", _A),
+                _p("carry", _A),
+                _p("work", _A),
+                _p("iters", Kind.INT_OUT, True),
+            ),
+            "One step of size h of st->method, (q, w) -> (qn, wn), as integrate() takes it. "
+            "carry: STEP_CARRY doubles of the caller's, kept between the steps of one run (not "
+            "workspace: not shared with other calls); when (q, w) is the state the previous "
+            "step of the run returned (equal bit for bit, as when stepping on from it), the "
+            "step reuses its gradient, RATTLE's velocities and each substep's Newton solution "
+            "as starting point, and a run of steps reproduces integrate() exactly, Newton "
+            "iterations included; from any other state it starts afresh. On OK, st->t advances "
+            "by h and st->steps by 1. iters (may be NULL) receives the Newton iterations of "
+            "all substeps. opt NULL means the defaults.",
         ),
         Function(
             "integrate",
@@ -265,102 +318,18 @@ _SPHERE = Interface(
             "ERR_ARGUMENT: the body (0-based) whose q0 is not a unit vector (else -1)",
         ),
     ),
-)
-
-_ANGLES = Interface(
-    functions=(
-        Function("default_params", Kind.VOID, (_p("p", _A),), "The spec's parameter values."),
-        Function(
-            "default_options", Kind.VOID, (_p("opt", Kind.OPTIONS_OUT),), "The default options."
-        ),
-        Function(
-            "to_angles",
-            Kind.INT,
-            (_p("q", _CA), _p("w", _CA), _p("x", _A), _p("xd", _A), _p("body", Kind.INT_OUT, True)),
-            "Angles and rates of a state given as q, w (NBODIES 3-vectors each, body-major), "
-            "theta in [0, pi]. Returns ERR_POLE (and the 0-based body in *body, if body is not "
-            "NULL) when some sin theta_i < POLE_TOL.",
-        ),
-        Function(
-            "to_sphere",
-            Kind.VOID,
-            (_p("count", Kind.LONG), _p("x", _CA), _p("xd", _CA), _p("q", _A), _p("w", _A)),
-            "q and omega = q x qdot of `count` angle states (x, xd: count * NX doubles each; "
-            "q, w: count * 3 * NBODIES).",
-        ),
-        Function(
-            "energy",
-            Kind.DOUBLE,
-            (_p("p", _CA), _p("x", _CA), _p("xd", _CA)),
-            "Total energy T + V in angles.",
-        ),
-        Function(
-            "rhs",
-            Kind.INT,
-            (_p("p", _CA), _p("x", _CA), _p("xd", _CA), _p("xdd", _A), _p("work", _A)),
-            "Accelerations xdd from M(x) xdd = F(x, xd) (LU with partial pivoting).",
-        ),
-        Function(
-            "rk4_step",
-            Kind.INT,
-            (
-                _p("p", _CA),
-                _p("h", _D),
-                _p("x", _CA),
-                _p("xd", _CA),
-                _p("xn", _A),
-                _p("xdn", _A),
-                _p("work", _A),
-            ),
-            "One classical Runge-Kutta step of size h. If a field evaluation fails, xn and "
-            "xdn receive the stage state where it failed.",
-        ),
-        Function(
-            "integrate",
-            Kind.INT,
-            (
-                _p("p", _CA),
-                _p("opt", Kind.OPTIONS, True),
-                _p("method", Kind.INT),
-                _p("h", _D),
-                _p("nsteps", Kind.LONG),
-                _p("x0", _CA),
-                _p("xd0", _CA),
-                _p("x", _A),
-                _p("xd", _A),
-                _p("energy", _A, True),
-                _p("counts", Kind.LONG_ARRAY, True),
-                _p("work", _A),
-                _p("stats", Kind.STATS, True),
-            ),
-            "Integrate nsteps steps of size h (RK45: output spacing h, adaptive steps inside) "
-            "from (x0, xd0).",
-        ),
-    ),
-    options=_OPTIONS_RK45,
-    stats=(
-        Field("steps", Kind.LONG, "0", "accepted steps"),
-        Field("rejected", Kind.LONG, "0", "RK45 rejected steps"),
-        Field("rhs_evals", Kind.LONG, "0", "evaluations of the vector field"),
-        Field("fail_step", Kind.LONG, "0", "on failure: first sample index not computed"),
-        Field(
-            "fail_body",
-            Kind.LONG,
-            "-1",
-            "on failure: the body (0-based) with the smallest |sin theta| in the state where "
-            "the field failed (else in the last accepted state)",
-        ),
-        Field(
-            "fail_time",
-            Kind.DOUBLE,
-            "0.0",
-            "on failure: time of the last accepted state (start of the failed step)",
-        ),
-        Field("fail_sin", Kind.DOUBLE, "0.0", "on failure: that body's |sin theta|"),
+    stepper=(
+        Field("t", Kind.DOUBLE, "0.0", "time of the state the last step returned (t0 + the h's)"),
+        Field("steps", Kind.LONG, "0", "steps taken since step_start()"),
+        Field("method", Kind.INT, "0", "METHOD_* of the steps (set by step_start())"),
     ),
 )
 
 
 def interface(kind: ModuleKind) -> Interface:
-    """The interface of one kind of module."""
-    return _SPHERE if kind is ModuleKind.SPHERE else _ANGLES
+    """The interface of one kind of module (the angle form's in `s2gen.interface_angles`)."""
+    if kind is ModuleKind.SPHERE:
+        return _SPHERE
+    from s2gen.interface_angles import ANGLES
+
+    return ANGLES

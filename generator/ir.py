@@ -298,6 +298,7 @@ class Module:
     solver: InertiaKind = InertiaKind.DIAGONAL  # how the coupled solves are done
     bands: tuple[Band, ...] = ()  # structured solvers: their systems (workspace pass)
     inertia_data: tuple[tuple[str, tuple[float, ...]], ...] = ()  # per-body data of M
+    initial_state: tuple[float, ...] = ()  # the spec's q then omega, body-major (or none)
 
     def band(self, name: str) -> Band:
         """The band system `name` (KeyError if absent)."""

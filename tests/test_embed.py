@@ -1,5 +1,5 @@
 """examples/embed: the C program built from the emitted files with make and with CMake (alone
-and as a parent project's subdirectory) prints the same final state as `s2gen simulate`'s
+and as the README's parent project's subdirectory, from a C-only and a C++-only project) prints the same final state as `s2gen simulate`'s
 saved trajectory, to 1e-12, through the header's public API only."""
 
 from __future__ import annotations
@@ -20,8 +20,6 @@ EMBED = Path(__file__).resolve().parent.parent / "examples" / "embed"
 S2GEN = [sys.executable, "-m", "s2gen"]
 RUNS = (("vi", 0.01, 300), ("rk45", 0.01, 300))
 
-pytestmark = pytest.mark.skipif(shutil.which("make") is None, reason="make not installed")
-
 
 def _env() -> dict[str, str]:
     """This process's s2gen (PYTHONPATH) and build cache for every command the builds run."""
@@ -36,8 +34,10 @@ def _sh(cmd: list[str], cwd: Path) -> str:
     return proc.stdout
 
 
-def _final_state(program: Path, cwd: Path, method: str, h: float, n: int) -> dict[str, np.ndarray]:
-    out = _sh([str(program), "double_pendulum.init", method, repr(h), str(n)], cwd)
+def _final_state(
+    program: Path, cwd: Path, method: str, h: float, n: int, initial: str = "double_pendulum.init"
+) -> dict[str, np.ndarray]:
+    out = _sh([str(program), initial, method, repr(h), str(n)], cwd)
     rows = {}
     for line in out.splitlines():
         key, *values = line.split()
@@ -70,6 +70,9 @@ def expected(folder: Path) -> dict[str, dict[str, np.ndarray]]:
 def _check(program: Path, cwd: Path, expected: dict[str, dict[str, np.ndarray]]) -> None:
     for method, h, n in RUNS:
         got = _final_state(program, cwd, method, h, n)
+        from_spec = _final_state(program, cwd, method, h, n, "spec")  # NAME_initial_state
+        for key in got:
+            assert np.array_equal(got[key], from_spec[key]), key
         want = expected[method]
         assert got["t"][0] == pytest.approx(h * n, rel=1e-14)
         for key in ("q", "omega", "energy"):
@@ -97,6 +100,7 @@ def test_program_uses_the_public_header_api_only() -> None:
         assert re.search(rf"\b{name}\b", header), name
 
 
+@pytest.mark.skipif(shutil.which("make") is None, reason="make not installed")
 def test_make_build_matches_simulate(folder: Path, expected) -> None:
     _sh(["make", f"S2GEN={' '.join(S2GEN)}", "BUILD=build-make"], folder)
     _check(folder / "build-make" / "integrate", folder, expected)
@@ -110,24 +114,59 @@ def test_cmake_build_matches_simulate(folder: Path, expected) -> None:
     _check(build / "integrate", folder, expected)
 
 
+def _readme_cmake_snippets() -> list[str]:
+    """Every ```cmake block that calls add_subdirectory, in the README and the kit's README."""
+    found = []
+    for readme in (EMBED.parent.parent / "README.md", EMBED / "README.md"):
+        blocks = re.findall(r"^```cmake\n(.*?)^```", readme.read_text(), re.MULTILINE | re.DOTALL)
+        found += [b for b in blocks if "add_subdirectory(" in b]
+    return found
+
+
+def test_readmes_show_one_add_subdirectory_snippet() -> None:
+    """Both READMEs quote the parent project the next test builds, word for word."""
+    snippets = _readme_cmake_snippets()
+    assert len(snippets) == 2, snippets
+    assert snippets[0] == snippets[1]
+
+
 @pytest.mark.skipif(shutil.which("cmake") is None, reason="cmake not installed")
-def test_cmake_parent_project_links_s2gen_system(folder: Path, expected) -> None:
-    """A parent project adds the folder and links its own program against s2gen_system: the
-    include folder, C99, -lm and the system's name come with the target."""
-    parent = folder.parent / "parent"
-    parent.mkdir(exist_ok=True)
-    shutil.copy(folder / "main.c", parent / "app.c")
+@pytest.mark.parametrize("language", ["CXX", "C"])
+def test_readme_parent_project_links_s2gen_system(folder: Path, language: str) -> None:
+    """The README's parent project, C++-only as quoted and C-only with its two C++ words
+    replaced, laid out as it reads (the kit under third_party/, a spec under specs/): it
+    configures, builds the emitted source into s2gen_system and links the example program
+    (C99 that also compiles as C++) against it; the final state equals `s2gen simulate`'s of
+    the same spec to 1e-12."""
+    text = _readme_cmake_snippets()[0]
+    source = "my_program.cpp"
+    if language == "C":
+        assert "LANGUAGES CXX)" in text and "my_program.cpp" in text
+        text = text.replace("LANGUAGES CXX)", "LANGUAGES C)").replace(".cpp", ".c")
+        source = "my_program.c"
+    parent = folder.parent / f"parent_{language}"
+    kit = parent / "third_party" / "s2gen" / "examples" / "embed"
+    shutil.copytree(folder, kit, ignore=shutil.ignore_patterns("build", "build-*"))
+    (parent / "specs").mkdir()
+    spec = EMBED.parent.parent / "generator" / "systems" / "examples" / "double_pendulum.toml"
+    named = re.sub(r'^name = "double_pendulum"', 'name = "my_system"', spec.read_text(), 1,
+                   flags=re.MULTILINE)  # fmt: skip
+    assert 'name = "my_system"' in named
+    (parent / "specs" / "my_system.toml").write_text(named)
+    shutil.copy(folder / "main.c", parent / source)
     shutil.copy(folder / "double_pendulum.init", parent)
-    (parent / "CMakeLists.txt").write_text(
-        "cmake_minimum_required(VERSION 3.16)\n"
-        "project(parent LANGUAGES C)\n"
-        f'add_subdirectory("{folder}" embed)\n'
-        "add_executable(app app.c)\n"
-        "target_link_libraries(app PRIVATE s2gen_system)\n"
-    )
+    (parent / "CMakeLists.txt").write_text(text)
     build = parent / "build"
     args = [f"-DS2GEN_EXECUTABLE={';'.join(S2GEN)}", "-DCMAKE_BUILD_TYPE=Release"]
     _sh(["cmake", "-S", ".", "-B", str(build), *args], parent)
     _sh(["cmake", "--build", str(build)], parent)
-    assert not (build / "embed" / "integrate").exists()  # the example program stays out
-    _check(build / "app", parent, expected)
+    assert not (build / "s2gen_embed" / "integrate").exists()  # the example program stays out
+    for method, h, n in RUNS:
+        out = parent / f"sim_{method}.npz"
+        _sh([*S2GEN, "simulate", "specs/my_system.toml", "--method", method, "--h", repr(h),
+             "--T", repr(h * n), "--out", str(out)], parent)  # fmt: skip
+        data = np.load(out)
+        got = _final_state(build / "my_program", parent, method, h, n)
+        for key in ("q", "omega", "energy"):
+            np.testing.assert_allclose(got[key], data[key][-1].ravel(), rtol=0, atol=1e-12,
+                                       err_msg=key)  # fmt: skip

@@ -1,9 +1,11 @@
 """Every built-in's emitted C under AddressSanitizer and UndefinedBehaviorSanitizer (and, in the
 slow suite, valgrind's memcheck): a driver runs every method the C backend has from the
 system's own initial state, with every caller array allocated at exactly the size the header
-states (trajectory (nsteps + 1) * NSTATE, energy nsteps + 1, workspace WORK_SIZE), so a write or
-read past any of them is reported. Any sanitizer report fails the test; so does a failed
-integration or a non-finite result.
+states (trajectory (nsteps + 1) * NSTATE, energy nsteps + 1, workspace WORK_SIZE, step()'s carry
+STEP_CARRY), so a write or read past any of them is reported; every fixed-step method runs again
+through step() and must end in integrate()'s final state bit for bit, and initial_state() must
+hand back the spec's state. Any sanitizer report fails the test; so does a failed integration, a
+non-finite result or a difference.
 
 Every built-in runs in the default suite (about 12 s on two cores); among them the double
 pendulum (coupled: Newton, linear solves) and the four pendula (diagonal, with one-body and
@@ -87,14 +89,34 @@ int main(int argc, char **argv)
         double *q = exactly(samples * {up}_NSTATE), *w = exactly(samples * {up}_NSTATE);
         double *en = exactly(samples), *work = exactly({up}_WORK_SIZE);
         {name}_stats st;
+        {name}_stepper run;
         int status = {name}_integrate(p, &opt, method, h, nsteps, q0, w0, q, w, en, work, &st);
+        int stepped = {name}_step_start(&run, method, 0.0);
         for (k = 0; status == {up}_OK && k < (long)(samples * {up}_NSTATE); ++k)
             if (!isfinite(q[k]) || !isfinite(w[k])) {{ bad = 1; break; }}
-        printf("method %d status %d steps %ld energy %.17g\\n", method, status, st.steps,
-               en[status == {up}_OK ? nsteps : 0]);
+        if (status == {up}_OK && stepped == {up}_OK) {{
+            /* the same run by step(), its carry exactly STEP_CARRY doubles: integrate()'s end */
+            double *carry = exactly({up}_STEP_CARRY), *qa = exactly({up}_NSTATE);
+            double *wa = exactly({up}_NSTATE), *qb = exactly({up}_NSTATE);
+            double *wb = exactly({up}_NSTATE), *t;
+            memcpy(qa, q0, sizeof q_init);
+            memcpy(wa, w0, sizeof w_init);
+            for (k = 0; stepped == {up}_OK && k < nsteps; ++k) {{
+                stepped = {name}_step(p, &opt, &run, h, qa, wa, qb, wb, carry, work, NULL);
+                t = qa; qa = qb; qb = t; t = wa; wa = wb; wb = t;
+            }}
+            bad |= stepped != {up}_OK || run.steps != nsteps
+                || memcmp(qa, q + nsteps * {up}_NSTATE, sizeof q_init) != 0
+                || memcmp(wa, w + nsteps * {up}_NSTATE, sizeof w_init) != 0;
+            free(carry); free(qa); free(wa); free(qb); free(wb);
+        }}
+        printf("method %d status %d steps %ld energy %.17g step %d\\n", method, status, st.steps,
+               en[status == {up}_OK ? nsteps : 0], stepped);
         bad |= status != {up}_OK;
         free(q); free(w); free(en); free(work);
     }}
+    bad |= {name}_initial_state(q0, w0) != {up}_OK || memcmp(q0, q_init, sizeof q_init) != 0
+        || memcmp(w0, w_init, sizeof w_init) != 0;
     free(p); free(q0); free(w0);
     return bad;
 }}

@@ -1,7 +1,8 @@
 /* integrate: run a system emitted by s2gen from a C program, through the header's API only.
  *
  * Usage: integrate INITIAL METHOD H NSTEPS [RTOL ATOL]
- *   INITIAL  a text file: q (NSTATE numbers, body-major), then omega (NSTATE numbers)
+ *   INITIAL  a text file: q (NSTATE numbers, body-major), then omega (NSTATE numbers), or
+ *            "spec" for the spec's initial state (the header's initial_state())
  *   METHOD   vi, vi4, vi6, vi8, rattle, rattle4, rattle6, rattle8, rk45, dop853, rk2, rk2-proj
  *            or rk4
  *   H        step size (rk45, dop853: spacing of the output samples; their steps are adaptive)
@@ -9,7 +10,8 @@
  *   RTOL, ATOL  rk45 and dop853 tolerances (default: the header's default options)
  * Prints the final sample (t, q, omega, energy) with %.17g, then the integrator's counts.
  * Exit status: 0 on success, 1 if the integration failed (the last valid sample is printed),
- * 2 on bad arguments.
+ * 2 on bad arguments. The file is C99 that also compiles as C++ (a C++ project may build it as
+ * my_program.cpp against the same library target).
  *
  * The system is chosen at compile time: -DS2GEN_SYSTEM=name -DS2GEN_SYSTEM_UPPER=NAME (the
  * Makefile and CMakeLists.txt pass both; default double_pendulum). SYS(_integrate) is then
@@ -96,8 +98,12 @@ int main(int argc, char **argv)
 
     if (argc != 5 && argc != 7)
         return usage("wrong number of arguments");
-    if (!read_initial(argv[1], q0, w0))
+    if (strcmp(argv[1], "spec") == 0) {
+        if (SYS(_initial_state)(q0, w0) != SYS_MACRO(_OK))
+            return usage("the spec gives no initial state");
+    } else if (!read_initial(argv[1], q0, w0)) {
         return usage("cannot read 2 * NSTATE numbers from INITIAL");
+    }
     for (i = 0; i < sizeof methods / sizeof methods[0]; ++i)
         if (strcmp(argv[2], methods[i].name) == 0)
             method = methods[i].code;
@@ -122,10 +128,10 @@ int main(int argc, char **argv)
     }
 
     samples = (size_t)nsteps + 1;
-    q = malloc(samples * NSTATE * sizeof *q);
-    w = malloc(samples * NSTATE * sizeof *w);
-    energy = malloc(samples * sizeof *energy);
-    work = malloc(SYS_MACRO(_WORK_SIZE) * sizeof *work);
+    q = (double *)malloc(samples * NSTATE * sizeof *q);
+    w = (double *)malloc(samples * NSTATE * sizeof *w);
+    energy = (double *)malloc(samples * sizeof *energy);
+    work = (double *)malloc(SYS_MACRO(_WORK_SIZE) * sizeof *work);
     if (!q || !w || !energy || !work) {
         fprintf(stderr, "integrate: out of memory for %lu samples\n", (unsigned long)samples);
         return 2;

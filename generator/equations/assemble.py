@@ -35,6 +35,7 @@ from s2gen.equations.structure import (
     term_kernels,
 )
 from s2gen.inertia import InertiaKind
+from s2gen.interface import INITIAL_STATE_MAX_BODIES
 from s2gen.ir import KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
 from s2gen.system import System, Term
 
@@ -139,7 +140,8 @@ def _parts(solver: InertiaKind, tables: bool, cutoff: bool) -> tuple[str, ...]:
         middle += ("vi_structured",)
         rattle = "rattle_structured"
     head = (*(("tables",) if tables else ()), *(("neighbours",) if cutoff else ()))
-    return (*head, "kernels", "helpers", *middle, "vi_step", rattle, "rk", "rk_step", "driver")
+    tail = ("vi_step", rattle, "rk", "rk_step", "driver", "step")
+    return (*head, "kernels", "helpers", *middle, *tail)
 
 
 def sphere_module(system: System) -> Module:
@@ -193,7 +195,16 @@ def sphere_module(system: System) -> Module:
         field_calls=tuple(field),
         solver=solver,
         inertia_data=tuple((d.name, d.values) for d in chain_data),
+        initial_state=_initial_state(system),
     )
+
+
+def _initial_state(system: System) -> tuple[float, ...]:
+    """The spec's initial q then omega, body-major, or () when the spec gives none or it has
+    more bodies than the emitted modules carry (`INITIAL_STATE_MAX_BODIES`)."""
+    if system.q0 is None or system.omega0 is None or system.n > INITIAL_STATE_MAX_BODIES:
+        return ()
+    return tuple(float(v) for v in (*system.q0.ravel(), *system.omega0.ravel()))
 
 
 def angle_module(eq: AngleEquations) -> Module:

@@ -173,10 +173,18 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     vi_step = layout("vi_step", ("g", m3), ("gn", m3), ("f", m3), ("step", vi.size))
     run = max(geometric.size, rk45.size, dop853.size, fixed.size, *(lay.size for lay in extra))
     integrate = layout("integrate", ("run", run), ("y0", ns))
+    # step(): one step of a fixed-step method, its substeps alternating as in "geometric"
+    basic = max(vi.size, rattle.size)
+    subs_step = [(b, m3) for b in ("g", "gn", "a", "b", "vb", "vc", "vd")]
+    one_step = layout("step", *subs_step, ("step", max(basic, rk_step.size)))
     layouts = [field, rk_fixed, rk_step, rk45, dop853, vi, rattle, geometric, fixed, vi_step]
-    layouts.append(integrate)
+    layouts += [integrate, one_step]
     layouts += extra
-    return layouts, max(lay.size for lay in layouts)
+    base = max(lay.size for lay in layouts)
+    # the caller's carry of step(), kept between steps (not workspace): the last state returned
+    # and its gradient, RATTLE's velocities and each substep's last Newton solution
+    carry = layout("carry", *((b, m3) for b in ("q", "w", "g", "v")), *starts)
+    return [*layouts, carry], base
 
 
 def _angles(module: Module) -> tuple[list[Layout], int]:

@@ -29,6 +29,7 @@ from s2gen.printing.c_module import (
     Macro,
     c_fields,
     c_functions,
+    c_initial_rows,
     c_inline_loops,
     c_macros,
     c_tables,
@@ -96,6 +97,8 @@ class PrintedModule:
     c_tables: tuple[CTable, ...]
     options: tuple[dict[str, str], ...]
     stats: tuple[dict[str, str], ...]
+    stepper: tuple[dict[str, str], ...]  # the fields of step()'s record (none: no step())
+    initial_rows: tuple[str, ...]  # the spec's q then omega as rows of literals (none: no state)
     functions: tuple[dict[str, Any], ...]
     statuses: tuple[tuple[str, int, str], ...]
     methods: tuple[tuple[str, int, str], ...]
@@ -201,6 +204,8 @@ def print_module(module: Module) -> PrintedModule:
         c_tables=c_tables(module),
         options=c_fields(module, "options"),
         stats=c_fields(module, "stats"),
+        stepper=c_fields(module, "stepper"),
+        initial_rows=c_initial_rows(module),
         functions=c_functions(module),
         statuses=statuses,
         methods=meths,

@@ -340,6 +340,7 @@ _C_TYPES = {
     Kind.OPTIONS: "const {prefix}_options *{}",
     Kind.OPTIONS_OUT: "{prefix}_options *{}",
     Kind.STATS: "{prefix}_stats *{}",
+    Kind.STEPPER: "{prefix}_stepper *{}",
     Kind.VECTOR3: "double {}[3]",
 }
 

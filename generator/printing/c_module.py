@@ -20,7 +20,16 @@ from s2gen.ir import Kernel, Module, ModuleKind
 from s2gen.passes.workspace import padded
 from s2gen.printing.c import c_decl, c_field_decl, c_inline, c_term_tables, nullable_note, rows
 
-__all__ = ["CTable", "Macro", "c_fields", "c_functions", "c_inline_loops", "c_macros", "c_tables"]
+__all__ = [
+    "CTable",
+    "Macro",
+    "c_fields",
+    "c_functions",
+    "c_initial_rows",
+    "c_inline_loops",
+    "c_macros",
+    "c_tables",
+]
 
 #: A macro: (name without the prefix, value, comment).
 Macro = tuple[str, str, str]
@@ -62,6 +71,7 @@ def c_macros(module: Module) -> tuple[tuple[Macro, ...], tuple[Macro, ...]]:
         ("NCONST", str(module.constants), "constants of the kernels (computed once per call)"),
         ("WORK_BASE", str(module.work_base), "workspace doubles before the per-call context"),
         size,
+        ("STEP_CARRY", str(module.layout("carry").size), "doubles of step()'s carry"),
     )
 
 
@@ -119,7 +129,7 @@ def c_functions(module: Module) -> tuple[dict[str, str | tuple[str, ...]], ...]:
 
 
 def c_fields(module: Module, which: str) -> tuple[dict[str, str], ...]:
-    """The options (`which` = "options") or statistics struct's fields: name, C declaration,
+    """The options, statistics or stepper struct's fields (`which`): name, C declaration,
     C default, NumPy default and comment (enum defaults and names with the module's prefix).
 
     Example:
@@ -139,8 +149,20 @@ def c_fields(module: Module, which: str) -> tuple[dict[str, str], ...]:
             "py_default": f.default,
             "doc": f.doc.replace("CONTROL_", f"{upper}_CONTROL_"),
         }
-        for f in (api.options if which == "options" else api.stats)
+        for f in {"options": api.options, "stats": api.stats, "stepper": api.stepper}[which]
     )
+
+
+def c_initial_rows(module: Module) -> tuple[str, ...]:
+    """The spec's initial q then omega as rows of round-trip literals (none: no state).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> c_initial_rows(lower_system(builtin("double_pendulum")))[0].split(", ")[2]
+        '0.5'
+    """
+    return rows([repr(v) for v in module.initial_state])
 
 
 _INLINE_SCALARS = ("q", "w", "g", "qn", "gn", "wh")

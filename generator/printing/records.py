@@ -253,6 +253,7 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "quadratic_build": ("context",),
         "table_locals": ("context",),
         "params_unused": ("context", "angles_context"),
+        "step_strides": ("step",),
     },
     {
         "masses_fill": ("masses", "masses_coupled", "masses_generators"),
@@ -277,8 +278,8 @@ def _declared(chosen: Sections, owners: dict[str, tuple[str, ...]], laid: set[st
 def sections(module: Module) -> tuple[Sections, Sections]:
     """(C, NumPy) partials of each optional section of the parts the module lays out, chosen
     by what it has: the general potential or zeros, the quadratic terms' K, the kernels'
-    constants, M's uniform diagonal, the explicit VI's body-major bridge, member tables,
-    parameters and the library solvers it imports. A template lays out a section's partials
+    constants, M's uniform diagonal, the explicit VI's body-major bridge, member tables, what
+    step() carries of Newton's solutions, parameters and the library solvers it imports. A template lays out a section's partials
     in order.
 
     Example:
@@ -292,6 +293,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     facts = dict(module.facts)
     general, quadratic = bool(facts.get("general", False)), module.quadratic > 0
     uniform, bridge = bool(facts.get("uniform_mass", False)), module.body_major_terms
+    coupled = bool(facts.get("coupled", False))  # the VI and RATTLE steps iterate (Newton)
 
     def pick(lang: str, *choices: tuple[bool, str]) -> tuple[str, ...]:
         return tuple(f"{lang}/sections/_{stem}.jinja" for chosen, stem in choices if chosen)
@@ -320,6 +322,9 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "quadratic_build": pick("c", (quadratic, "build_quadratic_call")),
         "table_locals": pick("c", (any(t.table for t in module.terms), "table_counter")),
         "params_unused": pick("c", (not module.parameter_names, "unused_params")),
+        "step_strides": pick(
+            "c", (coupled, "step_strides_newton"), (not coupled, "step_strides_explicit")
+        ),
     }
     py = {
         "masses_fill": pick("numpy", (uniform, "uniform_fill")),

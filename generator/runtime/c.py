@@ -73,6 +73,7 @@ class CLibrary:
         self.work = np.zeros(max(1, header_macro(files[f"{prefix}.h"], "WORK_SIZE")))
         self.Options = _struct("Options", self.api.options)
         self.Stats = _struct("Stats", self.api.stats)
+        self.Stepper = _struct("Stepper", self.api.stepper)
         self.spec_hash = ctypes.c_char_p(
             ctypes.addressof(ctypes.c_char.in_dll(self.lib, f"{prefix}_spec_hash"))
         ).value
@@ -86,6 +87,7 @@ class CLibrary:
             Kind.OPTIONS: ctypes.POINTER(self.Options),
             Kind.OPTIONS_OUT: ctypes.POINTER(self.Options),
             Kind.STATS: ctypes.POINTER(self.Stats),
+            Kind.STEPPER: ctypes.POINTER(self.Stepper),
             **_SCALARS,
         }
         for f in self.api.functions:

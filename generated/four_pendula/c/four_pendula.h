@@ -34,6 +34,7 @@ extern "C" {
 #define FOUR_PENDULA_NCONST 3 /* constants of the kernels (computed once per call) */
 #define FOUR_PENDULA_WORK_BASE 516 /* workspace doubles before the per-call context */
 #define FOUR_PENDULA_WORK_SIZE 563 /* workspace doubles every `work` must hold */
+#define FOUR_PENDULA_STEP_CARRY 48 /* doubles of step()'s carry */
 
 /* Status codes returned by the step and integrate functions. */
 enum {
@@ -89,6 +90,13 @@ typedef struct {
     long fail_body; /* ERR_ARGUMENT: the body (0-based) whose q0 is not a unit vector (else -1) */
 } four_pendula_stats;
 
+/* A run of step(): what it keeps between steps besides the caller's carry. */
+typedef struct {
+    double t; /* time of the state the last step returned (t0 + the h's) */
+    long steps; /* steps taken since step_start() */
+    int method; /* METHOD_* of the steps (set by step_start()) */
+} four_pendula_stepper;
+
 /* What this module is: the parameter names in the order of p (NULL-terminated), the spec's
  * hash and the version of s2gen that generated it. */
 extern const char *const four_pendula_param_names[];
@@ -117,7 +125,8 @@ void four_pendula_angular_momentum(const double *p, const double *q, const doubl
 int four_pendula_rhs(const double *p, const double *q, const double *w, double *dq, double *dw,
         double *work);
 
-/* One variational-integrator step (q, w) -> (qn, wn); iters (may be NULL) receives the Newton
+/* One variational-integrator step (q, w) -> (qn, wn), Newton started cold (step() carries its
+ * solution from step to step, as integrate() does); iters (may be NULL) receives the Newton
  * iterations (0 for the explicit update). opt NULL means the defaults. */
 int four_pendula_vi_step(const double *p, const four_pendula_options *opt, double h,
         const double *q, const double *w, double *qn, double *wn, double *work, int *iters);
@@ -125,6 +134,29 @@ int four_pendula_vi_step(const double *p, const four_pendula_options *opt, doubl
 /* One fixed step of RK2, RK2 with projection or RK4 (method as in the enum). */
 int four_pendula_rk_step(const double *p, int method, double h, const double *q, const double *w,
         double *qn, double *wn, double *work);
+
+/* The spec's initial state (NSTATE doubles each, body-major), as s2gen holds it: q_i
+ * normalized and omega_i projected onto the tangent plane when the spec's values were unit
+ * only to their printed digits. Returns OK, or ERR_ARGUMENT (q and w untouched) when the spec
+ * gives no initial state or has more than 10000 bodies (read such a state from a file). */
+int four_pendula_initial_state(double *q, double *w);
+
+/* Start a run of step() with `method`, any fixed-step method (METHOD_*: not RK45 or DOP853,
+ * whose steps are adaptive), at time t0: the next step starts Newton cold. Returns OK, or
+ * ERR_ARGUMENT for another method. */
+int four_pendula_step_start(four_pendula_stepper *st, int method, double t0);
+
+/* One step of size h of st->method, (q, w) -> (qn, wn), as integrate() takes it. carry:
+ * STEP_CARRY doubles of the caller's, kept between the steps of one run (not workspace: not
+ * shared with other calls); when (q, w) is the state the previous step of the run returned
+ * (equal bit for bit, as when stepping on from it), the step reuses its gradient, RATTLE's
+ * velocities and each substep's Newton solution as starting point, and a run of steps
+ * reproduces integrate() exactly, Newton iterations included; from any other state it starts
+ * afresh. On OK, st->t advances by h and st->steps by 1. iters (may be NULL) receives the
+ * Newton iterations of all substeps. opt NULL means the defaults. */
+int four_pendula_step(const double *p, const four_pendula_options *opt, four_pendula_stepper *st,
+        double h, const double *q, const double *w, double *qn, double *wn, double *carry,
+        double *work, int *iters);
 
 /* Integrate nsteps steps of size h (RK45 and DOP853: output spacing h, adaptive steps inside)
  * from (q0, w0) with `method` (METHOD_*). The trajectory keeps every opt->every-th sample, the

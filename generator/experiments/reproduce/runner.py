@@ -76,7 +76,7 @@ CSV_COLUMNS = (
 
 #: What each column means (results.md prints this list).
 COLUMN_DEFINITIONS = {
-    "method": "vi: variational integrator; rk45: Dormand-Prince 4(5), variable step; "
+    "method": "vi: variational integrator; rk45: Dormand-Prince 5(4), variable step; "
     "rk2: 2nd-order fixed-step Runge-Kutta; rk2-proj: rk2 with q_i normalized after each step",
     "h": "step size (rk45: spacing of the output samples, the steps themselves are adaptive)",
     "T": "final time",
