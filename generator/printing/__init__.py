@@ -21,7 +21,7 @@ from typing import Any
 from s2gen.inertia import InertiaKind
 from s2gen.interface import interface
 from s2gen.ir import Kernel, Module, ModuleKind, PassRecord
-from s2gen.methods import COMPOSITIONS, METHODS, Family, Status
+from s2gen.methods import COMPOSITIONS, CONTROLS, METHODS, Family, Status, explicit_tableaus
 from s2gen.passes.opcount import kernel_profile
 from s2gen.passes.workspace import CONTEXT, padded
 from s2gen.printing.c import (
@@ -35,9 +35,17 @@ from s2gen.printing.c import (
     rows,
 )
 from s2gen.printing.numpy import py_call, py_kernel
-from s2gen.printing.tableau import print_tableau
+from s2gen.printing.tableau import (
+    PrintedExplicit,
+    PrintedFixed,
+    PrintedPair,
+    print_explicit,
+    print_fixed,
+    print_pair,
+    print_tableau,
+)
 from s2gen.printing.terms import PrintedTerm, print_term, py_quad_lines, quad_init
-from s2gen.tableaus import DOP853
+from s2gen.tableaus import DOP853, DOPRI5
 from s2gen.version import __version__
 
 __all__ = ["PrintedKernel", "PrintedModule", "PrintedTerm", "print_module"]
@@ -119,6 +127,10 @@ class PrintedModule:
     compositions: tuple[dict[str, Any], ...]  # name, source, order, count, fractions (literals)
     schemes: tuple[dict[str, Any], ...]  # per geometric method: c_name, rattle, count, table
     dop853: dict[str, Any]  # DOP853's stage sums (s2gen.printing.tableau)
+    dopri5: PrintedPair  # Dormand-Prince 5(4)'s tables
+    explicit: tuple[PrintedExplicit, ...]  # the fixed-step tableaus of this kind of module
+    fixed: tuple[PrintedFixed, ...]  # the fixed-step methods' dispatch rows
+    controls: tuple[tuple[str, int], ...]  # the error controls' enum (suffix, code)
     evals: str  # the statistics counter of vector-field / gradient evaluations
     state_doc: str
     py_doc_title: str
@@ -250,7 +262,7 @@ def _fields(module: Module, which: str, prefix: str) -> tuple[dict[str, str], ..
 
 def _enums(module: Module) -> tuple[tuple[tuple[str, int, str], ...], ...]:
     sphere = module.kind is ModuleKind.SPHERE
-    names = {m.name for m in METHODS} if sphere else {"rk45", "rk4"}
+    names = {m.name for m in METHODS if module.kind.value in m.kinds}
     statuses = [s for s in Status if sphere or s not in (Status.INFEASIBLE, Status.NEWTON)]
     if sphere:
         statuses = [s for s in statuses if s is not Status.POLE]
@@ -473,6 +485,12 @@ def print_module(module: Module) -> PrintedModule:
         compositions=_compositions(),
         schemes=_schemes(),
         dop853=print_tableau(DOP853),
+        dopri5=print_pair(DOPRI5),
+        explicit=tuple(
+            print_explicit(t, f"{upper}_NS") for t in explicit_tableaus(module.kind.value)
+        ),
+        fixed=print_fixed(module.kind.value),
+        controls=tuple((c.upper(), i) for i, c in enumerate(CONTROLS)),
         evals="gradient_evals" if sphere else "rhs_evals",
         state_doc="(q, omega)" if sphere else "(x, xd)",
         py_doc_title=(
