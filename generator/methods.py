@@ -28,7 +28,7 @@ import enum
 import math
 from dataclasses import dataclass
 
-from s2gen.tableaus import RK2, RK4, Explicit
+from s2gen.tableaus import RK2, RK3, RK4, Explicit
 
 __all__ = [
     "ANGLE_METHODS",
@@ -319,6 +319,7 @@ METHODS: tuple[Method, ...] = (
         "continuous extension",
         driver="dop853",
     ),
+    _fixed("rk3", 13, RK3),
 )
 
 #: Method names, in code order.

@@ -30,7 +30,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 from fractions import Fraction as F
 
-__all__ = ["DOP853", "DOPRI5", "EXPLICIT", "RK2", "RK4", "EmbeddedPair", "Explicit", "Tableau"]
+__all__ = [
+    "DOP853",
+    "DOPRI5",
+    "EXPLICIT",
+    "RK2",
+    "RK3",
+    "RK4",
+    "EmbeddedPair",
+    "Explicit",
+    "Tableau",
+]
 
 
 def _check_rows(a: tuple[tuple[F, ...], ...], c: tuple[F, ...], what: str) -> None:
@@ -85,8 +95,18 @@ RK4 = Explicit(
     (F(1, 6), F(1, 3), F(1, 3), F(1, 6)),
     (F(0), F(1, 2), F(1, 2), F(1)),
 )
-#: Every fixed-step explicit tableau, in the order their step functions are emitted.
-EXPLICIT: tuple[Explicit, ...] = (RK2, RK4)
+#: A. Ralston, Runge-Kutta methods with minimum error bounds, Math. Comp. 16 (1962) 431-437:
+#: the third-order method of least error bound.
+RK3 = Explicit(
+    "rk3",
+    3,
+    "Ralston's third-order method",
+    ((), (F(1, 2),), (F(0), F(3, 4))),
+    (F(2, 9), F(1, 3), F(4, 9)),
+    (F(0), F(1, 2), F(3, 4)),
+)
+#: Every fixed-step explicit tableau.
+EXPLICIT: tuple[Explicit, ...] = (RK2, RK4, RK3)
 
 
 @dataclass(frozen=True)

@@ -1217,6 +1217,39 @@ static int double_pendulum_rk_rk4(const double_pendulum_ctx *cx, double h, const
     return DOUBLE_PENDULUM_OK;
 }
 
+/* One step of the Ralston's third-order method (order 3, 3 stages) from y0 into yn
+ * (DOUBLE_PENDULUM_NS doubles each). work: k (48), field (54). */
+static int double_pendulum_rk_rk3(const double_pendulum_ctx *cx, double h, const double *y0,
+        double *yn, double *fail, double *work)
+{
+    double *k0 = work + 0, *fw = work + 48;
+    double *k1 = k0 + DOUBLE_PENDULUM_NS;
+    double *k2 = k0 + 2 * DOUBLE_PENDULUM_NS;
+    int e, status;
+    status = double_pendulum_stage(cx, y0, k0, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k0[e];
+    }
+    status = double_pendulum_stage(cx, yn, k1, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        yn[e] = y0[e] + h / 4.0 * (3.0 * k1[e]);
+    }
+    status = double_pendulum_stage(cx, yn, k2, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        yn[e] = y0[e] + h / 9.0 * (2.0 * k0[e] + 3.0 * k1[e] + 4.0 * k2[e]);
+    }
+    return DOUBLE_PENDULUM_OK;
+}
+
 /* A fixed-step method: its enum constant, the step of its tableau, gradient evaluations per step
  * and whether each q_i is normalized after the step. */
 typedef struct {
@@ -1225,17 +1258,18 @@ typedef struct {
             double *work);
 } double_pendulum_rk_method;
 
-static const double_pendulum_rk_method double_pendulum_rk_methods[3] = {
+static const double_pendulum_rk_method double_pendulum_rk_methods[4] = {
     { DOUBLE_PENDULUM_METHOD_RK2, 2, 0, double_pendulum_rk_rk2 },
     { DOUBLE_PENDULUM_METHOD_RK2_PROJ, 2, 1, double_pendulum_rk_rk2 },
-    { DOUBLE_PENDULUM_METHOD_RK4, 4, 0, double_pendulum_rk_rk4 }
+    { DOUBLE_PENDULUM_METHOD_RK4, 4, 0, double_pendulum_rk_rk4 },
+    { DOUBLE_PENDULUM_METHOD_RK3, 3, 0, double_pendulum_rk_rk3 }
 };
 
 /* The fixed-step method `method`, or NULL. */
 static const double_pendulum_rk_method *double_pendulum_rk_method_of(int method)
 {
     int i;
-    for (i = 0; i < 3; ++i) {
+    for (i = 0; i < 4; ++i) {
         if (double_pendulum_rk_methods[i].method == method) {
             return &double_pendulum_rk_methods[i];
         }

@@ -860,6 +860,39 @@ static int four_pendula_rk_rk4(const four_pendula_ctx *cx, double h, const doubl
     return FOUR_PENDULA_OK;
 }
 
+/* One step of the Ralston's third-order method (order 3, 3 stages) from y0 into yn
+ * (FOUR_PENDULA_NS doubles each). work: k (96), field (12). */
+static int four_pendula_rk_rk3(const four_pendula_ctx *cx, double h, const double *y0,
+        double *yn, double *fail, double *work)
+{
+    double *k0 = work + 0, *fw = work + 96;
+    double *k1 = k0 + FOUR_PENDULA_NS;
+    double *k2 = k0 + 2 * FOUR_PENDULA_NS;
+    int e, status;
+    status = four_pendula_stage(cx, y0, k0, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < FOUR_PENDULA_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k0[e];
+    }
+    status = four_pendula_stage(cx, yn, k1, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < FOUR_PENDULA_NS; ++e) {
+        yn[e] = y0[e] + h / 4.0 * (3.0 * k1[e]);
+    }
+    status = four_pendula_stage(cx, yn, k2, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < FOUR_PENDULA_NS; ++e) {
+        yn[e] = y0[e] + h / 9.0 * (2.0 * k0[e] + 3.0 * k1[e] + 4.0 * k2[e]);
+    }
+    return FOUR_PENDULA_OK;
+}
+
 /* A fixed-step method: its enum constant, the step of its tableau, gradient evaluations per step
  * and whether each q_i is normalized after the step. */
 typedef struct {
@@ -868,17 +901,18 @@ typedef struct {
             double *work);
 } four_pendula_rk_method;
 
-static const four_pendula_rk_method four_pendula_rk_methods[3] = {
+static const four_pendula_rk_method four_pendula_rk_methods[4] = {
     { FOUR_PENDULA_METHOD_RK2, 2, 0, four_pendula_rk_rk2 },
     { FOUR_PENDULA_METHOD_RK2_PROJ, 2, 1, four_pendula_rk_rk2 },
-    { FOUR_PENDULA_METHOD_RK4, 4, 0, four_pendula_rk_rk4 }
+    { FOUR_PENDULA_METHOD_RK4, 4, 0, four_pendula_rk_rk4 },
+    { FOUR_PENDULA_METHOD_RK3, 3, 0, four_pendula_rk_rk3 }
 };
 
 /* The fixed-step method `method`, or NULL. */
 static const four_pendula_rk_method *four_pendula_rk_method_of(int method)
 {
     int i;
-    for (i = 0; i < 3; ++i) {
+    for (i = 0; i < 4; ++i) {
         if (four_pendula_rk_methods[i].method == method) {
             return &four_pendula_rk_methods[i];
         }

@@ -50,6 +50,7 @@ METHOD_RATTLE4 = 9  # RATTLE composed by the triple jump, order 4
 METHOD_RATTLE6 = 10  # RATTLE composed by Yoshida's solution A, order 6
 METHOD_RATTLE8 = 11  # RATTLE composed by Kahan and Li's 15 stages, order 8
 METHOD_DOP853 = 12  # Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order continuous extension, order 8
+METHOD_RK3 = 13  # Ralston's third-order method, order 3
 CONTROL_MATLAB, CONTROL_HAIRER = range(2)
 EVALS = "gradient_evals"  # the statistics counter of field evaluations
 
@@ -411,12 +412,30 @@ def _rk_rk4(p, h, y0):
     return OK, y0 + h / 6.0 * (k0 + 2.0 * k1 + 2.0 * k2 + k3), None
 
 
+def _rk_rk3(p, h, y0):
+    """One step of the Ralston's third-order method (order 3, 3 stages): (status, y, stage)
+    where stage is the state of a failed field evaluation (else None)."""
+    status, k0 = _field(p, y0)
+    if status != OK:
+        return status, None, y0
+    yt = y0 + h / 2.0 * k0
+    status, k1 = _field(p, yt)
+    if status != OK:
+        return status, None, yt
+    yt = y0 + h / 4.0 * (3.0 * k1)
+    status, k2 = _field(p, yt)
+    if status != OK:
+        return status, None, yt
+    return OK, y0 + h / 9.0 * (2.0 * k0 + 3.0 * k1 + 4.0 * k2), None
+
+
 # Per fixed-step method: (the step of its tableau, gradient evaluations per step, whether each
 # q_i is normalized after the step).
 RK_METHODS = {
     METHOD_RK2: (_rk_rk2, 2, False),
     METHOD_RK2_PROJ: (_rk_rk2, 2, True),
     METHOD_RK4: (_rk_rk4, 4, False),
+    METHOD_RK3: (_rk_rk3, 3, False),
 }
 
 

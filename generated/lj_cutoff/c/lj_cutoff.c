@@ -899,6 +899,39 @@ static int lj_cutoff_rk_rk4(const lj_cutoff_ctx *cx, double h, const double *y0,
     return LJ_CUTOFF_OK;
 }
 
+/* One step of the Ralston's third-order method (order 3, 3 stages) from y0 into yn
+ * (LJ_CUTOFF_NS doubles each). work: k (192), field (24). */
+static int lj_cutoff_rk_rk3(const lj_cutoff_ctx *cx, double h, const double *y0,
+        double *yn, double *fail, double *work)
+{
+    double *k0 = work + 0, *fw = work + 192;
+    double *k1 = k0 + LJ_CUTOFF_NS;
+    double *k2 = k0 + 2 * LJ_CUTOFF_NS;
+    int e, status;
+    status = lj_cutoff_stage(cx, y0, k0, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k0[e];
+    }
+    status = lj_cutoff_stage(cx, yn, k1, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        yn[e] = y0[e] + h / 4.0 * (3.0 * k1[e]);
+    }
+    status = lj_cutoff_stage(cx, yn, k2, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        yn[e] = y0[e] + h / 9.0 * (2.0 * k0[e] + 3.0 * k1[e] + 4.0 * k2[e]);
+    }
+    return LJ_CUTOFF_OK;
+}
+
 /* A fixed-step method: its enum constant, the step of its tableau, gradient evaluations per step
  * and whether each q_i is normalized after the step. */
 typedef struct {
@@ -907,17 +940,18 @@ typedef struct {
             double *work);
 } lj_cutoff_rk_method;
 
-static const lj_cutoff_rk_method lj_cutoff_rk_methods[3] = {
+static const lj_cutoff_rk_method lj_cutoff_rk_methods[4] = {
     { LJ_CUTOFF_METHOD_RK2, 2, 0, lj_cutoff_rk_rk2 },
     { LJ_CUTOFF_METHOD_RK2_PROJ, 2, 1, lj_cutoff_rk_rk2 },
-    { LJ_CUTOFF_METHOD_RK4, 4, 0, lj_cutoff_rk_rk4 }
+    { LJ_CUTOFF_METHOD_RK4, 4, 0, lj_cutoff_rk_rk4 },
+    { LJ_CUTOFF_METHOD_RK3, 3, 0, lj_cutoff_rk_rk3 }
 };
 
 /* The fixed-step method `method`, or NULL. */
 static const lj_cutoff_rk_method *lj_cutoff_rk_method_of(int method)
 {
     int i;
-    for (i = 0; i < 3; ++i) {
+    for (i = 0; i < 4; ++i) {
         if (lj_cutoff_rk_methods[i].method == method) {
             return &lj_cutoff_rk_methods[i];
         }

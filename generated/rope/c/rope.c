@@ -1265,6 +1265,39 @@ static int rope_rk_rk4(const rope_ctx *cx, double h, const double *y0,
     return ROPE_OK;
 }
 
+/* One step of the Ralston's third-order method (order 3, 3 stages) from y0 into yn
+ * (ROPE_NS doubles each). work: k (480), field (3120). */
+static int rope_rk_rk3(const rope_ctx *cx, double h, const double *y0,
+        double *yn, double *fail, double *work)
+{
+    double *k0 = work + 0, *fw = work + 480;
+    double *k1 = k0 + ROPE_NS;
+    double *k2 = k0 + 2 * ROPE_NS;
+    int e, status;
+    status = rope_stage(cx, y0, k0, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < ROPE_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k0[e];
+    }
+    status = rope_stage(cx, yn, k1, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < ROPE_NS; ++e) {
+        yn[e] = y0[e] + h / 4.0 * (3.0 * k1[e]);
+    }
+    status = rope_stage(cx, yn, k2, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < ROPE_NS; ++e) {
+        yn[e] = y0[e] + h / 9.0 * (2.0 * k0[e] + 3.0 * k1[e] + 4.0 * k2[e]);
+    }
+    return ROPE_OK;
+}
+
 /* A fixed-step method: its enum constant, the step of its tableau, gradient evaluations per step
  * and whether each q_i is normalized after the step. */
 typedef struct {
@@ -1273,17 +1306,18 @@ typedef struct {
             double *work);
 } rope_rk_method;
 
-static const rope_rk_method rope_rk_methods[3] = {
+static const rope_rk_method rope_rk_methods[4] = {
     { ROPE_METHOD_RK2, 2, 0, rope_rk_rk2 },
     { ROPE_METHOD_RK2_PROJ, 2, 1, rope_rk_rk2 },
-    { ROPE_METHOD_RK4, 4, 0, rope_rk_rk4 }
+    { ROPE_METHOD_RK4, 4, 0, rope_rk_rk4 },
+    { ROPE_METHOD_RK3, 3, 0, rope_rk_rk3 }
 };
 
 /* The fixed-step method `method`, or NULL. */
 static const rope_rk_method *rope_rk_method_of(int method)
 {
     int i;
-    for (i = 0; i < 3; ++i) {
+    for (i = 0; i < 4; ++i) {
         if (rope_rk_methods[i].method == method) {
             return &rope_rk_methods[i];
         }
