@@ -1151,7 +1151,7 @@ static int double_pendulum_stage(const double_pendulum_ctx *cx, const double *y,
     return status;
 }
 
-/* One step of the explicit midpoint rule (order 2, 2 stages) from y0 into yn
+/* One step of rk2, explicit midpoint rule (order 2, 2 stages), from y0 into yn
  * (DOUBLE_PENDULUM_NS doubles each). work: k (48), field (54). */
 static int double_pendulum_rk_rk2(const double_pendulum_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)
@@ -1176,7 +1176,7 @@ static int double_pendulum_rk_rk2(const double_pendulum_ctx *cx, double h, const
     return DOUBLE_PENDULUM_OK;
 }
 
-/* One step of the classical Runge-Kutta (order 4, 4 stages) from y0 into yn
+/* One step of rk4, classical Runge-Kutta (order 4, 4 stages), from y0 into yn
  * (DOUBLE_PENDULUM_NS doubles each). work: k (48), field (54). */
 static int double_pendulum_rk_rk4(const double_pendulum_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)
@@ -1217,7 +1217,7 @@ static int double_pendulum_rk_rk4(const double_pendulum_ctx *cx, double h, const
     return DOUBLE_PENDULUM_OK;
 }
 
-/* One step of the Ralston's third-order method (order 3, 3 stages) from y0 into yn
+/* One step of rk3, Ralston's third-order method (order 3, 3 stages), from y0 into yn
  * (DOUBLE_PENDULUM_NS doubles each). work: k (48), field (54). */
 static int double_pendulum_rk_rk3(const double_pendulum_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)

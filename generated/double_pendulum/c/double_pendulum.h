@@ -126,7 +126,7 @@ int double_pendulum_rhs(const double *p, const double *q, const double *w, doubl
 int double_pendulum_vi_step(const double *p, const double_pendulum_options *opt, double h,
         const double *q, const double *w, double *qn, double *wn, double *work, int *iters);
 
-/* One fixed step of RK2, RK2 with projection or RK4 (method as in the enum). */
+/* One fixed step of a fixed-step Runge-Kutta method (method as in the enum). */
 int double_pendulum_rk_step(const double *p, int method, double h, const double *q, const double *w,
         double *qn, double *wn, double *work);
 

@@ -440,7 +440,7 @@ static int double_pendulum_angles_stage(const double_pendulum_angles_ctx *cx, co
     return status;
 }
 
-/* One step of the classical Runge-Kutta (order 4, 4 stages) from y0 into yn
+/* One step of rk4, classical Runge-Kutta (order 4, 4 stages), from y0 into yn
  * (DOUBLE_PENDULUM_ANGLES_NS doubles each). work: k (32), field (32). */
 static int double_pendulum_angles_rk_rk4(const double_pendulum_angles_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)

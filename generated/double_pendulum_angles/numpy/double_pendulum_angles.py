@@ -314,8 +314,8 @@ def _field(p, y):
 
 
 def _rk_rk4(p, h, y0):
-    """One step of the classical Runge-Kutta (order 4, 4 stages): (status, y, stage)
-    where stage is the state of a failed field evaluation (else None)."""
+    """One step of rk4, classical Runge-Kutta (order 4, 4 stages):
+    (status, y, stage) where stage is the state of a failed field evaluation (else None)."""
     status, k0 = _field(p, y0)
     if status != OK:
         return status, None, y0

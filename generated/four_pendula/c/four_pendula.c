@@ -794,7 +794,7 @@ static int four_pendula_stage(const four_pendula_ctx *cx, const double *y, doubl
     return status;
 }
 
-/* One step of the explicit midpoint rule (order 2, 2 stages) from y0 into yn
+/* One step of rk2, explicit midpoint rule (order 2, 2 stages), from y0 into yn
  * (FOUR_PENDULA_NS doubles each). work: k (96), field (12). */
 static int four_pendula_rk_rk2(const four_pendula_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)
@@ -819,7 +819,7 @@ static int four_pendula_rk_rk2(const four_pendula_ctx *cx, double h, const doubl
     return FOUR_PENDULA_OK;
 }
 
-/* One step of the classical Runge-Kutta (order 4, 4 stages) from y0 into yn
+/* One step of rk4, classical Runge-Kutta (order 4, 4 stages), from y0 into yn
  * (FOUR_PENDULA_NS doubles each). work: k (96), field (12). */
 static int four_pendula_rk_rk4(const four_pendula_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)
@@ -860,7 +860,7 @@ static int four_pendula_rk_rk4(const four_pendula_ctx *cx, double h, const doubl
     return FOUR_PENDULA_OK;
 }
 
-/* One step of the Ralston's third-order method (order 3, 3 stages) from y0 into yn
+/* One step of rk3, Ralston's third-order method (order 3, 3 stages), from y0 into yn
  * (FOUR_PENDULA_NS doubles each). work: k (96), field (12). */
 static int four_pendula_rk_rk3(const four_pendula_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)

@@ -123,7 +123,7 @@ int four_pendula_rhs(const double *p, const double *q, const double *w, double *
 int four_pendula_vi_step(const double *p, const four_pendula_options *opt, double h,
         const double *q, const double *w, double *qn, double *wn, double *work, int *iters);
 
-/* One fixed step of RK2, RK2 with projection or RK4 (method as in the enum). */
+/* One fixed step of a fixed-step Runge-Kutta method (method as in the enum). */
 int four_pendula_rk_step(const double *p, int method, double h, const double *q, const double *w,
         double *qn, double *wn, double *work);
 

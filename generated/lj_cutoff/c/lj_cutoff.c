@@ -833,7 +833,7 @@ static int lj_cutoff_stage(const lj_cutoff_ctx *cx, const double *y, double *dy,
     return status;
 }
 
-/* One step of the explicit midpoint rule (order 2, 2 stages) from y0 into yn
+/* One step of rk2, explicit midpoint rule (order 2, 2 stages), from y0 into yn
  * (LJ_CUTOFF_NS doubles each). work: k (192), field (24). */
 static int lj_cutoff_rk_rk2(const lj_cutoff_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)
@@ -858,7 +858,7 @@ static int lj_cutoff_rk_rk2(const lj_cutoff_ctx *cx, double h, const double *y0,
     return LJ_CUTOFF_OK;
 }
 
-/* One step of the classical Runge-Kutta (order 4, 4 stages) from y0 into yn
+/* One step of rk4, classical Runge-Kutta (order 4, 4 stages), from y0 into yn
  * (LJ_CUTOFF_NS doubles each). work: k (192), field (24). */
 static int lj_cutoff_rk_rk4(const lj_cutoff_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)
@@ -899,7 +899,7 @@ static int lj_cutoff_rk_rk4(const lj_cutoff_ctx *cx, double h, const double *y0,
     return LJ_CUTOFF_OK;
 }
 
-/* One step of the Ralston's third-order method (order 3, 3 stages) from y0 into yn
+/* One step of rk3, Ralston's third-order method (order 3, 3 stages), from y0 into yn
  * (LJ_CUTOFF_NS doubles each). work: k (192), field (24). */
 static int lj_cutoff_rk_rk3(const lj_cutoff_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)

@@ -1199,7 +1199,7 @@ static int rope_stage(const rope_ctx *cx, const double *y, double *dy, double *f
     return status;
 }
 
-/* One step of the explicit midpoint rule (order 2, 2 stages) from y0 into yn
+/* One step of rk2, explicit midpoint rule (order 2, 2 stages), from y0 into yn
  * (ROPE_NS doubles each). work: k (480), field (3120). */
 static int rope_rk_rk2(const rope_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)
@@ -1224,7 +1224,7 @@ static int rope_rk_rk2(const rope_ctx *cx, double h, const double *y0,
     return ROPE_OK;
 }
 
-/* One step of the classical Runge-Kutta (order 4, 4 stages) from y0 into yn
+/* One step of rk4, classical Runge-Kutta (order 4, 4 stages), from y0 into yn
  * (ROPE_NS doubles each). work: k (480), field (3120). */
 static int rope_rk_rk4(const rope_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)
@@ -1265,7 +1265,7 @@ static int rope_rk_rk4(const rope_ctx *cx, double h, const double *y0,
     return ROPE_OK;
 }
 
-/* One step of the Ralston's third-order method (order 3, 3 stages) from y0 into yn
+/* One step of rk3, Ralston's third-order method (order 3, 3 stages), from y0 into yn
  * (ROPE_NS doubles each). work: k (480), field (3120). */
 static int rope_rk_rk3(const rope_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)

@@ -124,7 +124,7 @@ int rope_rhs(const double *p, const double *q, const double *w, double *dq, doub
 int rope_vi_step(const double *p, const rope_options *opt, double h, const double *q,
         const double *w, double *qn, double *wn, double *work, int *iters);
 
-/* One fixed step of RK2, RK2 with projection or RK4 (method as in the enum). */
+/* One fixed step of a fixed-step Runge-Kutta method (method as in the enum). */
 int rope_rk_step(const double *p, int method, double h, const double *q, const double *w,
         double *qn, double *wn, double *work);
 

@@ -604,8 +604,8 @@ def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter, start=None):
 
 
 def _rk_rk2(p, h, y0):
-    """One step of the explicit midpoint rule (order 2, 2 stages): (status, y, stage)
-    where stage is the state of a failed field evaluation (else None)."""
+    """One step of rk2, explicit midpoint rule (order 2, 2 stages):
+    (status, y, stage) where stage is the state of a failed field evaluation (else None)."""
     status, k0 = _field(p, y0)
     if status != OK:
         return status, None, y0
@@ -617,8 +617,8 @@ def _rk_rk2(p, h, y0):
 
 
 def _rk_rk4(p, h, y0):
-    """One step of the classical Runge-Kutta (order 4, 4 stages): (status, y, stage)
-    where stage is the state of a failed field evaluation (else None)."""
+    """One step of rk4, classical Runge-Kutta (order 4, 4 stages):
+    (status, y, stage) where stage is the state of a failed field evaluation (else None)."""
     status, k0 = _field(p, y0)
     if status != OK:
         return status, None, y0
@@ -638,8 +638,8 @@ def _rk_rk4(p, h, y0):
 
 
 def _rk_rk3(p, h, y0):
-    """One step of the Ralston's third-order method (order 3, 3 stages): (status, y, stage)
-    where stage is the state of a failed field evaluation (else None)."""
+    """One step of rk3, Ralston's third-order method (order 3, 3 stages):
+    (status, y, stage) where stage is the state of a failed field evaluation (else None)."""
     status, k0 = _field(p, y0)
     if status != OK:
         return status, None, y0
