@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-from s2gen.methods import fixed_methods
+from s2gen.methods import explicit_tableaus, fixed_methods
 from s2gen.tableaus import EmbeddedPair, Explicit, Tableau
 
 __all__ = [
@@ -124,11 +124,13 @@ def print_explicit(t: Explicit, ns: str) -> PrintedExplicit:
 @dataclass(frozen=True)
 class PrintedFixed:
     """One row of the emitted dispatch table of the fixed-step methods: the method's enum
-    constant (suffix), its tableau's step function (suffix), evaluations per step, and
-    whether each q_i is normalized after the step (1) or not (0)."""
+    constant (suffix), its tableau's name and position among the module's tableaus
+    (s2gen.methods.explicit_tableaus), evaluations per step, and whether each q_i is
+    normalized after the step (1) or not (0)."""
 
     c_name: str
     tableau: str
+    index: int
     evals: int
     project: int
 
@@ -138,10 +140,11 @@ def print_fixed(kind: str) -> tuple[PrintedFixed, ...]:
 
     Example:
         >>> print_fixed("angles")
-        (PrintedFixed(c_name='METHOD_RK4', tableau='rk4', evals=4, project=0),)
+        (PrintedFixed(c_name='METHOD_RK4', tableau='rk4', index=0, evals=4, project=0),)
     """
+    index = {t.name: i for i, t in enumerate(explicit_tableaus(kind))}
     return tuple(
-        PrintedFixed(m.c_name, m.tableau.name, m.evals, int(m.project))
+        PrintedFixed(m.c_name, m.tableau.name, index[m.tableau.name], m.evals, int(m.project))
         for m in fixed_methods(kind)
         if m.tableau is not None
     )

@@ -1250,19 +1250,34 @@ static int double_pendulum_rk_rk3(const double_pendulum_ctx *cx, double h, const
     return DOUBLE_PENDULUM_OK;
 }
 
-/* A fixed-step method: its enum constant, the step of its tableau, gradient evaluations per step
- * and whether each q_i is normalized after the step. */
+/* One step of the tableau `tableau` (its position in the dispatch table's list); direct calls,
+ * so that the compiler may inline each step where it is called. */
+static int double_pendulum_rk_tableau(const double_pendulum_ctx *cx, int tableau, double h,
+        const double *y0, double *yn, double *fail, double *work)
+{
+    switch (tableau) {
+    case 0:
+        return double_pendulum_rk_rk2(cx, h, y0, yn, fail, work);
+    case 1:
+        return double_pendulum_rk_rk4(cx, h, y0, yn, fail, work);
+    case 2:
+        return double_pendulum_rk_rk3(cx, h, y0, yn, fail, work);
+    default:
+        return DOUBLE_PENDULUM_ERR_ARGUMENT;
+    }
+}
+
+/* A fixed-step method: its enum constant, its tableau (the case of rk_tableau), gradient
+ * evaluations per step and whether each q_i is normalized after the step. */
 typedef struct {
-    int method, evals, project;
-    int (*step)(const double_pendulum_ctx *cx, double h, const double *y0, double *yn, double *fail,
-            double *work);
+    int method, tableau, evals, project;
 } double_pendulum_rk_method;
 
 static const double_pendulum_rk_method double_pendulum_rk_methods[4] = {
-    { DOUBLE_PENDULUM_METHOD_RK2, 2, 0, double_pendulum_rk_rk2 },
-    { DOUBLE_PENDULUM_METHOD_RK2_PROJ, 2, 1, double_pendulum_rk_rk2 },
-    { DOUBLE_PENDULUM_METHOD_RK4, 4, 0, double_pendulum_rk_rk4 },
-    { DOUBLE_PENDULUM_METHOD_RK3, 3, 0, double_pendulum_rk_rk3 }
+    { DOUBLE_PENDULUM_METHOD_RK2, 0, 2, 0 }, /* rk2 */
+    { DOUBLE_PENDULUM_METHOD_RK2_PROJ, 0, 2, 1 }, /* rk2 */
+    { DOUBLE_PENDULUM_METHOD_RK4, 1, 4, 0 }, /* rk4 */
+    { DOUBLE_PENDULUM_METHOD_RK3, 2, 3, 0 } /* rk3 */
 };
 
 /* The fixed-step method `method`, or NULL. */
@@ -1285,7 +1300,7 @@ static int double_pendulum_rk_step_cx(const double_pendulum_ctx *cx, const doubl
     int i, status;
     double_pendulum_copy(y0, q, DOUBLE_PENDULUM_N3);
     double_pendulum_copy(y0 + DOUBLE_PENDULUM_N3, w, DOUBLE_PENDULUM_N3);
-    status = rk->step(cx, h, y0, yt, NULL, work + 24);
+    status = double_pendulum_rk_tableau(cx, rk->tableau, h, y0, yt, NULL, work + 24);
     if (status) {
         return status;
     }

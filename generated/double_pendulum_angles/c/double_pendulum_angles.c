@@ -481,16 +481,27 @@ static int double_pendulum_angles_rk_rk4(const double_pendulum_angles_ctx *cx, d
     return DOUBLE_PENDULUM_ANGLES_OK;
 }
 
-/* A fixed-step method: its enum constant, the step of its tableau, gradient evaluations per step
- * and whether each q_i is normalized after the step. */
+/* One step of the tableau `tableau` (its position in the dispatch table's list); direct calls,
+ * so that the compiler may inline each step where it is called. */
+static int double_pendulum_angles_rk_tableau(const double_pendulum_angles_ctx *cx, int tableau, double h,
+        const double *y0, double *yn, double *fail, double *work)
+{
+    switch (tableau) {
+    case 0:
+        return double_pendulum_angles_rk_rk4(cx, h, y0, yn, fail, work);
+    default:
+        return DOUBLE_PENDULUM_ANGLES_ERR_ARGUMENT;
+    }
+}
+
+/* A fixed-step method: its enum constant, its tableau (the case of rk_tableau), gradient
+ * evaluations per step and whether each q_i is normalized after the step. */
 typedef struct {
-    int method, evals, project;
-    int (*step)(const double_pendulum_angles_ctx *cx, double h, const double *y0, double *yn, double *fail,
-            double *work);
+    int method, tableau, evals, project;
 } double_pendulum_angles_rk_method;
 
 static const double_pendulum_angles_rk_method double_pendulum_angles_rk_methods[1] = {
-    { DOUBLE_PENDULUM_ANGLES_METHOD_RK4, 4, 0, double_pendulum_angles_rk_rk4 }
+    { DOUBLE_PENDULUM_ANGLES_METHOD_RK4, 0, 4, 0 } /* rk4 */
 };
 
 /* The fixed-step method `method`, or NULL. */
@@ -839,7 +850,8 @@ int double_pendulum_angles_integrate(const double *p, const double_pendulum_angl
         double *y0 = run + 0;
         double_pendulum_angles_copy(y0, y, DOUBLE_PENDULUM_ANGLES_NX);
         double_pendulum_angles_copy(y0 + DOUBLE_PENDULUM_ANGLES_NX, yd, DOUBLE_PENDULUM_ANGLES_NX);
-        status = fixed->step(cx, h, y0, run + 8, fail, run + 24);
+        status = double_pendulum_angles_rk_tableau(cx, fixed->tableau, h, y0, run + 8, fail,
+                run + 24);
         if (status == DOUBLE_PENDULUM_ANGLES_OK && !double_pendulum_angles_finite(run + 8, DOUBLE_PENDULUM_ANGLES_NS)) {
             double_pendulum_angles_copy(fail, run + 8, DOUBLE_PENDULUM_ANGLES_NS);
             status = DOUBLE_PENDULUM_ANGLES_ERR_NONFINITE;

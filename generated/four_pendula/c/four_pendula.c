@@ -893,19 +893,34 @@ static int four_pendula_rk_rk3(const four_pendula_ctx *cx, double h, const doubl
     return FOUR_PENDULA_OK;
 }
 
-/* A fixed-step method: its enum constant, the step of its tableau, gradient evaluations per step
- * and whether each q_i is normalized after the step. */
+/* One step of the tableau `tableau` (its position in the dispatch table's list); direct calls,
+ * so that the compiler may inline each step where it is called. */
+static int four_pendula_rk_tableau(const four_pendula_ctx *cx, int tableau, double h,
+        const double *y0, double *yn, double *fail, double *work)
+{
+    switch (tableau) {
+    case 0:
+        return four_pendula_rk_rk2(cx, h, y0, yn, fail, work);
+    case 1:
+        return four_pendula_rk_rk4(cx, h, y0, yn, fail, work);
+    case 2:
+        return four_pendula_rk_rk3(cx, h, y0, yn, fail, work);
+    default:
+        return FOUR_PENDULA_ERR_ARGUMENT;
+    }
+}
+
+/* A fixed-step method: its enum constant, its tableau (the case of rk_tableau), gradient
+ * evaluations per step and whether each q_i is normalized after the step. */
 typedef struct {
-    int method, evals, project;
-    int (*step)(const four_pendula_ctx *cx, double h, const double *y0, double *yn, double *fail,
-            double *work);
+    int method, tableau, evals, project;
 } four_pendula_rk_method;
 
 static const four_pendula_rk_method four_pendula_rk_methods[4] = {
-    { FOUR_PENDULA_METHOD_RK2, 2, 0, four_pendula_rk_rk2 },
-    { FOUR_PENDULA_METHOD_RK2_PROJ, 2, 1, four_pendula_rk_rk2 },
-    { FOUR_PENDULA_METHOD_RK4, 4, 0, four_pendula_rk_rk4 },
-    { FOUR_PENDULA_METHOD_RK3, 3, 0, four_pendula_rk_rk3 }
+    { FOUR_PENDULA_METHOD_RK2, 0, 2, 0 }, /* rk2 */
+    { FOUR_PENDULA_METHOD_RK2_PROJ, 0, 2, 1 }, /* rk2 */
+    { FOUR_PENDULA_METHOD_RK4, 1, 4, 0 }, /* rk4 */
+    { FOUR_PENDULA_METHOD_RK3, 2, 3, 0 } /* rk3 */
 };
 
 /* The fixed-step method `method`, or NULL. */
@@ -928,7 +943,7 @@ static int four_pendula_rk_step_cx(const four_pendula_ctx *cx, const four_pendul
     int i, status;
     four_pendula_copy(y0, q, FOUR_PENDULA_N3);
     four_pendula_copy(y0 + FOUR_PENDULA_N3, w, FOUR_PENDULA_N3);
-    status = rk->step(cx, h, y0, yt, NULL, work + 48);
+    status = four_pendula_rk_tableau(cx, rk->tableau, h, y0, yt, NULL, work + 48);
     if (status) {
         return status;
     }

@@ -932,19 +932,34 @@ static int lj_cutoff_rk_rk3(const lj_cutoff_ctx *cx, double h, const double *y0,
     return LJ_CUTOFF_OK;
 }
 
-/* A fixed-step method: its enum constant, the step of its tableau, gradient evaluations per step
- * and whether each q_i is normalized after the step. */
+/* One step of the tableau `tableau` (its position in the dispatch table's list); direct calls,
+ * so that the compiler may inline each step where it is called. */
+static int lj_cutoff_rk_tableau(const lj_cutoff_ctx *cx, int tableau, double h,
+        const double *y0, double *yn, double *fail, double *work)
+{
+    switch (tableau) {
+    case 0:
+        return lj_cutoff_rk_rk2(cx, h, y0, yn, fail, work);
+    case 1:
+        return lj_cutoff_rk_rk4(cx, h, y0, yn, fail, work);
+    case 2:
+        return lj_cutoff_rk_rk3(cx, h, y0, yn, fail, work);
+    default:
+        return LJ_CUTOFF_ERR_ARGUMENT;
+    }
+}
+
+/* A fixed-step method: its enum constant, its tableau (the case of rk_tableau), gradient
+ * evaluations per step and whether each q_i is normalized after the step. */
 typedef struct {
-    int method, evals, project;
-    int (*step)(const lj_cutoff_ctx *cx, double h, const double *y0, double *yn, double *fail,
-            double *work);
+    int method, tableau, evals, project;
 } lj_cutoff_rk_method;
 
 static const lj_cutoff_rk_method lj_cutoff_rk_methods[4] = {
-    { LJ_CUTOFF_METHOD_RK2, 2, 0, lj_cutoff_rk_rk2 },
-    { LJ_CUTOFF_METHOD_RK2_PROJ, 2, 1, lj_cutoff_rk_rk2 },
-    { LJ_CUTOFF_METHOD_RK4, 4, 0, lj_cutoff_rk_rk4 },
-    { LJ_CUTOFF_METHOD_RK3, 3, 0, lj_cutoff_rk_rk3 }
+    { LJ_CUTOFF_METHOD_RK2, 0, 2, 0 }, /* rk2 */
+    { LJ_CUTOFF_METHOD_RK2_PROJ, 0, 2, 1 }, /* rk2 */
+    { LJ_CUTOFF_METHOD_RK4, 1, 4, 0 }, /* rk4 */
+    { LJ_CUTOFF_METHOD_RK3, 2, 3, 0 } /* rk3 */
 };
 
 /* The fixed-step method `method`, or NULL. */
@@ -967,7 +982,7 @@ static int lj_cutoff_rk_step_cx(const lj_cutoff_ctx *cx, const lj_cutoff_rk_meth
     int i, status;
     lj_cutoff_copy(y0, q, LJ_CUTOFF_N3);
     lj_cutoff_copy(y0 + LJ_CUTOFF_N3, w, LJ_CUTOFF_N3);
-    status = rk->step(cx, h, y0, yt, NULL, work + 96);
+    status = lj_cutoff_rk_tableau(cx, rk->tableau, h, y0, yt, NULL, work + 96);
     if (status) {
         return status;
     }

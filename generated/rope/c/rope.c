@@ -1298,19 +1298,34 @@ static int rope_rk_rk3(const rope_ctx *cx, double h, const double *y0,
     return ROPE_OK;
 }
 
-/* A fixed-step method: its enum constant, the step of its tableau, gradient evaluations per step
- * and whether each q_i is normalized after the step. */
+/* One step of the tableau `tableau` (its position in the dispatch table's list); direct calls,
+ * so that the compiler may inline each step where it is called. */
+static int rope_rk_tableau(const rope_ctx *cx, int tableau, double h,
+        const double *y0, double *yn, double *fail, double *work)
+{
+    switch (tableau) {
+    case 0:
+        return rope_rk_rk2(cx, h, y0, yn, fail, work);
+    case 1:
+        return rope_rk_rk4(cx, h, y0, yn, fail, work);
+    case 2:
+        return rope_rk_rk3(cx, h, y0, yn, fail, work);
+    default:
+        return ROPE_ERR_ARGUMENT;
+    }
+}
+
+/* A fixed-step method: its enum constant, its tableau (the case of rk_tableau), gradient
+ * evaluations per step and whether each q_i is normalized after the step. */
 typedef struct {
-    int method, evals, project;
-    int (*step)(const rope_ctx *cx, double h, const double *y0, double *yn, double *fail,
-            double *work);
+    int method, tableau, evals, project;
 } rope_rk_method;
 
 static const rope_rk_method rope_rk_methods[4] = {
-    { ROPE_METHOD_RK2, 2, 0, rope_rk_rk2 },
-    { ROPE_METHOD_RK2_PROJ, 2, 1, rope_rk_rk2 },
-    { ROPE_METHOD_RK4, 4, 0, rope_rk_rk4 },
-    { ROPE_METHOD_RK3, 3, 0, rope_rk_rk3 }
+    { ROPE_METHOD_RK2, 0, 2, 0 }, /* rk2 */
+    { ROPE_METHOD_RK2_PROJ, 0, 2, 1 }, /* rk2 */
+    { ROPE_METHOD_RK4, 1, 4, 0 }, /* rk4 */
+    { ROPE_METHOD_RK3, 2, 3, 0 } /* rk3 */
 };
 
 /* The fixed-step method `method`, or NULL. */
@@ -1333,7 +1348,7 @@ static int rope_rk_step_cx(const rope_ctx *cx, const rope_rk_method *rk,
     int i, status;
     rope_copy(y0, q, ROPE_N3);
     rope_copy(y0 + ROPE_N3, w, ROPE_N3);
-    status = rk->step(cx, h, y0, yt, NULL, work + 240);
+    status = rope_rk_tableau(cx, rk->tableau, h, y0, yt, NULL, work + 240);
     if (status) {
         return status;
     }
