@@ -12,7 +12,7 @@ tableau in s2gen.tableaus and one `_fixed` row here.
 Example:
     >>> method("vi4").order, method("vi4").backends
     (4, ('c', 'numpy'))
-    >>> method("rk4").driver, method("rk4").evals, method("rk4").kinds
+    >>> method("rk4").driver.value, method("rk4").evals, method("rk4").kinds
     ('fixed', 4, ('sphere', 'angles'))
     >>> Status.NEWTON.c_name, int(Status.NEWTON)
     ('ERR_NEWTON', 2)
@@ -35,8 +35,8 @@ __all__ = [
     "BACKENDS",
     "COMPOSITIONS",
     "CONTROLS",
-    "DRIVERS",
     "KAHAN_LI8",
+    "KINDS",
     "LANGUAGES",
     "METHODS",
     "NAMES",
@@ -45,6 +45,7 @@ __all__ = [
     "TRIPLE_JUMP",
     "YOSHIDA6",
     "Composition",
+    "Driver",
     "Family",
     "Method",
     "Status",
@@ -61,11 +62,19 @@ BACKENDS = ("c", "numpy", "reference")
 CONTROLS = ("matlab", "hairer")
 #: Languages the generator emits.
 LANGUAGES = ("c", "numpy")
-#: Kinds of emitted module (the values of s2gen.ir.ModuleKind).
+#: Kinds of emitted module: the values of s2gen.ir.ModuleKind (not imported here, so that the
+#: command line starts without SymPy; tests/test_tableaus.py checks they are the same).
 KINDS = ("sphere", "angles")
-#: The drivers of the emitted modules: compositions of VI or RATTLE steps, Dormand-Prince 5(4),
-#: DOP853, and fixed steps of an explicit tableau.
-DRIVERS = ("geometric", "rk45", "dop853", "fixed")
+
+
+class Driver(enum.Enum):
+    """The emitted driver that runs a method: compositions of VI or RATTLE steps,
+    Dormand-Prince 5(4), DOP853, or fixed steps of an explicit tableau."""
+
+    GEOMETRIC = "geometric"
+    RK45 = "rk45"
+    DOP853 = "dop853"
+    FIXED = "fixed"
 
 
 class Family(enum.Enum):
@@ -192,7 +201,7 @@ class Method:
     `code` is its value in the emitted METHOD enums; `evals` the gradient evaluations per step
     (0 when adaptive); `implicit` means an iteration (Newton) runs when M is coupled;
     `composition` the symmetric composition of the basic VI or RATTLE step that makes one step
-    (geometric methods only); `driver` the emitted driver that runs it (one of DRIVERS);
+    (geometric methods only); `driver` the emitted driver that runs it;
     `tableau` the explicit tableau of a fixed-step method, `project` whether each q_i is
     normalized after its step; `controls` the error controls an adaptive method offers (the
     options' `control`; empty: its own); `kinds` the module kinds that have it.
@@ -207,16 +216,16 @@ class Method:
     backends: tuple[str, ...]
     summary: str
     composition: Composition | None = None
-    driver: str = "geometric"
+    driver: Driver = Driver.GEOMETRIC
     tableau: Explicit | None = None
     project: bool = False
     controls: tuple[str, ...] = ()
     kinds: tuple[str, ...] = ("sphere",)
 
     def __post_init__(self) -> None:
-        if self.driver not in DRIVERS or not set(self.kinds) <= set(KINDS):
-            raise ValueError(f"method {self.name!r}: unknown driver or module kind")
-        if (self.driver == "fixed") != (self.tableau is not None):
+        if not set(self.kinds) <= set(KINDS):
+            raise ValueError(f"method {self.name!r}: module kinds are {', '.join(KINDS)}")
+        if (self.driver is Driver.FIXED) != (self.tableau is not None):
             raise ValueError(f"method {self.name!r}: a fixed-step method has a tableau")
 
     @property
@@ -263,7 +272,7 @@ def _fixed(
         Family.FIXED_RK,
         _ALL,
         summary or tableau.title,
-        driver="fixed",
+        driver=Driver.FIXED,
         tableau=tableau,
         project=project,
         kinds=kinds,
@@ -289,7 +298,7 @@ METHODS: tuple[Method, ...] = (
         Family.ADAPTIVE_RK,
         _ALL,
         "Dormand-Prince 5(4), adaptive, output on the grid by its 4th-order interpolant",
-        driver="rk45",
+        driver=Driver.RK45,
         controls=CONTROLS,
         kinds=KINDS,
     ),
@@ -317,7 +326,7 @@ METHODS: tuple[Method, ...] = (
         _EMITTED,
         "Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order "
         "continuous extension",
-        driver="dop853",
+        driver=Driver.DOP853,
     ),
     _fixed("rk3", 13, RK3),
 )
@@ -371,7 +380,7 @@ def fixed_methods(kind: str) -> tuple[Method, ...]:
         >>> [m.name for m in fixed_methods("angles")]
         ['rk4']
     """
-    return tuple(m for m in METHODS if m.tableau is not None and kind in m.kinds)
+    return tuple(m for m in METHODS if m.driver is Driver.FIXED and kind in m.kinds)
 
 
 def explicit_tableaus(kind: str) -> tuple[Explicit, ...]:

@@ -13,7 +13,8 @@ from fractions import Fraction
 import pytest
 from test_dop853 import Tree, _density, trees
 
-from s2gen.methods import METHODS
+from s2gen.ir import ModuleKind
+from s2gen.methods import KINDS, METHODS
 from s2gen.tableaus import DOPRI5, EXPLICIT, Explicit
 
 
@@ -65,6 +66,11 @@ def test_dormand_prince_orders_and_continuous_extension() -> None:
     assert _orders_met(b, a, 6) == [1, 2, 3, 4, 5]
     assert _orders_met(embedded, a, 5) == [1, 2, 3, 4]
     assert tuple(sum(row, Fraction(0)) for row in DOPRI5.dense) == b
+
+
+def test_the_methods_module_kinds_are_the_ir_module_kinds() -> None:
+    assert KINDS == tuple(k.value for k in ModuleKind)
+    assert {k for m in METHODS for k in m.kinds} == set(KINDS)
 
 
 def test_a_tableau_whose_nodes_are_not_its_row_sums_is_refused() -> None:
