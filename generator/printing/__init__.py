@@ -272,6 +272,12 @@ def _enums(module: Module) -> tuple[tuple[tuple[str, int, str], ...], ...]:
     return tuple((s.c_name, int(s), s.message) for s in statuses), meths
 
 
+def _controls(module: Module) -> tuple[tuple[str, int], ...]:
+    """The error controls the module's methods offer, (enum suffix, code = index in CONTROLS)."""
+    offered = {c for m in METHODS if module.kind.value in m.kinds for c in m.controls}
+    return tuple((c.upper(), i) for i, c in enumerate(CONTROLS) if c in offered)
+
+
 def _masses_parts(module: Module) -> tuple[str, str]:
     """(C, NumPy) partials of the masses: M's entries from one system kernel, the
     max-index generators from one system kernel, or from a per-body kernel in a loop."""
@@ -490,7 +496,7 @@ def print_module(module: Module) -> PrintedModule:
             print_explicit(t, f"{upper}_NS") for t in explicit_tableaus(module.kind.value)
         ),
         fixed=print_fixed(module.kind.value),
-        controls=tuple((c.upper(), i) for i, c in enumerate(CONTROLS)),
+        controls=_controls(module),
         evals="gradient_evals" if sphere else "rhs_evals",
         state_doc="(q, omega)" if sphere else "(x, xd)",
         py_doc_title=(
