@@ -194,7 +194,7 @@ _SPHERE = Interface(
                 _p("wn", _A),
                 _p("work", _A),
             ),
-            "One fixed step of RK2, RK2 with projection or RK4 (method as in the enum).",
+            "One fixed step of a fixed-step Runge-Kutta method (method as in the enum).",
         ),
         Function(
             "initial_state",

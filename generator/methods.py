@@ -1,14 +1,19 @@
 """The one table of integration methods and the one table of status codes.
 
 Input: nothing. Output: `METHODS` (each method once: name, code in the emitted enums, order,
-gradient evaluations per step, whether it is implicit, its family, the backends that have it)
-and `Status` (the codes every backend returns, with one message each). The spec validator, the
-command line's choices, the emitted C and NumPy enums, the runtime's messages and the README's
-method table all read these tables; nothing else lists methods or statuses.
+gradient evaluations per step, whether it is implicit, its family, the backends and the module
+kinds that have it, the driver that runs it, its tableau (fixed-step Runge-Kutta) or
+composition (geometric methods) and its error controls) and `Status` (the codes every backend returns, with one message each). The spec validator, the
+command line's choices, the emitted C and NumPy enums and dispatch tables, the angle form's
+methods, the reference's method list, the runtime's messages and the README's method table all
+read these tables; nothing else lists methods or statuses. A fixed-step explicit method is one
+tableau in s2gen.tableaus and one `_fixed` row here.
 
 Example:
     >>> method("vi4").order, method("vi4").backends
     (4, ('c', 'numpy'))
+    >>> method("rk4").driver.value, method("rk4").evals, method("rk4").kinds
+    ('fixed', 4, ('sphere', 'angles'))
     >>> Status.NEWTON.c_name, int(Status.NEWTON)
     ('ERR_NEWTON', 2)
     >>> check_method("vi4", "reference")
@@ -23,22 +28,30 @@ import enum
 import math
 from dataclasses import dataclass
 
+from s2gen.tableaus import RK2, RK3, RK4, Explicit
+
 __all__ = [
+    "ANGLE_METHODS",
     "BACKENDS",
     "COMPOSITIONS",
     "CONTROLS",
     "KAHAN_LI8",
+    "KINDS",
     "LANGUAGES",
     "METHODS",
     "NAMES",
     "PLAIN",
+    "REFERENCE_METHODS",
     "TRIPLE_JUMP",
     "YOSHIDA6",
     "Composition",
+    "Driver",
     "Family",
     "Method",
     "Status",
     "check_method",
+    "explicit_tableaus",
+    "fixed_methods",
     "markdown_table",
     "method",
 ]
@@ -49,6 +62,19 @@ BACKENDS = ("c", "numpy", "reference")
 CONTROLS = ("matlab", "hairer")
 #: Languages the generator emits.
 LANGUAGES = ("c", "numpy")
+#: Kinds of emitted module: the values of s2gen.ir.ModuleKind (not imported here, so that the
+#: command line starts without SymPy; tests/test_tableaus.py checks they are the same).
+KINDS = ("sphere", "angles")
+
+
+class Driver(enum.Enum):
+    """The emitted driver that runs a method: compositions of VI or RATTLE steps,
+    Dormand-Prince 5(4), DOP853, or fixed steps of an explicit tableau."""
+
+    GEOMETRIC = "geometric"
+    RK45 = "rk45"
+    DOP853 = "dop853"
+    FIXED = "fixed"
 
 
 class Family(enum.Enum):
@@ -175,7 +201,10 @@ class Method:
     `code` is its value in the emitted METHOD enums; `evals` the gradient evaluations per step
     (0 when adaptive); `implicit` means an iteration (Newton) runs when M is coupled;
     `composition` the symmetric composition of the basic VI or RATTLE step that makes one step
-    (geometric methods only).
+    (geometric methods only); `driver` the emitted driver that runs it;
+    `tableau` the explicit tableau of a fixed-step method, `project` whether each q_i is
+    normalized after its step; `controls` the error controls an adaptive method offers (the
+    options' `control`; empty: its own); `kinds` the module kinds that have it.
     """
 
     name: str
@@ -187,6 +216,17 @@ class Method:
     backends: tuple[str, ...]
     summary: str
     composition: Composition | None = None
+    driver: Driver = Driver.GEOMETRIC
+    tableau: Explicit | None = None
+    project: bool = False
+    controls: tuple[str, ...] = ()
+    kinds: tuple[str, ...] = ("sphere",)
+
+    def __post_init__(self) -> None:
+        if not set(self.kinds) <= set(KINDS):
+            raise ValueError(f"method {self.name!r}: module kinds are {', '.join(KINDS)}")
+        if (self.driver is Driver.FIXED) != (self.tableau is not None):
+            raise ValueError(f"method {self.name!r}: a fixed-step method has a tableau")
 
     @property
     def c_name(self) -> str:
@@ -214,6 +254,31 @@ _ALL = ("c", "numpy", "reference")
 _EMITTED = ("c", "numpy")
 
 
+def _fixed(
+    name: str,
+    code: int,
+    tableau: Explicit,
+    summary: str = "",
+    project: bool = False,
+    kinds: tuple[str, ...] = ("sphere",),
+) -> Method:
+    """A fixed-step method: steps of `tableau` (one evaluation per stage), on every backend."""
+    return Method(
+        name,
+        code,
+        tableau.order,
+        tableau.stages,
+        False,
+        Family.FIXED_RK,
+        _ALL,
+        summary or tableau.title,
+        driver=Driver.FIXED,
+        tableau=tableau,
+        project=project,
+        kinds=kinds,
+    )
+
+
 def _geometric(name: str, code: int, family: Family, comp: Composition, summary: str) -> Method:
     backends = _ALL if comp is PLAIN and family is Family.VI else _EMITTED
     return Method(
@@ -233,19 +298,13 @@ METHODS: tuple[Method, ...] = (
         Family.ADAPTIVE_RK,
         _ALL,
         "Dormand-Prince 5(4), adaptive, output on the grid by its 4th-order interpolant",
+        driver=Driver.RK45,
+        controls=CONTROLS,
+        kinds=KINDS,
     ),
-    Method("rk2", 2, 2, 2, False, Family.FIXED_RK, _ALL, "explicit midpoint rule"),
-    Method(
-        "rk2-proj",
-        3,
-        2,
-        2,
-        False,
-        Family.FIXED_RK,
-        _ALL,
-        "explicit midpoint rule, q_i normalized after each step",
-    ),
-    Method("rk4", 4, 4, 4, False, Family.FIXED_RK, _ALL, "classical Runge-Kutta"),
+    _fixed("rk2", 2, RK2),
+    _fixed("rk2-proj", 3, RK2, "explicit midpoint rule, q_i normalized after each step", True),
+    _fixed("rk4", 4, RK4, kinds=KINDS),
     _geometric("vi4", 5, Family.VI, TRIPLE_JUMP, "the VI composed by Yoshida's triple jump"),
     _geometric(
         "rattle", 6, Family.RATTLE, PLAIN, "RATTLE on Cartesian q_i with the constraints |q_i| = 1"
@@ -267,13 +326,20 @@ METHODS: tuple[Method, ...] = (
         _EMITTED,
         "Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order "
         "continuous extension",
+        driver=Driver.DOP853,
     ),
+    _fixed("rk3", 13, RK3),
 )
 
 #: Method names, in code order.
 NAMES: tuple[str, ...] = tuple(m.name for m in METHODS)
 
 _BY_NAME = {m.name: m for m in METHODS}
+
+#: Methods of the emitted angle modules, with their codes (the codes of the S^2 module).
+ANGLE_METHODS: dict[str, int] = {m.name: m.code for m in METHODS if "angles" in m.kinds}
+#: Methods of the reference backend, in code order.
+REFERENCE_METHODS: tuple[str, ...] = tuple(m.name for m in METHODS if "reference" in m.backends)
 
 
 def method(name: str) -> Method:
@@ -305,6 +371,30 @@ def check_method(name: str, backend: str) -> Method:
             f"it: {', '.join(m.backends)}"
         )
     return m
+
+
+def fixed_methods(kind: str) -> tuple[Method, ...]:
+    """The fixed-step Runge-Kutta methods of the module kind `kind`, in code order.
+
+    Example:
+        >>> [m.name for m in fixed_methods("angles")]
+        ['rk4']
+    """
+    return tuple(m for m in METHODS if m.driver is Driver.FIXED and kind in m.kinds)
+
+
+def explicit_tableaus(kind: str) -> tuple[Explicit, ...]:
+    """The tableaus of `fixed_methods(kind)`, each once, in the order they are first used.
+
+    Example:
+        >>> [t.name for t in explicit_tableaus("sphere")][:2]  # rk2 and rk2-proj share one
+        ['rk2', 'rk4']
+    """
+    found: dict[str, Explicit] = {}
+    for m in fixed_methods(kind):
+        assert m.tableau is not None
+        found.setdefault(m.tableau.name, m.tableau)
+    return tuple(found.values())
 
 
 def markdown_table() -> str:

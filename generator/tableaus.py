@@ -1,6 +1,9 @@
-"""Butcher tableaus of the emitted adaptive Runge-Kutta methods beyond Dormand-Prince 5(4).
+"""Butcher tableaus of every emitted Runge-Kutta method, as data.
 
-Input: nothing. Output: `DOP853`, the explicit Runge-Kutta pair of order 8 with error
+Input: nothing. Output: the fixed-step explicit tableaus (`Explicit`: `RK2`, `RK4`, every one
+listed in `EXPLICIT`), with exact rational coefficients; `DOPRI5`, Dormand and Prince's 5(4)
+pair with Shampine's continuous extension (`EmbeddedPair`); and `DOP853`, the explicit
+Runge-Kutta pair of order 8 with error
 estimators of orders 5 and 3 of E. Hairer, S. P. Norsett and G. Wanner, Solving Ordinary
 Differential Equations I (2nd ed., Springer 1993), Section II.10, and its continuous extension
 of order 7 (three more stages), with the constants of Hairer's code dop853.f (30 digits, as
@@ -8,7 +11,14 @@ printed there). The printers turn the tableau into the stage sums of the emitted
 (only the non-zero entries), so both languages read the same numbers; tests/test_dop853.py
 checks every order condition of the three weight vectors and the extension's accuracy.
 
+Adding a fixed-step explicit method is one `Explicit` here (its nodes are checked against the
+row sums of a) and one row in s2gen.methods; the printers, drivers and reference read them.
+
 Example:
+    >>> RK4.stages, RK4.b
+    (4, (Fraction(1, 6), Fraction(1, 3), Fraction(1, 3), Fraction(1, 6)))
+    >>> DOPRI5.stages, DOPRI5.e[6]
+    (7, Fraction(-1, 40))
     >>> DOP853.stages, len(DOP853.a[11]), round(sum(DOP853.b), 12)
     (12, 11, 1.0)
     >>> [i for i, e in enumerate(DOP853.e3) if e]
@@ -18,8 +28,143 @@ Example:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from fractions import Fraction as F
 
-__all__ = ["DOP853", "Tableau"]
+__all__ = [
+    "DOP853",
+    "DOPRI5",
+    "EXPLICIT",
+    "RK2",
+    "RK3",
+    "RK4",
+    "EmbeddedPair",
+    "Explicit",
+    "Tableau",
+]
+
+
+def _check_rows(a: tuple[tuple[F, ...], ...], c: tuple[F, ...], what: str) -> None:
+    """Row i of a strictly lower triangular a has i entries that add up to c_i."""
+    if len(c) != len(a) or any(len(row) != i for i, row in enumerate(a)):
+        raise ValueError(f"{what}: row i of a must have i entries, one row per node")
+    if any(sum(row, F(0)) != ci for row, ci in zip(a, c)):
+        raise ValueError(f"{what}: the nodes c must be the row sums of a")
+
+
+@dataclass(frozen=True)
+class Explicit:
+    """A fixed-step explicit Runge-Kutta method for an autonomous field, coefficients exact.
+
+    `a[i]` holds the coefficients of stage i on stages 0..i-1 (`a[0]` is empty), `c` the nodes
+    (the row sums of a), `b` the weights; `order` its order, `title` what it is and who made it.
+    `name` is an identifier (it names the emitted step function).
+
+    Example:
+        >>> Explicit("euler", 1, "Euler's method", ((),), (F(1),), (F(0),)).stages
+        1
+    """
+
+    name: str
+    order: int
+    title: str
+    a: tuple[tuple[F, ...], ...]
+    b: tuple[F, ...]
+    c: tuple[F, ...]
+
+    def __post_init__(self) -> None:
+        if not self.name.isidentifier():
+            raise ValueError(f"tableau name {self.name!r} must be an identifier")
+        _check_rows(self.a, self.c, self.name)
+        if len(self.b) != len(self.c) or sum(self.b, F(0)) != 1:
+            raise ValueError(f"{self.name}: one weight per stage, adding up to 1")
+
+    @property
+    def stages(self) -> int:
+        """Field evaluations per step."""
+        return len(self.b)
+
+
+#: The explicit midpoint rule (Runge 1895), order 2.
+RK2 = Explicit("rk2", 2, "explicit midpoint rule", ((), (F(1, 2),)), (F(0), F(1)), (F(0), F(1, 2)))
+#: The classical Runge-Kutta method (Kutta 1901), order 4.
+RK4 = Explicit(
+    "rk4",
+    4,
+    "classical Runge-Kutta",
+    ((), (F(1, 2),), (F(0), F(1, 2)), (F(0), F(0), F(1))),
+    (F(1, 6), F(1, 3), F(1, 3), F(1, 6)),
+    (F(0), F(1, 2), F(1, 2), F(1)),
+)
+#: A. Ralston, Runge-Kutta methods with minimum error bounds, Math. Comp. 16 (1962) 431-437:
+#: the third-order method of least error bound.
+RK3 = Explicit(
+    "rk3",
+    3,
+    "Ralston's third-order method",
+    ((), (F(1, 2),), (F(0), F(3, 4))),
+    (F(2, 9), F(1, 3), F(4, 9)),
+    (F(0), F(1, 2), F(3, 4)),
+)
+#: Every fixed-step explicit tableau.
+EXPLICIT: tuple[Explicit, ...] = (RK2, RK4, RK3)
+
+
+@dataclass(frozen=True)
+class EmbeddedPair:
+    """An explicit pair with FSAL whose last stage is evaluated at the solution.
+
+    `a` as in `Explicit`, its last row the weights of the solution (order `order`); `e` the
+    error weights (solution minus the embedded one); `dense[i]` the coefficients of sigma,
+    sigma^2, sigma^3, sigma^4 in the weight of stage i of the continuous extension.
+
+    Example:
+        >>> tuple(sum(row, F(0)) for row in DOPRI5.dense) == (*DOPRI5.a[-1], 0)  # sigma = 1
+        True
+    """
+
+    name: str
+    order: int
+    a: tuple[tuple[F, ...], ...]
+    c: tuple[F, ...]
+    e: tuple[F, ...]
+    dense: tuple[tuple[F, ...], ...]
+
+    def __post_init__(self) -> None:
+        _check_rows(self.a, self.c, self.name)
+
+    @property
+    def stages(self) -> int:
+        """Stages of one step, the FSAL stage included."""
+        return len(self.a)
+
+
+#: J. R. Dormand and P. J. Prince, A family of embedded Runge-Kutta formulae, J. Comput. Appl.
+#: Math. 6 (1980) 19-26: the 5(4) pair with FSAL, and L. F. Shampine's continuous extension
+#: of order 4 (Math. Comp. 46 (1986) 135-150) as in MATLAB's ode45.
+DOPRI5 = EmbeddedPair(
+    "dopri5",
+    5,
+    (
+        (),
+        (F(1, 5),),
+        (F(3, 40), F(9, 40)),
+        (F(44, 45), F(-56, 15), F(32, 9)),
+        (F(19372, 6561), F(-25360, 2187), F(64448, 6561), F(-212, 729)),
+        (F(9017, 3168), F(-355, 33), F(46732, 5247), F(49, 176), F(-5103, 18656)),
+        (F(35, 384), F(0), F(500, 1113), F(125, 192), F(-2187, 6784), F(11, 84)),
+    ),
+    (F(0), F(1, 5), F(3, 10), F(4, 5), F(8, 9), F(1), F(1)),
+    (F(71, 57600), F(0), F(-71, 16695), F(71, 1920), F(-17253, 339200), F(22, 525), F(-1, 40)),
+    (
+        (F(1), F(-183, 64), F(37, 12), F(-145, 128)),
+        (F(0), F(0), F(0), F(0)),
+        (F(0), F(1500, 371), F(-1000, 159), F(1000, 371)),
+        (F(0), F(-125, 32), F(125, 12), F(-375, 64)),
+        (F(0), F(9477, 3392), F(-729, 106), F(25515, 6784)),
+        (F(0), F(-11, 7), F(11, 3), F(-55, 28)),
+        (F(0), F(3, 2), F(-4), F(5, 2)),
+    ),
+)
 
 
 @dataclass(frozen=True)

@@ -67,8 +67,7 @@ def _statuses(kind: ModuleKind) -> list[Status]:
 
 
 def _methods(kind: ModuleKind) -> list[Any]:
-    names = None if kind is ModuleKind.SPHERE else {"rk45", "rk4"}
-    return [m for m in METHODS if names is None or m.name in names]
+    return [m for m in METHODS if kind.value in m.kinds]
 
 
 def _table(title: str, header: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:

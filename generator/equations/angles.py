@@ -30,6 +30,7 @@ import numpy as np
 import sympy as sp
 
 from s2gen.ir import Argument, KernelDef, Output
+from s2gen.methods import ANGLE_METHODS  # the integrators of the angle modules (re-exported)
 from s2gen.symbols import q_symbol
 from s2gen.system import SpecError, System
 
@@ -48,8 +49,6 @@ __all__ = [
 MIN_PIVOT_RATIO = 64 * float(np.finfo(float).eps)
 #: An initial q_i with sin theta_i below this is "at a pole" (phi_i-dot would be meaningless).
 POLE_TOL = float(np.sqrt(MIN_PIVOT_RATIO))
-#: Integrators of the emitted angle modules, with the method codes of the S^2 module.
-ANGLE_METHODS = {"rk45": 1, "rk4": 4}
 
 
 # ----------------------------------------------------------------------------------- derivation

@@ -21,7 +21,7 @@ from dataclasses import replace
 
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Band, Buffer, Layout, LoopKind, Module, ModuleKind
-from s2gen.methods import METHODS
+from s2gen.methods import METHODS, explicit_tableaus
 from s2gen.tableaus import DOP853
 
 __all__ = ["CONTEXT", "band", "bands", "layout", "padded", "workspace_pass"]
@@ -110,6 +110,12 @@ def _structured(module: Module, systems: tuple[Band, ...]) -> tuple[Layout, Layo
     return field, vi, rattle
 
 
+def _rk_fixed(module: Module, ns: int, field: Layout) -> Layout:
+    """The stages of the longest fixed-step tableau of the module's kind, and the field's."""
+    stages = max(t.stages for t in explicit_tableaus(module.kind.value))
+    return layout("rk_fixed", ("k", stages * ns), ("field", field.size))
+
+
 def _sphere(module: Module) -> tuple[list[Layout], int]:
     n, m3 = module.n, 3 * module.n
     ns = 2 * m3
@@ -120,7 +126,7 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
     extra: list[Layout] = []
     if structured:
         field, vi, rattle = _structured(module, bands(module))
-    rk_fixed = layout("rk_fixed", ("k1", ns), ("k2", ns), ("acc", ns), ("field", field.size))
+    rk_fixed = _rk_fixed(module, ns, field)
     rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("rk", rk_fixed.size))
     rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
     # DOP853: its stages, the field at the new state and the stages of its dense output
@@ -191,7 +197,7 @@ def _angles(module: Module) -> tuple[list[Layout], int]:
     nx = 2 * module.n
     ns = 2 * nx
     field = layout("field", ("m", nx * nx), ("lu", nx * padded(nx)))
-    rk_fixed = layout("rk_fixed", ("k1", ns), ("k2", ns), ("acc", ns), ("field", field.size))
+    rk_fixed = _rk_fixed(module, ns, field)
     rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("fail", ns), ("rk", rk_fixed.size))
     rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
     integrate = layout("integrate", ("run", max(rk45.size, rk_step.size)), ("y0", ns), ("fail", ns))

@@ -22,6 +22,7 @@ from typing import Any
 
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Kernel, Module, ModuleKind, PassRecord
+from s2gen.methods import explicit_tableaus
 from s2gen.printing import records
 from s2gen.printing.c import c_call
 from s2gen.printing.c_module import (
@@ -41,9 +42,17 @@ from s2gen.printing.numpy import (
     py_table_names,
 )
 from s2gen.printing.records import PrintedKernel, print_kernel
-from s2gen.printing.tableau import print_tableau
+from s2gen.printing.tableau import (
+    PrintedExplicit,
+    PrintedFixed,
+    PrintedPair,
+    print_explicit,
+    print_fixed,
+    print_pair,
+    print_tableau,
+)
 from s2gen.printing.terms import PrintedTerm, print_term, py_quad_lines, quad_init
-from s2gen.tableaus import DOP853
+from s2gen.tableaus import DOP853, DOPRI5
 from s2gen.version import __version__
 
 __all__ = ["PrintedKernel", "PrintedModule", "PrintedTerm", "print_module"]
@@ -106,6 +115,10 @@ class PrintedModule:
     compositions: tuple[dict[str, Any], ...]  # name, source, order, count, fractions (literals)
     schemes: tuple[dict[str, Any], ...]  # per geometric method: c_name, rattle, count, table
     dop853: dict[str, Any]  # DOP853's stage sums (s2gen.printing.tableau)
+    dopri5: PrintedPair  # Dormand-Prince 5(4)'s tables
+    explicit: tuple[PrintedExplicit, ...]  # the fixed-step tableaus of this kind of module
+    fixed: tuple[PrintedFixed, ...]  # the fixed-step methods' dispatch rows
+    controls: tuple[tuple[str, int], ...]  # the error controls' enum (suffix, code)
     evals: str  # the statistics counter of vector-field / gradient evaluations
     state_doc: str
     py_doc_title: str
@@ -213,6 +226,12 @@ def print_module(module: Module) -> PrintedModule:
         compositions=records.compositions(),
         schemes=records.schemes(),
         dop853=print_tableau(DOP853),
+        dopri5=print_pair(DOPRI5),
+        explicit=tuple(
+            print_explicit(t, f"{upper}_NS") for t in explicit_tableaus(module.kind.value)
+        ),
+        fixed=print_fixed(module.kind.value),
+        controls=records.controls(module),
         evals="gradient_evals" if sphere else "rhs_evals",
         state_doc="(q, omega)" if sphere else "(x, xd)",
         py_doc_title=py_title,

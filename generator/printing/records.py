@@ -19,7 +19,7 @@ from typing import Any
 
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Kernel, Module, ModuleKind
-from s2gen.methods import COMPOSITIONS, METHODS, Family, Status
+from s2gen.methods import COMPOSITIONS, CONTROLS, METHODS, Family, Status
 from s2gen.passes.opcount import kernel_profile
 from s2gen.passes.workspace import CONTEXT
 from s2gen.printing.c import c_kernel
@@ -30,6 +30,7 @@ __all__ = [
     "bands",
     "compositions",
     "context",
+    "controls",
     "enums",
     "masses_partials",
     "print_kernel",
@@ -144,7 +145,7 @@ def enums(module: Module) -> tuple[Enum, Enum]:
         (('OK', 0, 'success'), ('METHOD_VI', 0))
     """
     sphere = module.kind is ModuleKind.SPHERE
-    names = {m.name for m in METHODS} if sphere else {"rk45", "rk4"}
+    names = {m.name for m in METHODS if module.kind.value in m.kinds}
     statuses = [s for s in Status if sphere or s not in (Status.INFEASIBLE, Status.NEWTON)]
     if sphere:
         statuses = [s for s in statuses if s is not Status.POLE]
@@ -152,6 +153,19 @@ def enums(module: Module) -> tuple[Enum, Enum]:
         (m.c_name, m.code, f"{m.summary}, order {m.order}") for m in METHODS if m.name in names
     )
     return tuple((s.c_name, int(s), s.message) for s in statuses), meths
+
+
+def controls(module: Module) -> tuple[tuple[str, int], ...]:
+    """The error controls the module's methods offer: (enum suffix, code = index in CONTROLS).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> controls(lower_system(builtin("double_pendulum")))
+        (('MATLAB', 0), ('HAIRER', 1))
+    """
+    offered = {c for m in METHODS if module.kind.value in m.kinds for c in m.controls}
+    return tuple((c.upper(), i) for i, c in enumerate(CONTROLS) if c in offered)
 
 
 def masses_partials(module: Module) -> tuple[str, str]:

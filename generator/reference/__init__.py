@@ -3,7 +3,9 @@
 This package is the project's yardstick. It is written directly from Lee, Leok & McClamroch,
 "Lagrangian mechanics and variational integrators on two-spheres" (sections 2 and 3), and shares
 no code with the rest of the package: it uses only NumPy, SymPy (to differentiate a `System`'s
-potential), the `System` record itself and the status codes of `s2gen.methods`.
+potential), the `System` record itself, the tables of `s2gen.methods` (status codes, methods
+and controls) and the coefficients of the fixed-step tableaus in `s2gen.tableaus` (numbers;
+the stepping is written here).
 
 Modules: `problem` (a `System` in numbers), `geometry` (hat maps, A(q), energy, momentum),
 `field` (the continuous vector field), `vi` (the variational integrator step), `recorder` (the
@@ -22,8 +24,8 @@ Methods (`integrate(..., method=...)`):
 * ``"vi"``: the variational integrator (paper eqs. DELw1, qikpw, DELw2m). Explicit when M is
   diagonal (eqs. qikpexp, wikpexp), Newton's method on the Cayley residual otherwise. Nothing is
   ever renormalized.
-* ``"rk2"`` (explicit midpoint), ``"rk2-proj"`` (rk2, then each q_i normalized), ``"rk4"``
-  (classical) and ``"rk45"`` (Dormand-Prince 5(4), adaptive, FSAL, Shampine's dense output on
+* every fixed-step method of `s2gen.methods` (``"rk2"``, explicit midpoint; ``"rk2-proj"``,
+  rk2, then each q_i normalized; ``"rk4"``, classical; ...) and ``"rk45"`` (Dormand-Prince 5(4), adaptive, FSAL, Shampine's dense output on
   the grid t_k = k h, with MATLAB ode45 or Hairer/SciPy step-size control), all on the
   continuous vector field y = (q, w) in R^{6n} of paper eqs. ELq and ELwm.
 
@@ -57,6 +59,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from s2gen.methods import CONTROLS, REFERENCE_METHODS
 from s2gen.reference.dopri import _rk45_hairer, _rk45_matlab
 from s2gen.reference.errors import (
     InfeasibleStep,
@@ -97,8 +100,7 @@ __all__ = [
     "vi_step",
 ]
 
-METHODS = ("vi", "rk2", "rk2-proj", "rk4", "rk45")
-CONTROLS = ("matlab", "hairer")
+METHODS = REFERENCE_METHODS
 
 
 def _check_inputs(

@@ -1164,79 +1164,160 @@ static int double_pendulum_stage(const double_pendulum_ctx *cx, const double *y,
     return status;
 }
 
-/* One step of the explicit midpoint rule (classic = 0) or classical RK4 (classic = 1) from y0
- * into yn (DOUBLE_PENDULUM_NS doubles each). work: k1 (12), k2 (12), acc (12), field (54). */
-static int double_pendulum_rk_fixed(const double_pendulum_ctx *cx, int classic, double h, const double *y0,
+/* One step of rk2, explicit midpoint rule (order 2, 2 stages), from y0 into yn
+ * (DOUBLE_PENDULUM_NS doubles each). work: k (48), field (54). */
+static int double_pendulum_rk_rk2(const double_pendulum_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)
 {
-    double *k1 = work + 0, *k2 = work + 12;
-    double *acc = work + 24, *fw = work + 36;
+    double *k0 = work + 0, *fw = work + 48;
+    double *k1 = k0 + DOUBLE_PENDULUM_NS;
     int e, status;
-    status = double_pendulum_stage(cx, y0, k1, fail, fw);
-    if (status) {
-        return status;
-    }
-    if (!classic) {
-        for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
-            yn[e] = y0[e] + 0.5 * h * k1[e];
-        }
-        status = double_pendulum_stage(cx, yn, k2, fail, fw);
-        if (status) {
-            return status;
-        }
-        for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
-            yn[e] = y0[e] + h * k2[e];
-        }
-        return DOUBLE_PENDULUM_OK;
-    }
-    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
-        acc[e] = k1[e];
-        yn[e] = y0[e] + 0.5 * h * k1[e];
-    }
-    status = double_pendulum_stage(cx, yn, k2, fail, fw);
+    status = double_pendulum_stage(cx, y0, k0, fail, fw);
     if (status) {
         return status;
     }
     for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
-        acc[e] += 2.0 * k2[e];
-        yn[e] = y0[e] + 0.5 * h * k2[e];
+        yn[e] = y0[e] + h / 2.0 * k0[e];
     }
-    status = double_pendulum_stage(cx, yn, k2, fail, fw);
+    status = double_pendulum_stage(cx, yn, k1, fail, fw);
     if (status) {
         return status;
     }
     for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
-        acc[e] += 2.0 * k2[e];
-        yn[e] = y0[e] + h * k2[e];
-    }
-    status = double_pendulum_stage(cx, yn, k2, fail, fw);
-    if (status) {
-        return status;
-    }
-    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
-        yn[e] = y0[e] + h / 6.0 * (acc[e] + k2[e]);
+        yn[e] = y0[e] + h * k1[e];
     }
     return DOUBLE_PENDULUM_OK;
 }
-/* One fixed step of RK2, RK2 with projection or RK4 from (q, w) into (qn, wn).
- * work: y0 (12), yt (12), rk (90). */
-static int double_pendulum_rk_step_cx(const double_pendulum_ctx *cx, int method, double h,
-        const double *q, const double *w, double *qn, double *wn, double *work)
+
+/* One step of rk4, classical Runge-Kutta (order 4, 4 stages), from y0 into yn
+ * (DOUBLE_PENDULUM_NS doubles each). work: k (48), field (54). */
+static int double_pendulum_rk_rk4(const double_pendulum_ctx *cx, double h, const double *y0,
+        double *yn, double *fail, double *work)
 {
-    double *y0 = work + 0, *yt = work + 12;
-    int i, status;
-    if (!(h > 0.0) || (method != DOUBLE_PENDULUM_METHOD_RK2 && method != DOUBLE_PENDULUM_METHOD_RK2_PROJ
-            && method != DOUBLE_PENDULUM_METHOD_RK4)) {
-        return DOUBLE_PENDULUM_ERR_ARGUMENT;
-    }
-    double_pendulum_copy(y0, q, DOUBLE_PENDULUM_N3);
-    double_pendulum_copy(y0 + DOUBLE_PENDULUM_N3, w, DOUBLE_PENDULUM_N3);
-    status = double_pendulum_rk_fixed(cx, method == DOUBLE_PENDULUM_METHOD_RK4, h, y0, yt, NULL,
-            work + 24);
+    double *k0 = work + 0, *fw = work + 48;
+    double *k1 = k0 + DOUBLE_PENDULUM_NS;
+    double *k2 = k0 + 2 * DOUBLE_PENDULUM_NS;
+    double *k3 = k0 + 3 * DOUBLE_PENDULUM_NS;
+    int e, status;
+    status = double_pendulum_stage(cx, y0, k0, fail, fw);
     if (status) {
         return status;
     }
-    if (method == DOUBLE_PENDULUM_METHOD_RK2_PROJ) {
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k0[e];
+    }
+    status = double_pendulum_stage(cx, yn, k1, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k1[e];
+    }
+    status = double_pendulum_stage(cx, yn, k2, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        yn[e] = y0[e] + h * k2[e];
+    }
+    status = double_pendulum_stage(cx, yn, k3, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        yn[e] = y0[e] + h / 6.0 * (k0[e] + 2.0 * k1[e] + 2.0 * k2[e] + k3[e]);
+    }
+    return DOUBLE_PENDULUM_OK;
+}
+
+/* One step of rk3, Ralston's third-order method (order 3, 3 stages), from y0 into yn
+ * (DOUBLE_PENDULUM_NS doubles each). work: k (48), field (54). */
+static int double_pendulum_rk_rk3(const double_pendulum_ctx *cx, double h, const double *y0,
+        double *yn, double *fail, double *work)
+{
+    double *k0 = work + 0, *fw = work + 48;
+    double *k1 = k0 + DOUBLE_PENDULUM_NS;
+    double *k2 = k0 + 2 * DOUBLE_PENDULUM_NS;
+    int e, status;
+    status = double_pendulum_stage(cx, y0, k0, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k0[e];
+    }
+    status = double_pendulum_stage(cx, yn, k1, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        yn[e] = y0[e] + h / 4.0 * (3.0 * k1[e]);
+    }
+    status = double_pendulum_stage(cx, yn, k2, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
+        yn[e] = y0[e] + h / 9.0 * (2.0 * k0[e] + 3.0 * k1[e] + 4.0 * k2[e]);
+    }
+    return DOUBLE_PENDULUM_OK;
+}
+
+/* One step of the tableau `tableau` (its position in the dispatch table's list); direct calls,
+ * so that the compiler may inline each step where it is called. */
+static int double_pendulum_rk_tableau(const double_pendulum_ctx *cx, int tableau, double h,
+        const double *y0, double *yn, double *fail, double *work)
+{
+    switch (tableau) {
+    case 0:
+        return double_pendulum_rk_rk2(cx, h, y0, yn, fail, work);
+    case 1:
+        return double_pendulum_rk_rk4(cx, h, y0, yn, fail, work);
+    case 2:
+        return double_pendulum_rk_rk3(cx, h, y0, yn, fail, work);
+    default:
+        return DOUBLE_PENDULUM_ERR_ARGUMENT;
+    }
+}
+
+/* A fixed-step method: its enum constant, its tableau (the case of rk_tableau), gradient
+ * evaluations per step and whether each q_i is normalized after the step. */
+typedef struct {
+    int method, tableau, evals, project;
+} double_pendulum_rk_method;
+
+static const double_pendulum_rk_method double_pendulum_rk_methods[4] = {
+    { DOUBLE_PENDULUM_METHOD_RK2, 0, 2, 0 }, /* rk2 */
+    { DOUBLE_PENDULUM_METHOD_RK2_PROJ, 0, 2, 1 }, /* rk2 */
+    { DOUBLE_PENDULUM_METHOD_RK4, 1, 4, 0 }, /* rk4 */
+    { DOUBLE_PENDULUM_METHOD_RK3, 2, 3, 0 } /* rk3 */
+};
+
+/* The fixed-step method `method`, or NULL. */
+static const double_pendulum_rk_method *double_pendulum_rk_method_of(int method)
+{
+    int i;
+    for (i = 0; i < 4; ++i) {
+        if (double_pendulum_rk_methods[i].method == method) {
+            return &double_pendulum_rk_methods[i];
+        }
+    }
+    return NULL;
+}
+/* One fixed step of the method `rk` from (q, w) into (qn, wn).
+ * work: y0 (12), yt (12), rk (102). */
+static int double_pendulum_rk_step_cx(const double_pendulum_ctx *cx, const double_pendulum_rk_method *rk,
+        double h, const double *q, const double *w, double *qn, double *wn, double *work)
+{
+    double *y0 = work + 0, *yt = work + 12;
+    int i, status;
+    double_pendulum_copy(y0, q, DOUBLE_PENDULUM_N3);
+    double_pendulum_copy(y0 + DOUBLE_PENDULUM_N3, w, DOUBLE_PENDULUM_N3);
+    status = double_pendulum_rk_tableau(cx, rk->tableau, h, y0, yt, NULL, work + 24);
+    if (status) {
+        return status;
+    }
+    if (rk->project) {
         for (i = 0; i < 2; ++i) {
             double *v = yt + 3 * i;
             const double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
@@ -1253,9 +1334,13 @@ static int double_pendulum_rk_step_cx(const double_pendulum_ctx *cx, int method,
 int double_pendulum_rk_step(const double *p, int method, double h, const double *q, const double *w,
         double *qn, double *wn, double *work)
 {
+    const double_pendulum_rk_method *rk = double_pendulum_rk_method_of(method);
     double_pendulum_ctx cx;
+    if (!(h > 0.0) || !rk) {
+        return DOUBLE_PENDULUM_ERR_ARGUMENT;
+    }
     double_pendulum_ctx_init(&cx, p, work);
-    return double_pendulum_rk_step_cx(&cx, method, h, q, w, qn, wn, work);
+    return double_pendulum_rk_step_cx(&cx, rk, h, q, w, qn, wn, work);
 }
 /* ---- driver ----------------------------------------------------------------------------------- */
 
@@ -2067,11 +2152,11 @@ static int double_pendulum_integrate_geometric(const double_pendulum_ctx *cx, co
     return status;
 }
 
-/* Fixed-step RK2, RK2 with projection or RK4 from (q0, w0); every `every`-th state is stored.
- * work: qk (6), wk (6), q1 (6), w1 (6), step (114). */
-static int double_pendulum_integrate_fixed(const double_pendulum_ctx *cx, int method, double h,
-        long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
-        double *energy, double *work, double_pendulum_stats *stats)
+/* Fixed steps of the method `rk` from (q0, w0); every `every`-th state is stored.
+ * work: qk (6), wk (6), q1 (6), w1 (6), step (126). */
+static int double_pendulum_integrate_fixed(const double_pendulum_ctx *cx, const double_pendulum_rk_method *rk,
+        double h, long nsteps, long every, const double *q0, const double *w0, double *q,
+        double *w, double *energy, double *work, double_pendulum_stats *stats)
 {
     double *qk = work + 0, *wk = work + 6;
     double *q1 = work + 12, *w1 = work + 18, *tmp;
@@ -2080,11 +2165,11 @@ static int double_pendulum_integrate_fixed(const double_pendulum_ctx *cx, int me
     double_pendulum_copy(qk, q0, DOUBLE_PENDULUM_N3);
     double_pendulum_copy(wk, w0, DOUBLE_PENDULUM_N3);
     for (k = 0; k < nsteps; ++k) {
-        status = double_pendulum_rk_step_cx(cx, method, h, qk, wk, q1, w1, work + 24);
+        status = double_pendulum_rk_step_cx(cx, rk, h, qk, wk, q1, w1, work + 24);
         if (status != DOUBLE_PENDULUM_OK) {
             return status;
         }
-        stats->gradient_evals += method == DOUBLE_PENDULUM_METHOD_RK4 ? 4 : 2;
+        stats->gradient_evals += rk->evals;
         stats->steps += 1;
         tmp = qk;
         qk = q1;
@@ -2109,6 +2194,7 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
     double_pendulum_stats local;
     double_pendulum_ctx ctx, *cx = &ctx;
     const double_pendulum_scheme *scheme;
+    const double_pendulum_rk_method *fixed;
     double *run = work + 0;
     long every, i;
     if (!opt) {
@@ -2160,11 +2246,11 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
         return double_pendulum_integrate_geometric(cx, opt, scheme, h, nsteps, every, q0, w0, q, w,
                 energy, run, stats);
     }
-    if (method != DOUBLE_PENDULUM_METHOD_RK2 && method != DOUBLE_PENDULUM_METHOD_RK2_PROJ
-            && method != DOUBLE_PENDULUM_METHOD_RK4) {
+    fixed = double_pendulum_rk_method_of(method);
+    if (!fixed) {
         return DOUBLE_PENDULUM_ERR_ARGUMENT;
     }
-    return double_pendulum_integrate_fixed(cx, method, h, nsteps, every, q0, w0, q, w, energy, run,
+    return double_pendulum_integrate_fixed(cx, fixed, h, nsteps, every, q0, w0, q, w, energy, run,
             stats);
 }
 /* ---- one step of any fixed-step method, carried on as integrate() does --------------------- */
@@ -2195,7 +2281,7 @@ static int double_pendulum_same(const double *a, const double *b)
 
 /* The substeps of a geometric method as integrate_geometric takes them: one gradient per
  * substep, the gradient at the new state handed on, each substep's Newton solution kept in
- * the carry for the same substep of the next step. work: g (6), gn (6), a (6), b (6), vb (6), vc (6), vd (6), step (114).
+ * the carry for the same substep of the next step. work: g (6), gn (6), a (6), b (6), vb (6), vc (6), vd (6), step (126).
  * carry: q (6), w (6), g (6), v (6), f (90), s (30). */
 int double_pendulum_step(const double *p, const double_pendulum_options *opt, double_pendulum_stepper *st,
         double h, const double *q, const double *w, double *qn, double *wn, double *carry,

@@ -440,62 +440,83 @@ static int double_pendulum_angles_stage(const double_pendulum_angles_ctx *cx, co
     return status;
 }
 
-/* One step of the explicit midpoint rule (classic = 0) or classical RK4 (classic = 1) from y0
- * into yn (DOUBLE_PENDULUM_ANGLES_NS doubles each). work: k1 (8), k2 (8), acc (8), field (32). */
-static int double_pendulum_angles_rk_fixed(const double_pendulum_angles_ctx *cx, int classic, double h, const double *y0,
+/* One step of rk4, classical Runge-Kutta (order 4, 4 stages), from y0 into yn
+ * (DOUBLE_PENDULUM_ANGLES_NS doubles each). work: k (32), field (32). */
+static int double_pendulum_angles_rk_rk4(const double_pendulum_angles_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)
 {
-    double *k1 = work + 0, *k2 = work + 8;
-    double *acc = work + 16, *fw = work + 24;
+    double *k0 = work + 0, *fw = work + 32;
+    double *k1 = k0 + DOUBLE_PENDULUM_ANGLES_NS;
+    double *k2 = k0 + 2 * DOUBLE_PENDULUM_ANGLES_NS;
+    double *k3 = k0 + 3 * DOUBLE_PENDULUM_ANGLES_NS;
     int e, status;
-    status = double_pendulum_angles_stage(cx, y0, k1, fail, fw);
+    status = double_pendulum_angles_stage(cx, y0, k0, fail, fw);
     if (status) {
         return status;
     }
-    if (!classic) {
-        for (e = 0; e < DOUBLE_PENDULUM_ANGLES_NS; ++e) {
-            yn[e] = y0[e] + 0.5 * h * k1[e];
-        }
-        status = double_pendulum_angles_stage(cx, yn, k2, fail, fw);
-        if (status) {
-            return status;
-        }
-        for (e = 0; e < DOUBLE_PENDULUM_ANGLES_NS; ++e) {
-            yn[e] = y0[e] + h * k2[e];
-        }
-        return DOUBLE_PENDULUM_ANGLES_OK;
+    for (e = 0; e < DOUBLE_PENDULUM_ANGLES_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k0[e];
+    }
+    status = double_pendulum_angles_stage(cx, yn, k1, fail, fw);
+    if (status) {
+        return status;
     }
     for (e = 0; e < DOUBLE_PENDULUM_ANGLES_NS; ++e) {
-        acc[e] = k1[e];
-        yn[e] = y0[e] + 0.5 * h * k1[e];
+        yn[e] = y0[e] + h / 2.0 * k1[e];
     }
     status = double_pendulum_angles_stage(cx, yn, k2, fail, fw);
     if (status) {
         return status;
     }
     for (e = 0; e < DOUBLE_PENDULUM_ANGLES_NS; ++e) {
-        acc[e] += 2.0 * k2[e];
-        yn[e] = y0[e] + 0.5 * h * k2[e];
-    }
-    status = double_pendulum_angles_stage(cx, yn, k2, fail, fw);
-    if (status) {
-        return status;
-    }
-    for (e = 0; e < DOUBLE_PENDULUM_ANGLES_NS; ++e) {
-        acc[e] += 2.0 * k2[e];
         yn[e] = y0[e] + h * k2[e];
     }
-    status = double_pendulum_angles_stage(cx, yn, k2, fail, fw);
+    status = double_pendulum_angles_stage(cx, yn, k3, fail, fw);
     if (status) {
         return status;
     }
     for (e = 0; e < DOUBLE_PENDULUM_ANGLES_NS; ++e) {
-        yn[e] = y0[e] + h / 6.0 * (acc[e] + k2[e]);
+        yn[e] = y0[e] + h / 6.0 * (k0[e] + 2.0 * k1[e] + 2.0 * k2[e] + k3[e]);
     }
     return DOUBLE_PENDULUM_ANGLES_OK;
 }
+
+/* One step of the tableau `tableau` (its position in the dispatch table's list); direct calls,
+ * so that the compiler may inline each step where it is called. */
+static int double_pendulum_angles_rk_tableau(const double_pendulum_angles_ctx *cx, int tableau, double h,
+        const double *y0, double *yn, double *fail, double *work)
+{
+    switch (tableau) {
+    case 0:
+        return double_pendulum_angles_rk_rk4(cx, h, y0, yn, fail, work);
+    default:
+        return DOUBLE_PENDULUM_ANGLES_ERR_ARGUMENT;
+    }
+}
+
+/* A fixed-step method: its enum constant, its tableau (the case of rk_tableau), gradient
+ * evaluations per step and whether each q_i is normalized after the step. */
+typedef struct {
+    int method, tableau, evals, project;
+} double_pendulum_angles_rk_method;
+
+static const double_pendulum_angles_rk_method double_pendulum_angles_rk_methods[1] = {
+    { DOUBLE_PENDULUM_ANGLES_METHOD_RK4, 0, 4, 0 } /* rk4 */
+};
+
+/* The fixed-step method `method`, or NULL. */
+static const double_pendulum_angles_rk_method *double_pendulum_angles_rk_method_of(int method)
+{
+    int i;
+    for (i = 0; i < 1; ++i) {
+        if (double_pendulum_angles_rk_methods[i].method == method) {
+            return &double_pendulum_angles_rk_methods[i];
+        }
+    }
+    return NULL;
+}
 /* One classical Runge-Kutta step; on failure of a field evaluation xn, xdn receive the stage
- * state where it failed. work: y0 (8), yt (8), fail (8), rk (56). */
+ * state where it failed. work: y0 (8), yt (8), fail (8), rk (64). */
 int double_pendulum_angles_rk4_step(const double *p, double h, const double *x, const double *xd, double *xn,
         double *xdn, double *work)
 {
@@ -509,7 +530,7 @@ int double_pendulum_angles_rk4_step(const double *p, double h, const double *x, 
     }
     double_pendulum_angles_copy(y0, x, DOUBLE_PENDULUM_ANGLES_NX);
     double_pendulum_angles_copy(y0 + DOUBLE_PENDULUM_ANGLES_NX, xd, DOUBLE_PENDULUM_ANGLES_NX);
-    status = double_pendulum_angles_rk_fixed(&cx, 1, h, y0, yt, fail, work + 24);
+    status = double_pendulum_angles_rk_rk4(&cx, h, y0, yt, fail, work + 24);
     if (status != DOUBLE_PENDULUM_ANGLES_OK) {
         double_pendulum_angles_copy(xn, fail, DOUBLE_PENDULUM_ANGLES_NX);
         double_pendulum_angles_copy(xdn, fail + DOUBLE_PENDULUM_ANGLES_NX, DOUBLE_PENDULUM_ANGLES_NX);
@@ -774,6 +795,7 @@ int double_pendulum_angles_integrate(const double *p, const double_pendulum_angl
     long k;
     int status = DOUBLE_PENDULUM_ANGLES_OK;
     double_pendulum_angles_ctx ctx, *cx = &ctx;
+    const double_pendulum_angles_rk_method *fixed;
     double *run = work + 0, *fail = work + 120;
     double_pendulum_angles_options defaults;
     double_pendulum_angles_stats local;
@@ -818,7 +840,8 @@ int double_pendulum_angles_integrate(const double *p, const double_pendulum_angl
         }
         return status;
     }
-    if (method != DOUBLE_PENDULUM_ANGLES_METHOD_RK4) {
+    fixed = double_pendulum_angles_rk_method_of(method);
+    if (!fixed) {
         return DOUBLE_PENDULUM_ANGLES_ERR_ARGUMENT;
     }
     for (k = 0; k < nsteps; ++k) {
@@ -827,7 +850,7 @@ int double_pendulum_angles_integrate(const double *p, const double_pendulum_angl
         double *y0 = run + 0;
         double_pendulum_angles_copy(y0, y, DOUBLE_PENDULUM_ANGLES_NX);
         double_pendulum_angles_copy(y0 + DOUBLE_PENDULUM_ANGLES_NX, yd, DOUBLE_PENDULUM_ANGLES_NX);
-        status = double_pendulum_angles_rk_fixed(cx, 1, h, y0, run + 8, fail,
+        status = double_pendulum_angles_rk_tableau(cx, fixed->tableau, h, y0, run + 8, fail,
                 run + 24);
         if (status == DOUBLE_PENDULUM_ANGLES_OK && !double_pendulum_angles_finite(run + 8, DOUBLE_PENDULUM_ANGLES_NS)) {
             double_pendulum_angles_copy(fail, run + 8, DOUBLE_PENDULUM_ANGLES_NS);
@@ -840,7 +863,7 @@ int double_pendulum_angles_integrate(const double *p, const double_pendulum_angl
         }
         double_pendulum_angles_copy(yn, run + 8, DOUBLE_PENDULUM_ANGLES_NX);
         double_pendulum_angles_copy(ydn, run + 8 + DOUBLE_PENDULUM_ANGLES_NX, DOUBLE_PENDULUM_ANGLES_NX);
-        stats->rhs_evals += 4;
+        stats->rhs_evals += fixed->evals;
         stats->steps += 1;
         if (energy) {
             energy[k + 1] = double_pendulum_angles_energy(p, yn, ydn);

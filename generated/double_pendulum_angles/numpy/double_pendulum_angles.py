@@ -313,35 +313,45 @@ def _field(p, y):
 # ---- fixed-step Runge-Kutta on y = (x, xd) --------------------------------------------
 
 
-def _rk_fixed(p, classic, h, y0):
-    """One step of the explicit midpoint rule (classic false) or classical RK4 (classic true):
+def _rk_rk4(p, h, y0):
+    """One step of rk4, classical Runge-Kutta (order 4, 4 stages):
     (status, y, stage) where stage is the state of a failed field evaluation (else None)."""
-    status, k1 = _field(p, y0)
+    status, k0 = _field(p, y0)
     if status != OK:
         return status, None, y0
-    if not classic:
-        yt = y0 + 0.5 * h * k1
-        status, k2 = _field(p, yt)
-        if status != OK:
-            return status, None, yt
-        return OK, y0 + h * k2, None
-    ks = [k1]
-    for c in (0.5, 0.5, 1.0):
-        yt = y0 + c * h * ks[-1]
-        status, k = _field(p, yt)
-        if status != OK:
-            return status, None, yt
-        ks.append(k)
-    k1, k2, k3, k4 = ks
-    return OK, y0 + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4), None
+    yt = y0 + h / 2.0 * k0
+    status, k1 = _field(p, yt)
+    if status != OK:
+        return status, None, yt
+    yt = y0 + h / 2.0 * k1
+    status, k2 = _field(p, yt)
+    if status != OK:
+        return status, None, yt
+    yt = y0 + h * k2
+    status, k3 = _field(p, yt)
+    if status != OK:
+        return status, None, yt
+    return OK, y0 + h / 6.0 * (k0 + 2.0 * k1 + 2.0 * k2 + k3), None
+
+
+# Per fixed-step method: (the step of its tableau, gradient evaluations per step, whether each
+# q_i is normalized after the step).
+RK_METHODS = {
+    METHOD_RK4: (_rk_rk4, 4, False),
+}
 
 
 def rk4_step(p, h, x, xd):
     """One classical Runge-Kutta step: (status, xn, xdn); on failure of a field evaluation
     xn, xdn are the stage state where it failed."""
+    return _fixed_step(p, _rk_rk4, h, x, xd)
+
+
+def _fixed_step(p, step, h, x, xd):
+    """One step of the tableau step `step` from (x, xd), as rk4_step."""
     if not h > 0.0:
         return ERR_ARGUMENT, None, None
-    status, y, stage = _rk_fixed(p, True, h, numpy.concatenate([x, xd]))
+    status, y, stage = step(p, h, numpy.concatenate([x, xd]))
     if status != OK:
         return status, stage[:NX], stage[NX:]
     if not _finite(y):
@@ -531,16 +541,17 @@ def integrate(p, method, h, nsteps, x0, xd0, rtol=1e-3, atol=1e-6, control=CONTR
         if status != OK:
             _locate(state[1], state[0], stats)
         return status, x, xd, en, counts, stats
-    if method != METHOD_RK4:
+    if method not in RK_METHODS:
         return ERR_ARGUMENT, x, xd, en, counts, stats
+    step, evals, _ = RK_METHODS[method]
     for k in range(nsteps):
-        status, xn, xdn = rk4_step(p, h, x[k], xd[k])
+        status, xn, xdn = _fixed_step(p, step, h, x[k], xd[k])
         if status != OK:
             stats["fail_time"] = h * k
             _locate(None if xn is None else numpy.concatenate([xn, xdn]), x[k], stats)
             return status, x, xd, en, counts, stats
         x[k + 1], xd[k + 1] = xn, xdn
-        stats["rhs_evals"] += 4
+        stats["rhs_evals"] += evals
         stats["steps"] += 1
         en[k + 1] = energy(p, xn, xdn)
         counts[k + 1] = (stats["steps"], 0)

@@ -809,79 +809,160 @@ static int four_pendula_stage(const four_pendula_ctx *cx, const double *y, doubl
     return status;
 }
 
-/* One step of the explicit midpoint rule (classic = 0) or classical RK4 (classic = 1) from y0
- * into yn (FOUR_PENDULA_NS doubles each). work: k1 (24), k2 (24), acc (24), field (12). */
-static int four_pendula_rk_fixed(const four_pendula_ctx *cx, int classic, double h, const double *y0,
+/* One step of rk2, explicit midpoint rule (order 2, 2 stages), from y0 into yn
+ * (FOUR_PENDULA_NS doubles each). work: k (96), field (12). */
+static int four_pendula_rk_rk2(const four_pendula_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)
 {
-    double *k1 = work + 0, *k2 = work + 24;
-    double *acc = work + 48, *fw = work + 72;
+    double *k0 = work + 0, *fw = work + 96;
+    double *k1 = k0 + FOUR_PENDULA_NS;
     int e, status;
-    status = four_pendula_stage(cx, y0, k1, fail, fw);
-    if (status) {
-        return status;
-    }
-    if (!classic) {
-        for (e = 0; e < FOUR_PENDULA_NS; ++e) {
-            yn[e] = y0[e] + 0.5 * h * k1[e];
-        }
-        status = four_pendula_stage(cx, yn, k2, fail, fw);
-        if (status) {
-            return status;
-        }
-        for (e = 0; e < FOUR_PENDULA_NS; ++e) {
-            yn[e] = y0[e] + h * k2[e];
-        }
-        return FOUR_PENDULA_OK;
-    }
-    for (e = 0; e < FOUR_PENDULA_NS; ++e) {
-        acc[e] = k1[e];
-        yn[e] = y0[e] + 0.5 * h * k1[e];
-    }
-    status = four_pendula_stage(cx, yn, k2, fail, fw);
+    status = four_pendula_stage(cx, y0, k0, fail, fw);
     if (status) {
         return status;
     }
     for (e = 0; e < FOUR_PENDULA_NS; ++e) {
-        acc[e] += 2.0 * k2[e];
-        yn[e] = y0[e] + 0.5 * h * k2[e];
+        yn[e] = y0[e] + h / 2.0 * k0[e];
     }
-    status = four_pendula_stage(cx, yn, k2, fail, fw);
+    status = four_pendula_stage(cx, yn, k1, fail, fw);
     if (status) {
         return status;
     }
     for (e = 0; e < FOUR_PENDULA_NS; ++e) {
-        acc[e] += 2.0 * k2[e];
-        yn[e] = y0[e] + h * k2[e];
-    }
-    status = four_pendula_stage(cx, yn, k2, fail, fw);
-    if (status) {
-        return status;
-    }
-    for (e = 0; e < FOUR_PENDULA_NS; ++e) {
-        yn[e] = y0[e] + h / 6.0 * (acc[e] + k2[e]);
+        yn[e] = y0[e] + h * k1[e];
     }
     return FOUR_PENDULA_OK;
 }
-/* One fixed step of RK2, RK2 with projection or RK4 from (q, w) into (qn, wn).
- * work: y0 (24), yt (24), rk (84). */
-static int four_pendula_rk_step_cx(const four_pendula_ctx *cx, int method, double h,
-        const double *q, const double *w, double *qn, double *wn, double *work)
+
+/* One step of rk4, classical Runge-Kutta (order 4, 4 stages), from y0 into yn
+ * (FOUR_PENDULA_NS doubles each). work: k (96), field (12). */
+static int four_pendula_rk_rk4(const four_pendula_ctx *cx, double h, const double *y0,
+        double *yn, double *fail, double *work)
 {
-    double *y0 = work + 0, *yt = work + 24;
-    int i, status;
-    if (!(h > 0.0) || (method != FOUR_PENDULA_METHOD_RK2 && method != FOUR_PENDULA_METHOD_RK2_PROJ
-            && method != FOUR_PENDULA_METHOD_RK4)) {
-        return FOUR_PENDULA_ERR_ARGUMENT;
-    }
-    four_pendula_copy(y0, q, FOUR_PENDULA_N3);
-    four_pendula_copy(y0 + FOUR_PENDULA_N3, w, FOUR_PENDULA_N3);
-    status = four_pendula_rk_fixed(cx, method == FOUR_PENDULA_METHOD_RK4, h, y0, yt, NULL,
-            work + 48);
+    double *k0 = work + 0, *fw = work + 96;
+    double *k1 = k0 + FOUR_PENDULA_NS;
+    double *k2 = k0 + 2 * FOUR_PENDULA_NS;
+    double *k3 = k0 + 3 * FOUR_PENDULA_NS;
+    int e, status;
+    status = four_pendula_stage(cx, y0, k0, fail, fw);
     if (status) {
         return status;
     }
-    if (method == FOUR_PENDULA_METHOD_RK2_PROJ) {
+    for (e = 0; e < FOUR_PENDULA_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k0[e];
+    }
+    status = four_pendula_stage(cx, yn, k1, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < FOUR_PENDULA_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k1[e];
+    }
+    status = four_pendula_stage(cx, yn, k2, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < FOUR_PENDULA_NS; ++e) {
+        yn[e] = y0[e] + h * k2[e];
+    }
+    status = four_pendula_stage(cx, yn, k3, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < FOUR_PENDULA_NS; ++e) {
+        yn[e] = y0[e] + h / 6.0 * (k0[e] + 2.0 * k1[e] + 2.0 * k2[e] + k3[e]);
+    }
+    return FOUR_PENDULA_OK;
+}
+
+/* One step of rk3, Ralston's third-order method (order 3, 3 stages), from y0 into yn
+ * (FOUR_PENDULA_NS doubles each). work: k (96), field (12). */
+static int four_pendula_rk_rk3(const four_pendula_ctx *cx, double h, const double *y0,
+        double *yn, double *fail, double *work)
+{
+    double *k0 = work + 0, *fw = work + 96;
+    double *k1 = k0 + FOUR_PENDULA_NS;
+    double *k2 = k0 + 2 * FOUR_PENDULA_NS;
+    int e, status;
+    status = four_pendula_stage(cx, y0, k0, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < FOUR_PENDULA_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k0[e];
+    }
+    status = four_pendula_stage(cx, yn, k1, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < FOUR_PENDULA_NS; ++e) {
+        yn[e] = y0[e] + h / 4.0 * (3.0 * k1[e]);
+    }
+    status = four_pendula_stage(cx, yn, k2, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < FOUR_PENDULA_NS; ++e) {
+        yn[e] = y0[e] + h / 9.0 * (2.0 * k0[e] + 3.0 * k1[e] + 4.0 * k2[e]);
+    }
+    return FOUR_PENDULA_OK;
+}
+
+/* One step of the tableau `tableau` (its position in the dispatch table's list); direct calls,
+ * so that the compiler may inline each step where it is called. */
+static int four_pendula_rk_tableau(const four_pendula_ctx *cx, int tableau, double h,
+        const double *y0, double *yn, double *fail, double *work)
+{
+    switch (tableau) {
+    case 0:
+        return four_pendula_rk_rk2(cx, h, y0, yn, fail, work);
+    case 1:
+        return four_pendula_rk_rk4(cx, h, y0, yn, fail, work);
+    case 2:
+        return four_pendula_rk_rk3(cx, h, y0, yn, fail, work);
+    default:
+        return FOUR_PENDULA_ERR_ARGUMENT;
+    }
+}
+
+/* A fixed-step method: its enum constant, its tableau (the case of rk_tableau), gradient
+ * evaluations per step and whether each q_i is normalized after the step. */
+typedef struct {
+    int method, tableau, evals, project;
+} four_pendula_rk_method;
+
+static const four_pendula_rk_method four_pendula_rk_methods[4] = {
+    { FOUR_PENDULA_METHOD_RK2, 0, 2, 0 }, /* rk2 */
+    { FOUR_PENDULA_METHOD_RK2_PROJ, 0, 2, 1 }, /* rk2 */
+    { FOUR_PENDULA_METHOD_RK4, 1, 4, 0 }, /* rk4 */
+    { FOUR_PENDULA_METHOD_RK3, 2, 3, 0 } /* rk3 */
+};
+
+/* The fixed-step method `method`, or NULL. */
+static const four_pendula_rk_method *four_pendula_rk_method_of(int method)
+{
+    int i;
+    for (i = 0; i < 4; ++i) {
+        if (four_pendula_rk_methods[i].method == method) {
+            return &four_pendula_rk_methods[i];
+        }
+    }
+    return NULL;
+}
+/* One fixed step of the method `rk` from (q, w) into (qn, wn).
+ * work: y0 (24), yt (24), rk (108). */
+static int four_pendula_rk_step_cx(const four_pendula_ctx *cx, const four_pendula_rk_method *rk,
+        double h, const double *q, const double *w, double *qn, double *wn, double *work)
+{
+    double *y0 = work + 0, *yt = work + 24;
+    int i, status;
+    four_pendula_copy(y0, q, FOUR_PENDULA_N3);
+    four_pendula_copy(y0 + FOUR_PENDULA_N3, w, FOUR_PENDULA_N3);
+    status = four_pendula_rk_tableau(cx, rk->tableau, h, y0, yt, NULL, work + 48);
+    if (status) {
+        return status;
+    }
+    if (rk->project) {
         for (i = 0; i < 4; ++i) {
             double *v = yt + 3 * i;
             const double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
@@ -898,9 +979,13 @@ static int four_pendula_rk_step_cx(const four_pendula_ctx *cx, int method, doubl
 int four_pendula_rk_step(const double *p, int method, double h, const double *q, const double *w,
         double *qn, double *wn, double *work)
 {
+    const four_pendula_rk_method *rk = four_pendula_rk_method_of(method);
     four_pendula_ctx cx;
+    if (!(h > 0.0) || !rk) {
+        return FOUR_PENDULA_ERR_ARGUMENT;
+    }
     four_pendula_ctx_init(&cx, p, work);
-    return four_pendula_rk_step_cx(&cx, method, h, q, w, qn, wn, work);
+    return four_pendula_rk_step_cx(&cx, rk, h, q, w, qn, wn, work);
 }
 /* ---- driver ----------------------------------------------------------------------------------- */
 
@@ -1762,11 +1847,11 @@ static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, const fou
     return status;
 }
 
-/* Fixed-step RK2, RK2 with projection or RK4 from (q0, w0); every `every`-th state is stored.
- * work: qk (12), wk (12), q1 (12), w1 (12), step (132). */
-static int four_pendula_integrate_fixed(const four_pendula_ctx *cx, int method, double h,
-        long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
-        double *energy, double *work, four_pendula_stats *stats)
+/* Fixed steps of the method `rk` from (q0, w0); every `every`-th state is stored.
+ * work: qk (12), wk (12), q1 (12), w1 (12), step (156). */
+static int four_pendula_integrate_fixed(const four_pendula_ctx *cx, const four_pendula_rk_method *rk,
+        double h, long nsteps, long every, const double *q0, const double *w0, double *q,
+        double *w, double *energy, double *work, four_pendula_stats *stats)
 {
     double *qk = work + 0, *wk = work + 12;
     double *q1 = work + 24, *w1 = work + 36, *tmp;
@@ -1775,11 +1860,11 @@ static int four_pendula_integrate_fixed(const four_pendula_ctx *cx, int method, 
     four_pendula_copy(qk, q0, FOUR_PENDULA_N3);
     four_pendula_copy(wk, w0, FOUR_PENDULA_N3);
     for (k = 0; k < nsteps; ++k) {
-        status = four_pendula_rk_step_cx(cx, method, h, qk, wk, q1, w1, work + 48);
+        status = four_pendula_rk_step_cx(cx, rk, h, qk, wk, q1, w1, work + 48);
         if (status != FOUR_PENDULA_OK) {
             return status;
         }
-        stats->gradient_evals += method == FOUR_PENDULA_METHOD_RK4 ? 4 : 2;
+        stats->gradient_evals += rk->evals;
         stats->steps += 1;
         tmp = qk;
         qk = q1;
@@ -1804,6 +1889,7 @@ int four_pendula_integrate(const double *p, const four_pendula_options *opt, int
     four_pendula_stats local;
     four_pendula_ctx ctx, *cx = &ctx;
     const four_pendula_scheme *scheme;
+    const four_pendula_rk_method *fixed;
     double *run = work + 0;
     long every, i;
     if (!opt) {
@@ -1859,11 +1945,11 @@ int four_pendula_integrate(const double *p, const four_pendula_options *opt, int
         return four_pendula_integrate_geometric(cx, opt, scheme, h, nsteps, every, q0, w0, q, w,
                 energy, run, stats);
     }
-    if (method != FOUR_PENDULA_METHOD_RK2 && method != FOUR_PENDULA_METHOD_RK2_PROJ
-            && method != FOUR_PENDULA_METHOD_RK4) {
+    fixed = four_pendula_rk_method_of(method);
+    if (!fixed) {
         return FOUR_PENDULA_ERR_ARGUMENT;
     }
-    return four_pendula_integrate_fixed(cx, method, h, nsteps, every, q0, w0, q, w, energy, run,
+    return four_pendula_integrate_fixed(cx, fixed, h, nsteps, every, q0, w0, q, w, energy, run,
             stats);
 }
 /* ---- one step of any fixed-step method, carried on as integrate() does --------------------- */
@@ -1894,7 +1980,7 @@ static int four_pendula_same(const double *a, const double *b)
 
 /* The substeps of a geometric method as integrate_geometric takes them: one gradient per
  * substep, the gradient at the new state handed on, each substep's Newton solution kept in
- * the carry for the same substep of the next step. work: g (12), gn (12), a (12), b (12), vb (12), vc (12), vd (12), step (132).
+ * the carry for the same substep of the next step. work: g (12), gn (12), a (12), b (12), vb (12), vc (12), vd (12), step (156).
  * carry: q (12), w (12), g (12), v (12). */
 int four_pendula_step(const double *p, const four_pendula_options *opt, four_pendula_stepper *st,
         double h, const double *q, const double *w, double *qn, double *wn, double *carry,

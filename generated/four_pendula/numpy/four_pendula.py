@@ -50,6 +50,7 @@ METHOD_RATTLE4 = 9  # RATTLE composed by the triple jump, order 4
 METHOD_RATTLE6 = 10  # RATTLE composed by Yoshida's solution A, order 6
 METHOD_RATTLE8 = 11  # RATTLE composed by Kahan and Li's 15 stages, order 8
 METHOD_DOP853 = 12  # Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order continuous extension, order 8
+METHOD_RK3 = 13  # Ralston's third-order method, order 3
 CONTROL_MATLAB, CONTROL_HAIRER = range(2)
 EVALS = "gradient_evals"  # the statistics counter of field evaluations
 
@@ -389,37 +390,76 @@ def _rattle_advance(p, h, x, v, g, newton_tol, newton_maxiter, start=None):
 # ---- fixed-step Runge-Kutta on y = (q, omega) --------------------------------------------
 
 
-def _rk_fixed(p, classic, h, y0):
-    """One step of the explicit midpoint rule (classic false) or classical RK4 (classic true):
+def _rk_rk2(p, h, y0):
+    """One step of rk2, explicit midpoint rule (order 2, 2 stages):
     (status, y, stage) where stage is the state of a failed field evaluation (else None)."""
-    status, k1 = _field(p, y0)
+    status, k0 = _field(p, y0)
     if status != OK:
         return status, None, y0
-    if not classic:
-        yt = y0 + 0.5 * h * k1
-        status, k2 = _field(p, yt)
-        if status != OK:
-            return status, None, yt
-        return OK, y0 + h * k2, None
-    ks = [k1]
-    for c in (0.5, 0.5, 1.0):
-        yt = y0 + c * h * ks[-1]
-        status, k = _field(p, yt)
-        if status != OK:
-            return status, None, yt
-        ks.append(k)
-    k1, k2, k3, k4 = ks
-    return OK, y0 + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4), None
+    yt = y0 + h / 2.0 * k0
+    status, k1 = _field(p, yt)
+    if status != OK:
+        return status, None, yt
+    return OK, y0 + h * k1, None
+
+
+def _rk_rk4(p, h, y0):
+    """One step of rk4, classical Runge-Kutta (order 4, 4 stages):
+    (status, y, stage) where stage is the state of a failed field evaluation (else None)."""
+    status, k0 = _field(p, y0)
+    if status != OK:
+        return status, None, y0
+    yt = y0 + h / 2.0 * k0
+    status, k1 = _field(p, yt)
+    if status != OK:
+        return status, None, yt
+    yt = y0 + h / 2.0 * k1
+    status, k2 = _field(p, yt)
+    if status != OK:
+        return status, None, yt
+    yt = y0 + h * k2
+    status, k3 = _field(p, yt)
+    if status != OK:
+        return status, None, yt
+    return OK, y0 + h / 6.0 * (k0 + 2.0 * k1 + 2.0 * k2 + k3), None
+
+
+def _rk_rk3(p, h, y0):
+    """One step of rk3, Ralston's third-order method (order 3, 3 stages):
+    (status, y, stage) where stage is the state of a failed field evaluation (else None)."""
+    status, k0 = _field(p, y0)
+    if status != OK:
+        return status, None, y0
+    yt = y0 + h / 2.0 * k0
+    status, k1 = _field(p, yt)
+    if status != OK:
+        return status, None, yt
+    yt = y0 + h / 4.0 * (3.0 * k1)
+    status, k2 = _field(p, yt)
+    if status != OK:
+        return status, None, yt
+    return OK, y0 + h / 9.0 * (2.0 * k0 + 3.0 * k1 + 4.0 * k2), None
+
+
+# Per fixed-step method: (the step of its tableau, gradient evaluations per step, whether each
+# q_i is normalized after the step).
+RK_METHODS = {
+    METHOD_RK2: (_rk_rk2, 2, False),
+    METHOD_RK2_PROJ: (_rk_rk2, 2, True),
+    METHOD_RK4: (_rk_rk4, 4, False),
+    METHOD_RK3: (_rk_rk3, 3, False),
+}
 
 
 def rk_step(p, method, h, q, w):
-    """One fixed step of RK2 (midpoint), RK2 with projection, or RK4: (status, qn, wn)."""
-    if not h > 0.0 or method not in (METHOD_RK2, METHOD_RK2_PROJ, METHOD_RK4):
+    """One fixed step of a fixed-step method (RK_METHODS): (status, qn, wn)."""
+    if not h > 0.0 or method not in RK_METHODS:
         return ERR_ARGUMENT, None, None
-    status, y, _ = _rk_fixed(p, method == METHOD_RK4, h, numpy.concatenate([q, w]))
+    step, _, project = RK_METHODS[method]
+    status, y, _ = step(p, h, numpy.concatenate([q, w]))
     if status != OK:
         return status, None, None
-    if method == METHOD_RK2_PROJ:
+    if project:
         y[:NBODIES] /= numpy.sqrt(numpy.sum(y[:NBODIES] ** 2, axis=1))[:, None]
     if not _finite(y):
         return ERR_NONFINITE, None, None
@@ -921,13 +961,14 @@ def _geometric(p, method, h, nsteps, every, q0, w0, store, stats, newton_tol, ne
 
 
 def _fixed(p, method, h, nsteps, every, q0, w0, store, stats):
-    """Fixed-step RK2, RK2 with projection or RK4; every `every`-th state is stored."""
+    """Fixed steps of a fixed-step method (RK_METHODS); every `every`-th state is stored."""
+    evals = RK_METHODS[method][1]
     qk, wk = q0, w0
     for k in range(nsteps):
         status, qk, wk = rk_step(p, method, h, qk, wk)
         if status != OK:
             return status
-        stats["gradient_evals"] += 4 if method == METHOD_RK4 else 2
+        stats["gradient_evals"] += evals
         stats["steps"] += 1
         if (k + 1) % every == 0:
             store((k + 1) // every, qk, wk)
@@ -1004,7 +1045,7 @@ def _integrate(p, method, h, nsteps, q0, w0, rtol, atol, control, hmax, newton_t
     elif method in SCHEMES:
         status = _geometric(p, method, h, nsteps, every, q0, w0, store, stats, newton_tol,
                             newton_maxiter)
-    elif method in (METHOD_RK2, METHOD_RK2_PROJ, METHOD_RK4):
+    elif method in RK_METHODS:
         status = _fixed(p, method, h, nsteps, every, q0, w0, store, stats)
     else:
         status = ERR_ARGUMENT

@@ -852,79 +852,160 @@ static int lj_cutoff_stage(const lj_cutoff_ctx *cx, const double *y, double *dy,
     return status;
 }
 
-/* One step of the explicit midpoint rule (classic = 0) or classical RK4 (classic = 1) from y0
- * into yn (LJ_CUTOFF_NS doubles each). work: k1 (48), k2 (48), acc (48), field (24). */
-static int lj_cutoff_rk_fixed(const lj_cutoff_ctx *cx, int classic, double h, const double *y0,
+/* One step of rk2, explicit midpoint rule (order 2, 2 stages), from y0 into yn
+ * (LJ_CUTOFF_NS doubles each). work: k (192), field (24). */
+static int lj_cutoff_rk_rk2(const lj_cutoff_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)
 {
-    double *k1 = work + 0, *k2 = work + 48;
-    double *acc = work + 96, *fw = work + 144;
+    double *k0 = work + 0, *fw = work + 192;
+    double *k1 = k0 + LJ_CUTOFF_NS;
     int e, status;
-    status = lj_cutoff_stage(cx, y0, k1, fail, fw);
-    if (status) {
-        return status;
-    }
-    if (!classic) {
-        for (e = 0; e < LJ_CUTOFF_NS; ++e) {
-            yn[e] = y0[e] + 0.5 * h * k1[e];
-        }
-        status = lj_cutoff_stage(cx, yn, k2, fail, fw);
-        if (status) {
-            return status;
-        }
-        for (e = 0; e < LJ_CUTOFF_NS; ++e) {
-            yn[e] = y0[e] + h * k2[e];
-        }
-        return LJ_CUTOFF_OK;
-    }
-    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
-        acc[e] = k1[e];
-        yn[e] = y0[e] + 0.5 * h * k1[e];
-    }
-    status = lj_cutoff_stage(cx, yn, k2, fail, fw);
+    status = lj_cutoff_stage(cx, y0, k0, fail, fw);
     if (status) {
         return status;
     }
     for (e = 0; e < LJ_CUTOFF_NS; ++e) {
-        acc[e] += 2.0 * k2[e];
-        yn[e] = y0[e] + 0.5 * h * k2[e];
+        yn[e] = y0[e] + h / 2.0 * k0[e];
     }
-    status = lj_cutoff_stage(cx, yn, k2, fail, fw);
+    status = lj_cutoff_stage(cx, yn, k1, fail, fw);
     if (status) {
         return status;
     }
     for (e = 0; e < LJ_CUTOFF_NS; ++e) {
-        acc[e] += 2.0 * k2[e];
-        yn[e] = y0[e] + h * k2[e];
-    }
-    status = lj_cutoff_stage(cx, yn, k2, fail, fw);
-    if (status) {
-        return status;
-    }
-    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
-        yn[e] = y0[e] + h / 6.0 * (acc[e] + k2[e]);
+        yn[e] = y0[e] + h * k1[e];
     }
     return LJ_CUTOFF_OK;
 }
-/* One fixed step of RK2, RK2 with projection or RK4 from (q, w) into (qn, wn).
- * work: y0 (48), yt (48), rk (168). */
-static int lj_cutoff_rk_step_cx(const lj_cutoff_ctx *cx, int method, double h,
-        const double *q, const double *w, double *qn, double *wn, double *work)
+
+/* One step of rk4, classical Runge-Kutta (order 4, 4 stages), from y0 into yn
+ * (LJ_CUTOFF_NS doubles each). work: k (192), field (24). */
+static int lj_cutoff_rk_rk4(const lj_cutoff_ctx *cx, double h, const double *y0,
+        double *yn, double *fail, double *work)
 {
-    double *y0 = work + 0, *yt = work + 48;
-    int i, status;
-    if (!(h > 0.0) || (method != LJ_CUTOFF_METHOD_RK2 && method != LJ_CUTOFF_METHOD_RK2_PROJ
-            && method != LJ_CUTOFF_METHOD_RK4)) {
-        return LJ_CUTOFF_ERR_ARGUMENT;
-    }
-    lj_cutoff_copy(y0, q, LJ_CUTOFF_N3);
-    lj_cutoff_copy(y0 + LJ_CUTOFF_N3, w, LJ_CUTOFF_N3);
-    status = lj_cutoff_rk_fixed(cx, method == LJ_CUTOFF_METHOD_RK4, h, y0, yt, NULL,
-            work + 96);
+    double *k0 = work + 0, *fw = work + 192;
+    double *k1 = k0 + LJ_CUTOFF_NS;
+    double *k2 = k0 + 2 * LJ_CUTOFF_NS;
+    double *k3 = k0 + 3 * LJ_CUTOFF_NS;
+    int e, status;
+    status = lj_cutoff_stage(cx, y0, k0, fail, fw);
     if (status) {
         return status;
     }
-    if (method == LJ_CUTOFF_METHOD_RK2_PROJ) {
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k0[e];
+    }
+    status = lj_cutoff_stage(cx, yn, k1, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k1[e];
+    }
+    status = lj_cutoff_stage(cx, yn, k2, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        yn[e] = y0[e] + h * k2[e];
+    }
+    status = lj_cutoff_stage(cx, yn, k3, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        yn[e] = y0[e] + h / 6.0 * (k0[e] + 2.0 * k1[e] + 2.0 * k2[e] + k3[e]);
+    }
+    return LJ_CUTOFF_OK;
+}
+
+/* One step of rk3, Ralston's third-order method (order 3, 3 stages), from y0 into yn
+ * (LJ_CUTOFF_NS doubles each). work: k (192), field (24). */
+static int lj_cutoff_rk_rk3(const lj_cutoff_ctx *cx, double h, const double *y0,
+        double *yn, double *fail, double *work)
+{
+    double *k0 = work + 0, *fw = work + 192;
+    double *k1 = k0 + LJ_CUTOFF_NS;
+    double *k2 = k0 + 2 * LJ_CUTOFF_NS;
+    int e, status;
+    status = lj_cutoff_stage(cx, y0, k0, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k0[e];
+    }
+    status = lj_cutoff_stage(cx, yn, k1, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        yn[e] = y0[e] + h / 4.0 * (3.0 * k1[e]);
+    }
+    status = lj_cutoff_stage(cx, yn, k2, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < LJ_CUTOFF_NS; ++e) {
+        yn[e] = y0[e] + h / 9.0 * (2.0 * k0[e] + 3.0 * k1[e] + 4.0 * k2[e]);
+    }
+    return LJ_CUTOFF_OK;
+}
+
+/* One step of the tableau `tableau` (its position in the dispatch table's list); direct calls,
+ * so that the compiler may inline each step where it is called. */
+static int lj_cutoff_rk_tableau(const lj_cutoff_ctx *cx, int tableau, double h,
+        const double *y0, double *yn, double *fail, double *work)
+{
+    switch (tableau) {
+    case 0:
+        return lj_cutoff_rk_rk2(cx, h, y0, yn, fail, work);
+    case 1:
+        return lj_cutoff_rk_rk4(cx, h, y0, yn, fail, work);
+    case 2:
+        return lj_cutoff_rk_rk3(cx, h, y0, yn, fail, work);
+    default:
+        return LJ_CUTOFF_ERR_ARGUMENT;
+    }
+}
+
+/* A fixed-step method: its enum constant, its tableau (the case of rk_tableau), gradient
+ * evaluations per step and whether each q_i is normalized after the step. */
+typedef struct {
+    int method, tableau, evals, project;
+} lj_cutoff_rk_method;
+
+static const lj_cutoff_rk_method lj_cutoff_rk_methods[4] = {
+    { LJ_CUTOFF_METHOD_RK2, 0, 2, 0 }, /* rk2 */
+    { LJ_CUTOFF_METHOD_RK2_PROJ, 0, 2, 1 }, /* rk2 */
+    { LJ_CUTOFF_METHOD_RK4, 1, 4, 0 }, /* rk4 */
+    { LJ_CUTOFF_METHOD_RK3, 2, 3, 0 } /* rk3 */
+};
+
+/* The fixed-step method `method`, or NULL. */
+static const lj_cutoff_rk_method *lj_cutoff_rk_method_of(int method)
+{
+    int i;
+    for (i = 0; i < 4; ++i) {
+        if (lj_cutoff_rk_methods[i].method == method) {
+            return &lj_cutoff_rk_methods[i];
+        }
+    }
+    return NULL;
+}
+/* One fixed step of the method `rk` from (q, w) into (qn, wn).
+ * work: y0 (48), yt (48), rk (216). */
+static int lj_cutoff_rk_step_cx(const lj_cutoff_ctx *cx, const lj_cutoff_rk_method *rk,
+        double h, const double *q, const double *w, double *qn, double *wn, double *work)
+{
+    double *y0 = work + 0, *yt = work + 48;
+    int i, status;
+    lj_cutoff_copy(y0, q, LJ_CUTOFF_N3);
+    lj_cutoff_copy(y0 + LJ_CUTOFF_N3, w, LJ_CUTOFF_N3);
+    status = lj_cutoff_rk_tableau(cx, rk->tableau, h, y0, yt, NULL, work + 96);
+    if (status) {
+        return status;
+    }
+    if (rk->project) {
         for (i = 0; i < 8; ++i) {
             double *v = yt + 3 * i;
             const double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
@@ -941,9 +1022,13 @@ static int lj_cutoff_rk_step_cx(const lj_cutoff_ctx *cx, int method, double h,
 int lj_cutoff_rk_step(const double *p, int method, double h, const double *q, const double *w,
         double *qn, double *wn, double *work)
 {
+    const lj_cutoff_rk_method *rk = lj_cutoff_rk_method_of(method);
     lj_cutoff_ctx cx;
+    if (!(h > 0.0) || !rk) {
+        return LJ_CUTOFF_ERR_ARGUMENT;
+    }
     lj_cutoff_ctx_init(&cx, p, work);
-    return lj_cutoff_rk_step_cx(&cx, method, h, q, w, qn, wn, work);
+    return lj_cutoff_rk_step_cx(&cx, rk, h, q, w, qn, wn, work);
 }
 /* ---- driver ----------------------------------------------------------------------------------- */
 
@@ -1805,11 +1890,11 @@ static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, const lj_cutoff
     return status;
 }
 
-/* Fixed-step RK2, RK2 with projection or RK4 from (q0, w0); every `every`-th state is stored.
- * work: qk (24), wk (24), q1 (24), w1 (24), step (264). */
-static int lj_cutoff_integrate_fixed(const lj_cutoff_ctx *cx, int method, double h,
-        long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
-        double *energy, double *work, lj_cutoff_stats *stats)
+/* Fixed steps of the method `rk` from (q0, w0); every `every`-th state is stored.
+ * work: qk (24), wk (24), q1 (24), w1 (24), step (312). */
+static int lj_cutoff_integrate_fixed(const lj_cutoff_ctx *cx, const lj_cutoff_rk_method *rk,
+        double h, long nsteps, long every, const double *q0, const double *w0, double *q,
+        double *w, double *energy, double *work, lj_cutoff_stats *stats)
 {
     double *qk = work + 0, *wk = work + 24;
     double *q1 = work + 48, *w1 = work + 72, *tmp;
@@ -1818,11 +1903,11 @@ static int lj_cutoff_integrate_fixed(const lj_cutoff_ctx *cx, int method, double
     lj_cutoff_copy(qk, q0, LJ_CUTOFF_N3);
     lj_cutoff_copy(wk, w0, LJ_CUTOFF_N3);
     for (k = 0; k < nsteps; ++k) {
-        status = lj_cutoff_rk_step_cx(cx, method, h, qk, wk, q1, w1, work + 96);
+        status = lj_cutoff_rk_step_cx(cx, rk, h, qk, wk, q1, w1, work + 96);
         if (status != LJ_CUTOFF_OK) {
             return status;
         }
-        stats->gradient_evals += method == LJ_CUTOFF_METHOD_RK4 ? 4 : 2;
+        stats->gradient_evals += rk->evals;
         stats->steps += 1;
         tmp = qk;
         qk = q1;
@@ -1847,6 +1932,7 @@ int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int metho
     lj_cutoff_stats local;
     lj_cutoff_ctx ctx, *cx = &ctx;
     const lj_cutoff_scheme *scheme;
+    const lj_cutoff_rk_method *fixed;
     double *run = work + 0;
     long every, i;
     if (!opt) {
@@ -1902,11 +1988,11 @@ int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int metho
         return lj_cutoff_integrate_geometric(cx, opt, scheme, h, nsteps, every, q0, w0, q, w,
                 energy, run, stats);
     }
-    if (method != LJ_CUTOFF_METHOD_RK2 && method != LJ_CUTOFF_METHOD_RK2_PROJ
-            && method != LJ_CUTOFF_METHOD_RK4) {
+    fixed = lj_cutoff_rk_method_of(method);
+    if (!fixed) {
         return LJ_CUTOFF_ERR_ARGUMENT;
     }
-    return lj_cutoff_integrate_fixed(cx, method, h, nsteps, every, q0, w0, q, w, energy, run,
+    return lj_cutoff_integrate_fixed(cx, fixed, h, nsteps, every, q0, w0, q, w, energy, run,
             stats);
 }
 /* ---- one step of any fixed-step method, carried on as integrate() does --------------------- */
@@ -1937,7 +2023,7 @@ static int lj_cutoff_same(const double *a, const double *b)
 
 /* The substeps of a geometric method as integrate_geometric takes them: one gradient per
  * substep, the gradient at the new state handed on, each substep's Newton solution kept in
- * the carry for the same substep of the next step. work: g (24), gn (24), a (24), b (24), vb (24), vc (24), vd (24), step (264).
+ * the carry for the same substep of the next step. work: g (24), gn (24), a (24), b (24), vb (24), vc (24), vd (24), step (312).
  * carry: q (24), w (24), g (24), v (24). */
 int lj_cutoff_step(const double *p, const lj_cutoff_options *opt, lj_cutoff_stepper *st,
         double h, const double *q, const double *w, double *qn, double *wn, double *carry,

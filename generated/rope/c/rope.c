@@ -1230,79 +1230,160 @@ static int rope_stage(const rope_ctx *cx, const double *y, double *dy, double *f
     return status;
 }
 
-/* One step of the explicit midpoint rule (classic = 0) or classical RK4 (classic = 1) from y0
- * into yn (ROPE_NS doubles each). work: k1 (120), k2 (120), acc (120), field (3120). */
-static int rope_rk_fixed(const rope_ctx *cx, int classic, double h, const double *y0,
+/* One step of rk2, explicit midpoint rule (order 2, 2 stages), from y0 into yn
+ * (ROPE_NS doubles each). work: k (480), field (3120). */
+static int rope_rk_rk2(const rope_ctx *cx, double h, const double *y0,
         double *yn, double *fail, double *work)
 {
-    double *k1 = work + 0, *k2 = work + 120;
-    double *acc = work + 240, *fw = work + 360;
+    double *k0 = work + 0, *fw = work + 480;
+    double *k1 = k0 + ROPE_NS;
     int e, status;
-    status = rope_stage(cx, y0, k1, fail, fw);
-    if (status) {
-        return status;
-    }
-    if (!classic) {
-        for (e = 0; e < ROPE_NS; ++e) {
-            yn[e] = y0[e] + 0.5 * h * k1[e];
-        }
-        status = rope_stage(cx, yn, k2, fail, fw);
-        if (status) {
-            return status;
-        }
-        for (e = 0; e < ROPE_NS; ++e) {
-            yn[e] = y0[e] + h * k2[e];
-        }
-        return ROPE_OK;
-    }
-    for (e = 0; e < ROPE_NS; ++e) {
-        acc[e] = k1[e];
-        yn[e] = y0[e] + 0.5 * h * k1[e];
-    }
-    status = rope_stage(cx, yn, k2, fail, fw);
+    status = rope_stage(cx, y0, k0, fail, fw);
     if (status) {
         return status;
     }
     for (e = 0; e < ROPE_NS; ++e) {
-        acc[e] += 2.0 * k2[e];
-        yn[e] = y0[e] + 0.5 * h * k2[e];
+        yn[e] = y0[e] + h / 2.0 * k0[e];
     }
-    status = rope_stage(cx, yn, k2, fail, fw);
+    status = rope_stage(cx, yn, k1, fail, fw);
     if (status) {
         return status;
     }
     for (e = 0; e < ROPE_NS; ++e) {
-        acc[e] += 2.0 * k2[e];
-        yn[e] = y0[e] + h * k2[e];
-    }
-    status = rope_stage(cx, yn, k2, fail, fw);
-    if (status) {
-        return status;
-    }
-    for (e = 0; e < ROPE_NS; ++e) {
-        yn[e] = y0[e] + h / 6.0 * (acc[e] + k2[e]);
+        yn[e] = y0[e] + h * k1[e];
     }
     return ROPE_OK;
 }
-/* One fixed step of RK2, RK2 with projection or RK4 from (q, w) into (qn, wn).
- * work: y0 (120), yt (120), rk (3480). */
-static int rope_rk_step_cx(const rope_ctx *cx, int method, double h,
-        const double *q, const double *w, double *qn, double *wn, double *work)
+
+/* One step of rk4, classical Runge-Kutta (order 4, 4 stages), from y0 into yn
+ * (ROPE_NS doubles each). work: k (480), field (3120). */
+static int rope_rk_rk4(const rope_ctx *cx, double h, const double *y0,
+        double *yn, double *fail, double *work)
 {
-    double *y0 = work + 0, *yt = work + 120;
-    int i, status;
-    if (!(h > 0.0) || (method != ROPE_METHOD_RK2 && method != ROPE_METHOD_RK2_PROJ
-            && method != ROPE_METHOD_RK4)) {
-        return ROPE_ERR_ARGUMENT;
-    }
-    rope_copy(y0, q, ROPE_N3);
-    rope_copy(y0 + ROPE_N3, w, ROPE_N3);
-    status = rope_rk_fixed(cx, method == ROPE_METHOD_RK4, h, y0, yt, NULL,
-            work + 240);
+    double *k0 = work + 0, *fw = work + 480;
+    double *k1 = k0 + ROPE_NS;
+    double *k2 = k0 + 2 * ROPE_NS;
+    double *k3 = k0 + 3 * ROPE_NS;
+    int e, status;
+    status = rope_stage(cx, y0, k0, fail, fw);
     if (status) {
         return status;
     }
-    if (method == ROPE_METHOD_RK2_PROJ) {
+    for (e = 0; e < ROPE_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k0[e];
+    }
+    status = rope_stage(cx, yn, k1, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < ROPE_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k1[e];
+    }
+    status = rope_stage(cx, yn, k2, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < ROPE_NS; ++e) {
+        yn[e] = y0[e] + h * k2[e];
+    }
+    status = rope_stage(cx, yn, k3, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < ROPE_NS; ++e) {
+        yn[e] = y0[e] + h / 6.0 * (k0[e] + 2.0 * k1[e] + 2.0 * k2[e] + k3[e]);
+    }
+    return ROPE_OK;
+}
+
+/* One step of rk3, Ralston's third-order method (order 3, 3 stages), from y0 into yn
+ * (ROPE_NS doubles each). work: k (480), field (3120). */
+static int rope_rk_rk3(const rope_ctx *cx, double h, const double *y0,
+        double *yn, double *fail, double *work)
+{
+    double *k0 = work + 0, *fw = work + 480;
+    double *k1 = k0 + ROPE_NS;
+    double *k2 = k0 + 2 * ROPE_NS;
+    int e, status;
+    status = rope_stage(cx, y0, k0, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < ROPE_NS; ++e) {
+        yn[e] = y0[e] + h / 2.0 * k0[e];
+    }
+    status = rope_stage(cx, yn, k1, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < ROPE_NS; ++e) {
+        yn[e] = y0[e] + h / 4.0 * (3.0 * k1[e]);
+    }
+    status = rope_stage(cx, yn, k2, fail, fw);
+    if (status) {
+        return status;
+    }
+    for (e = 0; e < ROPE_NS; ++e) {
+        yn[e] = y0[e] + h / 9.0 * (2.0 * k0[e] + 3.0 * k1[e] + 4.0 * k2[e]);
+    }
+    return ROPE_OK;
+}
+
+/* One step of the tableau `tableau` (its position in the dispatch table's list); direct calls,
+ * so that the compiler may inline each step where it is called. */
+static int rope_rk_tableau(const rope_ctx *cx, int tableau, double h,
+        const double *y0, double *yn, double *fail, double *work)
+{
+    switch (tableau) {
+    case 0:
+        return rope_rk_rk2(cx, h, y0, yn, fail, work);
+    case 1:
+        return rope_rk_rk4(cx, h, y0, yn, fail, work);
+    case 2:
+        return rope_rk_rk3(cx, h, y0, yn, fail, work);
+    default:
+        return ROPE_ERR_ARGUMENT;
+    }
+}
+
+/* A fixed-step method: its enum constant, its tableau (the case of rk_tableau), gradient
+ * evaluations per step and whether each q_i is normalized after the step. */
+typedef struct {
+    int method, tableau, evals, project;
+} rope_rk_method;
+
+static const rope_rk_method rope_rk_methods[4] = {
+    { ROPE_METHOD_RK2, 0, 2, 0 }, /* rk2 */
+    { ROPE_METHOD_RK2_PROJ, 0, 2, 1 }, /* rk2 */
+    { ROPE_METHOD_RK4, 1, 4, 0 }, /* rk4 */
+    { ROPE_METHOD_RK3, 2, 3, 0 } /* rk3 */
+};
+
+/* The fixed-step method `method`, or NULL. */
+static const rope_rk_method *rope_rk_method_of(int method)
+{
+    int i;
+    for (i = 0; i < 4; ++i) {
+        if (rope_rk_methods[i].method == method) {
+            return &rope_rk_methods[i];
+        }
+    }
+    return NULL;
+}
+/* One fixed step of the method `rk` from (q, w) into (qn, wn).
+ * work: y0 (120), yt (120), rk (3600). */
+static int rope_rk_step_cx(const rope_ctx *cx, const rope_rk_method *rk,
+        double h, const double *q, const double *w, double *qn, double *wn, double *work)
+{
+    double *y0 = work + 0, *yt = work + 120;
+    int i, status;
+    rope_copy(y0, q, ROPE_N3);
+    rope_copy(y0 + ROPE_N3, w, ROPE_N3);
+    status = rope_rk_tableau(cx, rk->tableau, h, y0, yt, NULL, work + 240);
+    if (status) {
+        return status;
+    }
+    if (rk->project) {
         for (i = 0; i < 20; ++i) {
             double *v = yt + 3 * i;
             const double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
@@ -1319,9 +1400,13 @@ static int rope_rk_step_cx(const rope_ctx *cx, int method, double h,
 int rope_rk_step(const double *p, int method, double h, const double *q, const double *w,
         double *qn, double *wn, double *work)
 {
+    const rope_rk_method *rk = rope_rk_method_of(method);
     rope_ctx cx;
+    if (!(h > 0.0) || !rk) {
+        return ROPE_ERR_ARGUMENT;
+    }
     rope_ctx_init(&cx, p, work);
-    return rope_rk_step_cx(&cx, method, h, q, w, qn, wn, work);
+    return rope_rk_step_cx(&cx, rk, h, q, w, qn, wn, work);
 }
 /* ---- driver ----------------------------------------------------------------------------------- */
 
@@ -2133,11 +2218,11 @@ static int rope_integrate_geometric(const rope_ctx *cx, const rope_options *opt,
     return status;
 }
 
-/* Fixed-step RK2, RK2 with projection or RK4 from (q0, w0); every `every`-th state is stored.
- * work: qk (60), wk (60), q1 (60), w1 (60), step (3720). */
-static int rope_integrate_fixed(const rope_ctx *cx, int method, double h,
-        long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
-        double *energy, double *work, rope_stats *stats)
+/* Fixed steps of the method `rk` from (q0, w0); every `every`-th state is stored.
+ * work: qk (60), wk (60), q1 (60), w1 (60), step (3840). */
+static int rope_integrate_fixed(const rope_ctx *cx, const rope_rk_method *rk,
+        double h, long nsteps, long every, const double *q0, const double *w0, double *q,
+        double *w, double *energy, double *work, rope_stats *stats)
 {
     double *qk = work + 0, *wk = work + 60;
     double *q1 = work + 120, *w1 = work + 180, *tmp;
@@ -2146,11 +2231,11 @@ static int rope_integrate_fixed(const rope_ctx *cx, int method, double h,
     rope_copy(qk, q0, ROPE_N3);
     rope_copy(wk, w0, ROPE_N3);
     for (k = 0; k < nsteps; ++k) {
-        status = rope_rk_step_cx(cx, method, h, qk, wk, q1, w1, work + 240);
+        status = rope_rk_step_cx(cx, rk, h, qk, wk, q1, w1, work + 240);
         if (status != ROPE_OK) {
             return status;
         }
-        stats->gradient_evals += method == ROPE_METHOD_RK4 ? 4 : 2;
+        stats->gradient_evals += rk->evals;
         stats->steps += 1;
         tmp = qk;
         qk = q1;
@@ -2175,6 +2260,7 @@ int rope_integrate(const double *p, const rope_options *opt, int method, double 
     rope_stats local;
     rope_ctx ctx, *cx = &ctx;
     const rope_scheme *scheme;
+    const rope_rk_method *fixed;
     double *run = work + 0;
     long every, i;
     if (!opt) {
@@ -2226,11 +2312,11 @@ int rope_integrate(const double *p, const rope_options *opt, int method, double 
         return rope_integrate_geometric(cx, opt, scheme, h, nsteps, every, q0, w0, q, w,
                 energy, run, stats);
     }
-    if (method != ROPE_METHOD_RK2 && method != ROPE_METHOD_RK2_PROJ
-            && method != ROPE_METHOD_RK4) {
+    fixed = rope_rk_method_of(method);
+    if (!fixed) {
         return ROPE_ERR_ARGUMENT;
     }
-    return rope_integrate_fixed(cx, method, h, nsteps, every, q0, w0, q, w, energy, run,
+    return rope_integrate_fixed(cx, fixed, h, nsteps, every, q0, w0, q, w, energy, run,
             stats);
 }
 /* ---- one step of any fixed-step method, carried on as integrate() does --------------------- */

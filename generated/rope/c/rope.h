@@ -62,7 +62,8 @@ enum {
     ROPE_METHOD_RATTLE4 = 9, /* RATTLE composed by the triple jump, order 4 */
     ROPE_METHOD_RATTLE6 = 10, /* RATTLE composed by Yoshida's solution A, order 6 */
     ROPE_METHOD_RATTLE8 = 11, /* RATTLE composed by Kahan and Li's 15 stages, order 8 */
-    ROPE_METHOD_DOP853 = 12 /* Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order continuous extension, order 8 */
+    ROPE_METHOD_DOP853 = 12, /* Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order continuous extension, order 8 */
+    ROPE_METHOD_RK3 = 13 /* Ralston's third-order method, order 3 */
 };
 
 /* RK45 error control: MATLAB ode45's (max norm, weights max(|y|, atol/rtol)) or Hairer's
@@ -132,7 +133,7 @@ int rope_rhs(const double *p, const double *q, const double *w, double *dq, doub
 int rope_vi_step(const double *p, const rope_options *opt, double h, const double *q,
         const double *w, double *qn, double *wn, double *work, int *iters);
 
-/* One fixed step of RK2, RK2 with projection or RK4 (method as in the enum). */
+/* One fixed step of a fixed-step Runge-Kutta method (method as in the enum). */
 int rope_rk_step(const double *p, int method, double h, const double *q, const double *w,
         double *qn, double *wn, double *work);
 

@@ -31,8 +31,16 @@ VI_FAMILY = tuple(
     for m in sorted(METHODS, key=lambda m: (m.family is Family.RATTLE, m.order))
     if m.geometric and "c" in m.backends
 )
-#: Every fixed-step method of the emitted C: the VI family, then the fixed-step Runge-Kutta.
-FIXED = (*VI_FAMILY, "rk4", "rk2", "rk2-proj")
+#: Every fixed-step method of the emitted C: the VI family, then the fixed-step Runge-Kutta
+#: methods (highest order first).
+FIXED = (
+    *VI_FAMILY,
+    *(
+        m.name
+        for m in sorted(METHODS, key=lambda m: -m.order)
+        if m.family is Family.FIXED_RK and "c" in m.backends
+    ),
+)
 #: The Runge-Kutta runs on the emitted C that the VI family is measured against (by row name).
 RK_C = ("rk4", "rk45-hairer", "rk45-matlab", "dop853")
 ORDERS = {m: float(method(m).order) for m in FIXED}
