@@ -2257,8 +2257,7 @@ int double_pendulum_integrate(const double *p, const double_pendulum_options *op
 
 int double_pendulum_step_start(double_pendulum_stepper *st, int method, double t0)
 {
-    if (!double_pendulum_scheme_of(method) && method != DOUBLE_PENDULUM_METHOD_RK2
-            && method != DOUBLE_PENDULUM_METHOD_RK2_PROJ && method != DOUBLE_PENDULUM_METHOD_RK4) {
+    if (!double_pendulum_scheme_of(method) && !double_pendulum_rk_method_of(method)) {
         return DOUBLE_PENDULUM_ERR_ARGUMENT;
     }
     st->t = t0;
@@ -2313,7 +2312,9 @@ int double_pendulum_step(const double *p, const double_pendulum_options *opt, do
     }
     double_pendulum_ctx_init(&cx, p, work);
     if (!sc) {
-        status = double_pendulum_rk_step_cx(&cx, st->method, h, q, w, qn, wn, rest);
+        const double_pendulum_rk_method *rk = double_pendulum_rk_method_of(st->method);
+        status = rk ? double_pendulum_rk_step_cx(&cx, rk, h, q, w, qn, wn, rest)
+                    : DOUBLE_PENDULUM_ERR_ARGUMENT;
     } else {
         const double *qs = q, *vs = w;
         warm = st->steps > 0 && double_pendulum_same(q, lq) && double_pendulum_same(w, lw);

@@ -1956,8 +1956,7 @@ int four_pendula_integrate(const double *p, const four_pendula_options *opt, int
 
 int four_pendula_step_start(four_pendula_stepper *st, int method, double t0)
 {
-    if (!four_pendula_scheme_of(method) && method != FOUR_PENDULA_METHOD_RK2
-            && method != FOUR_PENDULA_METHOD_RK2_PROJ && method != FOUR_PENDULA_METHOD_RK4) {
+    if (!four_pendula_scheme_of(method) && !four_pendula_rk_method_of(method)) {
         return FOUR_PENDULA_ERR_ARGUMENT;
     }
     st->t = t0;
@@ -2012,7 +2011,9 @@ int four_pendula_step(const double *p, const four_pendula_options *opt, four_pen
     }
     four_pendula_ctx_init(&cx, p, work);
     if (!sc) {
-        status = four_pendula_rk_step_cx(&cx, st->method, h, q, w, qn, wn, rest);
+        const four_pendula_rk_method *rk = four_pendula_rk_method_of(st->method);
+        status = rk ? four_pendula_rk_step_cx(&cx, rk, h, q, w, qn, wn, rest)
+                    : FOUR_PENDULA_ERR_ARGUMENT;
     } else {
         const double *qs = q, *vs = w;
         warm = st->steps > 0 && four_pendula_same(q, lq) && four_pendula_same(w, lw);

@@ -1068,7 +1068,7 @@ class Stepper:
 def step_start(method, t0=0.0):
     """A `Stepper` for `method`, any fixed-step method (not RK45 or DOP853), at time t0:
     (status, stepper), ERR_ARGUMENT and None for another method."""
-    if method not in SCHEMES and method not in (METHOD_RK2, METHOD_RK2_PROJ, METHOD_RK4):
+    if method not in SCHEMES and method not in RK_METHODS:
         return ERR_ARGUMENT, None
     return OK, Stepper(method, t0)
 

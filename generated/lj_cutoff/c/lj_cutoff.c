@@ -1999,8 +1999,7 @@ int lj_cutoff_integrate(const double *p, const lj_cutoff_options *opt, int metho
 
 int lj_cutoff_step_start(lj_cutoff_stepper *st, int method, double t0)
 {
-    if (!lj_cutoff_scheme_of(method) && method != LJ_CUTOFF_METHOD_RK2
-            && method != LJ_CUTOFF_METHOD_RK2_PROJ && method != LJ_CUTOFF_METHOD_RK4) {
+    if (!lj_cutoff_scheme_of(method) && !lj_cutoff_rk_method_of(method)) {
         return LJ_CUTOFF_ERR_ARGUMENT;
     }
     st->t = t0;
@@ -2055,7 +2054,9 @@ int lj_cutoff_step(const double *p, const lj_cutoff_options *opt, lj_cutoff_step
     }
     lj_cutoff_ctx_init(&cx, p, work);
     if (!sc) {
-        status = lj_cutoff_rk_step_cx(&cx, st->method, h, q, w, qn, wn, rest);
+        const lj_cutoff_rk_method *rk = lj_cutoff_rk_method_of(st->method);
+        status = rk ? lj_cutoff_rk_step_cx(&cx, rk, h, q, w, qn, wn, rest)
+                    : LJ_CUTOFF_ERR_ARGUMENT;
     } else {
         const double *qs = q, *vs = w;
         warm = st->steps > 0 && lj_cutoff_same(q, lq) && lj_cutoff_same(w, lw);

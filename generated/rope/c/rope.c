@@ -2323,8 +2323,7 @@ int rope_integrate(const double *p, const rope_options *opt, int method, double 
 
 int rope_step_start(rope_stepper *st, int method, double t0)
 {
-    if (!rope_scheme_of(method) && method != ROPE_METHOD_RK2
-            && method != ROPE_METHOD_RK2_PROJ && method != ROPE_METHOD_RK4) {
+    if (!rope_scheme_of(method) && !rope_rk_method_of(method)) {
         return ROPE_ERR_ARGUMENT;
     }
     st->t = t0;
@@ -2379,7 +2378,9 @@ int rope_step(const double *p, const rope_options *opt, rope_stepper *st,
     }
     rope_ctx_init(&cx, p, work);
     if (!sc) {
-        status = rope_rk_step_cx(&cx, st->method, h, q, w, qn, wn, rest);
+        const rope_rk_method *rk = rope_rk_method_of(st->method);
+        status = rk ? rope_rk_step_cx(&cx, rk, h, q, w, qn, wn, rest)
+                    : ROPE_ERR_ARGUMENT;
     } else {
         const double *qs = q, *vs = w;
         warm = st->steps > 0 && rope_same(q, lq) && rope_same(w, lw);
