@@ -9,9 +9,11 @@ The public API, for scripts and notebooks (each name is imported on first use, s
   to `out` when given;
 - `compile(system, backend="c")`: a `Model` (integrate, step, energy, gradient, momentum,
   parameters by name);
-- `simulate(system, method, backend, h, T, ...)`: a `Trajectory`;
-- `METHODS` (the method table), `Options`, `Trajectory`, `IntegrationError`, `SpecError`,
-  `__version__`.
+- `simulate(system, method, backend, h, T, ..., params={"g": 1.62})`: a `Trajectory` (its
+  angular momentum filled in, its spec and parameters kept; a run whose relative energy error
+  passes `Options.energy_warn` warns with an `EnergyDriftWarning`);
+- `METHODS` (the method table), `Options`, `Trajectory`, `IntegrationError`,
+  `EnergyDriftWarning`, `SpecError`, `__version__`.
 
 Example:
     >>> import s2gen
@@ -33,6 +35,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "METHODS",
+    "EnergyDriftWarning",
     "IntegrationError",
     "Model",
     "Options",
@@ -49,6 +52,7 @@ __all__ = [
 
 _WHERE = {
     "METHODS": ("s2gen.methods", "METHODS"),
+    "EnergyDriftWarning": ("s2gen.runtime.diagnostics", "EnergyDriftWarning"),
     "IntegrationError": ("s2gen.runtime.trajectory", "IntegrationError"),
     "Model": ("s2gen.runtime.model", "Model"),
     "Options": ("s2gen.runtime.options", "Options"),
