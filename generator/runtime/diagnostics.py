@@ -116,9 +116,7 @@ def first_nonfinite(energy: np.ndarray | None, valid: int) -> int | None:
     return int(bad[0]) if bad.size else None
 
 
-def checked(
-    tr: Any, system: Any, scale: float | None, threshold: float, warn: bool = True
-) -> Any:
+def checked(tr: Any, system: Any, scale: float | None, threshold: float, warn: bool = True) -> Any:
     """`tr` with its angular momentum (at the run's parameters) and its energy check filled
     in; with `warn` (a finished run), an `EnergyDriftWarning` of one line when the relative
     energy error passed `threshold` (the trajectory is kept as computed; a failed run's error
