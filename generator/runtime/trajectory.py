@@ -3,14 +3,17 @@ partial run.
 
 Input: arrays and counts from a backend, and what produced them (system, spec hash, method,
 backend, step, tolerances). Output: `Trajectory` (t, q, omega, energy, stats, wall time and
-that metadata), which saves itself to and loads itself from a .npz file, computes its angular
-momentum, converts to an xarray Dataset and plots its energy and unit-length errors; and
+that metadata), which saves itself to and loads itself from a .npz file, rebuilds its system,
+computes its angular momentum, converts to an xarray Dataset and plots its motion and its
+energy and unit-length errors; and
 `IntegrationError` (raised on failure, holding the valid samples in `.partial`).
 
 File format (`save`): a NumPy .npz with the arrays ``t`` (N+1), ``q`` and ``omega``
 (N+1, n, 3), ``energy`` (N+1), ``angular_momentum`` (N+1, 3) when present, and ``metadata``,
 a JSON text (system, spec_hash, method, backend, h, rtol, atol, control, version, stats,
-wall_time). Readers that only want the arrays (``np.load(path)["q"]``) need nothing else.
+wall_time; spec, the text or built-in name that `s2gen.load` rebuilds the system from, and
+params, the run's parameter values by name; energy_warn, energy_scale and drift_sample, the
+run's energy check, see `s2gen.runtime.diagnostics`). Readers that only want the arrays (``np.load(path)["q"]``) need nothing else.
 
 Example:
     >>> import numpy as np
