@@ -259,8 +259,9 @@ class Trajectory:
         for k in range(0, len(self.t), block):
             q, w = self.q[k : k + block], self.omega[k : k + block]
             v = np.cross(w, q)  # qdot_j = omega_j x q_j, (samples, n, 3)
-            if dense is not None:
-                p = np.einsum("ij,sjc->sic", dense, v)
+            if dense is not None:  # one matrix product over every sample and component
+                s = len(v)
+                p = (dense @ v.transpose(1, 0, 2).reshape(n, -1)).reshape(n, s, 3).swapaxes(0, 1)
             else:  # p_i = sum_j M_ij v_j over M's nonzero entries
                 p = np.zeros_like(v)
                 by_body = p.swapaxes(0, 1)  # a view: (n, samples, 3)
