@@ -147,7 +147,8 @@ def simulate(
     progress: Callable[[float], None] | None = None,
 ) -> Trajectory:
     """Integrate a system from its (or the given) initial state to T with step h, keeping
-    every `every`-th sample (T/h must be a multiple of it) and, with `energy`, its energy;
+    every `every`-th sample (T/h must be a multiple of it) and, with `energy`, its energy and
+    angular momentum (and the energy check, `s2gen.runtime.diagnostics`);
     `params` are values by name ({"g": 1.62}, the others the spec's) or all of them in
     declared order; `progress(fraction)` is called as the run goes (see `run`).
 

@@ -118,7 +118,7 @@ def first_nonfinite(energy: np.ndarray | None, valid: int) -> int | None:
 
 def checked(tr: Any, system: Any, scale: float | None, threshold: float, warn: bool = True) -> Any:
     """`tr` with its angular momentum (at the run's parameters) and its energy check filled
-    in; with `warn` (a finished run), an `EnergyDriftWarning` of one line when the relative
+    in (a run that kept no energy is returned as it is); with `warn` (a finished run), an `EnergyDriftWarning` of one line when the relative
     energy error passed `threshold` (the trajectory is kept as computed; a failed run's error
     says enough).
 
@@ -131,9 +131,8 @@ def checked(tr: Any, system: Any, scale: float | None, threshold: float, warn: b
         >>> out.momentum.shape, out.drift_sample, out.energy_warn
         ((2, 3), None, 0.01)
     """
-    if tr.energy is None or scale is None:
-        momentum = tr.angular_momentum(system, tr.params or None)
-        return dataclasses.replace(tr, momentum=momentum)
+    if tr.energy is None or scale is None:  # a bare run (energy=False, as `Model.step`)
+        return tr
     sample = first_drift(tr.energy, scale, threshold)
     tr = dataclasses.replace(
         tr,

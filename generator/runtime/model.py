@@ -84,7 +84,7 @@ class Model:
         energy: bool = True,
     ) -> Trajectory:
         """Integrate from (q0, omega0) (default: the spec's) to T with step h, keeping every
-        `every`-th sample and, with `energy`, its energy (see `simulate`)."""
+        `every`-th sample and, with `energy`, its energy and angular momentum (see `simulate`)."""
         return run(
             self._backend,
             method,
@@ -107,8 +107,9 @@ class Model:
         options: Options | None = None,
         params: Mapping[str, float] | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """One step of size h from (q, omega); returns (q, omega) after it."""
-        tr = self.integrate(method, h, h, q, omega, options, params)
+        """One step of size h from (q, omega); returns (q, omega) after it (no energy is kept,
+        so the step is not checked for energy drift)."""
+        tr = self.integrate(method, h, h, q, omega, options, params, energy=False)
         return tr.q[-1], tr.omega[-1]
 
     def energy(

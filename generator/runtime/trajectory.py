@@ -26,6 +26,7 @@ Example:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -370,16 +371,24 @@ def _parameter_values(system: System, params: Any) -> dict[Any, float]:
 
 def _inertia_entries(system: System, params: Any) -> dict[tuple[int, int], float]:
     """M's nonzero entries {(row, col): value} at the given parameters (default the spec's)."""
+    values = tuple(_parameter_values(system, params).values())
+    return dict(_entries_at(system, values))
+
+
+@functools.lru_cache(maxsize=64)
+def _entries_at(system: System, values: tuple[float, ...]) -> tuple[tuple[Any, float], ...]:
+    """M's nonzero entries at parameter values in declared order (kept: every run of a system
+    computes its angular momentum, and SymPy's evaluation costs more than a short run)."""
     import sympy as sp
 
-    subs = _parameter_values(system, params)
+    subs = dict(zip(system.parameter_symbols, values))
     out: dict[tuple[int, int], float] = {}
     cache: dict[Any, float] = {}
     for key, entry in system.inertia.todok().items():
         if entry not in cache:
             cache[entry] = float(sp.sympify(sp.sympify(entry).xreplace(subs)).evalf())
         out[key] = cache[entry]
-    return out
+    return tuple(out.items())
 
 
 class IntegrationError(RuntimeError):
