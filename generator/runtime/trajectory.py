@@ -271,8 +271,9 @@ class Trajectory:
         return J
 
     def rebuild(self) -> System:
-        """The system of this trajectory, rebuilt from `spec` (ValueError when it was not
-        recorded: a system defined in Python, or a file written before specs were kept).
+        """The system of this trajectory, rebuilt from `spec` with the spec's own parameter
+        defaults (the run's values are `params`, which `angular_momentum` uses); ValueError
+        when no spec was recorded (a system defined in Python, or an older file).
 
         Example:
             >>> from s2gen.runtime import simulate

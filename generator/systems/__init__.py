@@ -1,8 +1,11 @@
 """The built-in systems: the paper's examples and the rope, by name (with options).
 
 Input: a name (``double_pendulum``), a name with options (``elastic_rod:n=1000``,
-``rope:n=200,kappa=0.1``, ``molecular:subdivisions=4``) or a path to a TOML spec file.
-Output: a validated `System`.
+``rope:n=200,kappa=0.1``, ``molecular:subdivisions=4``) or a path to a TOML spec file, each
+optionally with parameter values after the colon (``double_pendulum:g=5``, ``my.toml:k=2``).
+Output: a validated `System`, whose `source` is what rebuilds it (the built-in name with its
+options, or the TOML text; parameter values given after the colon are the run's, not the
+source's).
 
 Built-ins come from two places, merged into one registry of loader callables: the TOML files
 shipped in the ``s2gen.systems.examples`` package folder (one system per file, named by the
