@@ -69,7 +69,8 @@ def energy_scale(
     where = f"{be.system.name}: at the initial state"
     q0 = np.ascontiguousarray(q0, dtype=float)
     w0 = np.ascontiguousarray(w0, dtype=float)
-    grad = np.asarray(be.gradient(q0, params), dtype=float).reshape(-1, 3)
+    with np.errstate(all="ignore"):  # a non-finite value is reported below, by name
+        grad = np.asarray(be.gradient(q0, params), dtype=float).reshape(-1, 3)
     if not np.all(np.isfinite(grad)):
         body = int(np.flatnonzero(~np.all(np.isfinite(grad), axis=1))[0]) + 1
         raise ValueError(
@@ -78,8 +79,9 @@ def energy_scale(
         )
     if not energy:
         return None
-    potential = float(be.energy(q0, np.zeros_like(w0), params))
-    total = float(be.energy(q0, w0, params))
+    with np.errstate(all="ignore"):
+        potential = float(be.energy(q0, np.zeros_like(w0), params))
+        total = float(be.energy(q0, w0, params))
     if not math.isfinite(potential):
         raise ValueError(
             f"{where} the potential V = {potential} is not finite (two bodies at the same "
