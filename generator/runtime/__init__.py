@@ -30,7 +30,7 @@ import math
 import numbers
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Protocol
 
 import numpy as np
@@ -139,7 +139,7 @@ def simulate(
     h: float | None = None,
     T: float | None = None,
     options: Options | None = None,
-    params: np.ndarray | None = None,
+    params: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
     q0: np.ndarray | None = None,
     omega0: np.ndarray | None = None,
     every: int = 1,
@@ -180,7 +180,7 @@ def run(
     h: float | None = None,
     T: float | None = None,
     options: Options | None = None,
-    params: np.ndarray | None = None,
+    params: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
     q0: np.ndarray | None = None,
     omega0: np.ndarray | None = None,
     every: int = 1,
