@@ -3,16 +3,18 @@
 The public API, for scripts and notebooks (each name is imported on first use, so that
 `import s2gen` is instant):
 
-- `load(spec)`: a `System` from a TOML file, TOML text or a built-in name;
+- `load(spec, params=...)`: a `System` from a TOML file, TOML text or a built-in name;
 - `define(...)`: a `System` from Python values (same rules as TOML; see `s2gen.spec`);
 - `generate(system, lang, out=None)`: the emitted files of a language ({name: text}), written
   to `out` when given;
 - `compile(system, backend="c")`: a `Model` (integrate, step, energy, gradient, momentum,
   parameters by name);
-- `simulate(system, method, backend, h, T, ...)`: a `Trajectory`;
+- `simulate(system, method, backend, h, T, ..., params={"g": 1.62})`: a `Trajectory` (its
+  angular momentum filled in, its spec and parameters kept; a run whose relative energy error
+  passes `Options.energy_warn` warns with an `EnergyDriftWarning`);
 - `builtins()`: the names of the built-in systems;
-- `METHODS` (the method table), `Options`, `Trajectory`, `IntegrationError`, `SpecError`,
-  `__version__`;
+- `METHODS` (the method table), `Options`, `Trajectory`, `IntegrationError`,
+  `EnergyDriftWarning`, `SpecError`, `__version__`;
 - modules: `ensemble` (`s2gen.ensemble`: ensembles of perturbed or swept members on Dask),
   `metrics` (energy and unit-length errors of a trajectory, observed orders), `paper` (the
   paper's systems as factories with their options, and their building blocks).
@@ -31,6 +33,7 @@ Example:
 from __future__ import annotations
 
 import importlib
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -50,6 +53,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "METHODS",
+    "EnergyDriftWarning",
     "IntegrationError",
     "Model",
     "Options",
@@ -70,6 +74,7 @@ __all__ = [
 
 _WHERE = {
     "METHODS": ("s2gen.methods", "METHODS"),
+    "EnergyDriftWarning": ("s2gen.runtime.diagnostics", "EnergyDriftWarning"),
     "IntegrationError": ("s2gen.runtime.trajectory", "IntegrationError"),
     "Model": ("s2gen.runtime.model", "Model"),
     "Options": ("s2gen.runtime.options", "Options"),
@@ -98,23 +103,30 @@ def __getattr__(name: str) -> Any:
     return getattr(importlib.import_module(where[0]), where[1])
 
 
-def load(spec: str | Path) -> System:
-    """A validated `System` from a TOML file path, TOML text, or a built-in name.
+def load(spec: str | Path, params: Mapping[str, float] | Sequence[str] = ()) -> System:
+    """A validated `System` from a TOML file path, TOML text, or a built-in name (options and
+    parameter values after a colon: ``"rope:n=4,g=1.62"``); `params` sets parameter values too,
+    by name ({"g": 1.62}) or as the command line's ``"NAME=VALUE"`` strings.
 
     Example:
         >>> load("double_pendulum").n
         2
+        >>> load("double_pendulum", {"g": 1.62}).parameters["g"]
+        1.62
         >>> load('name = "p"\\nbodies = 1\\n[parameters]\\nm = 1.0\\n'
         ...      '[inertia]\\ndiagonal = ["m"]\\n[potential]\\nV = "-m*q1[2]"').name
         'p'
     """
     from s2gen.spec import load_spec_text
-    from s2gen.systems import resolve
+    from s2gen.systems import parameter_values, resolve, with_parameters
 
     text = str(spec)
     if not isinstance(spec, Path) and "\n" in text and "=" in text:
-        return load_spec_text(text)
-    return resolve(text)
+        system = load_spec_text(text)
+    else:
+        system = resolve(text)
+    values = dict(params) if isinstance(params, Mapping) else parameter_values(system, params)
+    return with_parameters(system, values) if values else system
 
 
 def builtins() -> list[str]:

@@ -1,9 +1,13 @@
 """Command line: parse arguments, call the public API, report.
 
 Input: argv. Output: files (emitted code, trajectories) and a short report on stdout. Bad
-input (a spec, an option, an output path, a request the machine cannot serve) is one line on
-stderr naming what is wrong, with exit status 2, found before any integration starts; a failed
-integration is one line with exit status 1, and its partial trajectory is still saved. Files
+input (a spec, an option, an output path, a request the machine cannot serve, an initial state
+where the energy is not finite) is one line on stderr naming what is wrong, with exit status
+2, found before any integration starts and before anything is written; a failed integration
+is one line with exit status 1, and its partial trajectory is still saved; so is a C library
+that cannot be built (no C compiler). A run whose relative energy error passes --energy-warn
+ends with a one-line warning and exit status 0. Every SPEC takes parameter values after a
+colon (double_pendulum:g=5) or as --param g=5. Files
 are written through a temporary file moved into place, never through a symbolic link.
 
 Only the standard library and the method table are imported up front; each subcommand imports
@@ -97,9 +101,19 @@ def _parser() -> argparse.ArgumentParser:
     )
     s.add_argument(
         "--out",
-        required=True,
         help="trajectory file, written exactly as named (.npz format: t, q, omega, energy, "
-        "angular_momentum, metadata; see s2gen.Trajectory.load)",
+        "angular_momentum, metadata; see s2gen.Trajectory.load); default: not saved, the "
+        "statistics are printed",
+    )
+    _add_param(s)
+    s.add_argument(
+        "--energy-warn",
+        type=float,
+        default=1e-2,
+        metavar="R",
+        help="warn when the relative energy error |E - E0| / S passes R (S = K0 + |V0| + "
+        "tangential |grad V| at t = 0; see s2gen.runtime.diagnostics); default 1e-2, 0 or inf: "
+        "never",
     )
     s.add_argument(
         "--progress",
@@ -125,6 +139,17 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _add_param(parser: argparse.ArgumentParser) -> None:
+    """--param NAME=VALUE (repeatable) on a command that runs a system."""
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a parameter value (repeatable), as SPEC:NAME=VALUE; default the spec's",
+    )
+
+
 def _version() -> str:
     from s2gen.version import __version__
 
@@ -148,7 +173,7 @@ def _generate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _report(name: str, tr: Any, out: Path) -> None:
+def _report(name: str, tr: Any, out: Path | None) -> None:
     """Integrator counts, energy and unit-length errors, and the file written."""
     from s2gen import metrics
     from s2gen.runtime.trajectory import stat_counts
@@ -165,7 +190,10 @@ def _report(name: str, tr: Any, out: Path) -> None:
     print(f"  |E - E0|          mean {m['mean_dE']:.4e}   max {m['max_dE']:.4e}")
     print(f"  | |q| - 1 |       mean {m['mean_norm']:.4e}   max {m['max_norm']:.4e}")
     print(f"  | q.q - 1 |       mean {m['mean_dot']:.4e}   max {m['max_dot']:.4e}")
-    print(f"  saved {out} ({len(tr.t)} samples: t, q, omega, energy, angular_momentum)")
+    if out is None:
+        print(f"  not saved ({len(tr.t)} samples; give --out FILE to keep them)")
+    else:
+        print(f"  saved {out} ({len(tr.t)} samples: t, q, omega, energy, angular_momentum)")
 
 
 def _progress_on(args: argparse.Namespace) -> bool:
@@ -213,12 +241,13 @@ def _simulate(args: argparse.Namespace) -> int:
     from s2gen.runtime import IntegrationError, Options, check_run, get_backend
     from s2gen.systems import resolve
 
-    system = resolve(args.spec)
+    system = resolve(args.spec, args.param)
     method = args.method or system.run.method or "vi"
     opts = Options(
         rtol=args.rtol if args.rtol is not None else (system.run.rtol or 1e-3),
         atol=args.atol if args.atol is not None else (system.run.atol or 1e-6),
         control=args.control,
+        energy_warn=args.energy_warn,
     )
     h = args.h if args.h is not None else system.run.h
     T = args.T if args.T is not None else system.run.T
@@ -228,22 +257,28 @@ def _simulate(args: argparse.Namespace) -> int:
 
     check_method(method, args.backend)
     check_run(system, method, h, T, opts, args.every)  # a request the machine cannot serve
-    out = _output_file(args.out)  # and a file that could not be written: refused now
+    out = None if args.out is None else _output_file(args.out)  # an unwritable file: refused now
     if args.opt:
         os.environ["S2GEN_OPT"] = args.opt
     be = get_backend(system, args.backend)
     print(
         f"{system.name}: integrating with {method} on {args.backend} (h={h}, T={T}) ...", flush=True
     )
-    try:
-        tr = _integrate(be, method, h, T, opts, _progress_on(args), args.every)
-    except IntegrationError as exc:
-        exc.partial.save(out)
-        print(f"error: {exc}; saved them to {out}", file=sys.stderr)
-        return 1
-    tr = tr.with_momentum(tr.angular_momentum(system))
-    written = tr.save(out)
+    with warnings.catch_warnings(record=True) as caught:  # shown after the report
+        warnings.simplefilter("always")
+        try:
+            tr = _integrate(be, method, h, T, opts, _progress_on(args), args.every)
+        except IntegrationError as exc:
+            if out is None:
+                print(f"error: {exc} (give --out FILE to save them)", file=sys.stderr)
+            else:
+                exc.partial.save(out)
+                print(f"error: {exc}; saved them to {out}", file=sys.stderr)
+            return 1
+    written = None if out is None else tr.save(out)
     _report(system.name, tr, written)
+    for w in caught:
+        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     return 0
 
 
@@ -400,6 +435,10 @@ def main(argv: list[str] | None = None) -> int:
     Example:
         >>> main(["simulate", "double_pendulum", "--h", "0", "--out", "x.npz"])
         2
+        >>> main(["simulate", "double_pendulum:g=1.62", "--T", "0.1"])  # doctest: +ELLIPSIS
+        double_pendulum: integrating with vi on c (h=0.01, T=0.1) ...
+        ...
+        0
     """
     warnings.showwarning = _show_warning
     try:
@@ -414,6 +453,14 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:  # SpecError is a ValueError: bad input, one line, status 2
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except RuntimeError as exc:  # no C compiler, or gcc refused the code: status 1
+        from s2gen.build import BuildError
+
+        if not isinstance(exc, BuildError):
+            raise
+        print(f"error: cannot build the C library: {exc} (s2gen simulate --backend numpy needs none)",
+              file=sys.stderr)  # fmt: skip
+        return 1
     except OSError as exc:  # a file or folder the command needed, named by the OS
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"error: {where}{exc.strerror or exc}", file=sys.stderr)

@@ -97,6 +97,9 @@ class System:
     terms: tuple[Term, ...] = ()
     chain: ChainInertia | None = None
     inertia_solver: str = "auto"
+    #: What `s2gen.load` rebuilds this system from: a built-in name with its options
+    #: (``elastic_rod:n=12``) or the TOML text; empty for a system defined in Python.
+    source: str = field(default="", compare=False)
 
     # ------------------------------------------------------------------ construction
     @staticmethod

@@ -289,9 +289,9 @@ def test_builtin_options_from_the_spec_string(capsys: pytest.CaptureFixture[str]
     assert resolve("elastic_rod:n=9,inertia=physical").name == "elastic_rod_physical"
     for spec, message in [
         ("rope:n=seven", "option n expects an integer, got 'seven'"),
-        ("rope:stiffness=2", "unknown option 'stiffness' \\(options: n=20"),
+        ("rope:stiffness=2", "unknown option or parameter 'stiffness' \\(known: n=20"),
         ("elastic_rod:inertia=exact", "rod inertia must be one of"),
-        ("double_pendulum:n=3", "takes no options"),
+        ("double_pendulum:n=3", "unknown option or parameter 'n' \\(known: m1, m2, l1, l2, g"),
         ("rope:n=3,n=4", "given twice"),
     ]:
         with pytest.raises(SpecError, match=message):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from s2gen.cli import main
-from s2gen.runtime import IntegrationError, Options, simulate
+from s2gen.runtime import IntegrationError, Options, get_backend, simulate
 from s2gen.systems import builtin
 
 
@@ -41,18 +41,21 @@ def test_newton_not_converged(backend: str) -> None:
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_non_finite_state(backend: str) -> None:
     """Two bodies of the cotangent potential placed on top of each other: infinite force, and
-    an infinite energy already at t = 0, so no sample is valid (the step fails too)."""
+    an infinite energy already at t = 0. `simulate` refuses the state before integrating
+    (with or without energy); the emitted integrator, called directly, fails at its first
+    step with NONFINITE."""
     s = builtin("three_bodies")
     q0 = s.q0.copy()
     q0[1] = q0[0]
-    with pytest.raises(IntegrationError) as info:
-        simulate(s, "rk4", backend, h=0.01, T=1.0, q0=q0, omega0=np.zeros_like(q0))
-    assert info.value.status == 3
-    assert info.value.step == 0 and len(info.value.partial.t) == 0
-    with pytest.raises(IntegrationError) as info:
-        simulate(s, "rk4", backend, h=0.01, T=1.0, q0=q0, omega0=np.zeros_like(q0), energy=False)
-    assert info.value.status == 3
-    assert info.value.step == 1
+    w0 = np.zeros_like(q0)
+    for energy in (True, False):
+        with pytest.raises(ValueError, match="initial state the gradient of V on body 1 is not"):
+            simulate(s, "rk4", backend, h=0.01, T=1.0, q0=q0, omega0=w0, energy=energy)
+    be = get_backend(s, backend)
+    p = np.array(s.parameter_values)
+    status, *_, stats = be.integrate("rk4", 0.01, 100, q0, w0, p, Options(), 1, False)
+    assert status == 3
+    assert stats["fail_step"] == 1
 
 
 def test_cli_failed_run_exits_1_and_keeps_partial(tmp_path, capsys) -> None:

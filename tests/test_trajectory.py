@@ -45,7 +45,7 @@ def test_save_load_round_trip_is_bit_identical(tmp_path, rk45_run: Trajectory) -
     _same_arrays(tr, back)
     assert back.momentum is not None and tr.momentum is not None
     assert back.momentum.tobytes() == tr.momentum.tobytes()
-    assert back.metadata() == tr.metadata()
+    assert back.metadata == tr.metadata
     assert back.stats == tr.stats and back.stats["rejected"] >= 0
     # an old-style file with the arrays alone still loads
     np.savez(tmp_path / "old.npz", t=tr.t, q=tr.q, omega=tr.omega, energy=tr.energy)

@@ -35,6 +35,7 @@ _KIND_WORDS = {
     Kind.OPTIONS: "the options (read only)",
     Kind.OPTIONS_OUT: "the options struct to fill",
     Kind.STATS: "the statistics struct to fill",
+    Kind.STEPPER: "the stepper record (``step_start`` fills it, ``step`` advances it)",
     Kind.VECTOR3: "output 3-vector",
 }
 
@@ -50,6 +51,7 @@ _SIZES = {
     "dq": f"{PREFIX}_NSTATE doubles",
     "dw": f"{PREFIX}_NSTATE doubles",
     "work": f"{PREFIX}_WORK_SIZE doubles",
+    "carry": f"{PREFIX}_STEP_CARRY doubles",
 }
 
 
@@ -159,6 +161,14 @@ def c_api_rst(kind: ModuleKind) -> str:
         prefix,
         defaults=False,
     )
+    if api.stepper:
+        lines += _struct(
+            "stepper",
+            api.stepper,
+            f"Where a run of ``{prefix}_step`` calls stands; ``{prefix}_step_start`` fills it.",
+            prefix,
+            defaults=False,
+        )
     for f in api.functions:
         lines += _function(f, prefix, sizes)
     return "\n".join(lines) + "\n"

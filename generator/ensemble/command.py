@@ -75,6 +75,13 @@ def add_parser(subparsers: Any) -> None:
         metavar="NAME=VALUES",
         help="sweep a parameter or h: START:STOP:COUNT or V1,V2,... (repeatable: a grid)",
     )
+    e.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a parameter value (repeatable), as SPEC:NAME=VALUE; default the spec's",
+    )
     e.add_argument("--method", help="integrator (default: spec's [run], or vi)")
     e.add_argument("--h", type=float, help="step size (RK45: output spacing); default [run] h")
     e.add_argument("--T", type=float, help="final time; default [run] T")
@@ -118,6 +125,8 @@ def command_line(args: argparse.Namespace) -> str:
         parts += ["--perturb", p]
     for s in args.sweep:
         parts += ["--sweep", s]
+    for p in args.param:
+        parts += ["--param", p]
     for key in ("method", "h", "T", "scheduler", "workers"):
         if getattr(args, key) is not None:
             parts += [f"--{key}", str(getattr(args, key))]

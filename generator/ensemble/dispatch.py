@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING, Any
 from s2gen.runtime.options import Options
 
 from .cluster import CONNECT_TIMEOUT, connect, needs_cluster, worker_count
-from .members import EnsembleError, MemberTable, initial_state, member_table
+from .members import MemberTable, initial_state, member_table
 from .requirements import require
 from .store import EnsembleStore
 from .worker import MemberResult, Payload, Task, failed_task, make_payload, run_member
@@ -160,16 +160,20 @@ def ensemble(
         (2, 'ensemble.zarr')
     """
     from s2gen import generate
+    from s2gen.build import compiler
     from s2gen.methods import check_method
+    from s2gen.runtime import check_run
 
     start = time.perf_counter()
     require("zarr", *needs_cluster(client, workers))
     system = _resolve(system)
     method = method or system.run.method or "vi"
     check_method(method, "c")
-    if every < 1:
-        raise EnsembleError(f"every must be at least 1 (got {every})")
     table = member_table(system, members, perturb, sweep, seed, h, T)
+    for step in sorted({m.h for m in table.members}):  # as `simulate` checks its run
+        check_run(system, method, step, table.T, options, every)
+    if client is None:  # local workers compile with this machine's C compiler: one is needed
+        compiler()  # BuildError (one line) before anything is written
     payload = make_payload(system, generate(system, "c"), method, table.T, every, options)
     samples = max(table.steps(m) // every + 1 for m in table.members)
     folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="s2gen-ensemble-"))
@@ -276,7 +280,7 @@ def _collect(
             if progress is not None:
                 progress(item)
     finally:
-        store.flush()
+        store.consolidate()
     end = time.perf_counter()
     return EnsembleResult(
         path=store.path,

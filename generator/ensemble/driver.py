@@ -116,17 +116,19 @@ def run(args: argparse.Namespace, chaos_band: BandRun | None = None) -> int:
     runs --chaos-band (without one, --chaos-band is refused)."""
     perturb = perturbations(args.perturb)
     sweep = sweeps(args.sweep)
-    if args.every < 1:
-        raise EnsembleError(f"--every must be at least 1 (got {args.every})")
     if args.bench and args.chaos_band:
         raise EnsembleError("--bench and --chaos-band are separate runs; give one")
     if args.bench:
-        if sweep:
-            raise EnsembleError("--bench times perturbed members; it takes no --sweep")
+        if sweep or args.param:
+            raise EnsembleError(
+                "--bench times perturbed members of SPEC as given; it takes no --sweep or "
+                "--param (write SPEC:NAME=VALUE)"
+            )
         require("zarr", *needs_cluster(args.scheduler, args.workers or 2))
         return _bench(args, perturb)
     if args.chaos_band:
         given = [f"--{k}" for k in ("method", "h", "T") if getattr(args, k) is not None]
+        given += ["--param"] * bool(args.param)
         if sweep or given or args.every != 1:
             extra = ", ".join(
                 given + (["--sweep"] if sweep else []) + (["--every"] * (args.every != 1))
@@ -137,13 +139,13 @@ def run(args: argparse.Namespace, chaos_band: BandRun | None = None) -> int:
         require("zarr", *needs_cluster(args.scheduler, args.workers))
         return chaos_band(args, perturb)
     require("zarr", *needs_cluster(args.scheduler, args.workers))
-    import s2gen
+    from s2gen.systems import resolve
 
     from .dispatch import ensemble
     from .store import EnsembleStore
     from .summary import summarize
 
-    system = s2gen.load(args.spec)
+    system = resolve(args.spec, args.param)
     table = member_table(system, args.members, perturb, sweep, args.seed, args.h, args.T)
     where = args.scheduler or (
         "this process (serial)"

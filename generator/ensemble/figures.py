@@ -1,8 +1,9 @@
 """The ensemble's figures (matplotlib, PNG): energy error per member, divergence, sweep.
 
 Input: the per-member arrays of a store, the `Divergence` curves of `summary`, the store's
-settings and a folder. Output: ``energy.png`` (each member's mean |E - E0| as a strip, with a
-histogram beside it), ``divergence.png`` (perturbed members' divergence from their reference
+settings and a folder. Output: ``energy.png`` (each member's mean |E - E0| against the member
+index, the swept value, or the sweep point of a grid (see `_member_x`), with a histogram
+beside it), ``divergence.png`` (perturbed members' divergence from their reference
 against time, the ensemble's geometric mean and the fitted exponential) when members were
 perturbed, and ``sweep.png`` (mean |E - E0| against each swept quantity: median over the
 replicas, their range as a bar, failures marked) when something was swept.
@@ -23,7 +24,13 @@ import numpy as np
 from .divergence import Divergence, point_label, swept_names
 from .store import NOT_WRITTEN
 
-__all__ = ["divergence_figure", "energy_figure", "sweep_figure", "write_figures"]
+__all__ = [
+    "divergence_figure",
+    "energy_figure",
+    "energy_plot",
+    "sweep_figure",
+    "write_figures",
+]
 
 _DPI = 120
 
@@ -41,8 +48,34 @@ def _title(attrs: dict[str, Any]) -> str:
     return f"{attrs['system']}, {attrs['method']}, h = {attrs['h']:g}, T = {attrs['T']:g}"
 
 
+def _member_x(per: dict[str, np.ndarray]) -> tuple[np.ndarray, str]:
+    """Each member's x in the energy strip and the axis label. Without a sweep, the member
+    index (0: the reference); over one swept quantity, its value, unmoved (a numeric axis);
+    over a grid of them, the sweep point as a category, the perturbed members spread
+    sideways within it (the references stay on the point) so that they do not hide each other.
+    """
+    names = swept_names(per)
+    if not names:
+        return per["member"].astype(float), "member (0: the unperturbed reference)"
+    if len(names) == 1:
+        return per[names[0]].astype(float), names[0].removeprefix("param_")
+    rng = np.random.default_rng(0)
+    spread = np.where(per["replica"] == 0, 0.0, rng.uniform(-0.25, 0.25, len(per["point"])))
+    return per["point"] + spread, "sweep point (perturbed members spread sideways)"
+
+
 def energy_figure(per: dict[str, np.ndarray], attrs: dict[str, Any], path: Path) -> Path:
-    """Mean |E - E0| of every member: a strip (x: sweep point) and a histogram (log bins)."""
+    """`energy_plot` written to `path`."""
+    plt = _plt()
+    fig = energy_plot(per, attrs)
+    fig.savefig(path, dpi=_DPI)
+    plt.close(fig)
+    return path
+
+
+def energy_plot(per: dict[str, np.ndarray], attrs: dict[str, Any]) -> Any:
+    """Mean |E - E0| of every member: a strip (x: see `_member_x`) and a histogram (log
+    bins); the Figure."""
     plt = _plt()
     written = per["status"] != NOT_WRITTEN
     ok = written & (per["status"] == 0)
@@ -51,28 +84,28 @@ def energy_figure(per: dict[str, np.ndarray], attrs: dict[str, Any], path: Path)
     fig, (ax, hx) = plt.subplots(
         1, 2, figsize=(9, 4), gridspec_kw={"width_ratios": [3, 1]}, sharey=True
     )
-    rng = np.random.default_rng(0)
-    x = per["point"] + rng.uniform(-0.25, 0.25, len(y))
+    x, xlabel = _member_x(per)
     ref = per["replica"] == 0
-    ax.scatter(x[ok & ~ref], y[ok & ~ref], s=12, alpha=0.7, label="perturbed")
-    ax.scatter(x[ok & ref], y[ok & ref], s=40, marker="D", color="k", label="reference")
+    ax.scatter(x[ok & ~ref], y[ok & ~ref], s=12, alpha=0.5, label="perturbed")
+    ax.scatter(  # hollow: the perturbed members at the same x show through
+        x[ok & ref], y[ok & ref], s=60, marker="D", facecolors="none", edgecolors="k",
+        linewidths=1.4, label="reference",
+    )  # fmt: skip
     if bad.any():
         ax.scatter(x[bad], y[bad], s=30, marker="x", color="tab:red", label="failed (partial)")
     ax.set_yscale("log")
     ax.set_ylabel("mean |E − E0| over the run")
-    points = np.unique(per["point"])
+    ax.set_xlabel(xlabel)
     names = swept_names(per)
-    if len(points) > 1:
+    if len(names) == 1:  # a numeric axis: the swept values where they are
+        values = per[names[0]]
+        if values.min() > 0 and values.max() / values.min() > 100:
+            ax.set_xscale("log")
+    elif len(names) > 1:  # sweep points as categories, labelled by their values
+        points = np.unique(per["point"])
         ticks = points[:: int(np.ceil(len(points) / 12))]
-        if len(names) == 1:  # the values alone, the name as the axis label
-            labels = [point_label(per, int(p)).split(" = ")[1] for p in ticks]
-            ax.set_xlabel(names[0].removeprefix("param_"))
-        else:
-            labels = [point_label(per, int(p), "\n") for p in ticks]
-            ax.set_xlabel("sweep point")
+        labels = [point_label(per, int(p), "\n") for p in ticks]
         ax.set_xticks(ticks, labels, fontsize=8, rotation=30 if len(ticks) > 6 else 0)
-    else:
-        ax.set_xticks([])
     ax.legend(loc="best", fontsize=8)
     ax.set_title(_title(attrs), fontsize=10)
     finite = y[written & np.isfinite(y) & (y > 0)]
@@ -82,9 +115,7 @@ def energy_figure(per: dict[str, np.ndarray], attrs: dict[str, Any], path: Path)
         hx.hist(finite, bins=bins, orientation="horizontal", color="tab:blue", alpha=0.7)
     hx.set_xlabel("members")
     fig.tight_layout()
-    fig.savefig(path, dpi=_DPI)
-    plt.close(fig)
-    return path
+    return fig
 
 
 def divergence_figure(

@@ -23,6 +23,8 @@ Every array names its dimensions (Zarr v3 ``dimension_names``; ``xarray.open_zar
 group as a Dataset). Trajectories are written as each member arrives; the small per-member
 statistics are buffered and written together (`flush`, at least every `FLUSH_SECONDS` and at
 the end), ``status`` last, so a member whose status is -1 is absent, whatever its samples say.
+A complete store has its metadata consolidated (`consolidate`): ``xarray.open_zarr`` opens it
+in one read, without warning.
 
 Example:
     >>> import tempfile, s2gen
@@ -38,6 +40,7 @@ from __future__ import annotations
 
 import shutil
 import time
+import warnings
 from pathlib import Path
 from typing import Any, Literal
 
@@ -231,6 +234,16 @@ class EnsembleStore:
             self.array(name).set_orthogonal_selection((idx,), values)
         self._pending.clear()
         self._last_flush = time.monotonic()
+
+    def consolidate(self) -> None:
+        """Write the group's metadata into one document, so that readers (``xarray.open_zarr``)
+        open the store in one read and without a warning. Called once the store is complete."""
+        import zarr
+
+        self.flush()
+        with warnings.catch_warnings():  # zarr 3 notes that v3 consolidation is its extension
+            warnings.filterwarnings("ignore", message="Consolidated metadata is currently not")
+            zarr.consolidate_metadata(str(self.path))
 
     # ------------------------------------------------------------------------------ reading
     def array(self, name: str) -> Any:

@@ -9,7 +9,7 @@ Example:
     >>> from s2gen.passes import lower_system
     >>> work = workspace(lower_system(builtin("double_pendulum")))
     >>> work["rk_step"]["doc"]
-    'y0 (12), yt (12), rk (90)'
+    'y0 (12), yt (12), rk (102)'
 """
 
 from __future__ import annotations

@@ -3,14 +3,18 @@
 Input: a `System`, a method (see `s2gen.methods`), a backend ("c": emitted C compiled and
 loaded with ctypes; "numpy": the emitted NumPy module; "reference": the independent
 `s2gen.reference`), step size, horizon and options. Output: a `Trajectory` (t, q, omega,
-energy, statistics, wall time). A failure raises `IntegrationError`, which names the step and
+energy, angular momentum, statistics, wall time, the spec and parameter values that rebuild
+the run, and its energy check). A finished run whose relative energy error passes
+`Options.energy_warn` warns with an `EnergyDriftWarning` (`s2gen.runtime.diagnostics`). A failure raises `IntegrationError`, which names the step and
 why and keeps the trajectory computed so far (`.partial`); a stored sample whose energy is not
 finite while its state is counts as such a failure (status NONFINITE). A method a backend does
 not have is refused before anything runs, and so is a request the machine cannot serve
 (`check_run`: h and T finite and positive, T a whole number of steps, at most `MAX_SAMPLES`
 samples, trajectory arrays within `MAX_MEMORY_FRACTION` of the physical memory, tolerances
 finite and positive with rtol at least `RTOL_FLOOR` and atol at least `ATOL_FLOOR`), and
-parameters of the wrong count or not finite: a ValueError of one line saying the limit.
+parameters of the wrong count or not finite, and an initial state where the potential's
+gradient or (when the energy is kept) the energy is not finite: a ValueError of one line
+saying the limit.
 
 Example:
     >>> from s2gen.systems import builtin
@@ -26,13 +30,15 @@ import math
 import numbers
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Protocol
 
 import numpy as np
 
 from s2gen.methods import BACKENDS, CONTROLS, NAMES, Status, check_method
 from s2gen.methods import method as method_record
+from s2gen.runtime.diagnostics import EnergyDriftWarning, checked, energy_scale, first_nonfinite
+from s2gen.runtime.inputs import initial_state, parameter_vector
 from s2gen.runtime.options import Options
 from s2gen.runtime.trajectory import IntegrationError, Trajectory
 from s2gen.system import System
@@ -47,6 +53,7 @@ __all__ = [
     "METHODS",
     "RTOL_FLOOR",
     "Backend",
+    "EnergyDriftWarning",
     "IntegrationError",
     "Options",
     "Trajectory",
@@ -132,7 +139,7 @@ def simulate(
     h: float | None = None,
     T: float | None = None,
     options: Options | None = None,
-    params: np.ndarray | None = None,
+    params: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
     q0: np.ndarray | None = None,
     omega0: np.ndarray | None = None,
     every: int = 1,
@@ -140,8 +147,17 @@ def simulate(
     progress: Callable[[float], None] | None = None,
 ) -> Trajectory:
     """Integrate a system from its (or the given) initial state to T with step h, keeping
-    every `every`-th sample (T/h must be a multiple of it) and, with `energy`, its energy;
-    `progress(fraction)` is called as the run goes (see `run`)."""
+    every `every`-th sample (T/h must be a multiple of it) and, with `energy`, its energy and
+    angular momentum (and the energy check, `s2gen.runtime.diagnostics`);
+    `params` are values by name ({"g": 1.62}, the others the spec's) or all of them in
+    declared order; `progress(fraction)` is called as the run goes (see `run`).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> tr = simulate(builtin("double_pendulum"), h=0.01, T=0.1, params={"g": 1.62})
+        >>> tr.params["g"], tr.momentum.shape
+        (1.62, (11, 3))
+    """
     check_method(method, backend)
     return run(
         get_backend(system, backend),
@@ -158,44 +174,13 @@ def simulate(
     )
 
 
-def _initial_state(
-    system: System, q0: np.ndarray | None, omega0: np.ndarray | None, unit_tol: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """The initial state (given or the spec's), checked: shapes, finite values, unit q_i."""
-    q, w = system.q0, system.omega0
-    try:
-        q = q if q0 is None else np.asarray(q0, dtype=float)
-        w = w if omega0 is None else np.asarray(omega0, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"q0 and omega0 must be arrays of shape ({system.n}, 3) of numbers"
-        ) from None
-    if q is None or w is None:
-        raise ValueError(f"{system.origin}: no initial state ([initial] q and omega)")
-    for name, a in (("q0", q), ("omega0", w)):
-        if a.shape != (system.n, 3):
-            raise ValueError(f"{name} must have shape ({system.n}, 3), got {a.shape}")
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"{name} contains a non-finite value")
-    if unit_tol > 0.0:
-        off = np.abs(np.linalg.norm(q, axis=1) - 1.0)
-        bad = np.flatnonzero(~(off <= unit_tol))
-        if bad.size:
-            i = int(bad[0])
-            raise ValueError(
-                f"q0 of body {i + 1} has length {np.linalg.norm(q[i]):.17g}, not 1 to within "
-                f"{unit_tol:g} (normalize it, or set Options.unit_tol)"
-            )
-    return q, w
-
-
 def run(
     be: Backend,
     method: str = "vi",
     h: float | None = None,
     T: float | None = None,
     options: Options | None = None,
-    params: np.ndarray | None = None,
+    params: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
     q0: np.ndarray | None = None,
     omega0: np.ndarray | None = None,
     every: int = 1,
@@ -213,8 +198,9 @@ def run(
         raise ValueError(f"{system.origin}: no step size h or final time T given (spec [run])")
     opts = options or Options()
     nsteps = check_run(system, method, h, T, opts, every)
-    q0, omega0 = _initial_state(system, q0, omega0, opts.unit_tol)
-    p = _parameter_values(system, params)
+    q0, omega0 = initial_state(system, q0, omega0, opts.unit_tol)
+    p = parameter_vector(system, params)
+    scale = energy_scale(be, q0, omega0, p, energy)  # V not finite at q0: refused here
     start = time.perf_counter()
     if progress is not None and backend == "c":
         status, q, w, en, stats = be.integrate(  # type: ignore[call-arg]
@@ -228,10 +214,10 @@ def run(
             progress(1.0)
     wall = time.perf_counter() - start
     t = h * every * np.arange(nsteps // every + 1)
-    meta = _metadata(system, method, opts)
+    meta = _metadata(system, method, opts, p)
     k = int(stats.get("fail_step", 0)) if status != 0 else len(t)
     why = Status(status).message if status in Status._value2member_map_ else str(status)
-    bad_energy = _first_nonfinite_energy(en, k)
+    bad_energy = first_nonfinite(en, k)
     if bad_energy is not None:  # the state is finite there (else the backend had stopped)
         k, status = bad_energy, int(Status.NONFINITE)
         why = (
@@ -243,6 +229,7 @@ def run(
     if status != 0:
         kept = None if en is None else en[:k]
         partial = Trajectory(t[:k], q[:k], w[:k], kept, method, backend, h, stats, wall, **meta)
+        partial = checked(partial, system, scale, opts.energy_warn, warn=False)
         last = f"after t = {t[k - 1]:.6g}" if k else "at the initial state"
         raise IntegrationError(
             f"{method} ({backend}) failed {last}: {why}; the {k} valid samples are kept",
@@ -250,42 +237,19 @@ def run(
             k,
             partial,
         )
-    return Trajectory(t, q, w, en, method, backend, h, stats, wall, **meta)
+    tr = Trajectory(t, q, w, en, method, backend, h, stats, wall, **meta)
+    return checked(tr, system, scale, opts.energy_warn)
 
 
-def _parameter_values(system: System, params: Any) -> np.ndarray:
-    """The parameter vector (given or the spec's), checked: its length and finite values."""
-    names = system.parameter_names
-    try:
-        p = np.array(system.parameter_values if params is None else params, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"{system.name}: parameter values must be {len(names)} numbers "
-            f"({', '.join(names) or 'none'}), got {params!r}"
-        ) from None
-    if p.shape != (len(names),):
-        raise ValueError(
-            f"{system.name}: expected {len(names)} parameter values "
-            f"({', '.join(names) or 'none'}), got {p.size}"
-        )
-    bad = np.flatnonzero(~np.isfinite(p))
-    if bad.size:
-        k = int(bad[0])
-        raise ValueError(f"{system.name}: parameter {names[k]} = {p[k]} is not finite")
-    return p
-
-
-def _first_nonfinite_energy(en: np.ndarray | None, valid: int) -> int | None:
-    """The first of the `valid` samples whose energy is not finite (None: all finite)."""
-    if en is None:
-        return None
-    bad = np.flatnonzero(~np.isfinite(en[:valid]))
-    return int(bad[0]) if bad.size else None
-
-
-def _metadata(system: System, method: str, opts: Options) -> dict[str, Any]:
-    """The Trajectory metadata of a run: system, spec hash and, when adaptive, tolerances."""
-    meta: dict[str, Any] = {"system": system.name, "spec_hash": system.spec_hash()}
+def _metadata(system: System, method: str, opts: Options, p: np.ndarray) -> dict[str, Any]:
+    """The Trajectory metadata of a run: system, spec hash, the spec text or built-in that
+    rebuilds it, the parameter values and, when adaptive, the tolerances."""
+    meta: dict[str, Any] = {
+        "system": system.name,
+        "spec_hash": system.spec_hash(),
+        "spec": system.source,
+        "params": dict(zip(system.parameter_names, p.tolist())),
+    }
     if method_record(method).adaptive:
         meta.update(rtol=opts.rtol, atol=opts.atol, control=opts.control)
     return meta
@@ -369,7 +333,7 @@ def _check_options(opts: Options) -> None:
         raise ValueError(  # noqa: TRY004 (bad input is a ValueError: the CLI reports those)
             f"options must be an s2gen.Options, got {type(opts).__name__}"
         )
-    for key in ("rtol", "atol", "newton_tol", "hmax", "unit_tol"):
+    for key in ("rtol", "atol", "newton_tol", "hmax", "unit_tol", "energy_warn"):
         value = getattr(opts, key)
         if isinstance(value, bool) or not isinstance(value, numbers.Real):
             raise ValueError(f"{key} = {value!r}: must be a number")  # noqa: TRY004
@@ -392,5 +356,7 @@ def _check_options(opts: Options) -> None:
     maxiter = opts.newton_maxiter
     if isinstance(maxiter, bool) or not isinstance(maxiter, numbers.Integral) or maxiter < 1:
         raise ValueError(f"newton_maxiter = {maxiter!r}: must be a whole number, at least 1")
+    if math.isnan(opts.energy_warn) or opts.energy_warn < 0:
+        raise ValueError(f"energy_warn = {opts.energy_warn}: must be >= 0 (0 or inf: no check)")
     if opts.control not in CONTROLS:
         raise ValueError(f"control = {opts.control!r}: choose one of {', '.join(CONTROLS)}")

@@ -14,13 +14,12 @@ Example:
 
 from __future__ import annotations
 
-import math
-import numbers
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from s2gen.runtime import get_backend, run
+from s2gen.runtime.inputs import parameter_vector
 from s2gen.runtime.options import Options
 from s2gen.runtime.trajectory import Trajectory
 from s2gen.system import System
@@ -70,29 +69,7 @@ class Model:
             >>> Model(builtin("double_pendulum")).params({"g": 1.0}).tolist()
             [1.0, 1.0, 9.81, 9.81, 1.0]
         """
-        names = self.system.parameter_names
-        known = ", ".join(names) or "none"
-        if params is not None and not isinstance(params, Mapping):
-            values = np.asarray(params, dtype=object).ravel().tolist()
-            if isinstance(params, (str, bytes)) or len(values) != len(names):
-                raise ValueError(
-                    f"{self.system.name}: expected {len(names)} parameter values ({known}) or a "
-                    f"dict by name, got {params!r}"
-                )
-            params = dict(zip(names, values))
-        merged = dict(self.system.parameters)
-        for name, value in (params or {}).items():
-            if name not in merged:
-                raise ValueError(
-                    f"{self.system.name}: unknown parameter {name!r} (parameters: {known})"
-                )
-            number = float(value) if isinstance(value, numbers.Real) else math.nan
-            if isinstance(value, bool) or not math.isfinite(number):
-                raise ValueError(
-                    f"{self.system.name}: parameter {name} must be a finite number, got {value!r}"
-                )
-            merged[name] = number
-        return np.array([merged[p] for p in names], dtype=float)
+        return parameter_vector(self.system, params)
 
     def integrate(
         self,
@@ -107,7 +84,7 @@ class Model:
         energy: bool = True,
     ) -> Trajectory:
         """Integrate from (q0, omega0) (default: the spec's) to T with step h, keeping every
-        `every`-th sample and, with `energy`, its energy (see `simulate`)."""
+        `every`-th sample and, with `energy`, its energy and angular momentum (see `simulate`)."""
         return run(
             self._backend,
             method,
@@ -130,8 +107,9 @@ class Model:
         options: Options | None = None,
         params: Mapping[str, float] | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """One step of size h from (q, omega); returns (q, omega) after it."""
-        tr = self.integrate(method, h, h, q, omega, options, params)
+        """One step of size h from (q, omega); returns (q, omega) after it (no energy is kept,
+        so the step is not checked for energy drift)."""
+        tr = self.integrate(method, h, h, q, omega, options, params, energy=False)
         return tr.q[-1], tr.omega[-1]
 
     def energy(

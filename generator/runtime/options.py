@@ -26,3 +26,6 @@ class Options:
     newton_tol: float = 1e-14
     newton_maxiter: int = 50
     unit_tol: float = 1e-12  # a q0_i farther than this from unit length is refused (<= 0: none)
+    #: Relative energy error past which a finished run warns (`s2gen.EnergyDriftWarning`;
+    #: see `s2gen.runtime.diagnostics`); 0 or inf: never.
+    energy_warn: float = 1e-2

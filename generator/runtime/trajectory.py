@@ -3,14 +3,17 @@ partial run.
 
 Input: arrays and counts from a backend, and what produced them (system, spec hash, method,
 backend, step, tolerances). Output: `Trajectory` (t, q, omega, energy, stats, wall time and
-that metadata), which saves itself to and loads itself from a .npz file, computes its angular
-momentum, converts to an xarray Dataset and plots its energy and unit-length errors; and
+that metadata), which saves itself to and loads itself from a .npz file, rebuilds its system,
+computes its angular momentum, converts to an xarray Dataset and plots its motion and its
+energy and unit-length errors; and
 `IntegrationError` (raised on failure, holding the valid samples in `.partial`).
 
 File format (`save`): a NumPy .npz with the arrays ``t`` (N+1), ``q`` and ``omega``
 (N+1, n, 3), ``energy`` (N+1), ``angular_momentum`` (N+1, 3) when present, and ``metadata``,
 a JSON text (system, spec_hash, method, backend, h, rtol, atol, control, version, stats,
-wall_time). Readers that only want the arrays (``np.load(path)["q"]``) need nothing else.
+wall_time; spec, the text or built-in name that `s2gen.load` rebuilds the system from, and
+params, the run's parameter values by name; energy_warn, energy_scale and drift_sample, the
+run's energy check, see `s2gen.runtime.diagnostics`). Readers that only want the arrays (``np.load(path)["q"]``) need nothing else.
 
 Example:
     >>> import numpy as np
@@ -23,6 +26,7 @@ Example:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -52,6 +56,11 @@ METADATA_FIELDS = (
     "version",
     "stats",
     "wall_time",
+    "spec",
+    "params",
+    "energy_warn",
+    "energy_scale",
+    "drift_sample",
 )
 
 #: The reference backend counts under other names: rhs_evaluations (of the continuous field,
@@ -104,19 +113,31 @@ class Trajectory:
     version: str = __version__
     #: J per sample (N+1, 3) when the producer computed it (see `angular_momentum`).
     momentum: np.ndarray | None = field(default=None, compare=False)
+    #: What `s2gen.load` rebuilds the system from (`System.source`; "" if unknown).
+    spec: str = ""
+    #: The parameter values of the run, by name ({} if unknown: then the spec's).
+    params: dict[str, float] = field(default_factory=dict)
+    #: The relative energy error the run was checked against (`Options.energy_warn`), the
+    #: energy scale S of its initial state and the first sample past it (None: none, or the
+    #: run was not checked); see `s2gen.runtime.diagnostics`.
+    energy_warn: float | None = None
+    energy_scale: float | None = None
+    drift_sample: int | None = None
 
     # ------------------------------------------------------------------------ metadata
+    @property
     def metadata(self) -> dict[str, Any]:
         """The metadata fields as plain JSON values.
 
         Example:
             >>> import numpy as np
             >>> z = np.zeros((1, 1, 3))
-            >>> Trajectory(np.zeros(1), z, z, np.zeros(1), "vi", "c", 0.1).metadata()["h"]
+            >>> Trajectory(np.zeros(1), z, z, np.zeros(1), "vi", "c", 0.1).metadata["h"]
             0.1
         """
         meta = {k: getattr(self, k) for k in METADATA_FIELDS}
         meta["stats"] = {k: int(v) for k, v in self.stats.items()}
+        meta["params"] = {k: float(v) for k, v in self.params.items()}
         meta["h"] = float(self.h)
         meta["wall_time"] = float(self.wall_time)
         return meta
@@ -156,7 +177,7 @@ class Trajectory:
             arrays["energy"] = self.energy
         if self.momentum is not None:
             arrays["angular_momentum"] = self.momentum
-        arrays["metadata"] = np.array(json.dumps(self.metadata(), sort_keys=True))
+        arrays["metadata"] = np.array(json.dumps(self.metadata, sort_keys=True))
         return write_atomic(path, lambda f: np.savez(f, **arrays))
 
     @classmethod
@@ -196,25 +217,33 @@ class Trajectory:
             control=meta.get("control"),
             version=meta.get("version", ""),
             momentum=arrays.get("angular_momentum"),
+            spec=meta.get("spec", ""),
+            params={k: float(v) for k, v in meta.get("params", {}).items()},
+            energy_warn=meta.get("energy_warn"),
+            energy_scale=meta.get("energy_scale"),
+            drift_sample=meta.get("drift_sample"),
         )
 
     # ------------------------------------------------------------------------ derived values
-    def angular_momentum(self, model: Any, params: Any = None) -> np.ndarray:
+    def angular_momentum(self, model: Any = None, params: Any = None) -> np.ndarray:
         """J_k = sum_i q_i x sum_j M_ij (omega_j x q_j) at every sample, shape (N+1, 3).
 
-        `model` is a `System` or anything with a `.system` (a `Model`, a backend); M is taken
-        at `params` (a sequence in declared order or a mapping by name; default the spec's).
-        Computed here with NumPy from M's nonzero entries, independently of the backends.
+        `model` is a `System` or anything with a `.system` (a `Model`, a backend); by default
+        the system rebuilt from `spec`. M is taken at `params` (a sequence in declared order
+        or a mapping by name; default the run's `params`, else the spec's). Computed here with
+        NumPy from M's nonzero entries, independently of the backends.
 
         Example:
             >>> from s2gen.runtime import simulate
             >>> from s2gen.systems import builtin
             >>> tr = simulate(builtin("three_bodies"), "vi", h=0.01, T=0.1)
-            >>> J = tr.angular_momentum(builtin("three_bodies"))
+            >>> J = tr.angular_momentum()
             >>> bool(abs(J - J[0]).max() < 1e-12)
             True
         """
-        system = getattr(model, "system", model)
+        system = getattr(model, "system", model) if model is not None else self.rebuild()
+        if params is None and self.params:
+            params = self.params
         n = self.q.shape[1]
         dense = None
         if system.matrix is None and system.chain is not None:
@@ -231,14 +260,35 @@ class Trajectory:
         for k in range(0, len(self.t), block):
             q, w = self.q[k : k + block], self.omega[k : k + block]
             v = np.cross(w, q)  # qdot_j = omega_j x q_j, (samples, n, 3)
-            if dense is not None:
-                p = np.einsum("ij,sjc->sic", dense, v)
+            if dense is not None:  # one matrix product over every sample and component
+                s = len(v)
+                p = (dense @ v.transpose(1, 0, 2).reshape(n, -1)).reshape(n, s, 3).swapaxes(0, 1)
             else:  # p_i = sum_j M_ij v_j over M's nonzero entries
                 p = np.zeros_like(v)
                 by_body = p.swapaxes(0, 1)  # a view: (n, samples, 3)
                 np.add.at(by_body, rows, vals[:, None, None] * v[:, cols].swapaxes(0, 1))
             J[k : k + block] = np.cross(q, p).sum(axis=1)
         return J
+
+    def rebuild(self) -> System:
+        """The system of this trajectory, rebuilt from `spec` with the spec's own parameter
+        defaults (the run's values are `params`, which `angular_momentum` uses); ValueError
+        when no spec was recorded (a system defined in Python, or an older file).
+
+        Example:
+            >>> from s2gen.runtime import simulate
+            >>> from s2gen.systems import builtin
+            >>> simulate(builtin("rope", n=3), "vi", h=0.01, T=0.01).rebuild().n
+            3
+        """
+        if not self.spec:
+            raise ValueError(
+                f"trajectory of {self.system or 'an unnamed system'} does not record its spec "
+                "(a system defined in Python): pass the System"
+            )
+        from s2gen import load
+
+        return load(self.spec)
 
     def unit_length_error(self) -> np.ndarray:
         """max over bodies of | |q_i| - 1 | at every sample, shape (N+1,).
@@ -279,51 +329,33 @@ class Trajectory:
         }
         if self.energy is not None:
             data["energy"] = (("t",), self.energy)
-        if self.momentum is not None:
-            data["angular_momentum"] = (("t", "component"), self.momentum)
-        attrs = {k: v for k, v in self.metadata().items() if v is not None and k != "stats"}
+        momentum = self.momentum
+        if momentum is None and self.spec:
+            momentum = self.angular_momentum()
+        if momentum is not None:
+            data["angular_momentum"] = (("t", "component"), momentum)
+        skip = ("stats", "params")
+        attrs = {k: v for k, v in self.metadata.items() if v is not None and k not in skip}
         attrs.update({f"stats_{k}": v for k, v in self.stats.items()})
+        attrs.update({f"param_{k}": v for k, v in self.params.items()})
         return xr.Dataset(data, coords={"t": self.t, "body": body, "component": comp}, attrs=attrs)
 
     def plot(self, path: str | Path | None = None) -> Any:
-        """Two panels against t on log axes: |E - E_0| and max_i | |q_i| - 1 |. Writes a PNG
-        to `path` when given; returns the matplotlib Figure (drawn without pyplot, so no
-        backend is chosen or switched; a notebook shows the returned figure).
+        """The motion and the errors against t: each body's tip path on the unit sphere (seen
+        from above and from the side), q's components, |E - E_0| and max_i | |q_i| - 1 | (see
+        `s2gen.runtime.plotting`). Writes a PNG to `path` when given; returns the matplotlib
+        Figure (drawn without pyplot: no backend is chosen or switched).
 
         Example:
             >>> import numpy as np
             >>> q = np.tile([[[1.0, 0, 0]]], (3, 1, 1))
             >>> tr = Trajectory(np.arange(3.0), q, q, np.array([1.0, 1.1, 0.9]), "vi", "c", 1.0)
             >>> len(tr.plot().axes)
-            2
+            5
         """
-        from matplotlib.figure import Figure
+        from s2gen.runtime.plotting import trajectory_figure
 
-        fig = Figure(figsize=(7, 5.5))
-        ax_e, ax_q = fig.subplots(2, 1, sharex=True)
-        energy = np.full(len(self.t), np.nan) if self.energy is None else self.energy
-        dE = np.abs(energy - energy[0]) if len(energy) else energy
-        panels = (
-            (ax_e, dE, r"$|E - E_0|$", "C0"),
-            (ax_q, self.unit_length_error(), r"$\max_i\,|\,\|q_i\| - 1\,|$", "C1"),
-        )
-        for ax, err, label, color in panels:
-            shown = np.where(
-                err > 0, err, np.nan
-            )  # exact zeros (t = 0) have no place on a log axis
-            if np.any(np.isfinite(shown)):
-                ax.semilogy(self.t, shown, lw=0.8, color=color)
-            else:
-                ax.text(0.5, 0.5, "exactly zero", transform=ax.transAxes, ha="center")
-            ax.set_ylabel(label)
-            ax.grid(True, which="major", alpha=0.3)
-        ax_q.set_xlabel("t")
-        title = f"{self.system or 'trajectory'}: {self.method} on {self.backend}, h = {self.h:g}"
-        fig.suptitle(title)
-        fig.tight_layout()
-        if path is not None:
-            fig.savefig(path, dpi=120)
-        return fig
+        return trajectory_figure(self, path)
 
 
 def _parameter_values(system: System, params: Any) -> dict[Any, float]:
@@ -340,16 +372,24 @@ def _parameter_values(system: System, params: Any) -> dict[Any, float]:
 
 def _inertia_entries(system: System, params: Any) -> dict[tuple[int, int], float]:
     """M's nonzero entries {(row, col): value} at the given parameters (default the spec's)."""
+    values = tuple(_parameter_values(system, params).values())
+    return dict(_entries_at(system, values))
+
+
+@functools.lru_cache(maxsize=64)
+def _entries_at(system: System, values: tuple[float, ...]) -> tuple[tuple[Any, float], ...]:
+    """M's nonzero entries at parameter values in declared order (kept: every run of a system
+    computes its angular momentum, and SymPy's evaluation costs more than a short run)."""
     import sympy as sp
 
-    subs = _parameter_values(system, params)
+    subs = dict(zip(system.parameter_symbols, values))
     out: dict[tuple[int, int], float] = {}
     cache: dict[Any, float] = {}
     for key, entry in system.inertia.todok().items():
         if entry not in cache:
             cache[entry] = float(sp.sympify(sp.sympify(entry).xreplace(subs)).evalf())
         out[key] = cache[entry]
-    return out
+    return tuple(out.items())
 
 
 class IntegrationError(RuntimeError):

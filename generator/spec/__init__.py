@@ -75,6 +75,7 @@ Example:
 
 from __future__ import annotations
 
+import dataclasses
 import tomllib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -275,7 +276,7 @@ def load_spec_text(text: str, *, origin: str = "<string>") -> System:
             f"{origin}: [potential]: missing required key 'V' (required unless terms "
             "[[potential.body]] or [[potential.pair]] are given)"
         )
-    return define_system(
+    system = define_system(
         name=data["name"],
         bodies=data["bodies"],
         parameters=tables["parameters"],
@@ -293,6 +294,7 @@ def load_spec_text(text: str, *, origin: str = "<string>") -> System:
         body_terms=potential.get("body"),
         pair_terms=potential.get("pair"),
     )
+    return dataclasses.replace(system, source=text)
 
 
 def _table(data: Mapping[str, Any], key: str, origin: str) -> dict[str, Any]:

@@ -1,8 +1,11 @@
 """The built-in systems: the paper's examples and the rope, by name (with options).
 
 Input: a name (``double_pendulum``), a name with options (``elastic_rod:n=1000``,
-``rope:n=200,kappa=0.1``, ``molecular:subdivisions=4``) or a path to a TOML spec file.
-Output: a validated `System`.
+``rope:n=200,kappa=0.1``, ``molecular:subdivisions=4``) or a path to a TOML spec file, each
+optionally with parameter values after the colon (``double_pendulum:g=5``, ``my.toml:k=2``).
+Output: a validated `System`, whose `source` is what rebuilds it (the built-in name with its
+options, or the TOML text; parameter values given after the colon are the run's, not the
+source's).
 
 Built-ins come from two places, merged into one registry of loader callables: the TOML files
 shipped in the ``s2gen.systems.examples`` package folder (one system per file, named by the
@@ -22,9 +25,11 @@ Example:
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import inspect
-from collections.abc import Callable
+import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from importlib.resources import files
 from pathlib import Path
@@ -34,7 +39,15 @@ from s2gen.spec import load_spec, load_spec_text
 from s2gen.system import SpecError, System
 from s2gen.systems import chains, paper
 
-__all__ = ["Option", "builtin", "builtin_names", "builtin_options", "resolve"]
+__all__ = [
+    "Option",
+    "builtin",
+    "builtin_names",
+    "builtin_options",
+    "parameter_values",
+    "resolve",
+    "with_parameters",
+]
 
 _EXAMPLES = "s2gen.systems.examples"
 
@@ -178,35 +191,112 @@ def builtin(name: str, **options: Any) -> System:
     if loader is None:
         raise SpecError(f"unknown built-in system {name!r}; built-ins are: {_listing()}")
     if not options:
-        return loader()
+        return dataclasses.replace(loader(), source=name)
     known = {o.name for o in builtin_options(name)}
     unknown = sorted(set(options) - known)
     if unknown:
         shown = ", ".join(str(o) for o in builtin_options(name)) or "none"
         raise SpecError(f"{name}: unknown option {unknown[0]!r} (options: {shown})")
     try:
-        return loader(**options)
+        system = loader(**options)
     except SpecError:
         raise
     except ValueError as exc:
         raise SpecError(f"{name}: {exc}") from None
+    given = ",".join(f"{k}={v}" for k, v in options.items())
+    return dataclasses.replace(system, source=f"{name}:{given}")
 
 
-def resolve(spec: str) -> System:
-    """A spec file path if one exists, else a built-in name (raises SpecError otherwise).
+def with_parameters(system: System, values: Mapping[str, float]) -> System:
+    """`system` with the parameter defaults in `values` (by name) replaced, validated anew
+    (M positive definite at the new values; SpecError naming an unknown parameter).
+
+    Example:
+        >>> with_parameters(builtin("double_pendulum"), {"g": 5.0}).parameters["g"]
+        5.0
+    """
+    unknown = sorted(set(values) - set(system.parameter_names))
+    if unknown:
+        known = ", ".join(system.parameter_names) or "none"
+        raise SpecError(f"{system.name}: unknown parameter {unknown[0]!r} (parameters: {known})")
+    if not values:
+        return system
+    changed = System.create(
+        name=system.name,
+        n=system.n,
+        parameters={**system.parameters, **values},
+        inertia=system.chain if system.chain is not None else system.inertia,
+        potential=system.potential,
+        q0=system.q0,
+        omega0=system.omega0,
+        run=system.run,
+        origin=system.origin,
+        terms=system.terms,
+        inertia_solver=system.inertia_solver,
+    )
+    return dataclasses.replace(changed, source=system.source)
+
+
+def resolve(spec: str, params: Sequence[str] = ()) -> System:
+    """A spec file path if one exists, else a built-in name, each optionally followed by
+    ``:key=value,...``: a built-in's options (`builtin_options`) and, for every spec, parameter
+    values (`with_parameters`); `params` adds ``NAME=VALUE`` parameter values (the command
+    line's ``--param``). Raises SpecError otherwise; a folder is named as one.
 
     Example:
         >>> resolve("double_pendulum").name
         'double_pendulum'
+        >>> resolve("double_pendulum:g=5").parameters["g"]
+        5.0
+        >>> resolve("rope:n=4", ["g=1.62"]).parameters["g"]
+        1.62
     """
+    system = _resolve(spec)
+    if not params:
+        return system
+    return with_parameters(system, parameter_values(system, params))
+
+
+def parameter_values(system: System, params: Sequence[str]) -> dict[str, float]:
+    """The command line's ``NAME=VALUE`` parameter values by name (SpecError on a bad one).
+
+    Example:
+        >>> parameter_values(builtin("double_pendulum"), ["g=1.62"])
+        {'g': 1.62}
+    """
+    if not params:
+        return {}
+    items = _items(f"--param {' '.join(params)}", ",".join(params))
+    where = f"{system.name}: --param"
+    return {k: _number(v, f"{where} {k}") for k, v in items.items()}
+
+
+def _resolve(spec: str) -> System:
+    """`resolve` without the --param values."""
     path = Path(spec)
     if path.is_file():
         return load_spec(path)
     if spec in _registry():
         return builtin(spec)
-    name, _, text = spec.partition(":")
-    if name in _registry():
-        return builtin(name, **_parse_options(name, text))
+    base, colon, text = spec.rpartition(":") if ":" in spec else (spec, "", "")
+    if colon and (base in _registry() or Path(base).is_file()):
+        where = f"{base}:{text}"
+        items = _items(where, text)
+        if base in _registry():
+            known = {o.name: o for o in builtin_options(base)}
+            options = {k: known[k].parse(v, where) for k, v in items.items() if k in known}
+            system = builtin(base, **options)
+        else:
+            known, system = {}, load_spec(base)
+        names = system.parameter_names
+        unknown = [k for k in items if k not in known and k not in names]
+        if unknown:
+            shown = ", ".join([str(o) for o in known.values()] + list(names)) or "none"
+            raise SpecError(f"{where}: unknown option or parameter {unknown[0]!r} (known: {shown})")
+        params = {k: _number(v, f"{where}: parameter {k}") for k, v in items.items() if k in names}
+        return with_parameters(system, params)
+    if path.is_dir():
+        raise SpecError(f"{spec}: is a folder, not a spec file (give a .toml file or a built-in)")
     if path.suffix == ".toml" or len(path.parts) > 1:
         raise SpecError(f"{spec}: no such spec file (built-ins are: {_listing()})")
     raise SpecError(
@@ -214,24 +304,28 @@ def resolve(spec: str) -> System:
     )
 
 
-def _parse_options(name: str, text: str) -> dict[str, Any]:
-    """``key=value,...`` after a built-in's name, each value parsed by the option's type."""
-    options = {o.name: o for o in builtin_options(name)}
-    where = f"{name}:{text}"
-    if not options:
-        raise SpecError(f"{where}: the built-in {name!r} takes no options")
-    values: dict[str, Any] = {}
+def _items(where: str, text: str) -> dict[str, str]:
+    """The ``key=value,...`` pairs after a spec, in order (SpecError for a malformed item)."""
+    items: dict[str, str] = {}
     for item in text.split(","):
         key, eq, value = (part.strip() for part in item.partition("="))
         if not eq or not key or not value:
             raise SpecError(f"{where}: expected key=value, got {item!r}")
-        if key not in options:
-            shown = ", ".join(str(o) for o in options.values())
-            raise SpecError(f"{where}: unknown option {key!r} (options: {shown})")
-        if key in values:
+        if key in items:
             raise SpecError(f"{where}: option {key!r} given twice")
-        values[key] = options[key].parse(value, where)
-    return values
+        items[key] = value
+    return items
+
+
+def _number(text: str, where: str) -> float:
+    """A finite number written in `text` (SpecError otherwise)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise SpecError(f"{where}: expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise SpecError(f"{where}: {text} is not a finite number")
+    return value
 
 
 def _listing() -> str:

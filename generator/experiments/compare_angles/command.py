@@ -33,6 +33,13 @@ def add_parser(subparsers: Any) -> None:
         "compare_angles.json and PNG figures.",
     )
     p.add_argument("spec", metavar="SPEC")
+    p.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a parameter value (repeatable), as SPEC:NAME=VALUE; default the spec's",
+    )
     p.add_argument("--out", help="output folder (default out/compare_angles/<name>)")
     p.add_argument("--T", type=float, default=d.T, help=f"final time (default {d.T:g})")
     p.add_argument("--h", type=float, default=d.h, help=f"RK4 step, RK45 output grid ({d.h:g})")

@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     """Run `compare-angles` from parsed arguments; 0 on success."""
     from s2gen import load
 
-    system = load(args.spec)
+    system = load(args.spec, args.param)
     if system.q0 is None or system.omega0 is None:
         print(f"error: {system.origin}: no initial state ([initial] q and omega)", file=sys.stderr)
         return 2

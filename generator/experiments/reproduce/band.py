@@ -111,6 +111,17 @@ def paper_example(name: str) -> Any:
     return EXAMPLES[name]
 
 
+def stride(steps: int, samples: int) -> int:
+    """The largest stride that divides `steps` and keeps at least `samples` + 1 samples (the
+    last sample is then stored, as `s2gen.runtime.check_run` requires).
+
+    Example:
+        >>> stride(10000, 300), stride(100, 300)
+        (25, 1)
+    """
+    return next(k for k in range(max(1, steps // samples), 0, -1) if steps % k == 0)
+
+
 def chaos_band(
     example: str = "elastic_rod",
     members: int = DEFAULT_MEMBERS,
@@ -149,7 +160,7 @@ def chaos_band(
                 method=run.method,
                 h=run.h,
                 T=run.T,
-                every=max(1, steps // STORED_SAMPLES),
+                every=stride(steps, STORED_SAMPLES),
                 client=c,
                 workers=0 if c is None else None,
                 out=folder / f"{run.method}_h{run.h:g}",
