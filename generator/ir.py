@@ -11,8 +11,8 @@ Kernels:
 Structure:
 - `Loop` is a loop over the members of a structured term or over the coupled pairs of M
   (`LoopKind` says how members are enumerated; list kinds read member tables).
-- `Call` is one call site of a kernel, its arguments resolved in Python from the kernel's own
-  signature (`s2gen.passes.calls`), for each language.
+- `Call` is one call site of a kernel, its arguments bound in Python from the kernel's own
+  signature (`s2gen.passes.calls`) to typed bindings (`s2gen.bindings`), not to text.
 - `Layout` is the workspace of one function: named buffers with sizes and offsets
   (`s2gen.passes.workspace`).
 - `Band` is one coupled linear system of the structured solvers as the band elimination lays
@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from s2gen.bindings import Binding
 from s2gen.inertia import InertiaKind
 from s2gen.terms import Selection
 
@@ -180,15 +181,15 @@ class TermLoop:
 
 @dataclass(frozen=True)
 class Call:
-    """One call site of a kernel: the arguments in the kernel's parameter order, per language.
-
-    C takes inputs then outputs (pointers); NumPy takes the inputs and returns the outputs.
+    """One call site of a kernel: what each argument is bound to (`s2gen.bindings`), in the
+    kernel's parameter order. The printers render them: C passes the inputs then the outputs
+    (by address), NumPy passes the inputs and takes the outputs as returned values.
     """
 
     site: str
     kernel: str
-    c_args: tuple[str, ...]
-    py_args: tuple[str, ...]
+    inputs: tuple[Binding, ...]
+    outputs: tuple[Binding, ...]
 
 
 @dataclass(frozen=True)

@@ -249,15 +249,15 @@ def test_cse_is_deterministic_and_keeps_every_output() -> None:
 
 
 def test_calls_follow_each_kernels_signature() -> None:
-    """Every call site passes one C argument per kernel input and output, in the kernel's
-    order, and one NumPy argument per input; every kernel the module lowers is called."""
+    """Every call site binds each kernel input and output, in the kernel's order; every kernel
+    the module lowers is called."""
     module = lowered()
     kernels = {k.name: k for k in module.kernels}
     assert module.calls
     for call in module.calls:
         k = kernels[call.kernel]
-        assert len(call.c_args) == len(k.inputs) + len(k.outputs), call.site
-        assert len(call.py_args) == len(k.inputs), call.site
+        assert len(call.inputs) == len(k.inputs), call.site
+        assert len(call.outputs) == len(k.outputs), call.site
     called = {c.kernel for c in module.calls}
     per_call = {"context"} | {k.name for k in module.kernels if k.name.endswith("_table")}
     assert set(kernels) - called <= per_call | {"t0_quad", "inertia"}, set(kernels) - called

@@ -24,7 +24,7 @@ from s2gen.inertia import InertiaKind
 from s2gen.ir import Kernel, Module, ModuleKind, PassRecord
 from s2gen.methods import explicit_tableaus
 from s2gen.printing import records
-from s2gen.printing.c import c_call
+from s2gen.printing.c_calls import c_call
 from s2gen.printing.c_module import (
     CTable,
     Macro,

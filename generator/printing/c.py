@@ -20,7 +20,7 @@ import sympy as sp
 from sympy.printing.c import C99CodePrinter
 
 from s2gen.interface import Field, Function, Kind, Param
-from s2gen.ir import Call, Kernel, TermLoop
+from s2gen.ir import Kernel, TermLoop
 from s2gen.terms import Enumeration, Rule, TermKind
 
 __all__ = [
@@ -28,7 +28,6 @@ __all__ = [
     "CPrinter",
     "ExactIntegers",
     "LiteralError",
-    "c_call",
     "c_decl",
     "c_field_decl",
     "c_inline",
@@ -210,11 +209,6 @@ def c_inline(
         target = a.temp if a.temp is not None else f"{a.output[0]}{a.output[1]}"  # type: ignore[index]
         lines.append(f"const double {target} = {rhs};")
     return tuple(shared), tuple(lines)
-
-
-def c_call(prefix: str, call: Call) -> str:
-    """The C call expression of a call site (no semicolon)."""
-    return f"{prefix}_k_{call.kernel}({', '.join(call.c_args)})"
 
 
 def rows(values: list[str], per_row: int = 6) -> tuple[str, ...]:

@@ -18,7 +18,15 @@ from s2gen.inertia import InertiaKind
 from s2gen.interface import interface
 from s2gen.ir import Kernel, Module, ModuleKind
 from s2gen.passes.workspace import padded
-from s2gen.printing.c import c_decl, c_field_decl, c_inline, c_term_tables, nullable_note, rows
+from s2gen.printing.c import (
+    c_decl,
+    c_field_decl,
+    c_inline,
+    c_term_tables,
+    nullable_note,
+    rows,
+)
+from s2gen.printing.c_calls import c_binding
 
 __all__ = [
     "CTable",
@@ -193,8 +201,8 @@ def c_inline_loops(module: Module) -> dict[str, tuple[str, ...]]:
             assert not shared, f"{name} reads no context constants"
             out[name] = lines
             call = next(c for c in module.calls if c.site == name)
-            for arg, bound in zip(kernel.inputs, call.c_args):
-                line = f"const double {arg.name} = {bound};"
+            for arg, bound in zip(kernel.inputs, call.inputs):
+                line = f"const double {arg.name} = {c_binding(module.name, bound)};"
                 if arg.scalar and arg.name != "h" and line not in loads:
                     loads.append(line)
     if out:

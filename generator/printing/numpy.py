@@ -14,16 +14,33 @@ Example:
 from __future__ import annotations
 
 import math
+from typing import assert_never
 
 import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
 
+from s2gen.bindings import (
+    Binding,
+    BodyNumber,
+    ContextArray,
+    Element,
+    Index,
+    InertiaDatum,
+    Local,
+    MemberSlot,
+    Product,
+    Shifted,
+    Slot,
+    TermDatum,
+    TermTable,
+)
 from s2gen.ir import Call, Kernel, Module, ModuleKind, TermLoop
 from s2gen.printing.c import EXACT_INTEGER, ExactIntegers, LiteralError, double_literal
 from s2gen.terms import Enumeration
 
 __all__ = [
     "PyPrinter",
+    "py_binding",
     "py_call",
     "py_docstring",
     "py_inertia_setup",
@@ -110,9 +127,59 @@ def py_kernel(kernel: Kernel) -> tuple[str, tuple[str, ...]]:
     return params, tuple(lines)
 
 
+#: Per-body arrays NumPy's code derives where C reads the context's copy (the inverse masses)
+_DERIVED = {"mi": "(1.0 / md)"}
+#: How NumPy indexes an array by a pair's bodies (a body's or a pair's slot is the whole array)
+_PAIR_BODY = {Index.FIRST: "[PAIR_I]", Index.SECOND: "[PAIR_J]"}
+
+
+def _table_name(term: int) -> str:
+    return f"tab{term}"
+
+
+def py_binding(b: Binding) -> str:
+    """A bound argument as NumPy: the calls vectorize, so a slot or an entry at a body or a pair
+    is the whole array, at a pair's body it is indexed by PAIR_I / PAIR_J, at a member's body
+    by the term's index arrays.
+
+    Example:
+        >>> py_binding(MemberSlot(2, "j")), py_binding(Element("mi", Index.BODY, context=True))
+        ('q[T2_J]', '(1.0 / md)')
+    """
+    if isinstance(b, Local):
+        return b.vector or b.name
+    if isinstance(b, ContextArray):
+        return b.name
+    if isinstance(b, Slot):
+        return (b.vector or b.array) + _PAIR_BODY.get(b.index, "")
+    if isinstance(b, MemberSlot):
+        return f"q[T{b.term}_{b.body.upper()}]"
+    if isinstance(b, Element):
+        return _DERIVED.get(b.array, b.array) + _PAIR_BODY.get(b.index, "")
+    if isinstance(b, Product):
+        return " * ".join(py_binding(f) for f in b.factors)
+    if isinstance(b, Shifted):
+        return f"{b.array}[{b.offset}:]"
+    if isinstance(b, BodyNumber):
+        return "INDEX"
+    if isinstance(b, TermDatum):
+        return f"T{b.term}_{b.name.upper()}"
+    if isinstance(b, InertiaDatum):
+        return f"INERTIA_{b.name.upper()}"
+    if isinstance(b, TermTable):
+        return _table_name(b.term)
+    assert_never(b)
+
+
 def py_call(call: Call) -> str:
-    """The Python call expression of a call site."""
-    return f"_k_{call.kernel}({', '.join(call.py_args)})"
+    """The Python call expression of a call site: the inputs (the outputs are returned).
+
+    Example:
+        >>> from s2gen.ir import Call
+        >>> py_call(Call("e", "energy", (Slot("q", 3, Index.BODY),), (Local("e"),)))
+        '_k_energy(q)'
+    """
+    return f"_k_{call.kernel}({', '.join(py_binding(b) for b in call.inputs)})"
 
 
 def _index_names(t: TermLoop) -> tuple[str, ...]:
@@ -218,7 +285,7 @@ def py_table_names(module: Module) -> tuple[str, ...]:
         >>> py_table_names(m)
         ('tab0',)
     """
-    return tuple(f"tab{t.index}" for t in module.terms if t.table)
+    return tuple(_table_name(t.index) for t in module.terms if t.table)
 
 
 def py_docstring(module: Module) -> tuple[str, str]:
