@@ -11,8 +11,13 @@ and key read (recursively through the dicts `call`, `work`, `inline`, `band`, ..
     renders fail on any other read (StrictUndefined);
 (b) every declaration is read: each field of the record, each call site `call[...]`, each
     optional section (`c_sections`, `py_sections`) and each workspace buffer
-    `work[layout][buffer]` of a module is read by that module's templates.
-Every template is laid out by some case, so that (b) sees every reader.
+    `work[layout][buffer]` of a module is read by that module's templates;
+(c) part by part (`s2gen.parts`): the partial of each part the module selects, in each of its
+    languages and with the partials it includes, rendered alone, reads only the call sites
+    and workspace buffers its own part declares, and reads every one of them that the module
+    has (a site whose kernel the module lacks, a buffer its layout lacks, is not there).
+Every template is laid out by some case, so that (b) sees every reader, and every part is
+selected by some case, so that (c) sees every part.
 """
 
 from __future__ import annotations
@@ -28,9 +33,10 @@ import numpy as np
 import pytest
 from jinja2 import nodes
 
-from s2gen.emit import printed
 from s2gen.equations.angles import derive_angles
-from s2gen.passes import lower_angles
+from s2gen.ir import Module
+from s2gen.parts import PARTS, Part, selected
+from s2gen.passes import lower_angles, lower_system
 from s2gen.printing import PrintedModule, print_module
 from s2gen.render import TEMPLATES, environment
 from s2gen.spec import define_system, load_spec_text
@@ -46,10 +52,7 @@ READ_BY_PYTHON = {
 }
 
 #: Call sites declared where no template reads them (with the reason).
-UNREAD_SITES = {
-    "vel_sweep": "passes/calls.py declares a site wherever its kernel exists; a banded M has "
-    "the kernel vel (for the site vel) but only the max-index energy sweeps with it",
-}
+UNREAD_SITES: dict[str, str] = {}
 
 #: Templates no module lays out (with the reason).
 NOT_LAID_OUT = {
@@ -159,12 +162,17 @@ SYSTEMS = {
 
 
 @functools.cache
-def modules() -> dict[str, PrintedModule]:
-    """The printed modules of every case, the angle form of the double pendulum included."""
-    out = {name: printed(make()) for name, make in SYSTEMS.items()}
-    angles = lower_angles(derive_angles(builtin("double_pendulum"), False))
-    out["double_pendulum_angles"] = print_module(angles)
+def lowered() -> dict[str, Module]:
+    """The lowered modules of every case, the angle form of the double pendulum included."""
+    out = {name: lower_system(make()) for name, make in SYSTEMS.items()}
+    out["double_pendulum_angles"] = lower_angles(derive_angles(builtin("double_pendulum"), False))
     return out
+
+
+@functools.cache
+def modules() -> dict[str, PrintedModule]:
+    """The printed modules of every case."""
+    return {name: print_module(module) for name, module in lowered().items()}
 
 
 @functools.cache
@@ -384,3 +392,70 @@ def test_recorder_logs_attribute_and_key_reads() -> None:
     )
     assert text == f"{module.name} {module.call['kin_body']['c']} {module.work['field']['g']}"
     assert {("name",), ("call", "kin_body", "c"), ("work", "field", "g")} <= log
+
+
+# ------------------------------------------------------------------ (c) part by part
+def _languages(module: Module, part: Part) -> tuple[str, ...]:
+    return ("c",) if part.name in module.c_only else ("c", "numpy")
+
+
+@functools.cache
+def part_reads() -> dict[tuple[str, str], set[Path_]]:
+    """Per (case, part): every path its partials read, each rendered alone for the module."""
+    env = environment()
+    out: dict[tuple[str, str], set[Path_]] = {}
+    for name, module in lowered().items():
+        printed_ = modules()[name]
+        for part in selected(module):
+            log: set[Path_] = set()
+            for lang in _languages(module, part):
+                env.get_template(part.partial(lang)).render(m=Recorder(printed_, (), log))
+            out[name, part.name] = log
+    return out
+
+
+def _sites_read(log: set[Path_]) -> set[str]:
+    return {p[1] for p in log if p[0] == "call" and len(p) > 1}
+
+
+def _buffers_read(log: set[Path_]) -> set[tuple[str, str]]:
+    return {
+        (p[1], p[2]) for p in log if p[0] == "work" and len(p) == 3 and p[2] not in LAYOUT_FACTS
+    }
+
+
+def test_every_part_is_selected_by_some_case() -> None:
+    """The cases select every part of `s2gen.parts`, so that (c) checks each one."""
+    chosen = {part for _, part in part_reads()}
+    assert set(PARTS) == chosen, set(PARTS) - chosen
+
+
+def test_each_part_reads_only_what_it_declares() -> None:
+    """A part's partials read no call site and no workspace buffer its part did not declare."""
+    stray: dict[str, list[str]] = {}
+    for (name, part_name), log in part_reads().items():
+        part = PARTS[part_name]
+        sites = {s.name for s in part.sites_of(lowered()[name])}
+        for site in sorted(_sites_read(log) - sites):
+            stray.setdefault(part_name, []).append(f"{name}: call.{site}")
+        for layout, buffer in sorted(_buffers_read(log) - set(part.reads)):
+            stray.setdefault(part_name, []).append(f"{name}: work.{layout}.{buffer}")
+    assert not stray, f"parts read what they do not declare: {stray}"
+
+
+def test_each_part_reads_everything_it_declares() -> None:
+    """Every call site and buffer a part declares, where the module has it, is read by that
+    part's partials; every declared buffer is a buffer of some module's layout."""
+    unread: dict[str, list[str]] = {}
+    for (name, part_name), log in part_reads().items():
+        part, printed_ = PARTS[part_name], modules()[name]
+        sites = {s.name for s in part.sites_of(lowered()[name])} & set(printed_.call)
+        for site in sorted(sites - _sites_read(log)):
+            unread.setdefault(part_name, []).append(f"{name}: call.{site}")
+        present = {(lay, b) for lay, entry in printed_.work.items() for b in entry}
+        for layout, buffer in sorted((set(part.reads) & present) - _buffers_read(log)):
+            unread.setdefault(part_name, []).append(f"{name}: work.{layout}.{buffer}")
+    assert not unread, f"parts declare what their partials do not read: {unread}"
+    every = {(lay, b) for m in modules().values() for lay, entry in m.work.items() for b in entry}
+    unknown = {(p.name, r) for p in PARTS.values() for r in p.reads if r not in every}
+    assert not unknown, f"declared buffers no layout has: {sorted(unknown)}"

@@ -1,0 +1,245 @@
+"""The parts of the (S^2)^n module: their call sites (with their bindings) and buffers.
+
+Binding overrides name the variables of the partial that makes the call (`dw` for the
+right-hand side b, the blocks `e`, `hb`, `kb` of the structured solvers, ...); an argument
+without one is bound by its site's context (`s2gen.passes.calls`).
+
+Example:
+    >>> [s.name for s in PARTS_BY_NAME["energy_coupled"].sites]
+    ['kin_body', 'kin_pair', 'mom_body', 'mom_pair']
+"""
+
+from __future__ import annotations
+
+from s2gen.bindings import (
+    Binding,
+    BodyNumber,
+    Element,
+    Index,
+    InertiaDatum,
+    Local,
+    Product,
+    Shifted,
+    Slot,
+)
+from s2gen.ir import Module
+from s2gen.parts.records import CC, Context, Part, Site
+
+__all__ = ["PARTS_BY_NAME", "SPHERE_PARTS"]
+
+_B, _P, _S = Context.BODY, Context.PAIR, Context.SYSTEM
+#: Sites reading the masses from the context (their functions keep no local copy)
+_MASSES: dict[str, Binding] = {"m": Element("md", Index.BODY, context=True)}
+
+
+def _at_body(array: str, stride: int = 3, vector: str | None = None) -> Slot:
+    return Slot(array, stride, Index.BODY, vector)
+
+
+#: The blocks E, H, K of the structured solvers (NumPy names H and K as the kernel does)
+_BLOCKS: dict[str, Binding] = {
+    "e": _at_body("e", 9),
+    "hq": _at_body("hb", 9, "hq"),
+    "kq": _at_body("kb", 9, "kq"),
+}
+#: A max-index M's generator products a_i c_i
+_GENERATORS = Product((Element("sa", Index.BODY), Element("sc", Index.BODY)))
+
+_GRADIENT = Site("gradient", "gradient", _S, CC)
+_CAYLEY = Site("cayley", "cayley", _B)
+_A_BODY = Site(
+    "a_body",
+    "a_body",
+    _B,
+    {"q": _at_body("qn"), "a": Element("adiag", Index.BODY, address=True, context=True)},
+)
+
+
+def _inertia_sites(module: Module) -> tuple[Site, ...]:
+    """The inertia kernel: the diagonal into md, the coupled entries into mp, or the
+    max-index generators a and c into mp[0..n) and mp[n..2n); per body (at body i, data from
+    the inertia's tables) or for the whole system."""
+    n = module.n
+    whole: dict[str, Binding] = {
+        "mdiag": Local("md", vector="mdiag"),
+        "mpair": Local("mp", vector="mpair"),
+        "sa": Local("mp", vector="sa"),
+        "sc": Shifted("mp", n),
+    }
+    body: dict[str, Binding] = {
+        "p": Local("p"),
+        "i": BodyNumber(),
+        "md": Element("md", Index.BODY, address=True),
+        "sa": Element("mp", Index.BODY, address=True),
+        "sc": Element("mp", Index.BODY, offset=n, address=True),
+    }
+    for name, _ in module.inertia_data:
+        body[f"d_{name}"] = InertiaDatum(name)
+    return (
+        Site("inertia", "inertia", _S, whole),
+        Site("inertia_body", "inertia_body", _B, body),
+    )
+
+
+#: The parts of the sphere module (each laid out by `c/_<name>.jinja`, `numpy/_<name>.jinja`)
+SPHERE_PARTS = (
+    Part("tables"),
+    Part("neighbours"),
+    Part("kernels"),
+    Part("helpers"),
+    Part(
+        "inertia_operator", sites=(Site("a_pair", "a_pair", _P, {"a": Local("blk", vector="a")}),)
+    ),
+    Part("cholesky"),
+    Part("lu"),
+    Part("band"),
+    Part("coupled_banded"),
+    Part("coupled_chain"),
+    # the per-call context, with the masses partial it includes (`records.masses_partials`)
+    Part("context", sites=(Site("context", "context", _S, CC),), module_sites=_inertia_sites),
+    Part("quadratic"),
+    Part(
+        "potential",
+        sites=(
+            Site("context", "context", _S, CC),
+            Site("potential", "potential", _S, {"v": Local("total", address=True), **CC}),
+            _GRADIENT,
+        ),
+    ),
+    Part(
+        "energy",
+        sites=(
+            Site("kin_body", "kin_body", _B),
+            Site("mom_body", "mom_body", _B, {"j": Local("t")}),
+        ),
+    ),
+    Part(
+        "energy_coupled",
+        sites=(
+            Site("kin_body", "kin_body", _B),
+            Site("kin_pair", "kin_pair", _P),
+            Site("mom_body", "mom_body", _B, {"j": Local("t")}),
+            Site("mom_pair", "mom_pair", _P, {"j": Local("t")}),
+        ),
+    ),
+    Part(
+        "energy_chain",
+        sites=(
+            Site("kin_sweep", "kin_sweep", _B, {"ac": _GENERATORS, "pv": Local("pv")}),
+            Site(
+                "mom_sweep",
+                "mom_sweep",
+                _B,
+                {"ac": _GENERATORS, "pq": Local("pq"), "pv": Local("pv"), "j": Local("t")},
+            ),
+            Site("vel_sweep", "vel", _B, {"v": Local("v")}),
+        ),
+    ),
+    Part(
+        "field_diagonal",
+        sites=(Site("rhs_diag", "rhs_diag", _B, _MASSES),),
+        buffers=(("field", ("g",)),),
+    ),
+    Part(
+        "field_coupled",
+        sites=(
+            Site("rhs_body", "rhs_body", _B, {"b": _at_body("dw", vector="b")}),
+            Site("rhs_pair", "rhs_pair", _P),
+        ),
+        buffers=(("field", ("g", "a")),),
+    ),
+    Part(
+        "field_structured",
+        sites=(
+            Site("src_rhs", "src_rhs", _B),
+            Site("rhs_coupled", "rhs_coupled", _B, {"b": _at_body("dw", vector="b")}),
+            Site("a_blocks_field", "a_blocks", _B, {"a": Element("md", Index.BODY), **_BLOCKS}),
+        ),
+        buffers=(("field", ("g", "u", "z", "e", "hb", "kb", "solve")),),
+    ),
+    Part("field"),
+    Part(
+        "vi_explicit",
+        sites=(
+            _GRADIENT,
+            Site("vi_pos", "vi_pos", _B, _MASSES),
+            Site("vi_vel", "vi_vel", _B, _MASSES),
+        ),
+        buffers=(("vi_advance", ("x", "v", "gx", "xn", "vn", "gn", "s", "bridge")),),
+    ),
+    Part(
+        "vi_newton",
+        sites=(
+            Site("d_body", "d_body", _B),
+            Site("d_pair", "d_pair", _P),
+            Site("res_body", "res_body", _B, {"jac": Local("jac")}),
+            Site("res_pair", "res_pair", _P),
+            _CAYLEY,
+            Site("c_body", "c_body", _B, {"c": _at_body("wn", vector="c")}),
+            Site("c_pair", "c_pair", _P),
+            _A_BODY,
+        ),
+        buffers=(("vi_advance", ("d", "r", "jm")),),
+    ),
+    Part(
+        "vi_structured",
+        sites=(
+            _CAYLEY,
+            _A_BODY,
+            Site("vel", "vel", _B, {"v": _at_body("u", vector="v")}),
+            Site("d_coupled", "d_coupled", _B),
+            Site("disp", "disp", _B, {"kd": _at_body("kb", 9, "kd")}),
+            Site("res_coupled", "res_coupled", _B, {"e": _BLOCKS["e"], "hq": _BLOCKS["hq"]}),
+            Site("c_coupled", "c_coupled", _B, {"c": _at_body("wn", vector="c")}),
+            Site(
+                "a_blocks_vi",
+                "a_blocks",
+                _B,
+                {"a": Element("adiag", Index.BODY, context=True), "q": _at_body("qn"), **_BLOCKS},
+            ),
+        ),
+        buffers=(("vi_advance", ("d", "r", "u", "z", "e", "hb", "kb", "solve")),),
+    ),
+    Part("vi_step", buffers=(("vi_step", ("g", "gn", "f", "step")),)),
+    Part(
+        "rattle_closed",
+        sites=(
+            Site("rattle_pos", "rattle_pos", _B, _MASSES),
+            Site("rattle_vel", "rattle_vel", _B, _MASSES),
+        ),
+        buffers=(("rattle_advance", ("vh",)),),
+    ),
+    Part("rattle_newton", buffers=(("rattle_advance", ("wi", "jm", "y", "gw", "u", "r")),)),
+    Part(
+        "rattle_structured",
+        sites=(
+            Site("rattle_pos_blocks", "rattle_pos_blocks", _B, {"e": _at_body("e", 16)}),
+            Site("rattle_vel_blocks", "rattle_vel_blocks", _B, {"e": _at_body("e", 16)}),
+        ),
+        buffers=(("rattle_advance", ("gw", "y", "u", "t", "e", "rb", "solve")),),
+    ),
+    Part("rk", buffers=(("rk_fixed", ("k", "field")),)),
+    Part("rk_step", buffers=(("rk_step", ("y0", "yt", "rk")),)),
+    Part(
+        "driver",
+        buffers=(
+            ("rk45", ("k", "y", "yn", "ys", "field")),
+            ("dop853", ("k", "y", "yt", "yn", "ys", "field")),
+            ("explicit", ("x", "v", "gx", "xn", "vn", "gn", "s", "bridge")),
+            ("geometric", ("g", "gn", "a", "b", "va", "vb", "vc", "vd")),
+            ("geometric", ("qk", "wk", "q1", "w1", "f", "s", "step")),
+            ("fixed", ("qk", "wk", "q1", "w1", "step")),
+            ("integrate", ("run", "y0")),
+        ),
+    ),
+    Part(
+        "step",
+        buffers=(
+            ("step", ("g", "gn", "a", "b", "vb", "vc", "vd", "step")),
+            ("carry", ("q", "w", "g", "v", "f", "s")),
+        ),
+    ),
+)
+
+#: The sphere module's parts by name
+PARTS_BY_NAME = {p.name: p for p in SPHERE_PARTS}
