@@ -11,6 +11,7 @@ integrator (1e-10), and the pass must show its effect on the kernels it rewrites
 from __future__ import annotations
 
 import functools
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -282,3 +283,29 @@ def test_workspace_buffers_are_disjoint_and_fit_work_size(system: str) -> None:
     assert module.work_base == max(lay.size for lay in module.layouts) <= module.work_size
     header = render(print_module(module), "c")[f"{module.name}.h"]
     assert header_macro(header, "WORK_SIZE") == module.work_size
+
+
+@pytest.mark.parametrize("system", ["double_pendulum", "rope", "springs4"])
+def test_workspace_lays_out_what_the_selected_parts_read(system: str) -> None:
+    """The layouts are those the module's parts declare (and the per-call context); without
+    the driver part its run layouts are gone and `work_base` is the largest of the rest."""
+    from dataclasses import replace
+
+    from s2gen.parts import selected
+    from s2gen.passes import lower_system
+    from s2gen.passes.workspace import CONTEXT, workspace_pass
+    from s2gen.systems import builtin, resolve
+
+    spec = Path(__file__).parent / "specs" / "springs4.toml"
+    module = lower_system(resolve(str(spec)) if system == "springs4" else builtin(system))
+    declared = {lay for part in selected(module) for lay, _ in part.buffers}
+    names = {lay.name for lay in module.layouts}
+    assert names - {CONTEXT} <= declared and CONTEXT in names
+    assert declared - names <= {"explicit"}, "only the explicit VI's driver may be absent"
+    runs = {"rk45", "dop853", "geometric", "fixed", "integrate", "explicit"}
+    assert runs & names
+    without = workspace_pass(replace(module, parts=tuple(p for p in module.parts if p != "driver")))
+    kept = {lay.name for lay in without.layouts}
+    assert kept == names - runs
+    rest = [lay.size for lay in without.layouts if lay.name not in (CONTEXT, "carry")]
+    assert without.work_base == max(rest) <= module.work_base

@@ -1,8 +1,9 @@
 """Pass `workspace`: the caller's workspace laid out, function by function.
 
 Input: a `Module`. Output: the same module with one `Layout` per function that takes scratch
-memory (named buffers, sizes and offsets; a buffer that hands memory on to a callee has the
-callee's size), `work_base` (the most any entry point uses) and `work_size` (plus the per-call
+memory, for each layout a selected part declares it reads (`s2gen.parts`): named buffers,
+sizes and offsets (a buffer that hands memory on to a callee has the callee's size, so a
+layout's builder asks for the layouts it holds), `work_base` (the most any entry point uses) and `work_size` (plus the per-call
 context kept after `work_base`). Templates read every offset from these records; the header's
 WORK_SIZE is `work_size`. Modules with structured solvers (BANDED or MAX_INDEX inertia) also
 get their `Band` systems (`bands`): the bandwidths and storage of each coupled solve.
@@ -17,11 +18,13 @@ Example:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Band, Buffer, Layout, LoopKind, Module, ModuleKind
 from s2gen.methods import METHODS, explicit_tableaus
+from s2gen.parts import selected
 from s2gen.tableaus import DOP853
 
 __all__ = ["CONTEXT", "band", "bands", "layout", "padded", "workspace_pass"]
@@ -81,11 +84,11 @@ def bands(module: Module) -> tuple[Band, ...]:
     )
 
 
-def _structured(module: Module, systems: tuple[Band, ...]) -> tuple[Layout, Layout, Layout]:
+def _structured(module: Module) -> tuple[Layout, Layout, Layout]:
     """Layouts of the structured field, VI and RATTLE: sources u, sums z = M_off u, the
     blocks E, H, K of each body (9 or 16 doubles) and the band solve's storage."""
     n, m3 = module.n, 3 * module.n
-    size = {b.name: b.size for b in systems}
+    size = {b.name: b.size for b in bands(module)}
     blocks = [("e", 9 * n), ("hb", 9 * n), ("kb", 9 * n)]
     field = layout("field", ("g", m3), ("u", m3), ("z", m3), *blocks, ("solve", size["field"]))
     vi = layout(
@@ -110,40 +113,82 @@ def _structured(module: Module, systems: tuple[Band, ...]) -> tuple[Layout, Layo
     return field, vi, rattle
 
 
-def _rk_fixed(module: Module, ns: int, field: Layout) -> Layout:
-    """The stages of the longest fixed-step tableau of the module's kind, and the field's."""
-    stages = max(t.stages for t in explicit_tableaus(module.kind.value))
-    return layout("rk_fixed", ("k", stages * ns), ("field", field.size))
+class _Layouts:
+    """The layouts of one module built on demand by name, each once: a layout's size may
+    hold another's (a buffer that hands memory on to a callee), so a builder asks for the
+    layouts it needs. A builder returns None where the module has no such function."""
+
+    def __init__(self, module: Module, builders: dict[str, _Builder]) -> None:
+        self.module, self._builders = module, builders
+        self._built: dict[str, Layout | None] = {}
+
+    def get(self, name: str) -> Layout | None:
+        if name not in self._built:
+            self._built[name] = self._builders[name](self.module, self)
+        return self._built[name]
+
+    def __getitem__(self, name: str) -> Layout:
+        lay = self.get(name)
+        assert lay is not None, f"layout {name} is needed but the module has none"
+        return lay
+
+    def size(self, name: str) -> int:
+        lay = self.get(name)
+        return lay.size if lay is not None else 0
 
 
-def _sphere(module: Module) -> tuple[list[Layout], int]:
-    n, m3 = module.n, 3 * module.n
-    ns = 2 * m3
-    coupled = module.solver is not InertiaKind.DIAGONAL
-    structured = module.solver in _STRUCTURED
-    # a coupled M: the dense field solves A(q) omegadot = b in a
-    field = layout("field", ("g", m3), *((("a", m3 * padded(m3)),) if coupled else ()))
-    extra: list[Layout] = []
-    if structured:
-        field, vi, rattle = _structured(module, bands(module))
-    rk_fixed = _rk_fixed(module, ns, field)
-    rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("rk", rk_fixed.size))
-    rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
-    # DOP853: its stages, the field at the new state and the stages of its dense output
-    dop853 = layout(
-        "dop853",
-        ("k", (DOP853.stages + 1 + len(DOP853.dense_a)) * ns),
-        ("y", ns),
-        ("yt", ns),
-        ("yn", ns),
-        ("ys", ns),
-        ("field", field.size),
-    )
-    if structured:
-        pass  # laid out above
-    elif coupled:
-        vi = layout("vi_advance", ("d", m3), ("r", m3), ("jm", m3 * padded(m3)))
-        rattle = layout(
+_Builder = Callable[[Module, _Layouts], Layout | None]
+
+
+def _ns(module: Module) -> int:
+    """Doubles of the state: (q, omega) or (x, xd)."""
+    return 6 * module.n if module.kind is ModuleKind.SPHERE else 4 * module.n
+
+
+def _m3(module: Module) -> int:
+    return 3 * module.n
+
+
+def _coupled(module: Module) -> bool:
+    return module.solver is not InertiaKind.DIAGONAL
+
+
+def _soa(module: Module) -> list[tuple[str, int]]:
+    """The explicit step's component-major (SoA) copies, so that its loops over bodies
+    vectorise; "bridge" holds body-major q and g for terms without an SoA gradient."""
+    m3 = _m3(module)
+    bridge = ("bridge", 2 * m3 if module.body_major_terms else 0)
+    return [*((b, m3) for b in ("x", "v", "gx", "xn", "vn", "gn")), ("s", module.n), bridge]
+
+
+def _field(module: Module, _: _Layouts) -> Layout:
+    """The field's gradient; with a coupled M the dense A(q) of A omegadot = b."""
+    if module.solver in _STRUCTURED:
+        return _structured(module)[0]
+    m3 = _m3(module)
+    return layout("field", ("g", m3), *((("a", m3 * padded(m3)),) if _coupled(module) else ()))
+
+
+def _vi(module: Module, _: _Layouts) -> Layout:
+    m3 = _m3(module)
+    if module.solver in _STRUCTURED:
+        return _structured(module)[1]
+    if _coupled(module):
+        return layout("vi_advance", ("d", m3), ("r", m3), ("jm", m3 * padded(m3)))
+    return layout("vi_advance", *_soa(module))
+
+
+def _explicit(module: Module, _: _Layouts) -> Layout | None:
+    """The explicit VI's own driver (diagonal M only)."""
+    return None if _coupled(module) else layout("explicit", *_soa(module))
+
+
+def _rattle(module: Module, _: _Layouts) -> Layout:
+    n, m3 = module.n, _m3(module)
+    if module.solver in _STRUCTURED:
+        return _structured(module)[2]
+    if _coupled(module):
+        return layout(
             "rattle_advance",
             ("wi", n * n),
             ("jm", n * padded(n)),
@@ -152,57 +197,139 @@ def _sphere(module: Module) -> tuple[list[Layout], int]:
             ("u", m3),
             ("r", n),
         )
-    else:
-        # the explicit step runs on component-major (SoA) copies, so that its loops over bodies
-        # vectorise; "bridge" holds body-major q and g for terms without an SoA gradient
-        bridge = ("bridge", 2 * m3 if module.body_major_terms else 0)
-        soa = [(b, m3) for b in ("x", "v", "gx", "xn", "vn", "gn")]
-        vi = layout("vi_advance", *soa, ("s", n), bridge)
-        extra = [layout("explicit", *soa, ("s", n), bridge)]
-        rattle = layout("rattle_advance", ("vh", m3))
-    # uncoupled, the geometric driver runs RATTLE only (the VI has its own: "explicit")
-    step = max(vi.size, rattle.size) if coupled else rattle.size
-    state = [(b, m3) for b in ("qk", "wk", "q1", "w1")]  # the current and the next state
-    # Newton's starting points: each substep's Cayley parameters (VI) or multipliers (RATTLE)
-    # from the previous step, for the longest composition
+    return layout("rattle_advance", ("vh", m3))
+
+
+def _rk_fixed(module: Module, lays: _Layouts) -> Layout:
+    """The stages of the longest fixed-step tableau of the module's kind, and the field's."""
+    stages = max(t.stages for t in explicit_tableaus(module.kind.value))
+    return layout("rk_fixed", ("k", stages * _ns(module)), ("field", lays.size("field")))
+
+
+def _rk_step(module: Module, lays: _Layouts) -> Layout:
+    """One fixed step; the angle form keeps the state where a step failed."""
+    ns = _ns(module)
+    fail = (("fail", ns),) if module.kind is ModuleKind.ANGLES else ()
+    return layout("rk_step", ("y0", ns), ("yt", ns), *fail, ("rk", lays.size("rk_fixed")))
+
+
+def _rk45(module: Module, lays: _Layouts) -> Layout:
+    ns = _ns(module)
+    field = lays.size("field")
+    return layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field))
+
+
+def _dop853(module: Module, lays: _Layouts) -> Layout:
+    """DOP853: its stages, the field at the new state and the stages of its dense output."""
+    ns = _ns(module)
+    return layout(
+        "dop853",
+        ("k", (DOP853.stages + 1 + len(DOP853.dense_a)) * ns),
+        ("y", ns),
+        ("yt", ns),
+        ("yn", ns),
+        ("ys", ns),
+        ("field", lays.size("field")),
+    )
+
+
+def _state(module: Module) -> list[tuple[str, int]]:
+    """The current and the next state."""
+    return [(b, _m3(module)) for b in ("qk", "wk", "q1", "w1")]
+
+
+def _starts(module: Module) -> list[tuple[str, int]]:
+    """Newton's starting points: each substep's Cayley parameters (VI) or multipliers
+    (RATTLE) from the previous step, for the longest composition."""
+    coupled = _coupled(module)
     subs = max(len(m.composition.fractions) for m in METHODS if m.composition is not None)
-    starts = [*((("f", subs * m3),) if coupled else ()), ("s", subs * n if coupled else 0)]
-    # substeps alternate between (a, vc) and (b, vd); va, vb carry RATTLE's velocities
-    geometric = layout(
+    f = (("f", subs * _m3(module)),) if coupled else ()
+    return [*f, ("s", subs * module.n if coupled else 0)]
+
+
+def _geometric(module: Module, lays: _Layouts) -> Layout:
+    """Substeps alternate between (a, vc) and (b, vd); va, vb carry RATTLE's velocities;
+    uncoupled, the geometric driver runs RATTLE only (the VI has its own: "explicit")."""
+    step = lays.size("rattle_advance")
+    if _coupled(module):
+        step = max(lays.size("vi_advance"), step)
+    return layout(
         "geometric",
-        *((b, m3) for b in ("g", "gn", "a", "b", "va", "vb", "vc", "vd")),
-        *state,
-        *starts,
+        *((b, _m3(module)) for b in ("g", "gn", "a", "b", "va", "vb", "vc", "vd")),
+        *_state(module),
+        *_starts(module),
         ("step", step),
     )
-    fixed = layout("fixed", *state, ("step", rk_step.size))
-    vi_step = layout("vi_step", ("g", m3), ("gn", m3), ("f", m3), ("step", vi.size))
-    run = max(geometric.size, rk45.size, dop853.size, fixed.size, *(lay.size for lay in extra))
-    integrate = layout("integrate", ("run", run), ("y0", ns))
-    # step(): one step of a fixed-step method, its substeps alternating as in "geometric"
-    basic = max(vi.size, rattle.size)
-    subs_step = [(b, m3) for b in ("g", "gn", "a", "b", "vb", "vc", "vd")]
-    one_step = layout("step", *subs_step, ("step", max(basic, rk_step.size)))
-    layouts = [field, rk_fixed, rk_step, rk45, dop853, vi, rattle, geometric, fixed, vi_step]
-    layouts += [integrate, one_step]
-    layouts += extra
-    base = max(lay.size for lay in layouts)
-    # the caller's carry of step(), kept between steps (not workspace): the last state returned
-    # and its gradient, RATTLE's velocities and each substep's last Newton solution
-    carry = layout("carry", *((b, m3) for b in ("q", "w", "g", "v")), *starts)
-    return [*layouts, carry], base
 
 
-def _angles(module: Module) -> tuple[list[Layout], int]:
+def _fixed(module: Module, lays: _Layouts) -> Layout:
+    return layout("fixed", *_state(module), ("step", lays.size("rk_step")))
+
+
+def _vi_step(module: Module, lays: _Layouts) -> Layout:
+    m3 = _m3(module)
+    return layout("vi_step", ("g", m3), ("gn", m3), ("f", m3), ("step", lays.size("vi_advance")))
+
+
+def _integrate(module: Module, lays: _Layouts) -> Layout:
+    """A whole run: the driver's workspace and the initial state."""
+    ns = _ns(module)
+    if module.kind is ModuleKind.ANGLES:
+        run = max(lays.size("rk45"), lays.size("rk_step"))
+        return layout("integrate", ("run", run), ("y0", ns), ("fail", ns))
+    drivers = ("geometric", "rk45", "dop853", "fixed", "explicit")
+    return layout("integrate", ("run", max(lays.size(d) for d in drivers)), ("y0", ns))
+
+
+def _one_step(module: Module, lays: _Layouts) -> Layout:
+    """step(): one step of a fixed-step method, its substeps alternating as in "geometric"."""
+    basic = max(lays.size("vi_advance"), lays.size("rattle_advance"))
+    subs = [(b, _m3(module)) for b in ("g", "gn", "a", "b", "vb", "vc", "vd")]
+    return layout("step", *subs, ("step", max(basic, lays.size("rk_step"))))
+
+
+def _carry(module: Module, _: _Layouts) -> Layout:
+    """The caller's carry of step(), kept between steps (not workspace): the last state
+    returned and its gradient, RATTLE's velocities and each substep's last Newton solution."""
+    return layout("carry", *((b, _m3(module)) for b in ("q", "w", "g", "v")), *_starts(module))
+
+
+#: The builder of each layout a part of the sphere module may declare
+_SPHERE: dict[str, _Builder] = {
+    "field": _field,
+    "vi_advance": _vi,
+    "explicit": _explicit,
+    "rattle_advance": _rattle,
+    "rk_fixed": _rk_fixed,
+    "rk_step": _rk_step,
+    "rk45": _rk45,
+    "dop853": _dop853,
+    "geometric": _geometric,
+    "fixed": _fixed,
+    "vi_step": _vi_step,
+    "integrate": _integrate,
+    "step": _one_step,
+    "carry": _carry,
+}
+
+
+def _angle_field(module: Module, _: _Layouts) -> Layout:
+    """The angle form's mass matrix and its LU factors."""
     nx = 2 * module.n
-    ns = 2 * nx
-    field = layout("field", ("m", nx * nx), ("lu", nx * padded(nx)))
-    rk_fixed = _rk_fixed(module, ns, field)
-    rk_step = layout("rk_step", ("y0", ns), ("yt", ns), ("fail", ns), ("rk", rk_fixed.size))
-    rk45 = layout("rk45", ("k", 7 * ns), ("y", ns), ("yn", ns), ("ys", ns), ("field", field.size))
-    integrate = layout("integrate", ("run", max(rk45.size, rk_step.size)), ("y0", ns), ("fail", ns))
-    layouts = [field, rk_fixed, rk_step, rk45, integrate]
-    return layouts, max(lay.size for lay in layouts)
+    return layout("field", ("m", nx * nx), ("lu", nx * padded(nx)))
+
+
+#: The builder of each layout a part of the angle-form module may declare
+_ANGLES: dict[str, _Builder] = {
+    "field": _angle_field,
+    "rk_fixed": _rk_fixed,
+    "rk_step": _rk_step,
+    "rk45": _rk45,
+    "integrate": _integrate,
+}
+
+#: Layouts that are not workspace (kept by the caller between calls)
+_NOT_WORKSPACE = ("carry",)
 
 
 #: Name of the layout of the per-call context kept at the tail of the workspace.
@@ -233,8 +360,12 @@ def _context(module: Module) -> Layout:
 
 
 def workspace_pass(module: Module) -> Module:
-    """Lay out the workspace of every function of the module."""
-    layouts, base = _sphere(module) if module.kind is ModuleKind.SPHERE else _angles(module)
+    """Lay out the workspace of every function the module's parts declare (`s2gen.parts`):
+    each layout a selected part reads, then the per-call context."""
+    lays = _Layouts(module, _SPHERE if module.kind is ModuleKind.SPHERE else _ANGLES)
+    names = dict.fromkeys(lay for part in selected(module) for lay, _ in part.buffers)
+    layouts = [lay for lay in map(lays.get, names) if lay is not None]
+    base = max((lay.size for lay in layouts if lay.name not in _NOT_WORKSPACE), default=0)
     context = _context(module)
     return replace(
         module,
