@@ -269,7 +269,8 @@ class Module:
 
     `kernels` are `KernelDef`s before the lowering passes and `Kernel`s after; `parts` names the
     parts in the order they are laid out, each by the partial template of its name or by the
-    variant `variants` names for it (e.g. the energy of a coupled M); `facts`
+    variant `variants` names for it (e.g. the energy of a coupled M), whose record in
+    `s2gen.parts` declares its call sites and workspace buffers; `facts`
     are the few other values the templates show (flags and sizes, decided in Python).
     """
 

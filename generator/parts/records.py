@@ -48,9 +48,10 @@ class Site:
 
 @dataclass(frozen=True)
 class Part:
-    """One algorithmic part: its partial per language, its call sites and the workspace
-    buffers it reads, as (layout, buffer names) pairs (`m.work.<layout>.<buffer>`).
-    `module_sites` declares the sites that depend on the module (e.g. the inertia's data).
+    """One algorithmic part: its partial per language, its call sites (and so the kernels it
+    calls) and the workspace buffers it reads, as (layout, buffer names) pairs
+    (`m.work.<layout>.<buffer>`). `module_sites` declares the sites that depend on the module
+    (e.g. the inertia's data).
 
     Example:
         >>> p = Part("rk", buffers=(("rk_fixed", ("k", "field")),))
@@ -66,6 +67,17 @@ class Part:
     def partial(self, lang: str) -> str:
         """The partial template that lays the part out in `lang` ("c" or "numpy")."""
         return f"{lang}/_{self.name}.jinja"
+
+    @property
+    def kernels(self) -> tuple[str, ...]:
+        """The kernels the part calls (at its fixed sites), each once.
+
+        Example:
+            >>> sites = (Site("a", "k", Context.BODY), Site("b", "k", Context.PAIR))
+            >>> Part("p", sites=sites).kernels
+            ('k',)
+        """
+        return tuple(dict.fromkeys(s.kernel for s in self.sites))
 
     @property
     def reads(self) -> tuple[tuple[str, str], ...]:

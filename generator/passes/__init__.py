@@ -15,10 +15,12 @@ Input: the unlowered `Module` of a system (`s2gen.equations.assemble`). Output: 
   (`passes/strength.py`);
 - `powers`: small integer powers as products (`passes/powers.py`);
 - `opcount`: operation counts of each kernel (`passes/opcount.py`);
-- `calls`: every kernel call site resolved from the kernel's signature (`passes/calls.py`);
+- `calls`: the call sites the selected parts (`s2gen.parts`) and the term loops declare, each
+  argument bound (`s2gen.bindings`) from the kernel's signature (`passes/calls.py`);
 - `layout`: loops over all pairs as vectorisable rows on structure-of-arrays copies
   (`passes/layout.py`);
-- `workspace`: the caller's workspace laid out per function (`passes/workspace.py`).
+- `workspace`: the caller's workspace laid out per function, for the layouts the selected
+  parts read (`passes/workspace.py`).
 
 Each run records the passes and the total operations after each; the emitted files list them.
 

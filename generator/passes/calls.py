@@ -1,12 +1,12 @@
 """Pass `calls`: every kernel call site, its arguments bound from the kernel's signature.
 
 Input: a `Module` with lowered kernels. Output: the same module with one `Call` per call site
-its parts declare (`s2gen.parts`: each part's sites, then each term loop's). A site names its kernel and its context (a whole-system call, one body
-of a loop over bodies, one coupled pair of a loop over pairs, or one member of a term's loop);
-each argument is bound (`s2gen.bindings`) by the context's rule for its name, unless the site
-overrides it, so the argument order always follows the kernel as derived and no template
-spells it out. The bindings say what an argument is; the printers say how each language
-writes it.
+its parts declare (`s2gen.parts`: each selected part's sites, then each term loop's). A site
+names its kernel and its context (a whole-system call, one body of a loop over bodies, one
+coupled pair of a loop over pairs, or one member of a term's loop); each argument is bound
+(`s2gen.bindings`) by the context's rule for its name, unless the site overrides it, so the
+argument order always follows the kernel as derived and no template spells it out. The bindings
+say what an argument is; the printers say how each language writes it.
 
 Binding rules:
 - body (loop variable: body i): `h` by value, `m` the body's mass, `mi` its inverse mass
@@ -23,7 +23,8 @@ Binding rules:
 Example:
     >>> from s2gen.systems import builtin
     >>> from s2gen.passes import lower_system
-    >>> call = next(c for c in lower_system(builtin("double_pendulum")).calls if c.site == "kin_body")
+    >>> calls = lower_system(builtin("double_pendulum")).calls
+    >>> call = next(c for c in calls if c.site == "kin_body")
     >>> call.inputs[0], call.outputs
     (Element(array='md', index=<Index.BODY: 'body'>, offset=0, address=False, context=False), \
 (Local(name='t', address=True, vector=None),))

@@ -1,12 +1,13 @@
 """Pass `workspace`: the caller's workspace laid out, function by function.
 
 Input: a `Module`. Output: the same module with one `Layout` per function that takes scratch
-memory, for each layout a selected part declares it reads (`s2gen.parts`): named buffers,
-sizes and offsets (a buffer that hands memory on to a callee has the callee's size, so a
-layout's builder asks for the layouts it holds), `work_base` (the most any entry point uses) and `work_size` (plus the per-call
-context kept after `work_base`). Templates read every offset from these records; the header's
-WORK_SIZE is `work_size`. Modules with structured solvers (BANDED or MAX_INDEX inertia) also
-get their `Band` systems (`bands`): the bandwidths and storage of each coupled solve.
+memory, for each layout a selected part declares it reads (`s2gen.parts`): named buffers, sizes
+and offsets (a buffer that hands memory on to a callee has the callee's size, so a layout's
+builder asks for the layouts it holds), `work_base` (the most any entry point uses) and
+`work_size` (plus the per-call context kept after `work_base`). Templates read every offset
+from these records; the header's WORK_SIZE is `work_size`. Modules with structured solvers
+(BANDED or MAX_INDEX inertia) also get their `Band` systems (`bands`): the bandwidths and
+storage of each coupled solve.
 
 Example:
     >>> from s2gen.systems import builtin
