@@ -124,15 +124,14 @@ def banded_chain(n: int = 9) -> System:
 
 
 def per_body_diagonal() -> System:
-    """A diagonal M given as one expression per body: evaluated body by body; no parameters."""
+    """A diagonal M given as one expression per body: evaluated body by body; no parameters
+    and no initial state (initial_state() reports that it has none)."""
     return define_system(
         name="beads",
         bodies=3,
         parameters={},
         diagonal="1 + i/n",
         body_terms=[{"V": "q[2]"}],
-        initial_q=[[1, 0, 0]] * 3,
-        initial_omega=[[0, 1, 0]] * 3,
     )
 
 
@@ -152,7 +151,7 @@ SYSTEMS = {
     "chain4": chain4_structured,  # max-index M from its matrix, general V
     "rope": lambda: builtin("rope"),  # max-index M per body, with per-body data
     "rope_dense": lambda: builtin("rope", n=8, solver="dense"),  # per-body M, dense solves
-    "beads": per_body_diagonal,  # per-body diagonal M, no parameters
+    "beads": per_body_diagonal,  # per-body diagonal M, no parameters, no initial state
     "springs4": lambda: resolve(str(SPECS / "springs4.toml")),  # diagonal M, general V only
     "springs4_terms": lambda: resolve(str(SPECS / "springs4_terms.toml")),  # listed terms
     "three_bodies": lambda: builtin("three_bodies"),  # pair terms laid out as rows

@@ -73,9 +73,6 @@ class PrintedModule:
     npairs: int
     npairs_or_one: int
     ncoupled: int  # doubles of mp: coupled entries (one per pair) or max-index generators (2n)
-    #: the VI's step is the explicit update (the assembler chose the "vi_explicit" partial):
-    #: it has its own driver on component-major copies, and no Newton step exists
-    explicit_vi: bool
     soa_bridge: bool  # the component-major gradient needs the body-major one for some terms
     parameters: tuple[tuple[str, str], ...]  # (name, value as a round-trip literal)
     pair_i: tuple[int, ...]
@@ -169,7 +166,6 @@ def print_module(module: Module) -> PrintedModule:
         npairs=npairs,
         npairs_or_one=max(npairs, 1),
         ncoupled=2 * n if module.solver is InertiaKind.MAX_INDEX else max(npairs, 1),
-        explicit_vi="vi_explicit" in module.parts,
         soa_bridge=module.body_major_terms,
         parameters=tuple(
             (p, repr(float(v))) for p, v in zip(module.parameter_names, module.parameter_values)

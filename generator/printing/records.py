@@ -268,6 +268,13 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "table_locals": ("context",),
         "params_unused": ("context", "angles_context"),
         "step_strides": ("step",),
+        "geometric_doc": ("driver",),
+        "geometric_locals": ("driver",),
+        "geometric_vi": ("driver",),
+        "explicit_driver": ("driver",),
+        "explicit_dispatch": ("driver",),
+        "initial_table": ("context",),
+        "initial_state": ("context",),
     },
     {
         "masses_fill": ("masses", "masses_coupled", "masses_generators"),
@@ -275,6 +282,7 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "potential": ("potential",),
         "gradient": ("potential",),
         "imports": ("module",),
+        "initial_state": ("context",),
     },
 )
 
@@ -308,6 +316,8 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     general, quadratic = bool(facts.get("general", False)), module.quadratic > 0
     uniform, bridge = bool(facts.get("uniform_mass", False)), module.body_major_terms
     coupled = bool(facts.get("coupled", False))  # the VI and RATTLE steps iterate (Newton)
+    explicit = "vi_explicit" in module.parts  # the VI has its own driver (component-major)
+    initial = bool(module.initial_state)  # the spec's initial state is carried
 
     def pick(lang: str, *choices: tuple[bool, str]) -> tuple[str, ...]:
         return tuple(f"{lang}/sections/_{stem}.jinja" for chosen, stem in choices if chosen)
@@ -339,6 +349,17 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "step_strides": pick(
             "c", (coupled, "step_strides_newton"), (not coupled, "step_strides_explicit")
         ),
+        "geometric_doc": pick(
+            "c", (not explicit, "geometric_doc_newton"), (explicit, "geometric_doc_explicit")
+        ),
+        "geometric_locals": pick("c", (not explicit, "geometric_newton_locals")),
+        "geometric_vi": pick("c", (not explicit, "geometric_vi_branch")),
+        "explicit_driver": pick("c", (explicit, "integrate_explicit")),
+        "explicit_dispatch": pick("c", (explicit, "explicit_dispatch")),
+        "initial_table": pick("c", (initial, "initial_table")),
+        "initial_state": pick(
+            "c", (initial, "initial_state_copy"), (not initial, "initial_state_none")
+        ),
     }
     py = {
         "masses_fill": pick("numpy", (uniform, "uniform_fill")),
@@ -361,6 +382,9 @@ def sections(module: Module) -> tuple[Sections, Sections]:
             "numpy",
             (bool(facts.get("neighbour_lists", False)), "import_kdtree"),
             (bool(module.bands), "import_banded"),
+        ),
+        "initial_state": pick(
+            "numpy", (initial, "initial_state_copy"), (not initial, "initial_state_none")
         ),
     }
     variant = dict(module.variants)
