@@ -230,16 +230,17 @@ def compositions() -> tuple[dict[str, Any], ...]:
 
 def schemes() -> tuple[dict[str, Any], ...]:
     """Per geometric method: its enum constant, whether its basic step is RATTLE's (else the
-    VI's), and its composition's table and length.
+    VI's; as C's 0 or 1 and NumPy's False or True), and its composition's table and length.
 
     Example:
         >>> schemes()[0]
-        {'c_name': 'METHOD_VI', 'rattle': 0, 'count': 1, 'table': 'plain'}
+        {'c_name': 'METHOD_VI', 'rattle': 0, 'py_rattle': 'False', 'count': 1, 'table': 'plain'}
     """
     return tuple(
         {
             "c_name": m.c_name,
             "rattle": int(m.family is Family.RATTLE),
+            "py_rattle": repr(m.family is Family.RATTLE),
             "count": len(m.composition.fractions),
             "table": m.composition.name,
         }

@@ -126,25 +126,34 @@ class PrintedFixed:
     """One row of the emitted dispatch table of the fixed-step methods: the method's enum
     constant (suffix), its tableau's name and position among the module's tableaus
     (s2gen.methods.explicit_tableaus), evaluations per step, and whether each q_i is
-    normalized after the step (1) or not (0)."""
+    normalized after the step (1 or True) or not (0 or False), as C and NumPy write it."""
 
     c_name: str
     tableau: str
     index: int
     evals: int
     project: int
+    py_project: str
 
 
 def print_fixed(kind: str) -> tuple[PrintedFixed, ...]:
     """The dispatch rows of the fixed-step methods of the module kind `kind`.
 
     Example:
-        >>> print_fixed("angles")
-        (PrintedFixed(c_name='METHOD_RK4', tableau='rk4', index=0, evals=4, project=0),)
+        >>> row = print_fixed("angles")[0]
+        >>> row.c_name, row.tableau, row.evals, row.project, row.py_project
+        ('METHOD_RK4', 'rk4', 4, 0, 'False')
     """
     index = {t.name: i for i, t in enumerate(explicit_tableaus(kind))}
     return tuple(
-        PrintedFixed(m.c_name, m.tableau.name, index[m.tableau.name], m.evals, int(m.project))
+        PrintedFixed(
+            m.c_name,
+            m.tableau.name,
+            index[m.tableau.name],
+            m.evals,
+            int(m.project),
+            repr(m.project),
+        )
         for m in fixed_methods(kind)
         if m.tableau is not None
     )
