@@ -319,3 +319,24 @@ def test_inputs_of_the_wrong_shape_are_refused() -> None:
         integrate_driven(damped_driven(), "vi", q0, w0, 0.01, 5, inputs=np.ones((4, 2)))
     with pytest.raises(ValueError, match="unknown method 'rk45'"):
         integrate_driven(damped_driven(), "rk45", q0, w0, 0.01, 5, inputs=np.ones((5, 2)))
+
+
+@pytest.mark.parametrize("method", ["vi4", "rattle", "rk4"])
+def test_a_later_start_time_is_a_shift_of_the_drive(method: str) -> None:
+    """Starting at t0 equals starting at 0 with every time-dependent term shifted by t0."""
+    p, t0 = damped_driven(), 0.37
+    shifted = DrivenProblem(
+        p.base,
+        lambda q, t, u: p.potential(q, t + t0, u),
+        lambda q, t, u: p.grad(q, t + t0, u),
+        lambda q, t, u: p.potential_t(q, t + t0, u),
+        lambda q, w, t, u: p.force(q, w, t + t0, u),
+        n_inputs=2,
+    )
+    q0, w0 = start()
+    U = held_inputs(0.05, 20)
+    a = integrate_driven(p, method, q0, w0, 0.05, 20, inputs=U, t0=t0)
+    b = integrate_driven(shifted, method, q0, w0, 0.05, 20, inputs=U)
+    assert np.allclose(a.t, b.t + t0, rtol=0, atol=1e-15)
+    assert np.max(np.abs(a.q - b.q)) < 1e-12 and np.max(np.abs(a.work - b.work)) < 1e-12
+    assert np.max(np.abs(a.energy - b.energy)) < 1e-12
