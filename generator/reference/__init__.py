@@ -11,6 +11,11 @@ Modules: `problem` (a `System` in numbers), `geometry` (hat maps, A(q), energy, 
 `field` (the continuous vector field), `vi` (the variational integrator step), `recorder` (the
 output grid and the fixed-step loop), `rk` (fixed-step Runge-Kutta), `dopri` (Dormand-Prince
 RK45), `errors`; this module holds the driver `integrate` and re-exports the public names.
+Driven systems (forces F_i(q, w, t, u), a potential V(q, t, u), inputs u held over each step)
+have modules of their own, not re-exported here: `forced` (`DrivenProblem`, the forced field
+`driven_rhs`), `forced_steps` (the forced VI and RATTLE steps and a step's work) and
+`forced_integrate` (`integrate_driven`: the VI and RATTLE families with their compositions and
+the fixed-step Runge-Kutta methods, recording the work W so that E - E0 - W is the balance).
 
 Input: a `ReferenceProblem` (inertia matrix M, potential V(q) and its gradient dV/dq), usually
 built from a `System` by `problem_from_system` (structured terms are evaluated vectorized over
