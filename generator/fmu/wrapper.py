@@ -42,6 +42,14 @@ _TEMPLATES = {2: "fmu/fmi2.c.jinja", 3: "fmu/fmi3.c.jinja"}
 _ADVANCE = {False: "fmu/_advance_fixed.jinja", True: "fmu/_advance_adaptive.jinja"}
 
 
+#: FMI 3 variable types this FMU has none of (Float64 aside; Binary and Clock have their own
+#: signatures).
+_OTHER_TYPES = (
+    "Float32", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64",
+    "Boolean", "String",
+)  # fmt: skip
+
+
 @dataclass(frozen=True)
 class StatusText:
     """One status code: its C constant and its message as a C string literal."""
@@ -68,6 +76,7 @@ class WrapperSource:
     log_category: str
     layout: Layout
     statuses: tuple[StatusText, ...]
+    other_types: tuple[str, ...]
 
 
 def c_string(text: str) -> str:
@@ -110,6 +119,7 @@ def source_record(model: FmuModel) -> WrapperSource:
             for s in Status
             if s is not Status.POLE  # the angle chart's status: not in the sphere module
         ),
+        other_types=_OTHER_TYPES,
     )
 
 
