@@ -22,9 +22,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from s2gen.emit import emit
-from s2gen.fmu.archive import entries, write_zip
-from s2gen.fmu.model import FMI_VERSIONS, KINDS, describe
-from s2gen.fmu.wrapper import wrapper_files
+from s2gen.fmi.archive import entries, write_zip
+from s2gen.fmi.model import FMI_VERSIONS, KINDS, describe
+from s2gen.fmi.wrapper import wrapper_files
 from s2gen.system import System
 
 __all__ = ["FMI_VERSIONS", "KINDS", "export", "fmu_files"]

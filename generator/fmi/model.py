@@ -2,7 +2,7 @@
 
 Input: a `System` and the export choices (FMI version, interface kinds, method, step size).
 Output: an `FmuModel`, a frozen record that both the model description writer
-(`s2gen.fmu.description`) and the wrapper source (`s2gen.fmu.wrapper`) read, so the value
+(`s2gen.fmi.description`) and the wrapper source (`s2gen.fmi.wrapper`) read, so the value
 references of the XML and of the C code come from one place.
 
 Value references: 0 is time, then the parameters in the spec's order, the Co-Simulation
@@ -123,7 +123,7 @@ def _state_variables(system: System, first: int) -> list[Variable]:
         raise ValueError(
             f"{system.origin}: an FMU needs the spec's [initial] state (its start values)"
         )
-    out = []
+    out: list[Variable] = []
     for group, values, what in (
         ("q", system.q0, "unit vector"),
         ("w", system.omega0, "angular velocity"),

@@ -21,8 +21,8 @@ import zipfile
 from pathlib import Path
 
 from s2gen.build import DEFAULT_FLAGS, compile_shared
-from s2gen.fmu.description import build_description, model_description
-from s2gen.fmu.model import FmuModel
+from s2gen.fmi.description import build_description, model_description
+from s2gen.fmi.model import FmuModel
 from s2gen.version import __version__
 
 __all__ = ["ZIP_TIME", "binary_folder", "entries", "fmi_headers", "write_zip"]
@@ -54,9 +54,7 @@ def binary_folder(fmi: int) -> str:
     return "linux64" if fmi == 2 else "x86_64-linux"
 
 
-def entries(
-    model: FmuModel, emitted: dict[str, str], wrapper: dict[str, str]
-) -> dict[str, bytes]:
+def entries(model: FmuModel, emitted: dict[str, str], wrapper: dict[str, str]) -> dict[str, bytes]:
     """{path in the archive: content}, in the order they are written: the description, the
     sources (FMI 3: with their build description), the binary."""
     sources = {**emitted, **wrapper}

@@ -9,7 +9,7 @@ value a template lays out is printed here as C text (numbers by the C printer's
 
 Example:
     >>> import s2gen
-    >>> from s2gen.fmu.model import describe
+    >>> from s2gen.fmi.model import describe
     >>> model = describe(s2gen.load("double_pendulum"), fmi=2, kind="cs", method="vi")
     >>> files = wrapper_files(model)
     >>> sorted(files), "fmi2DoStep" in files["double_pendulum_fmi2.c"]
@@ -23,8 +23,8 @@ from fractions import Fraction
 
 import sympy as sp
 
-from s2gen.fmu.description import LOG_CATEGORY
-from s2gen.fmu.model import FmuModel, Layout
+from s2gen.fmi.description import LOG_CATEGORY
+from s2gen.fmi.model import FmuModel, Layout
 from s2gen.methods import Status
 from s2gen.methods import method as method_record
 from s2gen.printing.c import double_literal

@@ -6,7 +6,7 @@ Input: an `FmuModel` and the names of the source files. Output: XML text, byte-r
 
 Example:
     >>> import s2gen
-    >>> from s2gen.fmu.model import describe
+    >>> from s2gen.fmi.model import describe
     >>> model = describe(s2gen.load("double_pendulum"), fmi=2, kind="cs", method="vi")
     >>> text = model_description(model, ("double_pendulum.c",), "s2gen")
     >>> '<ScalarVariable name="q1_x" valueReference="7"' in text
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
-from s2gen.fmu.model import FmuModel, Variable
+from s2gen.fmi.model import FmuModel, Variable
 
 __all__ = ["LOG_CATEGORY", "build_description", "model_description"]
 
@@ -168,7 +168,7 @@ def build_description(model: FmuModel, sources: tuple[str, ...]) -> str:
 
     Example:
         >>> import s2gen
-        >>> from s2gen.fmu.model import describe
+        >>> from s2gen.fmi.model import describe
         >>> m = describe(s2gen.load("double_pendulum"), fmi=3, kind="me", method="vi")
         >>> 'language="C99"' in build_description(m, ("a.c",))
         True
