@@ -194,6 +194,24 @@ def test_invalid_start_values_are_refused(fmus: dict[int, Path], fmi: int, start
     assert any(words in m for m in messages), messages
 
 
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_an_interface_the_fmu_lacks_is_not_instantiated(tmp_path: Path, pendulum, fmi: int):
+    """A Co-Simulation-only FMU refuses an importer that instantiates it for Model Exchange;
+    its Co-Simulation instantiates."""
+    path = export(pendulum, tmp_path / "cs.fmu", fmi=fmi, kind="cs")
+    unzipped = fmpy.extract(str(path), str(tmp_path / "unzipped"))
+    md = fmpy.read_model_description(str(path))
+    token = md.guid if fmi == 2 else md.instantiationToken
+    module = fmpy.fmi2 if fmi == 2 else fmpy.fmi3
+    kwargs = {"guid": token, "unzipDirectory": unzipped, "modelIdentifier": "double_pendulum"}
+    me = getattr(module, f"FMU{fmi}Model")(**kwargs)
+    with pytest.raises(Exception, match="Failed to instantiate"):
+        me.instantiate()
+    cs = getattr(module, f"FMU{fmi}Slave")(**kwargs)
+    cs.instantiate()
+    cs.freeInstance()
+
+
 # ------------------------------------------------------------------ archive and sources
 def test_archive_is_byte_reproducible(tmp_path: Path, pendulum: s2gen.System) -> None:
     """Two exports give the same bytes (the binary too, from the build cache); every entry

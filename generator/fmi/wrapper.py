@@ -77,6 +77,8 @@ class WrapperSource:
     layout: Layout
     statuses: tuple[StatusText, ...]
     other_types: tuple[str, ...]
+    co_simulation: int
+    model_exchange: int
 
 
 def c_string(text: str) -> str:
@@ -120,6 +122,8 @@ def source_record(model: FmuModel) -> WrapperSource:
             if s is not Status.POLE  # the angle chart's status: not in the sphere module
         ),
         other_types=_OTHER_TYPES,
+        co_simulation=int(model.co_simulation),
+        model_exchange=int(model.model_exchange),
     )
 
 
