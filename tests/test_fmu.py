@@ -194,21 +194,57 @@ def test_invalid_start_values_are_refused(fmus: dict[int, Path], fmi: int, start
     assert any(words in m for m in messages), messages
 
 
+def _fmi2_callbacks(messages: list[str]) -> Any:
+    """FMI 2 callbacks whose logger appends to `messages` (FMPy formats the variadic message
+    through its logger proxy, which keeps the last logger it was given: each instantiation
+    here passes its own, alive while it runs)."""
+    from ctypes import byref
+
+    from fmpy import calloc, free
+    from fmpy.fmi2 import (
+        fmi2CallbackAllocateMemoryTYPE,
+        fmi2CallbackFreeMemoryTYPE,
+        fmi2CallbackFunctions,
+        fmi2CallbackLoggerTYPE,
+    )
+    from fmpy.logging import addLoggerProxy
+
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(lambda *args: messages.append(args[-1].decode()))
+    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    addLoggerProxy(byref(callbacks))
+    return callbacks
+
+
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_an_interface_the_fmu_lacks_is_not_instantiated(tmp_path: Path, pendulum, fmi: int):
-    """A Co-Simulation-only FMU refuses an importer that instantiates it for Model Exchange;
-    its Co-Simulation instantiates."""
+    """A Co-Simulation-only FMU refuses an importer that instantiates it for Model Exchange,
+    with a message; its Co-Simulation instantiates."""
     path = export(pendulum, tmp_path / "cs.fmu", fmi=fmi, kind="cs")
     unzipped = fmpy.extract(str(path), str(tmp_path / "unzipped"))
     md = fmpy.read_model_description(str(path))
     token = md.guid if fmi == 2 else md.instantiationToken
-    module = fmpy.fmi2 if fmi == 2 else fmpy.fmi3
     kwargs = {"guid": token, "unzipDirectory": unzipped, "modelIdentifier": "double_pendulum"}
-    me = getattr(module, f"FMU{fmi}Model")(**kwargs)
-    with pytest.raises(Exception, match="Failed to instantiate"):
-        me.instantiate()
-    cs = getattr(module, f"FMU{fmi}Slave")(**kwargs)
-    cs.instantiate()
+    messages: list[str] = []
+    if fmi == 2:
+        callbacks = _fmi2_callbacks(messages)
+        me = fmpy.fmi2.FMU2Model(**kwargs)
+        with pytest.raises(Exception, match="Failed to instantiate"):
+            me.instantiate(callbacks=callbacks)
+        cs = fmpy.fmi2.FMU2Slave(**kwargs)
+        cs.instantiate(callbacks=callbacks)
+    else:
+
+        def log(*args: Any) -> None:
+            messages.append(args[-1].decode())
+
+        me = fmpy.fmi3.FMU3Model(**kwargs)
+        with pytest.raises(Exception, match="Failed to instantiate"):
+            me.instantiate(logMessage=log)
+        cs = fmpy.fmi3.FMU3Slave(**kwargs)
+        cs.instantiate(logMessage=log)
+    assert messages == ["this FMU has no Model Exchange interface"]
     cs.freeInstance()
 
 
