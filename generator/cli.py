@@ -13,7 +13,7 @@ are written through a temporary file moved into place, never through a symbolic 
 Only the standard library and the method table are imported up front; each subcommand imports
 what it needs (SymPy, NumPy, an experiment) when it runs, so `s2gen --help` stays fast.
 
-Commands: generate, simulate, list, regen, reproduce, compare-angles, bench, ensemble. `s2gen COMMAND
+Commands: generate, simulate, list, regen, reproduce, compare-angles, bench, ensemble, fmu. `s2gen COMMAND
 --help` documents each.
 
 Example:
@@ -55,6 +55,7 @@ def _parser() -> argparse.ArgumentParser:
     from s2gen.experiments.bench.command import add_parser as add_bench
     from s2gen.experiments.compare_angles.command import add_parser as add_compare
     from s2gen.experiments.reproduce.command import add_parser as add_reproduce
+    from s2gen.fmi.command import add_parser as add_fmu
 
     p = _Parser(
         prog="s2gen",
@@ -136,6 +137,7 @@ def _parser() -> argparse.ArgumentParser:
     add_compare(sub)
     add_bench(sub)
     add_ensemble(sub)
+    add_fmu(sub)
     return p
 
 
@@ -350,6 +352,12 @@ def _ensemble(args: argparse.Namespace) -> int:
     return run(args, chaos_band=run_band)
 
 
+def _fmu(args: argparse.Namespace) -> int:
+    from s2gen.fmi.command import run
+
+    return run(args)
+
+
 _COMMANDS = {
     "generate": _generate,
     "simulate": _simulate,
@@ -359,6 +367,7 @@ _COMMANDS = {
     "compare-angles": _compare_angles,
     "bench": _bench,
     "ensemble": _ensemble,
+    "fmu": _fmu,
 }
 
 
