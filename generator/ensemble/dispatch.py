@@ -43,13 +43,20 @@ from s2gen.runtime.options import Options
 from .cluster import CONNECT_TIMEOUT, connect, needs_cluster, worker_count
 from .members import MemberTable, initial_state, member_table
 from .requirements import require
-from .store import EnsembleStore
+from .store import EnsembleStore, check_store_size
 from .worker import MemberResult, Payload, Task, failed_task, make_payload, run_member
 
 if TYPE_CHECKING:
     from s2gen.system import System
 
-__all__ = ["ATTEMPTS", "WINDOW_CHECK_SECONDS", "WINDOW_PER_WORKER", "EnsembleResult", "ensemble"]
+__all__ = [
+    "ATTEMPTS",
+    "WINDOW_CHECK_SECONDS",
+    "WINDOW_PER_WORKER",
+    "EnsembleResult",
+    "check_sizes",
+    "ensemble",
+]
 
 #: Tasks in flight per worker (enough to keep each busy while results travel).
 WINDOW_PER_WORKER = 4
@@ -124,6 +131,30 @@ def _attrs(
     }
 
 
+def check_sizes(
+    system: System, table: MemberTable, method: str, every: int, options: Options | None
+) -> int:
+    """Check every member's run (as `simulate` does) and the store's size against its limit
+    before anything is built or written; the samples stored per member.
+
+    Example:
+        >>> import s2gen
+        >>> s = s2gen.load("double_pendulum")
+        >>> check_sizes(s, member_table(s, sweep={"h": [0.01, 0.02]}, T=1.0), "vi", 5, None)
+        21
+    """
+    from s2gen.methods import check_method
+    from s2gen.runtime import check_run
+
+    check_method(method, "c")
+    steps = sorted({m.h for m in table.members})
+    for step in steps:
+        check_run(system, method, step, table.T, options, every)
+    samples = round(table.T / steps[0]) // every + 1  # the smallest step keeps the most
+    check_store_size(len(table), samples, system.n)
+    return samples
+
+
 def ensemble(
     system: System | str | Path,
     members: int | None = None,
@@ -161,21 +192,16 @@ def ensemble(
     """
     from s2gen import generate
     from s2gen.build import compiler
-    from s2gen.methods import check_method
-    from s2gen.runtime import check_run
 
     start = time.perf_counter()
     require("zarr", *needs_cluster(client, workers))
     system = _resolve(system)
     method = method or system.run.method or "vi"
-    check_method(method, "c")
     table = member_table(system, members, perturb, sweep, seed, h, T)
-    for step in sorted({m.h for m in table.members}):  # as `simulate` checks its run
-        check_run(system, method, step, table.T, options, every)
+    samples = check_sizes(system, table, method, every, options)
     if client is None:  # local workers compile with this machine's C compiler: one is needed
         compiler()  # BuildError (one line) before anything is written
     payload = make_payload(system, generate(system, "c"), method, table.T, every, options)
-    samples = max(table.steps(m) // every + 1 for m in table.members)
     folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="s2gen-ensemble-"))
     attrs = _attrs(system, table, payload, samples, command)
     address = client if isinstance(client, str) else None

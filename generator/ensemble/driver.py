@@ -141,12 +141,14 @@ def run(args: argparse.Namespace, chaos_band: BandRun | None = None) -> int:
     require("zarr", *needs_cluster(args.scheduler, args.workers))
     from s2gen.systems import resolve
 
-    from .dispatch import ensemble
+    from .dispatch import check_sizes, ensemble
     from .store import EnsembleStore
     from .summary import summarize
 
     system = resolve(args.spec, args.param)
     table = member_table(system, args.members, perturb, sweep, args.seed, args.h, args.T)
+    method = args.method or system.run.method or "vi"
+    check_sizes(system, table, method, args.every, _options(args))  # before anything is built
     where = args.scheduler or (
         "this process (serial)"
         if args.workers == 0
