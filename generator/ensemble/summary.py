@@ -118,11 +118,11 @@ def _statistics(per: dict[str, np.ndarray], attrs: dict[str, Any]) -> list[str]:
     ]
     lines = [f"{int(written.sum())} of {len(status)} members written: {outcome or 'none'}.", ""]
     if written.any() and not (status[written] == 0).any():
-        lines += [
+        note = (
             "**No member reached T**: every written member failed (see Failed members); the "
-            "figures show what the failed members kept.",
-            "",
-        ]
+            "figures show what the failed members kept."
+        )
+        lines += [note, ""]
     lines += [
         "| per member | min | median | max |",
         "|---|---:|---:|---:|",
