@@ -6,6 +6,11 @@ and sweeps, see `members`), the run (method, h, T, options, stride `every`) and 
 processes; ``workers=0``: serially in this process). Output: the store
 ``out/ensemble.zarr`` (see `store`) and an `EnsembleResult` (counts, order written, timings).
 
+Before anything is built or written, every size is checked against its stated limit
+(`check_sizes`: members, sweep values and perturbations in `members`, each member's run as
+`simulate` checks it, the store's bytes in `store`); after connecting, every worker must run
+the client's s2gen version, generator and build flags (`admission.check_workers`).
+
 How it runs on Dask: the system, its emitted C sources and the run's settings go to every
 worker once (`client.scatter(..., broadcast=True)`); each task carries one member's index,
 step, initial state and parameters. At most `WINDOW_PER_WORKER` tasks per worker are in flight;
@@ -15,7 +20,8 @@ whatever their number. A task lost with its worker (killed, disconnected) is res
 `ATTEMPTS` times, re-sending the payload if every copy was lost); a task that raises is
 recorded with status -2 and its message; a failed integration is an ordinary result with its
 partial samples and status. Results are deterministic per member (the same library, the same
-inputs), so where a member ran does not change its numbers.
+inputs), so where a member ran does not change its numbers. With a `Security` (TLS) the
+connections made here are encrypted and admit only certificates signed by its CA.
 
 Example:
     >>> import tempfile
@@ -40,6 +46,7 @@ from typing import TYPE_CHECKING, Any
 
 from s2gen.runtime.options import Options
 
+from .admission import check_workers
 from .cluster import CONNECT_TIMEOUT, connect, needs_cluster, worker_count
 from .members import MemberTable, initial_state, member_table
 from .requirements import require
@@ -174,6 +181,8 @@ def ensemble(
     timeout: float = CONNECT_TIMEOUT,
     overwrite: bool = False,
     command: str | None = None,
+    security: Any = None,
+    dashboard: str | None = None,
 ) -> EnsembleResult:
     """Integrate every member with the emitted C and write them to ``out/ensemble.zarr``.
 
@@ -183,7 +192,11 @@ def ensemble(
     `client`: a `distributed.Client` or a scheduler address; without one a local cluster of
     `workers` processes is started (default one per core), and ``workers=0`` runs the members
     one after another in this process. `every` stores every `every`-th sample. `out` defaults
-    to a new temporary folder. Bad input raises `EnsembleError` (a ValueError).
+    to a new temporary folder. `security`: a `distributed.security.Security` (TLS, see
+    `admission.tls_security`) for the connections made here; `dashboard`: the local cluster's
+    dashboard address (default none). When the run starts, every worker must run the client's
+    s2gen version, generator and build flags (`admission.check_workers`). Bad input raises
+    `EnsembleError` (a ValueError).
 
     Example:
         >>> r = ensemble("double_pendulum", sweep={"g": [1.0, 9.81]}, T=0.1, workers=0)
@@ -206,7 +219,9 @@ def ensemble(
     attrs = _attrs(system, table, payload, samples, command)
     address = client if isinstance(client, str) else None
     given = None if isinstance(client, str) else client
-    with connect(given, address, workers, timeout) as c:  # connect first: nothing written if not
+    with connect(given, address, workers, timeout, security, dashboard) as c:
+        if c is not None:  # connect and admit the workers first: nothing written if not
+            check_workers(c)
         store = EnsembleStore.create(folder, table, system.n, samples, attrs, overwrite)
         if c is None:
             results = _serial(payload, _tasks(system, table))

@@ -67,6 +67,21 @@ def sweeps(items: list[str]) -> dict[str, tuple[float, ...]]:
     return out
 
 
+def _security(args: argparse.Namespace) -> Any:
+    """The Dask `Security` of --tls-ca-file, --tls-cert and --tls-key (None without them)."""
+    given = [args.tls_ca_file, args.tls_cert, args.tls_key]
+    if not any(given):
+        return None
+    if not (args.tls_ca_file and args.tls_cert):
+        raise EnsembleError(
+            "TLS needs both --tls-ca-file and --tls-cert (and --tls-key unless "
+            "the certificate file holds the key)"
+        )
+    from .admission import tls_security
+
+    return tls_security(args.tls_ca_file, args.tls_cert, args.tls_key)
+
+
 def _options(args: argparse.Namespace) -> Options:
     return Options(rtol=args.rtol, atol=args.atol, control=args.control)
 
@@ -118,6 +133,11 @@ def run(args: argparse.Namespace, chaos_band: BandRun | None = None) -> int:
     sweep = sweeps(args.sweep)
     if args.bench and args.chaos_band:
         raise EnsembleError("--bench and --chaos-band are separate runs; give one")
+    security = _security(args)
+    if (args.bench or args.chaos_band) and (security is not None or args.dashboard):
+        raise EnsembleError(
+            "--tls-* and --dashboard apply to ensemble runs, not to --bench or --chaos-band"
+        )
     if args.bench:
         if sweep or args.param:
             raise EnsembleError(
@@ -154,7 +174,10 @@ def run(args: argparse.Namespace, chaos_band: BandRun | None = None) -> int:
         if args.workers == 0
         else f"{args.workers or 'one per core'} local worker process(es)"
     )
-    print(f"{system.name}: {len(table)} members on {where}; store {args.out}/", flush=True)
+    tls = " over TLS" if security is not None else ""
+    print(f"{system.name}: {len(table)} members on {where}{tls}; store {args.out}/", flush=True)
+    if args.dashboard and args.scheduler is None and args.workers != 0:
+        print(f"dashboard: http://{args.dashboard}/status", flush=True)
     bar = ProgressBar(len(table), system.name)
     try:
         result = ensemble(
@@ -175,6 +198,8 @@ def run(args: argparse.Namespace, chaos_band: BandRun | None = None) -> int:
             timeout=args.timeout,
             overwrite=args.overwrite,
             command=command_line(args),
+            security=security,
+            dashboard=args.dashboard,
         )
     except KeyboardInterrupt:
         bar.close()
