@@ -46,20 +46,21 @@ class Identity:
     flags: tuple[str, ...]
 
     def differences(self, other: Identity) -> str:
-        """What `other` runs that differs from this one ("" when nothing does).
+        """What `other` (a worker) runs that differs from this one (the client's); "" when
+        nothing does.
 
         Example:
             >>> a = Identity("0.2.0", "ab" * 32, ("-O2",))
             >>> a.differences(Identity("0.1.0", "cd" * 32, ("-O3",)))
-            's2gen 0.1.0 (here 0.2.0), generator cdcdcdcdcdcd (here abababababab), flags -O3 (here -O2)'
+            's2gen 0.1.0 (client 0.2.0), generator cdcdcdcdcdcd (client abababababab), flags -O3 (client -O2)'
         """
         out = []
         if other.version != self.version:
-            out.append(f"s2gen {other.version} (here {self.version})")
+            out.append(f"s2gen {other.version} (client {self.version})")
         if other.fingerprint != self.fingerprint:
-            out.append(f"generator {other.fingerprint[:12]} (here {self.fingerprint[:12]})")
+            out.append(f"generator {other.fingerprint[:12]} (client {self.fingerprint[:12]})")
         if other.flags != self.flags:
-            out.append(f"flags {' '.join(other.flags)} (here {' '.join(self.flags)})")
+            out.append(f"flags {' '.join(other.flags)} (client {' '.join(self.flags)})")
         return ", ".join(out)
 
 
