@@ -112,6 +112,19 @@ def test_the_python_api_raises_one_line_errors_before_building() -> None:
         s2gen.load("molecular:subdivisions=12")
 
 
+@pytest.mark.timeout(20)
+@pytest.mark.parametrize("spec", ["rope:n=100000000", "elastic_rod:n=100000000"])
+def test_built_ins_sized_by_n_check_it_before_building(
+    spec: str, capsys: Any, tmp_path: Path, monkeypatch: Any
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", spec]) == 2
+    line = _one_error_line(capsys)
+    assert f"n=100000000 bodies is more than the limit of {MAX_BODIES}" in line
+    assert line.count(spec.split(":")[0]) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
 # ---------------------------------------------------------------------- the limits themselves
 def test_limits_are_where_they_say() -> None:
     """Each limit admits its own value and refuses the next one."""

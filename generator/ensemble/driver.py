@@ -134,6 +134,11 @@ def run(args: argparse.Namespace, chaos_band: BandRun | None = None) -> int:
     if args.bench and args.chaos_band:
         raise EnsembleError("--bench and --chaos-band are separate runs; give one")
     security = _security(args)
+    if args.dashboard and (args.scheduler or args.workers == 0):
+        raise EnsembleError(
+            "--dashboard serves the local cluster's dashboard; a --scheduler serves its own, "
+            "--workers 0 has none"
+        )
     if (args.bench or args.chaos_band) and (security is not None or args.dashboard):
         raise EnsembleError(
             "--tls-* and --dashboard apply to ensemble runs, not to --bench or --chaos-band"
