@@ -119,8 +119,8 @@ def add_parser(subparsers: Any) -> None:
         nargs="?",
         const=DASHBOARD,
         metavar="ADDRESS",
-        help=f"serve the local cluster's Dask dashboard (default address {DASHBOARD}); off "
-        "unless given",
+        help="serve the local cluster's Dask dashboard (its pages need bokeh; default address "
+        f"{DASHBOARD}); off unless given",
     )
     e.add_argument("--out", default=DEFAULT_OUT, metavar="DIR", help=f"default {DEFAULT_OUT}")
     e.add_argument("--overwrite", action="store_true", help="replace DIR/ensemble.zarr")

@@ -178,15 +178,6 @@ def thin(x: np.ndarray, every: int) -> np.ndarray:
     return np.ascontiguousarray(x[::every])
 
 
-def _identity() -> Identity:
-    """This worker process's identity, found once per thread (the fingerprint reads every
-    core source)."""
-    mine: Identity | None = getattr(_local, "identity", None)
-    if mine is None:
-        mine = _local.identity = identity()
-    return mine
-
-
 def _worker_name() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
@@ -196,7 +187,7 @@ def run_member(payload: Payload, task: Task) -> MemberResult:
     from s2gen.runtime.diagnostics import EnergyDriftWarning
     from s2gen.runtime.trajectory import IntegrationError
 
-    different = payload.identity.differences(_identity())
+    different = payload.identity.differences(identity())  # the fingerprint is cached
     if different:  # a worker that joined after the start, running other code or flags
         raise RuntimeError(f"worker {_worker_name()} runs {different}: refused")
     model, setup = _model(payload)
