@@ -13,6 +13,7 @@ import pytest
 import s2gen
 from s2gen.cli import main
 from s2gen.ensemble import EnsembleError, EnsembleStore, ensemble, initial_state, member_table
+from s2gen.ensemble.figures import energy_plot
 from s2gen.ensemble.members import MAX_MEMBERS, MAX_PERTURBATION, sweep_values
 from s2gen.ensemble.store import MAX_STORE_BYTES
 from s2gen.methods import Status
@@ -184,6 +185,10 @@ def test_a_run_whose_members_all_fail_writes_its_store_summary_and_figures(
     summary = (out / "summary.md").read_text()
     assert "**No member reached T**" in summary
     assert f"{len(table)} of {len(table)} members written" in summary
+    fig = energy_plot(per, store.attrs)  # the figure itself says so
+    assert f"all {len(table)} members failed: none reached T (see summary.md)" in [
+        t.get_text() for t in fig.axes[0].texts
+    ]
     figures = {"energy.png", "sweep.png" if "--sweep" in extra else "divergence.png"}
     for name in figures:
         assert (out / name).stat().st_size > 0
