@@ -148,6 +148,7 @@ def test_lyapunov_fit_recovers_a_known_exponent() -> None:
         (["--sweep", "h=0.3", "--T", "1"], "not a whole number of steps"),
         (["--chaos-band", "--T", "3"], "drop --T"),
         (["--bench", "--sweep", "kappa=1,2"], "no --sweep"),
+        (["--dashboard"], "--workers 0 has none"),
     ],
 )
 def test_bad_input_is_one_line_exit_2(

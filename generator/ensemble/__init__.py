@@ -9,7 +9,8 @@ tables and figures; `benchmark` times the machinery. Ensembles need dask, distri
 `MissingDependency`, one line naming the package and the ``pip install`` command.
 
 The package, one responsibility per module: `members` (the member table: perturbations and
-sweep values, seeded), `worker` (the task run on a worker), `cluster` (which cluster),
+sweep values, seeded, and the limits on their number and size), `worker` (the task run on a
+worker), `cluster` (which cluster), `admission` (TLS, and workers that run the client's s2gen),
 `requirements` (the packages checked before work starts), `dispatch` (`ensemble`:
 submitting, collecting, writing), `store` (the on-disk Zarr store), `divergence` (divergence
 curves and the Lyapunov fit), `figures` (PNGs), `summary` (tables and the report), `bench`
@@ -33,12 +34,17 @@ from typing import Any
 
 _WHERE = {
     "CONNECT_TIMEOUT": "cluster",
+    "DASHBOARD": "command",
     "DEFAULT_OUT": "command",
+    "MAX_MEMBERS": "members",
+    "MAX_PERTURBATION": "members",
+    "MAX_STORE_BYTES": "store",
     "PACKAGES": "requirements",
     "Divergence": "divergence",
     "EnsembleError": "members",
     "EnsembleResult": "dispatch",
     "EnsembleStore": "store",
+    "Identity": "admission",
     "LyapunovFit": "divergence",
     "Member": "members",
     "MemberResult": "worker",
@@ -49,15 +55,19 @@ _WHERE = {
     "Summary": "summary",
     "add_parser": "command",
     "benchmark": "bench",
+    "check_sizes": "dispatch",
+    "check_workers": "admission",
     "connect": "cluster",
     "ensemble": "dispatch",
     "fit_lyapunov": "divergence",
+    "identity": "admission",
     "initial_state": "members",
     "member_table": "members",
     "require": "requirements",
     "run": "driver",
     "run_member": "worker",
     "summarize": "summary",
+    "tls_security": "admission",
 }
 
 __all__ = list(_WHERE)

@@ -19,10 +19,12 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-__all__ = ["DEFAULT_OUT", "add_parser", "command_line"]
+__all__ = ["DASHBOARD", "DEFAULT_OUT", "add_parser", "command_line"]
 
 #: Output folder when --out is not given.
 DEFAULT_OUT = "out/ensemble"
+#: The local cluster's dashboard address when --dashboard is given without one.
+DASHBOARD = "127.0.0.1:8787"
 
 _EPILOG = """\
 examples:
@@ -30,6 +32,8 @@ examples:
   s2gen ensemble double_pendulum --sweep g=1:20:8 --sweep h=0.01,0.02 --T 10
   dask scheduler --port 8786 &  dask worker tcp://HOST:8786 &
   s2gen ensemble elastic_rod --members 64 --perturb q=1e-13 --scheduler tcp://HOST:8786
+  s2gen ensemble elastic_rod --members 64 --perturb q=1e-13 --scheduler tls://HOST:8786 \
+      --tls-ca-file ca.pem --tls-cert me.pem --tls-key me.key
   s2gen ensemble elastic_rod --members 64 --perturb omega=1e-13 --T 3 --method vi --bench
   s2gen ensemble elastic_rod --chaos-band
 """
@@ -99,6 +103,25 @@ def add_parser(subparsers: Any) -> None:
     e.add_argument(
         "--timeout", type=float, default=10.0, help="seconds to reach the scheduler (10)"
     )
+    e.add_argument(
+        "--tls-ca-file",
+        metavar="PEM",
+        help="TLS: the CA certificate that signs every participant's certificate; with "
+        "--tls-cert every connection is encrypted and only holders of a certificate signed "
+        "by this CA can join (the scheduler address is then tls://...)",
+    )
+    e.add_argument("--tls-cert", metavar="PEM", help="TLS: this participant's certificate (PEM)")
+    e.add_argument(
+        "--tls-key", metavar="PEM", help="TLS: the key of --tls-cert (omit if the file holds both)"
+    )
+    e.add_argument(
+        "--dashboard",
+        nargs="?",
+        const=DASHBOARD,
+        metavar="ADDRESS",
+        help="serve the local cluster's Dask dashboard (its pages need bokeh; default address "
+        f"{DASHBOARD}); off unless given",
+    )
     e.add_argument("--out", default=DEFAULT_OUT, metavar="DIR", help=f"default {DEFAULT_OUT}")
     e.add_argument("--overwrite", action="store_true", help="replace DIR/ensemble.zarr")
     e.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
@@ -127,9 +150,11 @@ def command_line(args: argparse.Namespace) -> str:
         parts += ["--sweep", s]
     for p in args.param:
         parts += ["--param", p]
-    for key in ("method", "h", "T", "scheduler", "workers"):
+    for key in ("method", "h", "T", "scheduler", "workers", "tls_ca_file", "tls_cert", "tls_key"):
         if getattr(args, key) is not None:
-            parts += [f"--{key}", str(getattr(args, key))]
+            parts += [f"--{key.replace('_', '-')}", str(getattr(args, key))]
+    if args.dashboard is not None:
+        parts += ["--dashboard", args.dashboard]
     defaults = {"rtol": 1e-3, "atol": 1e-6, "control": "matlab", "every": 1, "seed": 0}
     for key, default in defaults.items():
         if getattr(args, key) != default:

@@ -6,6 +6,11 @@ and sweeps, see `members`), the run (method, h, T, options, stride `every`) and 
 processes; ``workers=0``: serially in this process). Output: the store
 ``out/ensemble.zarr`` (see `store`) and an `EnsembleResult` (counts, order written, timings).
 
+Before anything is built or written, every size is checked against its stated limit
+(`check_sizes`: members, sweep values and perturbations in `members`, each member's run as
+`simulate` checks it, the store's bytes in `store`); after connecting, every worker must run
+the client's s2gen version, generator and build flags (`admission.check_workers`).
+
 How it runs on Dask: the system, its emitted C sources and the run's settings go to every
 worker once (`client.scatter(..., broadcast=True)`); each task carries one member's index,
 step, initial state and parameters. At most `WINDOW_PER_WORKER` tasks per worker are in flight;
@@ -15,7 +20,8 @@ whatever their number. A task lost with its worker (killed, disconnected) is res
 `ATTEMPTS` times, re-sending the payload if every copy was lost); a task that raises is
 recorded with status -2 and its message; a failed integration is an ordinary result with its
 partial samples and status. Results are deterministic per member (the same library, the same
-inputs), so where a member ran does not change its numbers.
+inputs), so where a member ran does not change its numbers. With a `Security` (TLS) the
+connections made here are encrypted and admit only certificates signed by its CA.
 
 Example:
     >>> import tempfile
@@ -40,16 +46,24 @@ from typing import TYPE_CHECKING, Any
 
 from s2gen.runtime.options import Options
 
+from .admission import check_workers
 from .cluster import CONNECT_TIMEOUT, connect, needs_cluster, worker_count
 from .members import MemberTable, initial_state, member_table
 from .requirements import require
-from .store import EnsembleStore
+from .store import EnsembleStore, check_store_size
 from .worker import MemberResult, Payload, Task, failed_task, make_payload, run_member
 
 if TYPE_CHECKING:
     from s2gen.system import System
 
-__all__ = ["ATTEMPTS", "WINDOW_CHECK_SECONDS", "WINDOW_PER_WORKER", "EnsembleResult", "ensemble"]
+__all__ = [
+    "ATTEMPTS",
+    "WINDOW_CHECK_SECONDS",
+    "WINDOW_PER_WORKER",
+    "EnsembleResult",
+    "check_sizes",
+    "ensemble",
+]
 
 #: Tasks in flight per worker (enough to keep each busy while results travel).
 WINDOW_PER_WORKER = 4
@@ -124,6 +138,30 @@ def _attrs(
     }
 
 
+def check_sizes(
+    system: System, table: MemberTable, method: str, every: int, options: Options | None
+) -> int:
+    """Check every member's run (as `simulate` does) and the store's size against its limit
+    before anything is built or written; the samples stored per member.
+
+    Example:
+        >>> import s2gen
+        >>> s = s2gen.load("double_pendulum")
+        >>> check_sizes(s, member_table(s, sweep={"h": [0.01, 0.02]}, T=1.0), "vi", 5, None)
+        21
+    """
+    from s2gen.methods import check_method
+    from s2gen.runtime import check_run
+
+    check_method(method, "c")
+    steps = sorted({m.h for m in table.members})
+    for step in steps:
+        check_run(system, method, step, table.T, options, every)
+    samples = round(table.T / steps[0]) // every + 1  # the smallest step keeps the most
+    check_store_size(len(table), samples, system.n)
+    return samples
+
+
 def ensemble(
     system: System | str | Path,
     members: int | None = None,
@@ -143,6 +181,8 @@ def ensemble(
     timeout: float = CONNECT_TIMEOUT,
     overwrite: bool = False,
     command: str | None = None,
+    security: Any = None,
+    dashboard: str | None = None,
 ) -> EnsembleResult:
     """Integrate every member with the emitted C and write them to ``out/ensemble.zarr``.
 
@@ -152,7 +192,11 @@ def ensemble(
     `client`: a `distributed.Client` or a scheduler address; without one a local cluster of
     `workers` processes is started (default one per core), and ``workers=0`` runs the members
     one after another in this process. `every` stores every `every`-th sample. `out` defaults
-    to a new temporary folder. Bad input raises `EnsembleError` (a ValueError).
+    to a new temporary folder. `security`: a `distributed.security.Security` (TLS, see
+    `admission.tls_security`) for the connections made here; `dashboard`: the local cluster's
+    dashboard address (default none). When the run starts, every worker must run the client's
+    s2gen version, generator and build flags (`admission.check_workers`). Bad input raises
+    `EnsembleError` (a ValueError).
 
     Example:
         >>> r = ensemble("double_pendulum", sweep={"g": [1.0, 9.81]}, T=0.1, workers=0)
@@ -161,26 +205,23 @@ def ensemble(
     """
     from s2gen import generate
     from s2gen.build import compiler
-    from s2gen.methods import check_method
-    from s2gen.runtime import check_run
 
     start = time.perf_counter()
     require("zarr", *needs_cluster(client, workers))
     system = _resolve(system)
     method = method or system.run.method or "vi"
-    check_method(method, "c")
     table = member_table(system, members, perturb, sweep, seed, h, T)
-    for step in sorted({m.h for m in table.members}):  # as `simulate` checks its run
-        check_run(system, method, step, table.T, options, every)
+    samples = check_sizes(system, table, method, every, options)
     if client is None:  # local workers compile with this machine's C compiler: one is needed
         compiler()  # BuildError (one line) before anything is written
     payload = make_payload(system, generate(system, "c"), method, table.T, every, options)
-    samples = max(table.steps(m) // every + 1 for m in table.members)
     folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="s2gen-ensemble-"))
     attrs = _attrs(system, table, payload, samples, command)
     address = client if isinstance(client, str) else None
     given = None if isinstance(client, str) else client
-    with connect(given, address, workers, timeout) as c:  # connect first: nothing written if not
+    with connect(given, address, workers, timeout, security, dashboard) as c:
+        if c is not None:  # connect and admit the workers first: nothing written if not
+            check_workers(c)
         store = EnsembleStore.create(folder, table, system.n, samples, attrs, overwrite)
         if c is None:
             results = _serial(payload, _tasks(system, table))

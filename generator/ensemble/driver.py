@@ -67,6 +67,21 @@ def sweeps(items: list[str]) -> dict[str, tuple[float, ...]]:
     return out
 
 
+def _security(args: argparse.Namespace) -> Any:
+    """The Dask `Security` of --tls-ca-file, --tls-cert and --tls-key (None without them)."""
+    given = [args.tls_ca_file, args.tls_cert, args.tls_key]
+    if not any(given):
+        return None
+    if not (args.tls_ca_file and args.tls_cert):
+        raise EnsembleError(
+            "TLS needs both --tls-ca-file and --tls-cert (and --tls-key unless "
+            "the certificate file holds the key)"
+        )
+    from .admission import tls_security
+
+    return tls_security(args.tls_ca_file, args.tls_cert, args.tls_key)
+
+
 def _options(args: argparse.Namespace) -> Options:
     return Options(rtol=args.rtol, atol=args.atol, control=args.control)
 
@@ -118,6 +133,16 @@ def run(args: argparse.Namespace, chaos_band: BandRun | None = None) -> int:
     sweep = sweeps(args.sweep)
     if args.bench and args.chaos_band:
         raise EnsembleError("--bench and --chaos-band are separate runs; give one")
+    security = _security(args)
+    if args.dashboard and (args.scheduler or args.workers == 0):
+        raise EnsembleError(
+            "--dashboard serves the local cluster's dashboard; a --scheduler serves its own, "
+            "--workers 0 has none"
+        )
+    if (args.bench or args.chaos_band) and (security is not None or args.dashboard):
+        raise EnsembleError(
+            "--tls-* and --dashboard apply to ensemble runs, not to --bench or --chaos-band"
+        )
     if args.bench:
         if sweep or args.param:
             raise EnsembleError(
@@ -141,18 +166,23 @@ def run(args: argparse.Namespace, chaos_band: BandRun | None = None) -> int:
     require("zarr", *needs_cluster(args.scheduler, args.workers))
     from s2gen.systems import resolve
 
-    from .dispatch import ensemble
+    from .dispatch import check_sizes, ensemble
     from .store import EnsembleStore
     from .summary import summarize
 
     system = resolve(args.spec, args.param)
     table = member_table(system, args.members, perturb, sweep, args.seed, args.h, args.T)
+    method = args.method or system.run.method or "vi"
+    check_sizes(system, table, method, args.every, _options(args))  # before anything is built
     where = args.scheduler or (
         "this process (serial)"
         if args.workers == 0
         else f"{args.workers or 'one per core'} local worker process(es)"
     )
-    print(f"{system.name}: {len(table)} members on {where}; store {args.out}/", flush=True)
+    tls = " over TLS" if security is not None else ""
+    print(f"{system.name}: {len(table)} members on {where}{tls}; store {args.out}/", flush=True)
+    if args.dashboard and args.scheduler is None and args.workers != 0:
+        print(f"dashboard: http://{args.dashboard}/status", flush=True)
     bar = ProgressBar(len(table), system.name)
     try:
         result = ensemble(
@@ -173,6 +203,8 @@ def run(args: argparse.Namespace, chaos_band: BandRun | None = None) -> int:
             timeout=args.timeout,
             overwrite=args.overwrite,
             command=command_line(args),
+            security=security,
+            dashboard=args.dashboard,
         )
     except KeyboardInterrupt:
         bar.close()

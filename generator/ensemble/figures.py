@@ -44,6 +44,28 @@ def _plt() -> Any:
     return plt
 
 
+def _log_scale(ax: Any, values: Any, per: dict[str, np.ndarray]) -> bool:
+    """A log y scale when some of `values` are finite and positive (matplotlib cannot
+    log-scale nothing); otherwise a linear axis from 0 to 1. Either way the axes say so when
+    every written member failed, and a linear one says that there is nothing to show.
+    Whether the axis got its log scale."""
+    v = np.asarray(values, dtype=float).ravel()
+    logged = bool((np.isfinite(v) & (v > 0)).any())
+    if logged:
+        ax.set_yscale("log")
+    else:
+        ax.set_ylim(0, 1)
+    written = per["status"] != NOT_WRITTEN
+    failed = int((written & (per["status"] != 0)).sum())
+    if failed and failed == int(written.sum()):
+        note = f"all {failed} members failed: none reached T (see summary.md)"
+        ax.text(0.5, 0.92, note, transform=ax.transAxes, ha="center", va="top", color="tab:red")
+    if not logged:
+        ax.text(0.5, 0.5, "no positive finite values to show", transform=ax.transAxes,
+                ha="center", va="center")  # fmt: skip
+    return logged
+
+
 def _title(attrs: dict[str, Any]) -> str:
     return f"{attrs['system']}, {attrs['method']}, h = {attrs['h']:g}, T = {attrs['T']:g}"
 
@@ -93,7 +115,7 @@ def energy_plot(per: dict[str, np.ndarray], attrs: dict[str, Any]) -> Any:
     )  # fmt: skip
     if bad.any():
         ax.scatter(x[bad], y[bad], s=30, marker="x", color="tab:red", label="failed (partial)")
-    ax.set_yscale("log")
+    _log_scale(ax, y[written], per)
     ax.set_ylabel("mean |E − E0| over the run")
     ax.set_xlabel(xlabel)
     names = swept_names(per)
@@ -149,12 +171,14 @@ def divergence_figure(
             )
             if single:
                 ax.axvspan(f.t_start, f.t_end, color="tab:red", alpha=0.06)
-    ax.set_yscale("log")
+    shown = [np.exp(d.log_mean) for d in divs[:8]]
+    _log_scale(ax, shown, per)
     ax.set_xlabel("t")
     ax.set_ylabel("max_i |q_i − q_i^ref|")
     members = sum(d.members for d in divs)
     ax.set_title(f"{_title(attrs)}: {members} perturbed members", fontsize=10)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0)
     fig.tight_layout()
     fig.savefig(path, dpi=_DPI)
     plt.close(fig)
@@ -183,16 +207,18 @@ def sweep_figure(per: dict[str, np.ndarray], attrs: dict[str, Any], path: Path) 
                 hi.append(v.max() - np.median(v))
             if (per["status"][sel] != 0).any():
                 failed.append(x)
-        ax.errorbar(xs, med, yerr=[lo, hi], fmt="o-", ms=4, capsize=3, label="median (range)")
+        if xs:
+            ax.errorbar(xs, med, yerr=[lo, hi], fmt="o-", ms=4, capsize=3, label="median (range)")
         for k, x in enumerate(failed):
             ax.axvline(x, color="tab:red", ls=":", lw=1, label="failures" if k == 0 else None)
-        ax.set_yscale("log")
+        _log_scale(ax, med, per)
         positive = [x for x in xs + failed if x > 0]
         if positive and max(positive) / min(positive) > 100:
             ax.set_xscale("log")
         ax.set_xlabel(name.removeprefix("param_"))
         ax.set_ylabel("mean |E − E0|")
-        ax.legend(loc="best", fontsize=8)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="best", fontsize=8)
     fig.suptitle(_title(attrs), fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=_DPI)

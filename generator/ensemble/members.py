@@ -47,6 +47,8 @@ if TYPE_CHECKING:
     from s2gen.system import System
 
 __all__ = [
+    "MAX_MEMBERS",
+    "MAX_PERTURBATION",
     "PERTURBABLE",
     "STEP",
     "EnsembleError",
@@ -63,6 +65,14 @@ __all__ = [
 PERTURBABLE = ("q", "omega")
 #: The sweep name of the step size (every other sweep name is a parameter of the system).
 STEP = "h"
+#: Most members of one ensemble (replicas times sweep points; also the most values of one
+#: sweep): the member table and the store's coordinates are held in memory, about 0.3 kB a
+#: member. Checked before any member is made.
+MAX_MEMBERS = 10**6
+#: Largest relative perturbation: a perturbation of q moves a body by at most its unit
+#: length, one of omega adds at most the largest |omega_i| (larger ones are not perturbations
+#: and overflow the energy of the perturbed members).
+MAX_PERTURBATION = 1.0
 
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _RANGE = re.compile(rf"^({_NUMBER}):({_NUMBER}):(\d+)$")
@@ -157,6 +167,10 @@ def sweep_values(spec: str | Sequence[float], name: str = "sweep") -> tuple[floa
             count = int(m.group(3))
             if count < 1:
                 raise EnsembleError(f"sweep {name}={spec}: COUNT must be at least 1")
+            if count > MAX_MEMBERS:
+                raise EnsembleError(
+                    f"sweep {name}={spec}: {count} values is more than the limit of {MAX_MEMBERS}"
+                )
             vals = np.linspace(float(m.group(1)), float(m.group(2)), count)
             return tuple(float(v) for v in vals)
         if not _LIST.match(text):
@@ -165,6 +179,10 @@ def sweep_values(spec: str | Sequence[float], name: str = "sweep") -> tuple[floa
                 "or a list V1,V2,..."
             )
         return tuple(float(v) for v in text.split(","))
+    if len(spec) > MAX_MEMBERS:
+        raise EnsembleError(
+            f"sweep {name}: {len(spec)} values is more than the limit of {MAX_MEMBERS}"
+        )
     values = tuple(float(v) for v in spec)
     if not values:
         raise EnsembleError(f"sweep {name}: no values")
@@ -189,6 +207,17 @@ def _sweeps(system: System, sweep: Mapping[str, str | Sequence[float]] | None) -
     return tuple(out)
 
 
+def _check_count(replicas: int, sweeps: tuple[Sweep, ...]) -> None:
+    """Refuse more than `MAX_MEMBERS` members, counted before any is made."""
+    points = math.prod(len(s.values) for s in sweeps)
+    total = replicas * points
+    if total > MAX_MEMBERS:
+        grid = f"{replicas} members x {points} sweep points = " if sweeps else ""
+        raise EnsembleError(
+            f"{grid}{total} members is more than the limit of {MAX_MEMBERS} members"
+        )
+
+
 def _perturbations(perturb: Mapping[str, float] | None) -> tuple[tuple[str, float], ...]:
     sizes = []
     for name, size in (perturb or {}).items():
@@ -199,6 +228,11 @@ def _perturbations(perturb: Mapping[str, float] | None) -> tuple[tuple[str, floa
         value = float(size)
         if not (math.isfinite(value) and value > 0):
             raise EnsembleError(f"perturbation size of {name} must be positive (got {size})")
+        if value > MAX_PERTURBATION:
+            raise EnsembleError(
+                f"perturbation size of {name} is relative and at most {MAX_PERTURBATION:g} "
+                f"(got {size:g}; e.g. {name}=1e-13)"
+            )
         sizes.append((name, value))
     return tuple(sorted(sizes, key=lambda kv: PERTURBABLE.index(kv[0])))
 
@@ -227,6 +261,7 @@ def member_table(
     n = replicas if replicas is not None else (16 if sizes else 1)
     if n < 1:
         raise EnsembleError(f"members must be at least 1 (got {n})")
+    _check_count(n, sweeps)
     if n > 1 and not sizes:
         raise EnsembleError(
             f"{n} members without a perturbation would be identical; give one (e.g. omega=1e-13)"

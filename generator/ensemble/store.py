@@ -53,11 +53,14 @@ from .worker import TASK_ERROR, MemberResult
 __all__ = [
     "COORDINATES",
     "FLUSH_SECONDS",
+    "MAX_STORE_BYTES",
     "NOT_WRITTEN",
     "STATISTICS",
     "STORE_NAME",
     "TRAJECTORIES",
     "EnsembleStore",
+    "check_store_size",
+    "store_bytes",
 ]
 
 #: The store's folder name inside an ensemble's output folder.
@@ -88,6 +91,9 @@ STATISTICS: dict[str, tuple[str, float | int]] = {
 }
 #: Per-member coordinates every store has (plus param_NAME per swept parameter).
 COORDINATES = ("member", "point", "replica", "seed", "perturb_q", "perturb_omega", "h")
+#: Largest store an ensemble may write, in bytes before compression (1 TiB): checked, from
+#: the member and sample counts, before the store or any member is made.
+MAX_STORE_BYTES = 2**40
 _MEMBER_CHUNK = 1024
 
 
@@ -114,6 +120,36 @@ def _coordinates(table: MemberTable) -> dict[str, np.ndarray]:
         if sweep.name != "h":
             coords[f"param_{sweep.name}"] = np.array([dict(m.params)[sweep.name] for m in ms])
     return coords
+
+
+def store_bytes(members: int, samples: int, n: int) -> int:
+    """Bytes of a store before compression: q and omega (3 n doubles per sample), energy and
+    t (one each), per-member statistics and coordinates (at most 32 eight-byte values).
+
+    Example:
+        >>> store_bytes(members=4, samples=11, n=2)
+        5952
+    """
+    return 8 * members * (samples * (6 * n + 2) + 32)
+
+
+def check_store_size(members: int, samples: int, n: int) -> None:
+    """Refuse (`EnsembleError`, one line) a store larger than `MAX_STORE_BYTES`.
+
+    Example:
+        >>> check_store_size(10**6, 10**6, 2)
+        Traceback (most recent call last):
+        ...
+        s2gen.ensemble.members.EnsembleError: the store would hold 112 TB (1000000 members x 1000000 samples x 2 bodies) before compression, more than the limit of 1.1 TB; store fewer samples (every), members or a shorter T
+    """
+    need = store_bytes(members, samples, n)
+    if need > MAX_STORE_BYTES:
+        raise EnsembleError(
+            f"the store would hold {need / 1e12:.3g} TB ({members} members x {samples} samples x "
+            f"{n} bodies) before compression, more than the limit of "
+            f"{MAX_STORE_BYTES / 1e12:.2g} TB; store fewer samples (every), members or a "
+            "shorter T"
+        )
 
 
 class EnsembleStore:

@@ -116,9 +116,14 @@ def _statistics(per: dict[str, np.ndarray], attrs: dict[str, Any]) -> list[str]:
         ("steps", _band(per["steps"][written].astype(float)), ".0f"),
         ("integration wall time (s)", _band(per["wall_time"][written]), ".4f"),
     ]
-    lines = [
-        f"{int(written.sum())} of {len(status)} members written: {outcome or 'none'}.",
-        "",
+    lines = [f"{int(written.sum())} of {len(status)} members written: {outcome or 'none'}.", ""]
+    if written.any() and not (status[written] == 0).any():
+        note = (
+            "**No member reached T**: every written member failed (see Failed members); the "
+            "figures show what the failed members kept."
+        )
+        lines += [note, ""]
+    lines += [
         "| per member | min | median | max |",
         "|---|---:|---:|---:|",
     ]

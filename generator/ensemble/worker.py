@@ -37,6 +37,8 @@ import numpy as np
 
 from s2gen.runtime.options import Options
 
+from .admission import Identity, identity
+
 if TYPE_CHECKING:
     from s2gen.runtime.model import Model
     from s2gen.system import System
@@ -65,7 +67,8 @@ _local = threading.local()
 @dataclass(frozen=True)
 class Payload:
     """Everything the members share, sent once to each worker: the system, its emitted C
-    sources and their sha256, the method, horizon, stride and options."""
+    sources and their sha256, the method, horizon, stride and options, and the client's
+    `Identity` (a worker whose own differs refuses the task)."""
 
     system: System
     files: dict[str, str]
@@ -74,6 +77,7 @@ class Payload:
     T: float
     every: int
     options: Options
+    identity: Identity
 
 
 @dataclass(frozen=True)
@@ -138,7 +142,8 @@ def make_payload(
     options: Options | None = None,
 ) -> Payload:
     """The payload of an ensemble (computes the sources' digest)."""
-    return Payload(system, files, sources_digest(files), method, T, every, options or Options())
+    opts = options or Options()
+    return Payload(system, files, sources_digest(files), method, T, every, opts, identity())
 
 
 def _model(payload: Payload) -> tuple[Model, float]:
@@ -182,6 +187,9 @@ def run_member(payload: Payload, task: Task) -> MemberResult:
     from s2gen.runtime.diagnostics import EnergyDriftWarning
     from s2gen.runtime.trajectory import IntegrationError
 
+    different = payload.identity.differences(identity())  # the fingerprint is cached
+    if different:  # a worker that joined after the start, running other code or flags
+        raise RuntimeError(f"worker {_worker_name()} runs {different}: refused")
     model, setup = _model(payload)
     status, message = 0, "ok"
     try:

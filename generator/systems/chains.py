@@ -28,7 +28,7 @@ import sympy as sp
 
 from s2gen.inertia import ChainInertia
 from s2gen.symbols import vector
-from s2gen.system import INERTIA_SOLVERS, RunSettings, System, Term, TermData
+from s2gen.system import INERTIA_SOLVERS, MAX_BODIES, RunSettings, System, Term, TermData
 from s2gen.terms import TermKind
 
 __all__ = ["default_step", "rope"]
@@ -94,6 +94,8 @@ def rope(
     """
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise ValueError(f"rope: n must be a positive integer, got {n!r}")
+    if n > MAX_BODIES:  # checked before any body is made
+        raise ValueError(f"n={n} bodies is more than the limit of {MAX_BODIES}")
     if solver not in INERTIA_SOLVERS:
         raise ValueError(f"rope: solver must be one of {INERTIA_SOLVERS}, got {solver!r}")
     mu = _fractions(masses, n, "masses")

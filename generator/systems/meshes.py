@@ -16,7 +16,30 @@ import math
 
 import numpy as np
 
-__all__ = ["BRUTE_FORCE_POINTS", "icosphere", "nearest_neighbour_distance"]
+from s2gen.system import MAX_BODIES
+
+__all__ = [
+    "BRUTE_FORCE_POINTS",
+    "MAX_SUBDIVISIONS",
+    "icosphere",
+    "icosphere_vertices",
+    "nearest_neighbour_distance",
+]
+
+
+def icosphere_vertices(subdivisions: int) -> int:
+    """Vertices of the icosahedron subdivided `subdivisions` times: 10 * 4^s + 2.
+
+    Example:
+        >>> icosphere_vertices(3), icosphere_vertices(12)
+        (642, 167772162)
+    """
+    return 10 * 4**subdivisions + 2
+
+
+#: Most subdivisions of an icosphere: the largest whose vertices, one body each, stay within
+#: the limit on bodies (`s2gen.system.MAX_BODIES`): 8, 655,362 vertices.
+MAX_SUBDIVISIONS = max(s for s in range(32) if icosphere_vertices(s) <= MAX_BODIES)
 
 
 def _icosahedron() -> tuple[np.ndarray, list[tuple[int, int, int]]]:
@@ -94,6 +117,12 @@ def icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
     """
     if subdivisions < 0:
         raise ValueError(f"subdivisions must be >= 0, got {subdivisions}")
+    if subdivisions > MAX_SUBDIVISIONS:  # checked before any vertex is made
+        raise ValueError(
+            f"subdivisions={subdivisions} gives {icosphere_vertices(subdivisions)} vertices, "
+            f"more than the limit of {MAX_BODIES} bodies (subdivisions at most "
+            f"{MAX_SUBDIVISIONS})"
+        )
     v, f = _icosphere(int(subdivisions))
     return v.copy(), f.copy()
 

@@ -25,7 +25,7 @@ import sympy as sp
 
 from s2gen.inertia import INDEX, ChainInertia
 from s2gen.symbols import vector
-from s2gen.system import INERTIA_SOLVERS, RunSettings, System, Term, TermData
+from s2gen.system import INERTIA_SOLVERS, MAX_BODIES, RunSettings, System, Term, TermData
 from s2gen.systems.meshes import icosphere, nearest_neighbour_distance
 from s2gen.terms import TermKind
 
@@ -192,6 +192,8 @@ def elastic_rod(n: int = 10, inertia: str = "paper", solver: str = "auto") -> Sy
     """
     if solver not in INERTIA_SOLVERS:
         raise ValueError(f"solver must be one of {INERTIA_SOLVERS}, got {solver!r}")
+    if n > MAX_BODIES:  # checked before any body is made
+        raise ValueError(f"n={n} bodies is more than the limit of {MAX_BODIES}")
     m, l, g, kappa = _sym("m"), _sym("l"), _sym("g"), _sym("kappa")
     q, qi, qj, w, clamp = vector("q"), vector("qi"), vector("qj"), _sym("w"), vector("clamp")
     # sum_i m_i g (sum_{j<i} l_j q_j + l_i q_i / 2).e3 = m g l/(n+1)^2 sum_j (n - j + 1/2) q_j.e3
