@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from cryptography import x509
 
 import s2gen
 from s2gen.cli import main
@@ -27,9 +28,6 @@ from s2gen.ensemble import EnsembleError, EnsembleStore, ensemble
 from s2gen.ensemble.admission import Identity, identity, tls_security
 from s2gen.ensemble.cluster import connect
 from s2gen.ensemble.worker import Task, make_payload, run_member
-
-distributed = pytest.importorskip("distributed")
-x509 = pytest.importorskip("cryptography.x509")
 
 
 # ------------------------------------------------------------------------------ certificates
