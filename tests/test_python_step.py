@@ -181,3 +181,18 @@ def test_model_step_on_other_backends_is_a_one_step_run(backend: str) -> None:
     q, w = model.step(system.q0, system.omega0, 0.01, "rk4")
     one = model.integrate("rk4", 0.01, 0.01, energy=False)
     assert np.array_equal(q, one.q[-1]) and np.array_equal(w, one.omega[-1])
+
+
+def test_python_step_benchmark_runs_and_checks_its_paths(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """benchmarks/python_step.py (on pytest's pythonpath) prints every path with the CPU;
+    its numbers are not checked, its paths' agreement with integrate() is (exit status)."""
+    import python_step
+
+    argv = ["--systems", "double_pendulum", "--steps", "200", "--calls", "50", "--repeats", "1"]
+    assert python_step.main(argv) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("CPU: ")
+    for path in ("C step", "stepper advance()", "Model.step (C)", "Model.step (NumPy)", "one step"):
+        assert path in out

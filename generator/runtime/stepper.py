@@ -187,16 +187,18 @@ class Stepper:
             partial,
         )
 
-    def step_from(self, q: np.ndarray, omega: np.ndarray) -> int:
-        """One step from (q, omega) copied in (arrays of shape (n, 3), unchecked); the
-        status. On OK, `q` and `omega` are the state after it."""
-        slot_q, slot_w = self._slots[self._side]
+    def step_copy(self, q: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """One step from (q, omega) copied in (arrays of shape (n, 3), unchecked): a copy of
+        the state after it, or None if the step failed (the state is then unchanged)."""
+        side = self._side
+        slot_q, slot_w = self._slots[side]
         slot_q[...] = q
         slot_w[...] = omega
-        status: int = self._call(*self._args[self._side])
-        if not status:
-            self._side ^= 1
-        return status
+        if self._call(*self._args[side]):
+            return None
+        self._side = 1 - side
+        out = self._buffers[1 - side].copy()
+        return out[0], out[1]
 
 
 def _params_key(params: Any) -> Any:
@@ -235,7 +237,7 @@ class StepCache:
     def __init__(self, backend: CBackend) -> None:
         self.backend = backend
         self._shape = (backend.system.n, 3)
-        self._entries: dict[Any, tuple[Stepper | None, float, Options | None]] = {}
+        self._entries: dict[Any, tuple[Stepper | None, float, float, Options | None]] = {}
 
     def step(
         self,
@@ -250,7 +252,12 @@ class StepCache:
         if type(q) is not np.ndarray or type(omega) is not np.ndarray:
             return None
         shape = self._shape
-        if q.shape != shape or omega.shape != shape or q.dtype != _F64 or omega.dtype != _F64:
+        if (
+            q.shape != shape
+            or omega.shape != shape
+            or q.dtype is not _F64
+            or omega.dtype is not _F64
+        ):
             return None
         try:
             key = (method, h, id(options), _params_key(params))
@@ -259,12 +266,10 @@ class StepCache:
             return None
         if entry is None:
             entry = self._prepare(key, q, omega, h, method, options, params)
-        stepper, limit, _ = entry
-        if stepper is None or not _plausible(q, omega, limit, stepper.options.unit_tol):
+        stepper, limit, unit_tol, _ = entry
+        if stepper is None or not _plausible(q, omega, limit, unit_tol):
             return None
-        if stepper.step_from(q, omega):
-            return None
-        return stepper.q.copy(), stepper.omega.copy()
+        return stepper.step_copy(q, omega)
 
     def _prepare(
         self,
@@ -275,7 +280,7 @@ class StepCache:
         method: str,
         options: Options | None,
         params: Any,
-    ) -> tuple[Stepper | None, float, Options | None]:
+    ) -> tuple[Stepper | None, float, float, Options | None]:
         """The cache entry of new arguments: a stepper, or None when the checked path must
         take them (invalid, or an adaptive method). The entry keeps `options` alive so that
         its id in the key is not reused."""
@@ -290,12 +295,12 @@ class StepCache:
                 p = parameter_vector(self.backend.system, params)
                 stepper = Stepper(self.backend, method, h, p, opts, q, omega)
         except ValueError:
-            return None, 0.0, options  # not kept: the checked path raises
+            return None, 0.0, 0.0, options  # not kept: the checked path raises
         # |(computed length) - 1| stays within 1e-15 of NumPy's; nearer the limit, NumPy decides
         limit = opts.unit_tol - 1e-15 if opts.unit_tol > 0 else math.inf
         if len(self._entries) >= STEP_CACHE_SIZE:
             del self._entries[next(iter(self._entries))]
-        self._entries[key] = (stepper, limit, options)
+        self._entries[key] = (stepper, limit, opts.unit_tol, options)
         return self._entries[key]
 
 
