@@ -4,13 +4,14 @@ Input: command-line options (``--systems``, ``--method``, ``--h``, ``--steps``, 
 ``--repeats``). Output: a table on stdout per system: the C step's own time (one
 ``NAME_integrate`` call of `steps` steps, per step), and the time per call of each Python
 path with its overhead over that C step: `Model.stepper(...).advance()` (one C call),
-`Model.step` on the C backend (each call from the state the last one returned), `Model.step`
-on the NumPy backend and a one-step `Model.integrate` (energy kept, as by default). The
+`Model.step` on the C backend (each call from the state the last one returned), the same two
+on the NumPy backend, and a one-step `Model.integrate` on C (energy kept, as by default). The
 header names the CPU (from /proc/cpuinfo), Python and NumPy, and the load average before and
 after.
 
-Every figure is the median over `repeats` batches (a shared machine's load hits some batches;
-the median leaves them out). Before timing, the stepper's and `Model.step`'s states after
+Each path runs `repeats` batches; the table gives the best batch's time per call (the least
+disturbed by other jobs, as `timeit` reports) and the median batch's, and the overhead of each
+on the C step's figure of the same kind. Before timing, the stepper's and `Model.step`'s states after
 `calls` steps are compared with `integrate`'s: exit status 1 if they differ in any bit (then
 the paths do not take the same steps and their times are not comparable).
 
@@ -41,11 +42,12 @@ __all__ = ["Row", "cpu_model", "main", "measure", "parse_args"]
 
 @dataclass(frozen=True)
 class Row:
-    """One path of one system: seconds per call (median of the batches)."""
+    """One path of one system: seconds per call, of the best and of the median batch."""
 
     system: str
     path: str
-    seconds: float
+    best: float
+    median: float
 
 
 def cpu_model() -> str:
@@ -65,16 +67,19 @@ def cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
-def _median_per_call(batch: Callable[[], None], calls: int, repeats: int) -> float:
+def _per_call(batch: Callable[[], None], calls: int, repeats: int) -> tuple[float, float]:
+    """Seconds per call of the best and of the median of `repeats` batches of `calls`."""
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
         batch()
         times.append((time.perf_counter() - start) / calls)
-    return statistics.median(times)
+    return min(times), statistics.median(times)
 
 
-def _c_step_seconds(model: s2gen.Model, name: str, h: float, steps: int, repeats: int) -> float:
+def _c_step_seconds(
+    model: s2gen.Model, name: str, h: float, steps: int, repeats: int
+) -> tuple[float, float]:
     """One emitted integrate() call of `steps` steps (no energy), per step."""
     be = model._backend  # the emitted C behind the model, called as a C program would
     lib, system = be.library, model.system
@@ -90,7 +95,7 @@ def _c_step_seconds(model: s2gen.Model, name: str, h: float, steps: int, repeats
         )
         assert status == 0
 
-    return _median_per_call(batch, steps, repeats)
+    return _per_call(batch, steps, repeats)
 
 
 def _same_steps(model: s2gen.Model, name: str, h: float, calls: int) -> bool:
@@ -123,19 +128,24 @@ def measure(
     if not _same_steps(model, name, h, calls):
         print(f"{system_name}: the Python paths do not reproduce integrate()", file=sys.stderr)
         raise SystemExit(1)
-    stepper = model.stepper(name, h)
-    state = [system.q0, system.omega0]
+    stepper, numpy_stepper = model.stepper(name, h), numpy_model.stepper(name, h)
 
     def advance() -> None:
         for _ in range(calls):
             stepper.advance()
 
+    def numpy_advance() -> None:
+        for _ in range(few):
+            numpy_stepper.advance()
+
     def model_step(m: s2gen.Model, n: int) -> Callable[[], None]:
+        state = [system.q0, system.omega0]  # each call from the state the last returned
+
         def batch() -> None:
             q, w = state
             for _ in range(n):
                 q, w = m.step(q, w, h, name)
-            state[:] = [q, w] if m is model else state
+            state[:] = [q, w]
 
         return batch
 
@@ -145,11 +155,12 @@ def measure(
 
     few = max(1, calls // 50)  # the slow paths: fewer calls per batch
     return [
-        Row(system_name, "C step (integrate loop)", _c_step_seconds(model, name, h, steps, repeats)),
-        Row(system_name, "Model.stepper advance()", _median_per_call(advance, calls, repeats)),
-        Row(system_name, "Model.step (C)", _median_per_call(model_step(model, calls), calls, repeats)),
-        Row(system_name, "Model.step (NumPy)", _median_per_call(model_step(numpy_model, few), few, repeats)),
-        Row(system_name, "Model.integrate, one step (C)", _median_per_call(integrate_one, few, repeats)),
+        Row(system_name, "C step (integrate loop)", *_c_step_seconds(model, name, h, steps, repeats)),
+        Row(system_name, "Model.stepper advance()", *_per_call(advance, calls, repeats)),
+        Row(system_name, "Model.step (C)", *_per_call(model_step(model, calls), calls, repeats)),
+        Row(system_name, "Model.stepper advance() (NumPy)", *_per_call(numpy_advance, few, repeats)),
+        Row(system_name, "Model.step (NumPy)", *_per_call(model_step(numpy_model, few), few, repeats)),
+        Row(system_name, "Model.integrate, one step (C)", *_per_call(integrate_one, few, repeats)),
     ]  # fmt: skip
 
 
@@ -161,7 +172,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--h", type=float, default=0.01, help="step size (default 0.01)")
     ap.add_argument("--steps", type=int, default=200_000, help="steps of the C loop")
     ap.add_argument("--calls", type=int, default=20_000, help="calls per batch of a fast path")
-    ap.add_argument("--repeats", type=int, default=7, help="batches per figure (median)")
+    ap.add_argument("--repeats", type=int, default=7, help="batches per figure")
     return ap.parse_args(argv)
 
 
@@ -170,15 +181,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     print(f"CPU: {cpu_model()}; Python {platform.python_version()}, NumPy {np.__version__}")
     print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
-    print(f"method {args.method}, h = {args.h:g}; medians of {args.repeats} batches")
+    print(f"method {args.method}, h = {args.h:g}; best and median of {args.repeats} batches")
     for system_name in args.systems:
         rows = measure(system_name, args.method, args.h, args.steps, args.calls, args.repeats)
-        c_step = rows[0].seconds
-        print(f"\n{system_name}")
-        print(f"  {'path':32s} {'us per call':>12s} {'beyond the C step':>18s}")
+        c = rows[0]
+        print(f"\n{system_name}: microseconds per call, and beyond the C step")
+        print(f"  {'path':32s} {'best':>9s} {'median':>9s} {'+best':>9s} {'+median':>9s}")
         for r in rows:
-            extra = "" if r is rows[0] else f"{(r.seconds - c_step) * 1e6:18.2f}"
-            print(f"  {r.path:32s} {r.seconds * 1e6:12.2f} {extra}")
+            extra = (r.best - c.best, r.median - c.median) if r is not c else ()
+            cells = "".join(f" {x * 1e6:9.2f}" for x in (r.best, r.median, *extra))
+            print(f"  {r.path:32s}{cells}")
     print(f"\nload average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
 

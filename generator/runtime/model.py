@@ -56,8 +56,8 @@ class Model:
 
             self._backend = CBackend(system, files, opt)
         self._steps: Any = None
-        if backend == "c":
-            from s2gen.runtime.stepper import StepCache
+        if backend in ("c", "numpy"):
+            from s2gen.runtime.step_cache import StepCache
 
             self._steps = StepCache(self._backend)
 
@@ -118,12 +118,13 @@ class Model:
     ) -> tuple[np.ndarray, np.ndarray]:
         """One step of size h from (q, omega); returns (q, omega) after it (no energy is kept,
         so the step is not checked for energy drift). The result is `integrate`'s: one step
-        from a new state is a one-step run, and on the C backend a run of calls, each from the
-        state the last one returned with the same h, method, options and parameters, is
-        `integrate` over those steps, bit for bit (the C step's warm start). On the C backend
-        a fixed-step method from float64 arrays of shape (n, 3) costs one C call and a few
-        checks (see `benchmarks/python_step.py`; `stepper` is faster still); other calls run
-        a one-step `integrate`, with the same checks and errors.
+        from a new state is a one-step run, and on the C and NumPy backends a run of calls,
+        each from the state the last one returned with the same h, method, options and
+        parameters, is `integrate` over those steps, bit for bit (the step function's warm
+        start). There a fixed-step method from float64 arrays of shape (n, 3) costs one call
+        of the emitted step and a few checks (`s2gen.runtime.step_cache`; the figures are
+        `benchmarks/python_step.py`'s, and `stepper` is faster still); other calls run a
+        one-step `integrate`, with the same checks and errors.
 
         Example:
             >>> from s2gen.systems import builtin
@@ -152,12 +153,14 @@ class Model:
         params: Mapping[str, float] | Sequence[float] | None = None,
         t0: float = 0.0,
     ) -> Stepper:
-        """A run of a fixed-step method (not RK45 or DOP853) on the C backend from (q0,
-        omega0) (default: the spec's) at time t0, stepped in place by `advance()`, one C call
-        per step with no per-step check (the state is its own last output, checked when
-        set): the fastest way to step from Python (`s2gen.runtime.stepper`). Its steps
-        are `integrate`'s, bit for bit; h defaults to the spec's [run] h. ValueError for
-        another backend, an adaptive method, or what `integrate` refuses.
+        """A run of a fixed-step method (not RK45 or DOP853) from (q0, omega0) (default: the
+        spec's) at time t0, stepped in place by `advance()` (`s2gen.runtime.stepper`): on the
+        C backend one C call per step with no per-step check (the state is its own last
+        output, checked when set), the fastest way to step from Python; on the NumPy backend
+        one call of the module's `step`. Its steps are `integrate`'s, bit for bit, Newton
+        iterations included; h defaults to the spec's [run] h. ValueError on the reference
+        backend (it has no step function), for an adaptive method, or for what `integrate`
+        refuses.
 
         Example:
             >>> from s2gen.systems import builtin
@@ -168,14 +171,14 @@ class Model:
         """
         from s2gen.methods import check_method
         from s2gen.runtime import check_run
-        from s2gen.runtime.stepper import Stepper
+        from s2gen.runtime.stepper import make_stepper
 
-        if self.backend_name != "c":
+        if self._steps is None:
             raise ValueError(
-                f"the stepper runs the emitted C, not the {self.backend_name} backend "
-                "(Model.step works on every backend)"
+                f"the {self.backend_name} backend has no step function: the stepper runs on "
+                "the c and numpy backends (Model.step works on every backend)"
             )
-        if check_method(method, "c").adaptive:
+        if check_method(method, self.backend_name).adaptive:
             raise ValueError(
                 f"method {method!r} is adaptive: the stepper takes fixed-step methods "
                 "(Model.integrate runs adaptive ones)"
@@ -187,7 +190,7 @@ class Model:
         check_run(self.system, method, h, h, opts)
         if not isinstance(t0, (int, float, np.floating)) or not np.isfinite(t0):
             raise ValueError(f"t0 = {t0!r}: must be a finite number")
-        return Stepper(self._backend, method, h, self.params(params), opts, q0, omega0, t0)
+        return make_stepper(self._backend, method, h, self.params(params), opts, q0, omega0, t0)
 
     def energy(
         self, q: np.ndarray, omega: np.ndarray, params: Mapping[str, float] | None = None
