@@ -5,15 +5,20 @@ Input: command-line options (``--systems``, ``--method``, ``--h``, ``--steps``, 
 ``NAME_integrate`` call of `steps` steps, per step), and the time per call of each Python
 path with its overhead over that C step: `Model.stepper(...).advance()` (one C call),
 `Model.step` on the C backend (each call from the state the last one returned), the same two
-on the NumPy backend, and a one-step `Model.integrate` on C (energy kept, as by default). The
+on the NumPy backend, and a one-step `Model.integrate` on C (energy kept, as by default), and
+without energy on C and NumPy (what `Model.step` cost before it went through the step
+function). The
 header names the CPU (from /proc/cpuinfo), Python and NumPy, and the load average before and
 after.
 
-Each path runs `repeats` batches; the table gives the best batch's time per call (the least
-disturbed by other jobs, as `timeit` reports) and the median batch's, and the overhead of each
-on the C step's figure of the same kind. Before timing, the stepper's and `Model.step`'s states after
-`calls` steps are compared with `integrate`'s: exit status 1 if they differ in any bit (then
-the paths do not take the same steps and their times are not comparable).
+Each path runs `repeats` batches; the table gives the best batch's time per call on the wall
+clock (the least disturbed by other jobs, as `timeit` reports), the median batch's, and the
+median batch's in the process's CPU time (which leaves out the time other jobs hold the core:
+on a busy machine the steadier figure), and the overhead of the best and of the CPU figure
+over the C step's figure of the same kind. Before timing, the stepper's and
+`Model.step`'s states after `calls` steps are compared with `integrate`'s: exit status 1 if
+they differ in any bit (then the paths do not take the same steps and their times are not
+comparable).
 
 Example:
     >>> parse_args(["--systems", "double_pendulum", "--calls", "100"]).calls
@@ -42,12 +47,14 @@ __all__ = ["Row", "cpu_model", "main", "measure", "parse_args"]
 
 @dataclass(frozen=True)
 class Row:
-    """One path of one system: seconds per call, of the best and of the median batch."""
+    """One path of one system: seconds per call, of the best and of the median batch on the
+    wall clock, and of the median batch in the process's CPU time."""
 
     system: str
     path: str
     best: float
     median: float
+    cpu: float
 
 
 def cpu_model() -> str:
@@ -67,19 +74,21 @@ def cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
-def _per_call(batch: Callable[[], None], calls: int, repeats: int) -> tuple[float, float]:
-    """Seconds per call of the best and of the median of `repeats` batches of `calls`."""
-    times = []
+def _per_call(batch: Callable[[], None], calls: int, repeats: int) -> tuple[float, float, float]:
+    """Seconds per call of `repeats` batches of `calls`: the best and the median batch on the
+    wall clock, the median batch in CPU time."""
+    wall, cpu = [], []
     for _ in range(repeats):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         batch()
-        times.append((time.perf_counter() - start) / calls)
-    return min(times), statistics.median(times)
+        cpu.append((time.process_time() - start_cpu) / calls)
+        wall.append((time.perf_counter() - start) / calls)
+    return min(wall), statistics.median(wall), statistics.median(cpu)
 
 
 def _c_step_seconds(
     model: s2gen.Model, name: str, h: float, steps: int, repeats: int
-) -> tuple[float, float]:
+) -> tuple[float, float, float]:
     """One emitted integrate() call of `steps` steps (no energy), per step."""
     be = model._backend  # the emitted C behind the model, called as a C program would
     lib, system = be.library, model.system
@@ -153,6 +162,13 @@ def measure(
         for _ in range(few):
             model.integrate(name, h, h)
 
+    def integrate_one_bare(m: s2gen.Model) -> Callable[[], None]:
+        def batch() -> None:
+            for _ in range(few):
+                m.integrate(name, h, h, energy=False)
+
+        return batch
+
     few = max(1, calls // 50)  # the slow paths: fewer calls per batch
     return [
         Row(system_name, "C step (integrate loop)", *_c_step_seconds(model, name, h, steps, repeats)),
@@ -160,7 +176,9 @@ def measure(
         Row(system_name, "Model.step (C)", *_per_call(model_step(model, calls), calls, repeats)),
         Row(system_name, "Model.stepper advance() (NumPy)", *_per_call(numpy_advance, few, repeats)),
         Row(system_name, "Model.step (NumPy)", *_per_call(model_step(numpy_model, few), few, repeats)),
-        Row(system_name, "Model.integrate, one step (C)", *_per_call(integrate_one, few, repeats)),
+        Row(system_name, "one-step integrate (C)", *_per_call(integrate_one, few, repeats)),
+        Row(system_name, "  no energy: the former Model.step", *_per_call(integrate_one_bare(model), few, repeats)),
+        Row(system_name, "  the same on NumPy", *_per_call(integrate_one_bare(numpy_model), few, repeats)),
     ]  # fmt: skip
 
 
@@ -181,16 +199,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     print(f"CPU: {cpu_model()}; Python {platform.python_version()}, NumPy {np.__version__}")
     print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
-    print(f"method {args.method}, h = {args.h:g}; best and median of {args.repeats} batches")
+    print(f"method {args.method}, h = {args.h:g}; {args.repeats} batches per figure")
     for system_name in args.systems:
         rows = measure(system_name, args.method, args.h, args.steps, args.calls, args.repeats)
         c = rows[0]
-        print(f"\n{system_name}: microseconds per call, and beyond the C step")
-        print(f"  {'path':32s} {'best':>9s} {'median':>9s} {'+best':>9s} {'+median':>9s}")
+        print(f"\n{system_name}: microseconds per call, and beyond the C step (+)")
+        heads = ("best", "median", "cpu", "+best", "+cpu")
+        print(f"  {'path':34s}" + "".join(f" {x:>9s}" for x in heads))
         for r in rows:
-            extra = (r.best - c.best, r.median - c.median) if r is not c else ()
-            cells = "".join(f" {x * 1e6:9.2f}" for x in (r.best, r.median, *extra))
-            print(f"  {r.path:32s}{cells}")
+            extra = (r.best - c.best, r.cpu - c.cpu) if r is not c else ()
+            cells = "".join(f" {x * 1e6:9.2f}" for x in (r.best, r.median, r.cpu, *extra))
+            print(f"  {r.path:34s}{cells}")
     print(f"\nload average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
 

@@ -206,6 +206,6 @@ def test_python_step_benchmark_runs_and_checks_its_paths(
         "advance() (NumPy)",
         "Model.step (C)",
         "Model.step (NumPy)",
-        "one step",
+        "one-step integrate",
     ):
         assert path in out
