@@ -75,6 +75,7 @@ def test_model_step_from_a_new_state_is_a_one_step_run() -> None:
         one = model.integrate("vi", h, h, q, w, energy=False)
         q, w = model.step(q, w, h)
         assert np.array_equal(q, one.q[-1]) and np.array_equal(w, one.omega[-1]), k
+    assert len(model._steps._entries) == 1  # a new h retargets the prepared step, not a new one
 
 
 def test_model_step_keeps_parameters_and_options_apart() -> None:

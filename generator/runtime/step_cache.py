@@ -9,9 +9,11 @@ run of calls, each from the state the last returned with the same arguments, rep
 `integrate` over those steps bit for bit (the step's warm start, as `integrate` takes its
 steps).
 
-The arguments select a `s2gen.runtime.stepper.Stepper` by value: method, h, parameters (with
+The arguments select a `s2gen.runtime.stepper.Stepper` by value: method, parameters (with
 their types: True is refused where 1.0 is not) and the options object (by identity; the entry
-keeps it alive). At most `STEP_CACHE_SIZE` are kept, the oldest dropped first.
+keeps it alive); a new step size retargets it (checked, and the next step starts afresh), so
+that a caller varying h does not build a stepper per call. At most `STEP_CACHE_SIZE` are kept,
+the oldest dropped first.
 
 Example:
     >>> from s2gen.runtime import get_backend
@@ -36,7 +38,7 @@ from s2gen.runtime.stepper import Stepper, make_stepper
 
 __all__ = ["STEP_CACHE_SIZE", "StepCache"]
 
-#: Most prepared steppers one model keeps (one per method, step size, options, parameters).
+#: Most prepared steppers one model keeps (one per method, options and parameters).
 STEP_CACHE_SIZE = 8
 #: Bodies up to which a caller's state is checked element by element in Python (below the
 #: cost of the NumPy calls that check a larger one).
@@ -78,7 +80,7 @@ class StepCache:
         if omega.dtype is not _F64:
             return None
         try:
-            key = (method, h, id(options), _params_key(params))
+            key = (method, id(options), _params_key(params))
             entry = self._entries.get(key)
         except TypeError:
             return None
@@ -87,7 +89,20 @@ class StepCache:
         stepper, limit, unit_tol, _ = entry
         if stepper is None or not _plausible(q, omega, limit, unit_tol):
             return None
+        if h != stepper.h and not self._retarget(stepper, h):
+            return None
         return stepper.step_copy(q, omega)
+
+    def _retarget(self, stepper: Stepper, h: Any) -> bool:
+        """Point `stepper` at a new step size; False if h fails `integrate`'s checks."""
+        from s2gen.runtime import check_run
+
+        try:
+            check_run(self.backend.system, stepper.method, h, h, stepper.options)
+        except ValueError:
+            return False
+        stepper.retarget(h)
+        return True
 
     def _prepare(
         self,

@@ -34,8 +34,6 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.build import header_macro
-from s2gen.emit import emit
 from s2gen.interface import Kind
 from s2gen.methods import Status, check_method
 from s2gen.runtime.diagnostics import energy_scale
@@ -114,6 +112,16 @@ class Stepper:
         state after it, or None if the step failed (the state is then unchanged)."""
         raise NotImplementedError
 
+    def retarget(self, h: float) -> None:
+        """Take steps of size h from now on (already checked), the next one afresh: a step of
+        another size from the last state is the first step of a new run, as `integrate`
+        would take it."""
+        self.h = float(h)
+        self._restart()
+
+    def _restart(self) -> None:
+        raise NotImplementedError
+
     def _error(self, status: int) -> IntegrationError:
         t, s = self.t, self._system  # a failed step leaves the time of its start
         why = Status(status).message if status in Status._value2member_map_ else str(status)
@@ -159,10 +167,10 @@ class CStepper(Stepper):
         self._st = lib.Stepper()
         if lib.fn["step_start"](ctypes.byref(self._st), self.code, t0):
             raise ValueError(f"{method}: the step API takes fixed-step methods only")
-        carry = header_macro(emit(system, "c")[f"{system.name}.h"], "STEP_CARRY")
-        self._carry = np.zeros(max(1, carry))
+        self._carry = np.zeros(max(1, lib.carry_size))
         self._work = np.zeros(backend.work.size)  # its own: a run in a thread uses the backend's
         self._iters = ctypes.c_int(0)
+        self._h = ctypes.c_double(self.h)
         self._buffers = np.zeros((2, 2, system.n, 3))  # [side][q, omega]
         self._slots = tuple((side[0], side[1]) for side in self._buffers)
         self._views = tuple((_readonly(side[0]), _readonly(side[1])) for side in self._buffers)
@@ -181,7 +189,7 @@ class CStepper(Stepper):
             "p": self._params.ctypes.data,
             "opt": ctypes.addressof(self._opt),
             "st": ctypes.addressof(self._st),
-            "h": self.h,
+            "h": self._h,
             "q": src[0].ctypes.data,
             "w": src[1].ctypes.data,
             "qn": dst[0].ctypes.data,
@@ -207,6 +215,10 @@ class CStepper(Stepper):
     @property
     def iterations(self) -> int:
         return int(self._iters.value)
+
+    def _restart(self) -> None:
+        self._h.value = self.h
+        self._st.steps = 0  # the C step then starts afresh: the carry is not read
 
     def _load(self, q: np.ndarray, omega: np.ndarray) -> None:
         slot_q, slot_w = self._slots[self._side]
@@ -270,6 +282,9 @@ class NumpyStepper(Stepper):
     @property
     def iterations(self) -> int:
         return int(self._iters)
+
+    def _restart(self) -> None:
+        self._st.last, self._st.steps = None, 0  # the module's step then starts afresh
 
     def _load(self, q: np.ndarray, omega: np.ndarray) -> None:
         self._state = (q, omega)
