@@ -88,6 +88,13 @@ def test_model_step_keeps_parameters_and_options_apart() -> None:
             got = model.step(system.q0, system.omega0, 0.05, "vi", options, {"g": float(g)})
             one = model.integrate("vi", 0.05, 0.05, options=options, params={"g": g})
             assert np.array_equal(got[0], one.q[-1]) and np.array_equal(got[1], one.omega[-1])
+    fresh, tr = (system.q0, system.omega0), _integrated(model, "rattle", 0.01, 10)
+    for _ in range(10):  # a new, equal options object per call steps on warm
+        fresh = model.step(*fresh, 0.01, "rattle", s2gen.Options(newton_maxiter=7))
+    assert np.array_equal(fresh[0], tr.q[-1]) and np.array_equal(fresh[1], tr.omega[-1])
+    model.step(*fresh, 0.01, "rattle", s2gen.Options(unit_tol=1))
+    with pytest.raises(ValueError, match="unit_tol"):  # equal options (True == 1), refused
+        model.step(*fresh, 0.01, "rattle", s2gen.Options(unit_tol=True))
     lists = model.step(system.q0.tolist(), system.omega0.tolist(), 0.05, params=[1, 1, 1, 1, 2])
     one = model.integrate("vi", 0.05, 0.05, params={"g": 2.0, "l1": 1.0, "l2": 1.0})
     assert np.array_equal(lists[0], one.q[-1])

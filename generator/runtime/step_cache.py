@@ -9,11 +9,12 @@ run of calls, each from the state the last returned with the same arguments, rep
 `integrate` over those steps bit for bit (the step's warm start, as `integrate` takes its
 steps).
 
-The arguments select a `s2gen.runtime.stepper.Stepper` by value: method, parameters (with
-their types: True is refused where 1.0 is not) and the options object (by identity; the entry
-keeps it alive); a new step size retargets it (checked, and the next step starts afresh), so
-that a caller varying h does not build a stepper per call. At most `STEP_CACHE_SIZE` are kept,
-the oldest dropped first.
+The method and the options (by value) select a `s2gen.runtime.stepper.Stepper`; a new step
+size or new parameter values (compared with their types: True is refused where 1.0 is not)
+retarget it, checked, and its next step starts afresh, so that a caller varying h or a
+parameter does not build a stepper per call; another options object of equal values is
+checked (equal is not enough: True equals 1) and steps on. At most `STEP_CACHE_SIZE` are
+kept, the oldest dropped first.
 
 Example:
     >>> from s2gen.runtime import get_backend
@@ -28,6 +29,7 @@ Example:
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -38,7 +40,7 @@ from s2gen.runtime.stepper import Stepper, make_stepper
 
 __all__ = ["STEP_CACHE_SIZE", "StepCache"]
 
-#: Most prepared steppers one model keeps (one per method, options and parameters).
+#: Most prepared steppers one model keeps (one per method and options).
 STEP_CACHE_SIZE = 8
 #: Bodies up to which a caller's state is checked element by element in Python (below the
 #: cost of the NumPy calls that check a larger one).
@@ -60,13 +62,26 @@ def _params_key(params: Any) -> Any:
     raise TypeError(type(params).__name__)
 
 
+@dataclass
+class _Entry:
+    """A prepared step: its stepper (None: the checked path takes these arguments), the
+    unit-length limits of the fast check, the options object last checked and the key of the
+    parameters the stepper holds."""
+
+    stepper: Stepper | None
+    limit: float
+    unit_tol: float
+    options: Options | None
+    params: Any
+
+
 class StepCache:
     """The prepared steps of one model (module docstring)."""
 
     def __init__(self, backend: Any) -> None:
         self.backend = backend
         self._shape = (backend.system.n, 3)
-        self._entries: dict[Any, tuple[Stepper | None, float, float, Options | None]] = {}
+        self._entries: dict[Any, _Entry] = {}
 
     def step(
         self, q: Any, omega: Any, h: Any, method: str, options: Options | None, params: Any
@@ -80,40 +95,52 @@ class StepCache:
         if omega.dtype is not _F64:
             return None
         try:
-            key = (method, id(options), _params_key(params))
+            key, pkey = (method, options), _params_key(params)
             entry = self._entries.get(key)
         except TypeError:
             return None
         if entry is None:
-            entry = self._prepare(key, q, omega, h, method, options, params)
-        stepper, limit, unit_tol, _ = entry
-        if stepper is None or not _plausible(q, omega, limit, unit_tol):
+            entry = self._prepare(key, pkey, q, omega, h, method, options, params)
+        stepper = entry.stepper
+        if stepper is None or not _plausible(q, omega, entry.limit, entry.unit_tol):
             return None
-        if h != stepper.h and not self._retarget(stepper, h):
+        changed = h != stepper.h or pkey != entry.params or options is not entry.options
+        if changed and not self._retarget(entry, h, params, pkey, options):
             return None
         return stepper.step_copy(q, omega)
 
-    def _retarget(self, stepper: Stepper, h: Any) -> bool:
-        """Point `stepper` at a new step size; False if h fails `integrate`'s checks."""
+    def _retarget(
+        self, entry: _Entry, h: Any, params: Any, pkey: Any, options: Options | None
+    ) -> bool:
+        """Point the entry's stepper at a new step size or new parameters (its next step then
+        starts afresh), or take another options object of the same values; False if they fail
+        `integrate`'s checks (the stepper is then unchanged)."""
         from s2gen.runtime import check_run
+        from s2gen.runtime.inputs import parameter_vector
 
+        stepper, system = entry.stepper, self.backend.system
+        assert stepper is not None
         try:
-            check_run(self.backend.system, stepper.method, h, h, stepper.options)
+            check_run(system, stepper.method, h, h, options or Options())
+            p = parameter_vector(system, params)
         except ValueError:
             return False
-        stepper.retarget(h)
+        if h != stepper.h or pkey != entry.params:
+            stepper.retarget(h, p)
+        entry.params, entry.options = pkey, options
         return True
 
     def _prepare(
         self,
         key: Any,
+        pkey: Any,
         q: np.ndarray,
         omega: np.ndarray,
         h: Any,
         method: str,
         options: Options | None,
         params: Any,
-    ) -> tuple[Stepper | None, float, float, Options | None]:
+    ) -> _Entry:
         """The entry of new arguments: a stepper, or None when the checked path must take
         them (invalid: not kept, or an adaptive method)."""
         from s2gen.runtime import check_run
@@ -127,12 +154,12 @@ class StepCache:
                 p = parameter_vector(system, params)
                 stepper = make_stepper(self.backend, method, h, p, opts, q, omega)
         except ValueError:
-            return None, 0.0, 0.0, options
+            return _Entry(None, 0.0, 0.0, options, pkey)
         # |(computed length) - 1| is within 1e-15 of NumPy's; nearer the limit, NumPy decides
         limit = opts.unit_tol - 1e-15 if opts.unit_tol > 0 else math.inf
         if len(self._entries) >= STEP_CACHE_SIZE:
             del self._entries[next(iter(self._entries))]
-        self._entries[key] = (stepper, limit, opts.unit_tol, options)
+        self._entries[key] = _Entry(stepper, limit, opts.unit_tol, options, pkey)
         return self._entries[key]
 
 

@@ -112,11 +112,12 @@ class Stepper:
         state after it, or None if the step failed (the state is then unchanged)."""
         raise NotImplementedError
 
-    def retarget(self, h: float) -> None:
-        """Take steps of size h from now on (already checked), the next one afresh: a step of
-        another size from the last state is the first step of a new run, as `integrate`
-        would take it."""
+    def retarget(self, h: float, params: np.ndarray) -> None:
+        """Take steps of size h with parameter values `params` from now on (both already
+        checked), the next one afresh: a step with other values from the last state is the
+        first step of a new run, as `integrate` would take it."""
         self.h = float(h)
+        self._params[...] = params  # in place: the prepared calls point at this array
         self._restart()
 
     def _restart(self) -> None:
