@@ -71,6 +71,9 @@ class CLibrary:
         self.api: Interface = interface(kind)
         self.lib, self.build = load_library(files, build_flags(opt))
         self.work = np.zeros(max(1, header_macro(files[f"{prefix}.h"], "WORK_SIZE")))
+        names = {f.name for f in self.api.functions}
+        #: Doubles of step()'s carry (0 for a module without step()).
+        self.carry_size = header_macro(files[f"{prefix}.h"], "STEP_CARRY") if "step" in names else 0
         self.Options = _struct("Options", self.api.options)
         self.Stats = _struct("Stats", self.api.stats)
         self.Stepper = _struct("Stepper", self.api.stepper)

@@ -15,6 +15,7 @@ Example:
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -23,6 +24,9 @@ from s2gen.runtime.inputs import parameter_vector
 from s2gen.runtime.options import Options
 from s2gen.runtime.trajectory import Trajectory
 from s2gen.system import System
+
+if TYPE_CHECKING:
+    from s2gen.runtime.stepper import Stepper
 
 __all__ = ["Model"]
 
@@ -51,6 +55,11 @@ class Model:
             from s2gen.runtime.c import CBackend
 
             self._backend = CBackend(system, files, opt)
+        self._steps: Any = None
+        if backend in ("c", "numpy"):
+            from s2gen.runtime.step_cache import StepCache
+
+            self._steps = StepCache(self._backend)
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -108,9 +117,80 @@ class Model:
         params: Mapping[str, float] | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """One step of size h from (q, omega); returns (q, omega) after it (no energy is kept,
-        so the step is not checked for energy drift)."""
+        so the step is not checked for energy drift). The result is `integrate`'s: one step
+        from a new state is a one-step run, and on the C and NumPy backends a run of calls,
+        each from the state the last one returned with the same h, method, options and
+        parameters, is `integrate` over those steps, bit for bit (the step function's warm
+        start). There a fixed-step method from float64 arrays of shape (n, 3) costs one call
+        of the emitted step and a few checks (`s2gen.runtime.step_cache`; the figures are
+        `benchmarks/python_step.py`'s, and `stepper` is faster still); other calls run a
+        one-step `integrate`, with the same checks and errors.
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> s = builtin("double_pendulum")
+            >>> model = Model(s)
+            >>> q, w = s.q0, s.omega0
+            >>> for _ in range(3):
+            ...     q, w = model.step(q, w, 0.01)
+            >>> bool((q == model.integrate(h=0.01, T=0.03).q[-1]).all())
+            True
+        """
+        if self._steps is not None:
+            done = self._steps.step(q, omega, h, method, options, params)
+            if done is not None:
+                return done
         tr = self.integrate(method, h, h, q, omega, options, params, energy=False)
         return tr.q[-1], tr.omega[-1]
+
+    def stepper(
+        self,
+        method: str = "vi",
+        h: float | None = None,
+        q0: np.ndarray | None = None,
+        omega0: np.ndarray | None = None,
+        options: Options | None = None,
+        params: Mapping[str, float] | Sequence[float] | None = None,
+        t0: float = 0.0,
+    ) -> Stepper:
+        """A run of a fixed-step method (not RK45 or DOP853) from (q0, omega0) (default: the
+        spec's) at time t0, stepped in place by `advance()` (`s2gen.runtime.stepper`): on the
+        C backend one C call per step with no per-step check (the state is its own last
+        output, checked when set), the fastest way to step from Python; on the NumPy backend
+        one call of the module's `step`. Its steps are `integrate`'s, bit for bit, Newton
+        iterations included; h defaults to the spec's [run] h. ValueError on the reference
+        backend (it has no step function), for an adaptive method, or for what `integrate`
+        refuses.
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> stepper = Model(builtin("double_pendulum")).stepper("rattle", h=0.01)
+            >>> stepper.advance()
+            >>> round(stepper.t, 12), stepper.q.shape
+            (0.01, (2, 3))
+        """
+        from s2gen.methods import check_method
+        from s2gen.runtime import check_run
+        from s2gen.runtime.stepper import make_stepper
+
+        if self._steps is None:
+            raise ValueError(
+                f"the {self.backend_name} backend has no step function: the stepper runs on "
+                "the c and numpy backends (Model.step works on every backend)"
+            )
+        if check_method(method, self.backend_name).adaptive:
+            raise ValueError(
+                f"method {method!r} is adaptive: the stepper takes fixed-step methods "
+                "(Model.integrate runs adaptive ones)"
+            )
+        h = h if h is not None else self.system.run.h
+        if h is None:
+            raise ValueError(f"{self.system.origin}: no step size h given (spec [run])")
+        opts = options or Options()
+        check_run(self.system, method, h, h, opts)
+        if not isinstance(t0, (int, float, np.floating)) or not np.isfinite(t0):
+            raise ValueError(f"t0 = {t0!r}: must be a finite number")
+        return make_stepper(self._backend, method, h, self.params(params), opts, q0, omega0, t0)
 
     def energy(
         self, q: np.ndarray, omega: np.ndarray, params: Mapping[str, float] | None = None
