@@ -16,7 +16,8 @@ import s2gen
 from s2gen.interface import interface
 from s2gen.ir import ModuleKind
 
-DOCS = Path(__file__).resolve().parents[1] / "docs"
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
 API = DOCS / "api.rst"
 DIRECTIVE = re.compile(
     r"^\.\. auto(function|class|exception|data|module):: +(?:s2gen\.)?(\S+)", re.MULTILINE
@@ -119,3 +120,24 @@ def test_extension_examples_run(name: str) -> None:
 
     result = doctest.testmod(_extension(name))
     assert result.attempted > 0 and result.failed == 0, result
+
+
+def test_every_file_the_developer_guide_names_exists() -> None:
+    """The guide's walk-throughs (adding a method, a term kind, a language; parts) name the
+    files a change touches: each must be a file of the checkout (under generator/, the
+    checkout's root, or a subpackage's own folder), so the guide cannot point at a file that
+    moved."""
+    text = (DOCS / "developer.rst").read_text(encoding="utf-8")
+    names = set(re.findall(r"``([\w/{},.]+\.(?:py|jinja))``", text)) - {".py"}
+    assert len(names) > 20
+    package = ROOT / "generator"
+    missing = []
+    for name in sorted(names):
+        variants = [name]
+        if "{c,numpy}" in name:
+            variants = [name.replace("{c,numpy}", lang) for lang in ("c", "numpy")]
+        for variant in variants:
+            places = [ROOT / variant, package / variant, *package.glob(f"*/{variant}")]
+            if not any(p.is_file() for p in places):
+                missing.append(variant)
+    assert not missing, f"docs/developer.rst names files that do not exist: {missing}"
