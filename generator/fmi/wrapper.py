@@ -27,10 +27,10 @@ from s2gen.fmi.description import LOG_CATEGORY
 from s2gen.fmi.model import FmuModel, Layout
 from s2gen.methods import Status
 from s2gen.methods import method as method_record
-from s2gen.printing.c import double_literal
+from s2gen.printing.c import c_string, double_literal
 from s2gen.render import environment
 
-__all__ = ["TANGENT_TOLERANCE", "StatusText", "WrapperSource", "c_string", "wrapper_files"]
+__all__ = ["TANGENT_TOLERANCE", "StatusText", "WrapperSource", "wrapper_files"]
 
 #: A start value w_i is refused when |w_i . q_i| > this * (1 + |w_i|) (q_i must be a unit
 #: vector to the options' unit_tol, as integrate() asks).
@@ -79,18 +79,6 @@ class WrapperSource:
     other_types: tuple[str, ...]
     co_simulation: int
     model_exchange: int
-
-
-def c_string(text: str) -> str:
-    """`text` as a C string literal (printable ASCII; quote and backslash escaped).
-
-    Example:
-        >>> print(c_string('say "hi" \\\\ bye'))
-        "say \\"hi\\" \\\\ bye"
-    """
-    if not text.isascii() or not text.isprintable():
-        raise ValueError(f"not printable ASCII: {text!r}")
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 def _literal(value: float) -> str:

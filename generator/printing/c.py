@@ -34,6 +34,7 @@ __all__ = [
     "c_kernel",
     "c_loop",
     "c_quad_scatter",
+    "c_string",
     "c_term_gradient",
     "c_term_row",
     "c_term_tables",
@@ -49,6 +50,18 @@ class LiteralError(ValueError):
 #: Integers up to this magnitude are exact doubles, and so is the quotient p.0/q.0 of two of
 #: them correctly rounded; beyond it a literal is printed as the correctly rounded double.
 EXACT_INTEGER = 2**53
+
+
+def c_string(text: str) -> str:
+    """`text` as a C string literal (printable ASCII; quote and backslash escaped).
+
+    Example:
+        >>> print(c_string('say "hi" \\\\ bye'))
+        "say \\"hi\\" \\\\ bye"
+    """
+    if not text.isascii() or not text.isprintable():
+        raise ValueError(f"not printable ASCII: {text!r}")
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 def double_literal(value: sp.Rational) -> str:
