@@ -7,10 +7,13 @@ The parsed forces and potentials are compared with the same physics written by h
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import sympy as sp
 
+from s2gen.cli import main
 from s2gen.spec import define_system, load_spec_text, parse_expression
 from s2gen.symbols import TIME, q_vector, w_vector
 from s2gen.systems import builtin, builtin_names, with_parameters
@@ -181,3 +184,25 @@ def test_new_parameter_values_keep_the_driven_part() -> None:
 def test_time_is_a_name_of_potentials_only() -> None:
     V = parse_expression("cos(t)*q1[2]", n=1, parameters=[], where="x")
     assert V == sp.cos(TIME) * q_vector(1)[2]
+
+
+@pytest.mark.parametrize(
+    "args",
+    [["generate", "--out", "OUT"], ["simulate", "--h", "0.01", "--T", "0.1", "--out", "OUT"]],
+)
+def test_the_command_line_refuses_a_driven_spec_in_one_line(
+    args: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Until the emitted code handles driven systems: exit 2, one line naming the file and
+    the first driven key, nothing written."""
+    spec = tmp_path / "driven.toml"
+    spec.write_text(
+        SPEC + "[initial]\nq = [[0, 0, 1], [1, 0, 0]]\nomega = [[0, 1, 0], [0, 0, 1]]\n"
+    )
+    out = tmp_path / "out"
+    code = main([args[0], str(spec), *[str(out) if a == "OUT" else a for a in args[1:]]])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith(f"error: {spec}: [forces] F1: ")
+    assert "driven systems (forces, inputs or time t) is not supported yet" in err
+    assert not out.exists()

@@ -164,6 +164,12 @@ def define_system(
         ...                   diagonal="m*(n - i + 1)", max_index="m*(n - i + 1)")
         >>> s.structure.kind.value
         'max-index'
+        >>> s = define_system(name="spun", bodies=1, parameters={"c": 0.1}, diagonal=["1"],
+        ...                   inputs={"tau": 0.0}, potential="cos(t)*q1[2]",
+        ...                   forces={"F1": "tau*cross(e3, q1)"},
+        ...                   force_terms=[{"F": "-c*cross(w, q)"}])
+        >>> s.driven, s.inputs.names, [f.label for f in s.forces]
+        (True, ('tau',), ['[forces] F1', '[[forces.body]] #1'])
     """
     params = _parameters(parameters, origin)
     n = _bodies(bodies, origin)
