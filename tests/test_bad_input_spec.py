@@ -561,6 +561,11 @@ API_CASES: list[tuple[str, Callable[[], object], list[str]]] = [
         ["[[potential.pair]] #1 data.I: the name 'I' is taken"],
     ),
     (
+        "parameter named like a velocity",
+        lambda: _pendulum(parameters={"m": 1.0, "w2": 1.0}),
+        ["[parameters] w2: 'w2' is a reserved name (q1.., w1.., e1..e3"],
+    ),
+    (
         "force of SymPy entries with a wrong shape",
         lambda: _pendulum(forces={"F1": sp.Matrix([[1, 0], [0, 1]])}),
         ["[forces] F1: a force is a 3-vector, got a (2, 2) matrix"],
