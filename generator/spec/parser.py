@@ -132,9 +132,8 @@ def parse_vector(
     term's own `local` names (then q and w, say), safely (raises SpecError).
 
     Example:
-        >>> parse_vector("-c*cross(w1, q1) + cos(t)*e3", n=1, parameters=["c"],
-        ...              where="spec.toml: [forces] F1").T
-        Matrix([[-c*(-q1_1*w1_2 + q1_2*w1_1), -c*(q1_0*w1_2 - q1_2*w1_0), -c*(-q1_0*w1_1 + q1_1*w1_0) + cos(t)]])
+        >>> parse_vector("c*cos(t)*e3 - w1[0]*e1", n=1, parameters=["c"], where="F1").T
+        Matrix([[-w1_0, 0, c*cos(t)]])
     """
     ctx, tree, result = _parse_value(text, n, parameters, where, True, local, True)
     if not isinstance(result, sp.MatrixBase):
