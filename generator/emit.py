@@ -114,6 +114,7 @@ def emit_key(system: System, lang: str, form: str = "sphere") -> str:
 def _emit(system: System, lang: str, form: str, cache: bool) -> dict[str, str]:
     if lang not in LANGUAGES:
         raise ValueError(f"unknown language {lang!r}; choose one of {', '.join(LANGUAGES)}")
+    system.refuse_driven("emitting code")
     folder = cache_dir() / "emitted" / emit_key(system, lang, form)
     files = _read_cached(folder) if cache else None
     if files is not None:

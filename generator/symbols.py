@@ -4,7 +4,9 @@ Input: names. Output: SymPy symbols and 3x1 matrices. Used by every stage that b
 expressions, so a vector written by the spec, differentiated by the equations and printed by
 the printers is always the same three symbols:
 
-- body i (1-based, as in the paper) is the vector ``q{i}``: ``q1_0, q1_1, q1_2``;
+- body i (1-based, as in the paper) is the vector ``q{i}``: ``q1_0, q1_1, q1_2``, and its
+  angular velocity (in forces) is ``w{i}``: ``w1_0, w1_1, w1_2``; time is the real symbol
+  ``t`` (`TIME`);
 - a term's own vectors are ``q`` (one-body terms), ``qi`` and ``qj`` (pair terms), and a vector
   datum ``r`` of a term is ``r_0, r_1, r_2``;
 - the generic kernels of the equations use the same rule (``qi``, ``wi``, ``f``, ``gn``, ...).
@@ -21,6 +23,7 @@ from __future__ import annotations
 import sympy as sp
 
 __all__ = [
+    "TIME",
     "component",
     "components",
     "local_vector",
@@ -28,7 +31,12 @@ __all__ = [
     "q_symbols",
     "q_vector",
     "vector",
+    "w_symbol",
+    "w_vector",
 ]
+
+#: Time, the one symbol of a time-dependent potential or force (the name `t` in the spec).
+TIME = sp.Symbol("t", real=True)
 
 
 def component(name: str, c: int) -> sp.Symbol:
@@ -64,3 +72,18 @@ def q_vector(i: int) -> sp.Matrix:
 def q_symbols(n: int) -> list[sp.Symbol]:
     """All 3n position symbols in storage order (body-major, then component)."""
     return [q_symbol(i, c) for i in range(1, n + 1) for c in range(3)]
+
+
+def w_symbol(i: int, c: int) -> sp.Symbol:
+    """Component c (0, 1, 2) of body i's angular velocity omega_i (i is 1-based)."""
+    return component(f"w{i}", c)
+
+
+def w_vector(i: int) -> sp.Matrix:
+    """Body i's angular velocity as a 3x1 SymPy column (i is 1-based).
+
+    Example:
+        >>> w_vector(2).T
+        Matrix([[w2_0, w2_1, w2_2]])
+    """
+    return vector(f"w{i}")

@@ -30,8 +30,11 @@ import numpy as np
 import sympy as sp
 
 from s2gen.errors import SpecError, SpecWarning, shown
+from s2gen.forces import Force, Inputs
 from s2gen.inertia import ChainInertia, InertiaKind, InertiaStructure, chain_structure, detect
+from s2gen.symbols import TIME
 from s2gen.terms import Term, TermData
+from s2gen.validate.forces import _check_inputs, _driven_symbols, _validate_force
 from s2gen.validate.inertia import _validate_chain, _validate_matrix
 from s2gen.validate.initial import UNIT_LENGTH_TOLERANCE, _validate_initial
 from s2gen.validate.names import (
@@ -97,6 +100,9 @@ class System:
     terms: tuple[Term, ...] = ()
     chain: ChainInertia | None = None
     inertia_solver: str = "auto"
+    #: The driven part: the caller's inputs and the generalized forces (empty: closed system).
+    inputs: Inputs = field(default_factory=Inputs)
+    forces: tuple[Force, ...] = ()
     #: What `s2gen.load` rebuilds this system from: a built-in name with its options
     #: (``elastic_rod:n=12``) or the TOML text; empty for a system defined in Python.
     source: str = field(default="", compare=False)
@@ -116,11 +122,15 @@ class System:
         origin: str = "<python api>",
         terms: Sequence[Term] = (),
         inertia_solver: str = "auto",
+        inputs: Mapping[str, float] | None = None,
+        forces: Sequence[Force] = (),
     ) -> System:
         """Validate the pieces and return a frozen System (raises SpecError).
 
         `inertia` is an n x n SymPy matrix or a `ChainInertia` (per-body expressions);
-        `inertia_solver` one of `INERTIA_SOLVERS`."""
+        `inertia_solver` one of `INERTIA_SOLVERS`. The potential and its terms may depend on
+        time (`s2gen.symbols.TIME`) and the `inputs` (name -> default value); `forces` are
+        `s2gen.forces.Force`s (see `s2gen.validate.forces`)."""
         where = origin
         _check_name(name, where)
         if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
@@ -145,10 +155,15 @@ class System:
         else:
             matrix = _validate_matrix(inertia, n, psyms, subs, where)
 
-        V = _check_potential(potential, n, psyms, where)
+        drive = _check_inputs(inputs or {}, set(names), where)
+        driven = _driven_symbols(psyms, drive)
+        V = _check_potential(potential, n, driven, where)
 
         for term in terms:
-            _validate_term(term, n, psyms, where)
+            timed = all(d.name != "t" for d in term.data)  # a datum t hides time
+            _validate_term(term, n, driven if timed else driven - {TIME}, where)
+        for force in forces:
+            _validate_force(force, n, driven, where)
         q0a, w0a = _validate_initial(q0, omega0, n, where)
         return System(
             name=name,
@@ -164,6 +179,8 @@ class System:
             terms=tuple(terms),
             chain=inertia if isinstance(inertia, ChainInertia) else None,
             inertia_solver=inertia_solver,
+            inputs=drive,
+            forces=tuple(forces),
         )
 
     # ------------------------------------------------------------------ queries
@@ -222,6 +239,74 @@ class System:
             return self.n == 1 or self.chain.max_index == 0 or self.chain.scale == 0
         return all(v == 0 for (r, c), v in self.inertia.todok().items() if r != c)
 
+    @property
+    def driven(self) -> bool:
+        """True when the system has forces, inputs or a time-dependent potential (the part
+        of the spec the emitted code does not handle yet).
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> builtin("double_pendulum").driven
+            False
+        """
+        return bool(self.forces or self.inputs.names or self._timed())
+
+    def _timed(self) -> list[str]:
+        """The keys of the potential that depend on time (a parameter or datum named t is
+        not time: it hides it, as in specs written before time existed)."""
+        if "t" in self.parameter_names:
+            return []
+        keys = ["[potential] V"] if TIME in self.potential.free_symbols else []
+        return keys + [
+            f"{t.label} V"
+            for t in self.terms
+            if TIME in t.expr.free_symbols and all(d.name != "t" for d in t.data)
+        ]
+
+    def refuse_driven(self, what: str) -> None:
+        """Raise a one-line SpecError naming the spec's first driven key when the system is
+        `driven`: `what` (emitting code, the reference integrator) does not handle it yet.
+
+        Example:
+            >>> from s2gen.spec import define_system
+            >>> s = define_system(name="p", bodies=1, parameters={}, diagonal=["1"],
+            ...                   potential="cos(t)*q1[2]")
+            >>> s.refuse_driven("emitting code")
+            Traceback (most recent call last):
+            ...
+            s2gen.errors.SpecError: <python api>: [potential] V: t: emitting code for ...
+        """
+        if not self.driven:
+            return
+        if self.forces:
+            key = self.forces[0].label
+        elif self.inputs.names:
+            key = f"[inputs] {self.inputs.names[0]}"
+        else:
+            key = f"{self._timed()[0]}: t"
+        raise SpecError(
+            f"{self.origin}: {key}: {what} for driven systems (forces, inputs or time t) is not "
+            "supported yet; the spec is valid, but only a closed system can run"
+        )
+
+    def force_vectors(self) -> list[sp.Matrix]:
+        """The total force F_i on each body, in q1..qn, w1..wn, t, inputs and parameters
+        (small n only: for checks).
+
+        Example:
+            >>> from s2gen.spec import define_system
+            >>> s = define_system(name="p", bodies=1, parameters={"c": 0.5}, diagonal=["1"],
+            ...                   potential=0, forces={"F1": "-c*cross(w1, q1)"})
+            >>> s.force_vectors()[0][2]
+            0.5*q1_0*w1_1 - 0.5*q1_1*w1_0
+        """
+        total = [sp.zeros(3, 1) for _ in range(self.n)]
+        for f in self.forces:
+            for k, member in enumerate(f.member_list(self.n)):
+                total[member[0]] += f.instance(member, k)
+        subs = dict(zip(self.parameter_symbols, self.parameter_values))
+        return [sp.expand(v.xreplace(subs)) for v in total]
+
     def full_potential(self) -> sp.Expr:
         """V as one expression: the general part plus every term instance (small n only)."""
         total = self.potential
@@ -262,6 +347,13 @@ class System:
             h.update(f"{t.kind};{t.select};{t.members};{t.label};{t.cutoff!r}".encode())
             h.update(sp.srepr(t.expr).encode())
             for d in t.data:
+                h.update(f"{d.name};{d.width};{d.values}".encode())
+        for u, v in zip(self.inputs.names, self.inputs.values):  # none: the digest is unchanged
+            h.update(f"input {u}={v!r};".encode())
+        for f in self.forces:
+            h.update(f"force;{f.select};{f.members};{f.label};{f.global_}".encode())
+            h.update(sp.srepr(f.expr).encode())
+            for d in f.data:
                 h.update(f"{d.name};{d.width};{d.values}".encode())
         object.__setattr__(self, "_spec_digest", h.hexdigest())  # frozen: set once, by hand
         return h.hexdigest()

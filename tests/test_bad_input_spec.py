@@ -20,6 +20,8 @@ import pytest
 import sympy as sp
 
 from s2gen.cli import main
+from s2gen.emit import emit
+from s2gen.reference import problem_from_system
 from s2gen.runtime import Options, simulate
 from s2gen.spec import define_system, load_spec_text
 from s2gen.system import MAX_BODIES, SpecError, System
@@ -52,6 +54,11 @@ TERMS = BASE.replace(
     "[potential.pair.data]\nkk = [1.0]\n",
 )
 
+DRIVEN = (
+    BASE + '[inputs]\nu = 0.0\n[forces]\nF1 = "u*cross(e3, q1)"\n[[forces.body]]\n'
+    'F = "-c*cross(w, q)"\n[forces.body.data]\nc = [0.1, "k"]\n'
+)
+
 
 def edit(base: str, old: str, new: str) -> str:
     """`base` with `old` replaced by `new` (which must be there: a typo is a test error)."""
@@ -63,6 +70,7 @@ def test_the_bases_are_valid() -> None:
     """Every case below changes one thing in a spec that loads."""
     assert load_spec_text(BASE, origin=ORIGIN).n == 2
     assert len(load_spec_text(TERMS, origin=ORIGIN).terms) == 1
+    assert len(load_spec_text(DRIVEN, origin=ORIGIN).forces) == 2
 
 
 # (id, TOML text, fragments that must all be in the message after "catalog.toml: ")
@@ -345,6 +353,95 @@ TOML_CASES: list[tuple[str, str, list[str]]] = [
         edit(TERMS, '"kk*dot(qi, qj)"', '"kk*dot(qi, qj) # spring"'),
         ["[[potential.pair]] #1 V: '#' is not allowed", "column 16"],
     ),
+    # --- driven systems: time, inputs, forces
+    (
+        "velocity in a potential",
+        edit(DRIVEN, 'V = "-m*g*q1[2] - m*g*q2[2]"', 'V = "-m*g*q1[2] + dot(w1, q2)"'),
+        ["[potential] V: the angular velocity 'w1' is not allowed here", "column 18"],
+    ),
+    (
+        "velocity in a potential term",
+        edit(
+            DRIVEN, 'V = "-m*g*q1[2] - m*g*q2[2]"', 'V = "0"\n[[potential.body]]\nV = "dot(w, q)"'
+        ),
+        ["[[potential.body]] #1 V: the angular velocity 'w' is not allowed here", "column 5"],
+    ),
+    (
+        "time in the inertia",
+        edit(DRIVEN, 'diagonal = ["m", "m"]', 'diagonal = ["m*(1 + t)", "m"]'),
+        ["[inertia] diagonal[1]: 't' is not allowed here (only numbers and parameters)"],
+    ),
+    (
+        "time in an initial value",
+        edit(DRIVEN, "omega = [[0, 1, 0], [0, 0, 1]]", 'omega = [[0, "t", 0], [0, 0, 1]]'),
+        ["[initial] omega[1][2]: 't' is not allowed here"],
+    ),
+    (
+        "input clashes with a parameter",
+        edit(DRIVEN, "u = 0.0", "k = 0.0"),
+        ["[inputs] k: the input 'k' clashes with the parameter k"],
+    ),
+    ("input named t", edit(DRIVEN, "u = 0.0", "t = 0.0"), ["[inputs] t: the name 't' is reserved"]),
+    (
+        "input named like a velocity",
+        edit(DRIVEN, "u = 0.0", "w1 = 0.0"),
+        ["[inputs] w1: the name 'w1' is reserved"],
+    ),
+    (
+        "input default not a number",
+        edit(DRIVEN, "u = 0.0", 'u = "abc"'),
+        ["[inputs] u: unknown name 'abc'"],
+    ),
+    (
+        "force a scalar",
+        edit(DRIVEN, '"u*cross(e3, q1)"', '"u*q1[2]"'),
+        ["[forces] F1: the expression 'u*q1[2]' is a scalar, but a force is a 3-vector"],
+    ),
+    (
+        "force with an unknown name",
+        edit(DRIVEN, '"u*cross(e3, q1)"', '"v*cross(e3, q1)"'),
+        ["[forces] F1: unknown name 'v' at column 1"],
+    ),
+    (
+        "force on a body that does not exist",
+        edit(DRIVEN, "F1 = ", "F3 = "),
+        ["[forces] F3: no body 3: the bodies are 1..2"],
+    ),
+    (
+        "force with an unknown key",
+        edit(DRIVEN, "F1 = ", "G1 = "),
+        ["[forces]: unknown key 'G1' (allowed: F1..F2, body)"],
+    ),
+    (
+        "force on a velocity that does not exist",
+        edit(DRIVEN, '"u*cross(e3, q1)"', '"u*cross(w3, q1)"'),
+        ["[forces] F1: no body 'w3': the bodies are w1..w2", "column 9"],
+    ),
+    (
+        "force term with a global velocity",
+        edit(DRIVEN, '"-c*cross(w, q)"', '"-c*cross(w1, q)"'),
+        ["[[forces.body]] #1 F: the global angular velocity 'w1' is not allowed", "column 10"],
+    ),
+    (
+        "force term without F",
+        edit(DRIVEN, 'F = "-c*cross(w, q)"', 'G = "-c*cross(w, q)"'),
+        ["[[forces.body]] #1: unknown key 'G' (allowed: F, bodies, data)"],
+    ),
+    (
+        "force term datum named w",
+        edit(DRIVEN, 'c = [0.1, "k"]', 'c = [0.1, "k"]\nw = [1, 2]'),
+        ["[[forces.body]] #1 data.w: the name 'w' is taken"],
+    ),
+    (
+        "force term on a body that does not exist",
+        edit(DRIVEN, 'F = "-c*cross(w, q)"', 'F = "-c*cross(w, q)"\nbodies = [1, 3]'),
+        ["[[forces.body]] #1 bodies[2]: body 3 is not one of 1..2"],
+    ),
+    (
+        "forces not a table",
+        edit(BASE, 'name = "cat"', 'name = "cat"\nforces = 3'),
+        ["'forces' must be a table [forces], got 3"],
+    ),
 ]
 
 
@@ -462,6 +559,41 @@ API_CASES: list[tuple[str, Callable[[], object], list[str]]] = [
             pair_terms=[{"V": "I*dot(qi, qj)", "pairs": "chain", "data": {"I": [1.0]}}]
         ),
         ["[[potential.pair]] #1 data.I: the name 'I' is taken"],
+    ),
+    (
+        "parameter named like a velocity",
+        lambda: _pendulum(parameters={"m": 1.0, "w2": 1.0}),
+        ["[parameters] w2: 'w2' is a reserved name (q1.., w1.., e1..e3"],
+    ),
+    (
+        "force of SymPy entries with a wrong shape",
+        lambda: _pendulum(forces={"F1": sp.Matrix([[1, 0], [0, 1]])}),
+        ["[forces] F1: a force is a 3-vector, got a (2, 2) matrix"],
+    ),
+    (
+        "force of SymPy entries in an unknown symbol",
+        lambda: _pendulum(forces={"F2": [0, 0, sp.Symbol("zeta", real=True)]}),
+        ["[forces] F2: depends on zeta, which is not one of q1..q2, w1..w2, t, an input"],
+    ),
+    (
+        "time in the inertia through SymPy",
+        lambda: _pendulum(diagonal=None, inertia=sp.diag(sp.Symbol("t", real=True), 1)),
+        ["[inertia] M[1][1]: depends on t, but the inertia must be constant"],
+    ),
+    (
+        "input default not finite",
+        lambda: _pendulum(inputs={"u": float("inf")}),
+        ["[inputs] u: value inf is not finite"],
+    ),
+    (
+        "a driven system cannot be emitted yet",
+        lambda: emit(_pendulum(potential="-m*cos(t)*q1[2]"), "c", cache=False),
+        ["[potential] V: t: emitting code for driven systems", "is not supported yet"],
+    ),
+    (
+        "a driven system has no reference problem yet",
+        lambda: problem_from_system(_pendulum(forces={"F2": "cross(e3, q2)"})),
+        ["[forces] F2: building the reference problem for driven systems"],
     ),
 ]
 

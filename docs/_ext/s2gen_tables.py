@@ -22,8 +22,11 @@ MEANINGS: dict[tuple[str, str], str] = {
     ("", "bodies"): f"the number n of bodies, a positive integer (at most {MAX_BODIES:,})",
     ("", "parameters"): "a table ``name = number``; the parameters the expressions may use "
     "(the emitted code takes them as an array, defaults from here)",
+    ("", "inputs"): "a table ``name = default``; the caller's inputs, held over each step "
+    "(driven systems; potentials and forces may use them)",
     ("", "inertia"): "the constant inertia matrix M (its keys below)",
     ("", "potential"): "the potential V (its keys below)",
+    ("", "forces"): "generalized forces F_i conjugate to q_i (its keys below; optional)",
     ("", "initial"): "the initial state (its keys below; optional)",
     ("", "run"): "default run settings (its keys below; optional)",
     ("inertia", "M"): "the n × n entries of M, numbers or expressions in the parameters",
@@ -36,8 +39,8 @@ MEANINGS: dict[tuple[str, str], str] = {
     ("inertia", "solver"): "how M's linear systems are solved: "
     + ", ".join(f'``"{s}"``' for s in INERTIA_SOLVERS)
     + " (default ``auto``: the structure's solver where an operation count says it is cheaper)",
-    ("potential", "V"): "the general part of V, an expression in ``q1``…``qn`` (optional when "
-    "terms are given)",
+    ("potential", "V"): "the general part of V, an expression in ``q1``…``qn``, time ``t`` and "
+    "the inputs (optional when terms are given)",
     ("potential", "body"): "one-body terms: an array of tables ``[[potential.body]]`` (below)",
     ("potential", "pair"): "pair terms: an array of tables ``[[potential.pair]]`` (below)",
     ("initial", "q"): "n unit 3-vectors (entries numbers or expressions); within 1e-3 of unit "
@@ -49,6 +52,11 @@ MEANINGS: dict[tuple[str, str], str] = {
     ("run", "method"): "the default method: " + ", ".join(f"``{m.name}``" for m in METHODS),
     ("run", "rtol"): "relative tolerance of the adaptive methods",
     ("run", "atol"): "absolute tolerance of the adaptive methods",
+    ("forces", "F1"): "``F1`` … ``Fn``: the force on body i, a 3-vector in ``q1``…``qn``, "
+    "``w1``…``wn`` (angular velocities), ``t``, the inputs and the parameters",
+    ("forces", "body"): "one-body forces: an array of tables ``[[forces.body]]`` with ``F`` (a "
+    "3-vector in the body's own ``q`` and ``w``), ``bodies`` and ``data`` as for "
+    "``[[potential.body]]``",
     ("term", "V"): "the term's expression, in its own vectors",
     ("term", "data"): "per-member data: a table of lists, one entry per member (numbers or "
     "3-vectors)",
@@ -102,6 +110,10 @@ def spec_keys_rst() -> str:
                 if key == "V":
                     text += f" ({roles})"
             rows.append((f"``{key}``", f"``{kind.table}``", text))
+    rows += [
+        ("``F1`` … ``Fn``", "``[forces]``", _meaning("forces", "F1")),
+        ("``body``", "``[forces]``", _meaning("forces", "body")),
+    ]
     return _list_table("Spec keys", ("key", "table", "meaning"), rows)
 
 

@@ -102,6 +102,7 @@ def problem_from_system(
         >>> p.potential(q), p.grad(q).tolist()
         (4.0, [[2.0, -2.0, 0.0], [-2.0, 4.0, -2.0], [0.0, -2.0, 2.0]])
     """
+    system.refuse_driven("building the reference problem")
     values = _parameter_values(system, parameter_values)
     n = system.n
     ps = [sp.Symbol(p, real=True) for p in system.parameter_names]

@@ -84,6 +84,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from s2gen.spec.forces import _forces, _inputs
 from s2gen.spec.inertia import chain_inertia
 from s2gen.spec.parser import RESERVED_NAMES, parse_expression
 from s2gen.spec.tables import (
@@ -129,6 +130,9 @@ def define_system(
     scale: str | float | sp.Expr | None = None,
     inertia_data: Mapping[str, Sequence[str | float]] | None = None,
     inertia_solver: str = "auto",
+    inputs: Mapping[str, str | float] | None = None,
+    forces: Mapping[str, Any] | None = None,
+    force_terms: Sequence[Mapping[str, Any]] | None = None,
 ) -> System:
     """Build a validated System from Python values (the same rules as a TOML spec).
 
@@ -139,7 +143,10 @@ def define_system(
     `inertia_solver` is "auto", "dense" or "structured". `body_terms` and `pair_terms` are lists of
     dicts with the keys of a ``[[potential.body]]`` / ``[[potential.pair]]`` table (``V``,
     ``bodies`` / ``pairs`` with 1-based indices, ``data``); `potential` (the general part) may
-    then be omitted. Raises SpecError naming `origin` and the key.
+    then be omitted. Driven systems (`s2gen.spec.forces`): `inputs` maps input names to
+    defaults, `forces` the keys ``F1``.. to 3-vectors, `force_terms` is a list of dicts with
+    the keys of a ``[[forces.body]]`` table (``F``, ``bodies``, ``data``); potentials may
+    then hold time ``t`` and the inputs. Raises SpecError naming `origin` and the key.
 
     Example:
         >>> s = define_system(name="pend", bodies=1, parameters={"m": 1.0, "l": 2.0},
@@ -157,16 +164,24 @@ def define_system(
         ...                   diagonal="m*(n - i + 1)", max_index="m*(n - i + 1)")
         >>> s.structure.kind.value
         'max-index'
+        >>> s = define_system(name="spun", bodies=1, parameters={"c": 0.1}, diagonal=["1"],
+        ...                   inputs={"tau": 0.0}, potential="cos(t)*q1[2]",
+        ...                   forces={"F1": "tau*cross(e3, q1)"},
+        ...                   force_terms=[{"F": "-c*cross(w, q)"}])
+        >>> s.driven, s.inputs.names, [f.label for f in s.forces]
+        (True, ('tau',), ['[forces] F1', '[[forces.body]] #1'])
     """
     params = _parameters(parameters, origin)
     n = _bodies(bodies, origin)
-    names = list(params)
+    defaults = _inputs(inputs, params, origin)
+    names = [*params, *defaults]
     matrix = _any_inertia(inertia, diagonal, max_index, scale, inertia_data, n, params, origin)
     general = sp.Integer(0) if potential is None else _potential(potential, n, names, origin)
     terms = [
-        *_terms(body_terms, TermKind.BODY, n, params, origin),
-        *_terms(pair_terms, TermKind.PAIR, n, params, origin),
+        *_terms(body_terms, TermKind.BODY, n, params, origin, list(defaults)),
+        *_terms(pair_terms, TermKind.PAIR, n, params, origin, list(defaults)),
     ]
+    drive = _forces(forces, force_terms, n, params, list(defaults), origin)
     if potential is None and not terms:
         raise SpecError(
             f"{origin}: [potential] V: missing (give V, or terms [[potential.body]] / "
@@ -184,6 +199,8 @@ def define_system(
         origin=origin,
         terms=terms,
         inertia_solver=_solver(inertia_solver, origin),
+        inputs=defaults,
+        forces=drive,
     )
 
 
@@ -224,9 +241,21 @@ def _solver(value: Any, origin: str) -> str:
 
 
 # ====================================================================== TOML files
-_TOP_KEYS = ("name", "bodies", "parameters", "inertia", "potential", "initial", "run")
+_TOP_KEYS = (
+    "name",
+    "bodies",
+    "parameters",
+    "inputs",
+    "inertia",
+    "potential",
+    "forces",
+    "initial",
+    "run",
+)
 _TABLE_KEYS = {
     "parameters": None,
+    "inputs": None,
+    "forces": None,
     "inertia": ("M", "diagonal", "max_index", "scale", "data", "solver"),
     "potential": ("V", "body", "pair"),
     "initial": ("q", "omega"),
@@ -293,6 +322,9 @@ def load_spec_text(text: str, *, origin: str = "<string>") -> System:
         origin=origin,
         body_terms=potential.get("body"),
         pair_terms=potential.get("pair"),
+        inputs=tables["inputs"] or None,
+        forces={k: v for k, v in tables["forces"].items() if k != "body"} or None,
+        force_terms=tables["forces"].get("body"),
     )
     return dataclasses.replace(system, source=text)
 

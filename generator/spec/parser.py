@@ -35,7 +35,7 @@ from s2gen.spec.names import (
 from s2gen.spec.numbers import _MAX_DIGITS, _digits, _number_problem
 from s2gen.spec.source import _check_characters, _Context
 
-__all__ = ["RESERVED_NAMES", "Value", "parse_expression"]
+__all__ = ["RESERVED_NAMES", "Value", "parse_expression", "parse_vector"]
 
 #: Limits of the language, each stated in the error that enforces it.
 _MAX_LENGTH = 100_000  # characters of one expression
@@ -87,6 +87,7 @@ def parse_expression(
     where: str,
     allow_vectors: bool = True,
     local: Mapping[str, int] | None = None,
+    velocities: bool = False,
 ) -> sp.Expr:
     """Parse a scalar expression of the spec language into SymPy, safely (raises SpecError).
 
@@ -94,7 +95,9 @@ def parse_expression(
     (used for inertia entries and initial values). `local` makes it a term expression: it maps
     the term's own names (its vectors q, or qi and qj, and its data) to their widths, 3 for a
     vector (symbols name_0..name_2, see `local_vector`) or 1 for a scalar (the symbol name);
-    the global q1..qn are then refused.
+    the global q1..qn are then refused. Time `t` is a name wherever vectors are allowed;
+    `velocities` adds the angular velocities w1..wn (a force's expression, see
+    `parse_vector`).
 
     Example:
         >>> parse_expression("m*g*dot(e3, q1) + q2[0]/2", n=2, parameters=["m", "g"],
@@ -105,15 +108,7 @@ def parse_expression(
         ...                  local={"qi": 3, "qj": 3, "r": 3})
         k*(qj_0*r_0 + qj_1*r_1 + qj_2*r_2 - 1) + qi_2
     """
-    bad = [p for p in parameters if p in RESERVED_NAMES or _Q_RESERVED.fullmatch(p)]
-    if bad:
-        raise SpecError(f"{where}: parameter name {shown(bad[0])} is reserved")
-    names = _name_table(n, parameters, allow_vectors, local, where)
-    ctx, tree = _parse(text, where, names)
-    try:
-        result = _eval(ctx, tree.body)
-    except RecursionError:
-        raise SpecError(f"{where}: expression nested too deeply") from None
+    ctx, tree, result = _parse_value(text, n, parameters, where, allow_vectors, local, velocities)
     if isinstance(result, sp.MatrixBase):
         raise ctx.fail(
             tree.body,
@@ -123,6 +118,54 @@ def parse_expression(
     if result.is_extended_real is False:
         raise ctx.fail(tree.body, f"the expression {ctx.token(tree.body)!r} is not real")
     return result
+
+
+def parse_vector(
+    text: str,
+    *,
+    n: int,
+    parameters: Sequence[str],
+    where: str,
+    local: Mapping[str, int] | None = None,
+) -> sp.ImmutableMatrix:
+    """Parse a 3-vector expression (a force) in q1..qn, w1..wn, t and the parameters, or in a
+    term's own `local` names (then q and w, say), safely (raises SpecError).
+
+    Example:
+        >>> parse_vector("c*cos(t)*e3 - w1[0]*e1", n=1, parameters=["c"], where="F1").T
+        Matrix([[-w1_0, 0, c*cos(t)]])
+    """
+    ctx, tree, result = _parse_value(text, n, parameters, where, True, local, True)
+    if not isinstance(result, sp.MatrixBase):
+        raise ctx.fail(
+            tree.body,
+            f"the expression {ctx.token(tree.body)!r} is a scalar, but a force is a 3-vector "
+            "(e.g. f*e3 or cross(tau, q1))",
+        )
+    if any(entry.is_extended_real is False for entry in result):
+        raise ctx.fail(tree.body, f"the expression {ctx.token(tree.body)!r} is not real")
+    return sp.ImmutableMatrix(result)
+
+
+def _parse_value(
+    text: str,
+    n: int,
+    parameters: Sequence[str],
+    where: str,
+    allow_vectors: bool,
+    local: Mapping[str, int] | None,
+    velocities: bool,
+) -> tuple[_Context, ast.Expression, Value]:
+    """Check the parameter names, parse `text` and walk it: scalar or vector."""
+    bad = [p for p in parameters if p in RESERVED_NAMES or _Q_RESERVED.fullmatch(p)]
+    if bad:
+        raise SpecError(f"{where}: parameter name {shown(bad[0])} is reserved")
+    names = _name_table(n, parameters, allow_vectors, local, where, velocities and not local)
+    ctx, tree = _parse(text, where, names)
+    try:
+        return ctx, tree, _eval(ctx, tree.body)
+    except RecursionError:
+        raise SpecError(f"{where}: expression nested too deeply") from None
 
 
 def _parse(text: str, where: str, names: _Names) -> tuple[_Context, ast.Expression]:

@@ -66,8 +66,8 @@ def _check_parameter_name(pname: Any, where: str) -> None:
         raise SpecError(f"{where}: {shown(pname)} is a reserved word")
     if pname in RESERVED_NAMES or _Q_RESERVED.fullmatch(pname):
         raise SpecError(
-            f"{where}: {shown(pname)} is a reserved name (q1.., e1..e3, pi and the function "
-            "names have fixed meanings)"
+            f"{where}: {shown(pname)} is a reserved name (q1.., w1.., e1..e3, pi and the "
+            "function names have fixed meanings)"
         )
 
 
@@ -153,7 +153,7 @@ def _check_data_name(name: Any, params: Mapping[str, float], where: str) -> None
         )
     if name in RESERVED_NAMES or _Q_RESERVED.fullmatch(name):
         raise SpecError(
-            f"{where}: data name {shown(name)} is a reserved name (q1.., e1..e3, pi and the "
+            f"{where}: data name {shown(name)} is a reserved name (q1.., w1.., e1..e3, pi and the "
             "function names have fixed meanings)"
         )
 

@@ -28,7 +28,12 @@ __all__: list[str] = []
 
 
 def _terms(
-    entries: Any, kind: TermKind, n: int, params: Mapping[str, float], origin: str
+    entries: Any,
+    kind: TermKind,
+    n: int,
+    params: Mapping[str, float],
+    origin: str,
+    inputs: Sequence[str] = (),
 ) -> list[Term]:
     """The terms of one kind (None: none), labelled "[[potential.body]] #k" (k from 1)."""
     if entries is None:
@@ -38,11 +43,17 @@ def _terms(
             f"{origin}: {kind.table}: expected a list of term tables (in TOML an array of "
             f"tables, written {kind.table}), got {shown(entries)}"
         )
-    return [_term(entry, kind, k + 1, n, params, origin) for k, entry in enumerate(entries)]
+    return [_term(entry, kind, k + 1, n, params, origin, inputs) for k, entry in enumerate(entries)]
 
 
 def _term(
-    entry: Any, kind: TermKind, k: int, n: int, params: Mapping[str, float], origin: str
+    entry: Any,
+    kind: TermKind,
+    k: int,
+    n: int,
+    params: Mapping[str, float],
+    origin: str,
+    inputs: Sequence[str] = (),
 ) -> Term:
     """One term table: its key V, its selection and its per-member data."""
     label = f"{kind.table} #{k}"
@@ -68,7 +79,10 @@ def _term(
     data = _term_data(entry.get("data"), kind, select, count, params, where)
     _check_symbols(kind, data, params, where)
     local = {**{role: 3 for role in kind.roles}, **{d.name: d.width for d in data}}
-    expr = _term_expression(entry["V"], kind, n, local, params, f"{where} V")
+    for d in data:
+        if d.name in inputs:
+            raise SpecError(f"{where} data.{d.name}: the name {shown(d.name)} is an input")
+    expr = _term_expression(entry["V"], kind, n, local, params, f"{where} V", inputs)
     cutoff = None
     if entry.get("cutoff") is not None:
         cutoff = _number(entry["cutoff"], f"{where} cutoff", params)
@@ -240,10 +254,13 @@ def _term_expression(
     local: Mapping[str, int],
     params: Mapping[str, float],
     where: str,
+    inputs: Sequence[str] = (),
 ) -> sp.Expr:
-    """A term's V: a string in its local names, or a SymPy scalar in their symbols."""
+    """A term's V: a string in its local names, or a SymPy scalar in their symbols (and in
+    time t and the inputs)."""
+    names = [*params, *inputs]
     if isinstance(value, str):
-        return parse_expression(value, n=n, parameters=list(params), where=where, local=local)
+        return parse_expression(value, n=n, parameters=names, where=where, local=local)
     if isinstance(value, sp.MatrixBase):
         raise SpecError(f"{where}: the term is a {value.shape} matrix, not a scalar")
     if not isinstance(value, sp.Expr) and (
@@ -252,21 +269,21 @@ def _term_expression(
         raise SpecError(
             f"{where}: expected an expression string or a SymPy scalar, got {shown(value)}"
         )
-    expr = _scalar(value, where, list(params))
+    expr = _scalar(value, where, names)
     own = " and ".join(kind.roles)
-    names = {s.name for s in expr.free_symbols}
-    global_q = sorted(name for name in names if _Q_RESERVED.fullmatch(name))
+    symbols = {s.name for s in expr.free_symbols}
+    global_q = sorted(name for name in symbols if _Q_RESERVED.fullmatch(name))
     if global_q:
         raise SpecError(
             f"{where}: the global positions {', '.join(global_q)} are not allowed in a term "
             f"expression (a term sees only its own vectors, here {own})"
         )
     allowed = {s.name for name, width in local.items() for s in _local_symbols(name, width)}
-    extra = sorted(names - allowed - set(params))
+    extra = sorted(symbols - allowed - set(params) - set(inputs) - {"t"})
     if extra:
         raise SpecError(
             f"{where}: depends on {', '.join(extra)}, which is not one of the term's vectors "
-            f"({own}), its data or a parameter"
+            f"({own}), its data, t, an input or a parameter"
         )
     return expr
 

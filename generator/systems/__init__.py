@@ -233,6 +233,8 @@ def with_parameters(system: System, values: Mapping[str, float]) -> System:
         origin=system.origin,
         terms=system.terms,
         inertia_solver=system.inertia_solver,
+        inputs=system.inputs.defaults,
+        forces=system.forces,
     )
     return dataclasses.replace(changed, source=system.source)
 

@@ -152,8 +152,8 @@ def _check_potential(potential: sp.Expr, n: int, psyms: set[sp.Symbol], where: s
     if extra:
         bad = ", ".join(sorted(str(s) for s in extra))
         raise SpecError(
-            f"{where}: [potential] V: depends on {bad}; only q1..q{n} and the declared "
-            "parameters may appear"
+            f"{where}: [potential] V: depends on {bad}; only q1..q{n}, time t, the inputs and "
+            "the declared parameters may appear"
         )
     if V.has(sp.Derivative, sp.Integral):
         raise SpecError(f"{where}: [potential] V: must not contain derivatives or integrals")

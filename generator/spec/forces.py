@@ -1,0 +1,145 @@
+"""Spec tables of driven systems: [inputs] and [forces] (with [[forces.body]] terms).
+
+Input: the tables (TOML or `define_system`'s `inputs`, `forces` and `force_terms`), the body
+count, the parameters, the input names and the spec's origin.
+Output: the inputs (name -> default value) and `Force`s labelled "[forces] F2" or
+"[[forces.body]] #k" (k from 1), or a `SpecError` naming the table, the key and the token::
+
+    [inputs]                 # the caller's inputs and their defaults (zero-order hold)
+    a = 0.0
+
+    [forces]                 # F_i in R^3 conjugate to q_i: virtual work F_i . delta q_i
+    F1 = "a*cross(e3, q1)"   # in q1..qn, w1..wn (angular velocities), t, inputs, parameters
+
+    [[forces.body]]          # one force per body of the selection, in its own q and w
+    F = "-c*cross(w, q)"     # viscous damping
+    bodies = "all"           # or a list of 1-based body indices; default "all"
+    [forces.body.data]       # optional per-body data, as for [[potential.body]]
+    c = [0.1, 0.2]
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import sympy as sp
+
+from s2gen.errors import SpecError, shown
+from s2gen.forces import Force
+from s2gen.spec.parser import parse_vector
+from s2gen.spec.tables import _check_keys, _key, _number
+from s2gen.spec.term_tables import _check_symbols, _selection, _term_data
+from s2gen.terms import Term, TermKind
+from s2gen.validate.forces import _check_input_name
+
+__all__: list[str] = []
+
+_GENERAL = re.compile(r"F([1-9][0-9]*)")
+_FORCE_TERM = "[[forces.body]]"
+
+
+def _inputs(value: Any, params: Mapping[str, float], origin: str) -> dict[str, float]:
+    """[inputs]: name = default value (a number or an expression in the parameters)."""
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise SpecError(f"{origin}: [inputs]: expected a table of name = default value")
+    out: dict[str, float] = {}
+    for name, default in value.items():
+        _check_input_name(name, set(params), origin)
+        out[name] = _number(default, f"{origin}: [inputs] {_key(name)}", params)
+    return out
+
+
+def _forces(
+    general: Any,
+    terms: Any,
+    n: int,
+    params: Mapping[str, float],
+    inputs: Sequence[str],
+    origin: str,
+) -> list[Force]:
+    """The general forces F1..Fn (a mapping) and the [[forces.body]] terms (a list)."""
+    out: list[Force] = []
+    if general is not None:
+        if not isinstance(general, Mapping):
+            raise SpecError(
+                f"{origin}: [forces]: expected a table of F1 = ..., got {shown(general)}"
+            )
+        for key, value in general.items():
+            match = _GENERAL.fullmatch(key) if isinstance(key, str) else None
+            if match is None:
+                raise SpecError(
+                    f"{origin}: [forces]: unknown key {shown(key)} (allowed: F1..F{n}, body)"
+                )
+            body = int(match.group(1))
+            if body > n:
+                raise SpecError(f"{origin}: [forces] {key}: no body {body}: the bodies are 1..{n}")
+            label = f"[forces] {key}"
+            expr = _vector(value, n, [*params, *inputs], None, f"{origin}: {label}")
+            out.append(Force(expr, "list", ((body - 1,),), (), label, global_=True))
+    if terms is None:
+        return out
+    if isinstance(terms, (Mapping, str, bytes)) or not isinstance(terms, Sequence):
+        raise SpecError(
+            f"{origin}: {_FORCE_TERM}: expected a list of force tables (in TOML an array of "
+            f"tables, written {_FORCE_TERM}), got {shown(terms)}"
+        )
+    for k, entry in enumerate(terms):
+        out.append(_force_term(entry, k + 1, n, params, inputs, origin))
+    return out
+
+
+def _force_term(
+    entry: Any, k: int, n: int, params: Mapping[str, float], inputs: Sequence[str], origin: str
+) -> Force:
+    """One [[forces.body]] table: F in the body's q and w, its bodies and per-body data."""
+    label = f"{_FORCE_TERM} #{k}"
+    where = f"{origin}: {label}"
+    if not isinstance(entry, Mapping):
+        raise SpecError(f"{where}: expected a table (F, bodies, data), got {shown(entry)}")
+    _check_keys(entry, ("F", "bodies", "data"), where)
+    if "F" not in entry:
+        raise SpecError(f"{where}: missing required key 'F'")
+    for role in ("q", "w"):
+        if role in params or role in inputs:
+            raise SpecError(
+                f"{where}: the name {shown(role)} clashes with the body's own vector {role} "
+                "(rename the parameter or input)"
+            )
+    kind = TermKind.BODY
+    select, members = _selection(entry.get("bodies", "all"), kind, n, where)
+    count = Term(kind, sp.Integer(0), select, members).count(n)
+    data = _term_data(entry.get("data"), kind, select, count, params, where)
+    _check_symbols(kind, data, params, where)
+    for d in data:
+        if d.name in ("w", *inputs):
+            raise SpecError(f"{where} data.{d.name}: the name {shown(d.name)} is taken")
+    local = {"q": 3, "w": 3, **{d.name: d.width for d in data}}
+    expr = _vector(entry["F"], n, [*params, *inputs], local, f"{where} F")
+    return Force(expr, select, members, data, label)
+
+
+def _vector(
+    value: Any, n: int, names: Sequence[str], local: Mapping[str, int] | None, where: str
+) -> sp.ImmutableMatrix:
+    """A force: an expression string, or a 3-vector of SymPy expressions (checked later)."""
+    if isinstance(value, str):
+        return parse_vector(value, n=n, parameters=names, where=where, local=local)
+    if isinstance(value, sp.MatrixBase):
+        if value.shape not in ((3, 1), (1, 3)):
+            raise SpecError(f"{where}: a force is a 3-vector, got a {value.shape} matrix")
+        return sp.ImmutableMatrix(value.reshape(3, 1))
+    if isinstance(value, Sequence) and not isinstance(value, bytes) and len(value) == 3:
+        try:
+            return sp.ImmutableMatrix([sp.sympify(v, strict=True) for v in value])
+        except (sp.SympifyError, TypeError):
+            raise SpecError(
+                f"{where}: expected numbers or SymPy expressions, got {shown(value)}"
+            ) from None
+    raise SpecError(
+        f"{where}: a force is a 3-vector (an expression string or 3 SymPy entries), "
+        f"got {shown(value)}"
+    )
