@@ -43,9 +43,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from s2gen.reference.errors import InfeasibleStep, NewtonFailure
+from s2gen.reference.errors import InfeasibleStep
 from s2gen.reference.forced import DrivenProblem
 from s2gen.reference.geometry import _cross, _off_diagonal, inertia_operator
+from s2gen.reference.newton import newton
 from s2gen.reference.problem import Array
 from s2gen.reference.vi import _cayley_apply, _newton_cayley
 
@@ -60,9 +61,9 @@ def _newton_velocity(
     Stops when max|update| <= tol max(1, max|w|); raises `NewtonFailure` after `maxiter`
     iterations, on a non-finite iterate or a singular Jacobian.
     """
-    w = np.array(w0, dtype=float)
-    m = w.size
-    for it in range(1, maxiter + 1):
+    m = np.size(w0)
+
+    def linearize(w: Array) -> tuple[Array, Array]:
         G = (w - phi(w)).ravel()
         J = np.empty((m, m))
         for c in range(m):
@@ -70,18 +71,9 @@ def _newton_velocity(
             wc = w.copy()
             wc.flat[c] += e
             J[:, c] = ((wc - phi(wc)).ravel() - G) / e
-        try:
-            delta = np.linalg.solve(J, -G).reshape(w.shape)
-        except np.linalg.LinAlgError as exc:
-            raise NewtonFailure(
-                step, f"velocity update: singular Jacobian at iteration {it} ({exc})"
-            ) from exc
-        w = w + delta
-        if not np.all(np.isfinite(w)):
-            raise NewtonFailure(step, f"velocity update: iterate not finite at iteration {it}")
-        if np.max(np.abs(delta)) <= tol * max(1.0, float(np.max(np.abs(w)))):
-            return w, it
-    raise NewtonFailure(step, f"velocity update did not converge in {maxiter} iterations")
+        return G, J
+
+    return newton(np.array(w0, dtype=float), linearize, tol, maxiter, step, "velocity update")
 
 
 def _end_velocity(
@@ -185,23 +177,14 @@ def _rattle_position(
     Minv: Array, x: Array, y: Array, tol: float, maxiter: int, step: int
 ) -> tuple[Array, int]:
     """x+ = y - Minv (s x) with |x_i+|^2 = 1: Newton on the n scalars s from s = 0."""
-    s = np.zeros(x.shape[0])
-    for it in range(1, maxiter + 1):
+
+    def linearize(s: Array) -> tuple[Array, Array]:
         xn = y - Minv @ (s[:, None] * x)
         r = np.sum(xn * xn, axis=1) - 1.0
-        J = -2.0 * Minv * (xn @ x.T)  # dr_i/ds_j = -2 Minv_ij x+_i . x_j
-        try:
-            delta = np.linalg.solve(J, -r)
-        except np.linalg.LinAlgError as exc:
-            raise NewtonFailure(
-                step, f"RATTLE position: singular Jacobian at iteration {it} ({exc})"
-            ) from exc
-        s = s + delta
-        if not np.all(np.isfinite(s)):
-            raise NewtonFailure(step, f"RATTLE position: iterate not finite at iteration {it}")
-        if np.max(np.abs(delta)) <= tol * max(1.0, float(np.max(np.abs(s)))):
-            return y - Minv @ (s[:, None] * x), it
-    raise NewtonFailure(step, f"RATTLE position did not converge in {maxiter} iterations")
+        return r, -2.0 * Minv * (xn @ x.T)  # dr_i/ds_j = -2 Minv_ij x+_i . x_j
+
+    s, its = newton(np.zeros(x.shape[0]), linearize, tol, maxiter, step, "RATTLE position")
+    return y - Minv @ (s[:, None] * x), its
 
 
 def forced_rattle_step(

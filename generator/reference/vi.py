@@ -16,8 +16,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from s2gen.reference.errors import InfeasibleStep, NewtonFailure
+from s2gen.reference.errors import InfeasibleStep
 from s2gen.reference.geometry import _assemble, _cross, _hats, _off_diagonal, inertia_operator
+from s2gen.reference.newton import newton
 from s2gen.reference.problem import Array, ReferenceProblem
 from s2gen.reference.recorder import _Recorder, _state
 
@@ -97,21 +98,15 @@ def _newton_cayley(
     Raises `NewtonFailure` when it does not converge in `maxiter` iterations, when an iterate
     is not finite and when the Jacobian is singular.
     """
-    f = d / (2.0 * np.diag(M)[:, None])
-    for it in range(1, maxiter + 1):
-        r = vi_residual(M, q, f, d)
-        try:
-            delta = np.linalg.solve(vi_jacobian(M, q, f), -r.ravel()).reshape(f.shape)
-        except np.linalg.LinAlgError as exc:
-            raise NewtonFailure(
-                step, f"Newton's method: singular Jacobian at iteration {it} ({exc})"
-            ) from exc
-        f = f + delta
-        if not np.all(np.isfinite(f)):
-            raise NewtonFailure(step, f"Newton iterate not finite at iteration {it}")
-        if np.max(np.abs(delta)) <= tol * max(1.0, float(np.max(np.abs(f)))):
-            return f, it
-    raise NewtonFailure(step, f"Newton's method did not converge in {maxiter} iterations")
+    f0 = d / (2.0 * np.diag(M)[:, None])
+    return newton(
+        f0,
+        lambda f: (vi_residual(M, q, f, d), vi_jacobian(M, q, f)),
+        tol,
+        maxiter,
+        step,
+        "Newton's method",
+    )
 
 
 def _vi_explicit(
