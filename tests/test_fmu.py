@@ -354,3 +354,22 @@ def test_command_line_writes_the_fmu(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert main(["fmu", "double_pendulum", "--out", str(out), "--h", "-1"]) == 2
     assert "no step size" in capsys.readouterr().err
     assert main(["fmu", "no_such_system", "--out", str(out)]) == 2
+
+
+def test_adaptive_co_simulation_takes_the_spec_tolerances(tmp_path: Path, pendulum) -> None:
+    """A spec's [run] rtol and atol reach doStep's adaptive integration: with 1e-10 the FMU's
+    DOP853 follows a tight reference a hundred times more closely than with the defaults
+    (rtol 1e-3, atol 1e-6), and both within their tolerance's reach."""
+    tight = s2gen.simulate(pendulum, method="dop853", h=H, T=T,
+                           options=s2gen.Options(rtol=1e-13, atol=1e-13))  # fmt: skip
+    text = (Path(s2gen.__file__).parent / "systems/examples/double_pendulum.toml").read_text()
+    assert "[run]" in text and "rtol" not in text
+    precise = s2gen.load(text.replace("[run]\n", "[run]\nrtol = 1e-10\natol = 1e-10\n"))
+    errors = []
+    for system, name in ((pendulum, "default"), (precise, "precise")):
+        path = export(system, tmp_path / f"{name}.fmu", fmi=2, kind="cs", method="dop853")
+        # communication intervals of 0.25: long enough for the tolerance to choose the steps
+        r = fmpy.simulate_fmu(str(path), stop_time=T, output_interval=0.25)
+        errors.append(float(np.abs(_state(r, 2) - _reference(tight)[::25]).max()))
+    default, precise_error = errors
+    assert precise_error <= 1e-8 and precise_error * 100 <= default, errors

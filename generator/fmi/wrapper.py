@@ -72,6 +72,8 @@ class WrapperSource:
     method_enum: str
     advance_part: str
     step_size: str
+    rtol: str
+    atol: str
     tangent_tol: str
     log_category: str
     layout: Layout
@@ -101,6 +103,8 @@ def source_record(model: FmuModel) -> WrapperSource:
         method_enum=f"{macro}_{record.c_name}",
         advance_part=_ADVANCE[model.adaptive],
         step_size=_literal(model.default_experiment.step_size),
+        rtol=_literal(model.rtol),
+        atol=_literal(model.atol),
         tangent_tol=_literal(TANGENT_TOLERANCE),
         log_category=LOG_CATEGORY,
         layout=model.layout,
