@@ -27,7 +27,10 @@ __all__ = ["layout_pass"]
 def layout_pass(module: Module) -> Module:
     """Mark the all-pairs terms that loop over rows."""
     terms = tuple(
-        replace(t, rows=t.loop.kind is LoopKind.ALL_PAIRS and not t.quadratic and not t.data)
+        replace(
+            t,
+            rows=t.loop.kind is LoopKind.ALL_PAIRS and not (t.quadratic or t.data or t.body_data),
+        )
         for t in module.terms
     )
     return replace(module, terms=terms)

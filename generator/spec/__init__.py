@@ -84,6 +84,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from s2gen.spec.data import body_data, scalar_data
 from s2gen.spec.forces import _forces, _inputs
 from s2gen.spec.inertia import chain_inertia
 from s2gen.spec.parser import RESERVED_NAMES, parse_expression
@@ -98,7 +99,7 @@ from s2gen.spec.tables import (
 )
 from s2gen.spec.term_tables import _terms
 from s2gen.system import INERTIA_SOLVERS, RunSettings, SpecError, System, shown
-from s2gen.terms import TermKind
+from s2gen.terms import TermData, TermKind
 
 __all__ = [
     "RESERVED_NAMES",
@@ -133,6 +134,7 @@ def define_system(
     inputs: Mapping[str, str | float] | None = None,
     forces: Mapping[str, Any] | None = None,
     force_terms: Sequence[Mapping[str, Any]] | None = None,
+    data: Mapping[str, Any] | None = None,
 ) -> System:
     """Build a validated System from Python values (the same rules as a TOML spec).
 
@@ -175,11 +177,14 @@ def define_system(
     n = _bodies(bodies, origin)
     defaults = _inputs(inputs, params, origin)
     names = [*params, *defaults]
-    matrix = _any_inertia(inertia, diagonal, max_index, scale, inertia_data, n, params, origin)
+    shared = body_data(data, n, params, origin)
+    matrix = _any_inertia(
+        inertia, diagonal, max_index, scale, inertia_data, n, params, origin, shared
+    )
     general = sp.Integer(0) if potential is None else _potential(potential, n, names, origin)
     terms = [
-        *_terms(body_terms, TermKind.BODY, n, params, origin, list(defaults)),
-        *_terms(pair_terms, TermKind.PAIR, n, params, origin, list(defaults)),
+        *_terms(body_terms, TermKind.BODY, n, params, origin, list(defaults), shared),
+        *_terms(pair_terms, TermKind.PAIR, n, params, origin, list(defaults), shared),
     ]
     drive = _forces(forces, force_terms, n, params, list(defaults), origin)
     if potential is None and not terms:
@@ -213,8 +218,10 @@ def _any_inertia(
     n: int,
     params: Mapping[str, float],
     origin: str,
+    shared: tuple[TermData, ...] = (),
 ) -> Any:
-    """M as a matrix (`M`, or `diagonal` as a list) or per body (`chain_inertia`)."""
+    """M as a matrix (`M`, or `diagonal` as a list) or per body (`chain_inertia`, which also
+    sees the scalar arrays of [data])."""
     per_body = isinstance(diagonal, (str, sp.Expr)) or any(
         v is not None for v in (max_index, scale, data)
     )
@@ -228,7 +235,8 @@ def _any_inertia(
             f"{where} diagonal: with max_index, scale or data, give the diagonal as one "
             f"expression per body (in i, n, the parameters and [inertia.data]), got {diagonal!r}"
         )
-    return chain_inertia(diagonal, max_index, scale, data, n, params, origin)
+    scalars = scalar_data(shared, (diagonal, max_index, scale), where)
+    return chain_inertia(diagonal, max_index, scale, data, n, params, origin, scalars)
 
 
 def _solver(value: Any, origin: str) -> str:
@@ -251,9 +259,11 @@ _TOP_KEYS = (
     "forces",
     "initial",
     "run",
+    "data",
 )
 _TABLE_KEYS = {
     "parameters": None,
+    "data": None,
     "inputs": None,
     "forces": None,
     "inertia": ("M", "diagonal", "max_index", "scale", "data", "solver"),
@@ -325,6 +335,7 @@ def load_spec_text(text: str, *, origin: str = "<string>") -> System:
         inputs=tables["inputs"] or None,
         forces={k: v for k, v in tables["forces"].items() if k != "body"} or None,
         force_terms=tables["forces"].get("body"),
+        data=tables["data"] or None,
     )
     return dataclasses.replace(system, source=text)
 
