@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from s2gen.passes import lower_system
 from s2gen.runtime import get_backend, simulate
 from s2gen.spec import define_system, load_spec_text
 
@@ -147,3 +148,78 @@ def test_a_million_data_values_load_quickly() -> None:
     read = {d.name: d.values for d in s.terms[0].body_data}
     assert sorted(read) == ["d7", "d999"]
     assert read["d999"] == tuple(values[:, 999])
+
+
+def _charges(per_body: bool, name: str) -> Any:
+    """Screened charges over all pairs: per body, or as an explicit list of every pair with
+    the products of the charges per pair."""
+    pairs: Any = "all"
+    data: dict[str, Any] = {}
+    v = "k*ci*cj*exp(-norm(qi - qj))/norm(qi - qj)"
+    if not per_body:
+        pairs = [[i, j] for i in range(1, N + 1) for j in range(i + 1, N + 1)]
+        data = {"cc": [CHARGE[i - 1] * CHARGE[j - 1] for i, j in pairs]}
+        v = "k*cc*exp(-norm(qi - qj))/norm(qi - qj)"
+    term = {"V": v, "pairs": pairs, **({"data": data} if data else {})}
+    return define_system(
+        name=name,
+        bodies=N,
+        parameters={"k": 0.3},
+        diagonal="1 + i/10",
+        initial_q=Q0,
+        initial_omega=W0,
+        data={"c": CHARGE},
+        pair_terms=[term],
+    )
+
+
+def test_all_pairs_rows_read_per_body_data() -> None:
+    body, pair = _charges(True, "rows_body"), _charges(False, "rows_pair")
+    assert [t.rows for t in lower_system(body).terms] == [True]
+    truth = simulate(pair, "vi", "reference", h=0.01, T=0.5, energy=False)
+    for backend in ("c", "numpy", "reference"):
+        run = simulate(body, "vi", backend, h=0.01, T=0.5, energy=False)
+        assert np.max(np.abs(run.q - truth.q)) < 1e-12, backend
+    for method, other in (("rk4", "reference"), ("rattle", "numpy")):
+        truth = simulate(pair, method, other, h=0.01, T=0.3, energy=False)
+        run = simulate(body, method, "c", h=0.01, T=0.3, energy=False)
+        assert np.max(np.abs(run.q - truth.q)) < 1e-12, method
+
+
+def test_bilinear_per_body_terms_enter_the_quadratic_form() -> None:
+    """k ci cj qi.qj over all pairs is quadratic in q: its coefficients read per-body data."""
+    v = "k*ci*cj*dot(qi, qj) + c2i*q2j"
+    extra = {"c2": [0.1 * k for k in range(N)]}
+    common: dict[str, Any] = {
+        "bodies": N,
+        "parameters": {"k": 0.3},
+        "diagonal": "1",
+        "initial_q": Q0,
+        "initial_omega": W0,
+    }
+    body = define_system(
+        name="quad_body",
+        data={"c": CHARGE, **extra},
+        pair_terms=[{"V": v.replace("q2j", "qj[2]"), "pairs": "all"}],
+        **common,
+    )
+    members = [[i, j] for i in range(1, N + 1) for j in range(i + 1, N + 1)]
+    pair = define_system(
+        name="quad_pair",
+        pair_terms=[
+            {
+                "V": "k*cc*dot(qi, qj) + di*qj[2]",
+                "pairs": members,
+                "data": {
+                    "cc": [CHARGE[i - 1] * CHARGE[j - 1] for i, j in members],
+                    "di": [extra["c2"][i - 1] for i, _ in members],
+                },
+            }
+        ],
+        **common,
+    )
+    assert lower_system(body).terms[0].quadratic
+    truth = simulate(pair, "vi", "reference", h=0.01, T=0.5, energy=False)
+    for backend in ("c", "numpy", "reference"):
+        run = simulate(body, "vi", backend, h=0.01, T=0.5, energy=False)
+        assert np.max(np.abs(run.q - truth.q)) < 1e-12, backend

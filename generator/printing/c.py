@@ -19,9 +19,11 @@ import math
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 
+from s2gen.bindings import BodyDatum
 from s2gen.interface import Field, Function, Kind, Param
 from s2gen.ir import Kernel, TermLoop
-from s2gen.terms import Enumeration, Rule, TermKind
+from s2gen.printing.c_calls import c_binding
+from s2gen.terms import Enumeration, Rule, TermKind, body_names
 
 __all__ = [
     "EXACT_INTEGER",
@@ -222,6 +224,29 @@ def c_inline(
         target = a.temp if a.temp is not None else f"{a.output[0]}{a.output[1]}"  # type: ignore[index]
         lines.append(f"const double {target} = {rhs};")
     return tuple(shared), tuple(lines)
+
+
+def c_rows_data(prefix: str, t: TermLoop, kernel: Kernel) -> tuple[tuple[str, ...], ...]:
+    """(declarations for body i, for body j) of the scalar per-body data an inlined rows
+    kernel reads, as its argument names b_<datum>i and b_<datum>j.
+
+    Example:
+        >>> import sympy as sp
+        >>> from s2gen.ir import Argument, Loop, LoopKind
+        >>> t = TermLoop(0, Loop(LoopKind.ALL_PAIRS, 1), (), "v", "g", body_data=(("c", 1, 1),))
+        >>> k = Kernel("v", "", (Argument("b_cj", (sp.Symbol("cj"),), scalar=True),), (), (), 0, 0)
+        >>> c_rows_data("s", t, k)
+        ((), ('const double b_cj = s_data_c[j];',))
+    """
+    kind = t.loop.kind.kind
+    read = {a.name for a in kernel.inputs}
+    out: tuple[list[str], list[str]] = ([], [])
+    for name, width, r in t.body_data:
+        arg = f"b_{body_names(name, kind)[r]}"
+        if arg in read:
+            at = c_binding(prefix, BodyDatum(t.index, name, width, kind.indices[r]))
+            out[r].append(f"const double {arg} = {at};")
+    return tuple(out[0]), tuple(out[1])
 
 
 def rows(values: list[str], per_row: int = 6) -> tuple[str, ...]:

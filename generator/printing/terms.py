@@ -19,7 +19,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from s2gen.ir import Kernel, Module, TermLoop
-from s2gen.printing.c import c_inline, c_loop, c_quad_scatter, c_term_gradient, c_term_row
+from s2gen.printing.c import (
+    c_inline,
+    c_loop,
+    c_quad_scatter,
+    c_rows_data,
+    c_term_gradient,
+    c_term_row,
+)
 from s2gen.printing.numpy import py_quad, py_term_gradient, py_term_setup
 
 __all__ = ["PrintedTerm", "print_term", "py_quad_lines", "quad_init"]
@@ -48,6 +55,8 @@ class PrintedTerm:
     c_rows_gradient: tuple[str, ...]
     c_rows_constants: tuple[str, ...]  # the context constants they read (c<k>)
     c_rows_constants_gradient: tuple[str, ...]
+    c_rows_data_value: tuple[tuple[str, ...], ...]  # (row i, partner j) per-body data reads
+    c_rows_data_gradient: tuple[tuple[str, ...], ...]
     c_gradient_locals: str
     c_gradient_accumulate: tuple[str, ...]
     py_setup: tuple[str, ...]
@@ -72,11 +81,14 @@ def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTer
     value, gradient = calls[f"t{t.index}_value"], calls[f"t{t.index}_gradient"]
     suffix = "_cutoff" if not fixed else "_quadratic" if t.quadratic else "_rows" if t.rows else ""
     rows_value = rows_gradient = constants_value = constants_gradient = ()
+    data_value = data_gradient = ((), ())
     if t.rows:
         value_kernel, gradient_kernel = module.kernel(t.value), module.kernel(t.gradient)
         assert isinstance(value_kernel, Kernel) and isinstance(gradient_kernel, Kernel)
         constants_value, rows_value = c_inline(value_kernel)
         constants_gradient, rows_gradient = c_inline(gradient_kernel)
+        data_value = c_rows_data(module.name, t, value_kernel)
+        data_gradient = c_rows_data(module.name, t, gradient_kernel)
     label = module.kernel(t.value).doc.split(":")[0]
     table_lines = c_term_row(t, calls[f"t{t.index}_table"]["c"]) if t.table else ()
     return PrintedTerm(
@@ -94,6 +106,8 @@ def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTer
         c_rows_gradient=rows_gradient,
         c_rows_constants=constants_value,
         c_rows_constants_gradient=constants_gradient,
+        c_rows_data_value=data_value,
+        c_rows_data_gradient=data_gradient,
         c_gradient_locals=locals_,
         c_gradient_accumulate=acc,
         py_setup=setup,
