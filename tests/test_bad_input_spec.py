@@ -547,6 +547,11 @@ API_CASES: list[tuple[str, Callable[[], object], list[str]]] = [
         lambda: _pendulum(data={"c": [1.0, 2.0, 3.0]}),
         ["[data] c: expected 2 values (one per body), got 3"],
     ),
+    (
+        "data named like an input",
+        lambda: _pendulum(inputs={"c": 0.0}, data={"c": [1.0, 2.0]}),
+        ["[data] c: the name 'c' is also an input"],
+    ),
     ("name _math", lambda: _pendulum(name="_math"), ["'_math' starts with '_'", "_MATH_H"]),
     (
         "name of 5000 characters that is not an identifier",

@@ -56,8 +56,16 @@ max_index_max(i,j) for i != j (the form of every chain of links; the O(n) solver
     l = [0.3, 0.25, 0.2]
     T = [1.2, 0.8, 0.5]
 
-A term expression sees its own vectors (`q`, or `qi` and `qj`), its data, the parameters and
-everything above except the global `q1..qn`. A datum is a list with one entry per member, all
+Per-body data: the top-level [data] table holds arrays of one number or one 3-vector per body
+(`s2gen.spec.data`); every term reads them whatever its selection, a body term as `c`, a pair
+term as `ci` and `cj` (the values at the pair's bodies), and the per-body inertia reads the
+scalar ones by name, as it reads [inertia.data] (an alias)::
+
+    [data]
+    c = [1.0, -1.0, 0.5]
+
+A term expression sees its own vectors (`q`, or `qi` and `qj`), its data, the per-body data,
+the parameters and everything above except the global `q1..qn`. A datum is a list with one entry per member, all
 numbers (a scalar, symbol `name`) or all 3-vectors (usable wherever a vector is: `dot(r, qi)`,
 `r[1]`; symbols `name_0..name_2`); entries are numbers or expression strings in numbers and
 parameters, evaluated to floats. Data names must not clash with parameters, reserved names or
@@ -148,7 +156,9 @@ def define_system(
     then be omitted. Driven systems (`s2gen.spec.forces`): `inputs` maps input names to
     defaults, `forces` the keys ``F1``.. to 3-vectors, `force_terms` is a list of dicts with
     the keys of a ``[[forces.body]]`` table (``F``, ``bodies``, ``data``); potentials may
-    then hold time ``t`` and the inputs. Raises SpecError naming `origin` and the key.
+    then hold time ``t`` and the inputs. `data` maps names to per-body arrays (n numbers or n
+    3-vectors; the [data] table), read by terms as c or ci, cj and by the per-body inertia.
+    Raises SpecError naming `origin` and the key.
 
     Example:
         >>> s = define_system(name="pend", bodies=1, parameters={"m": 1.0, "l": 2.0},
@@ -172,12 +182,20 @@ def define_system(
         ...                   force_terms=[{"F": "-c*cross(w, q)"}])
         >>> s.driven, s.inputs.names, [f.label for f in s.forces]
         (True, ('tau',), ['[forces] F1', '[[forces.body]] #1'])
+        >>> s = define_system(name="ions", bodies=3, parameters={"k": 1.0}, diagonal="1",
+        ...                   data={"c": [1, -1, 2]},
+        ...                   pair_terms=[{"V": "k*ci*cj/norm(qi - qj)", "pairs": "all"}])
+        >>> s.terms[0].body_data
+        (TermData(name='c', width=1, values=(1.0, -1.0, 2.0)),)
     """
     params = _parameters(parameters, origin)
     n = _bodies(bodies, origin)
     defaults = _inputs(inputs, params, origin)
     names = [*params, *defaults]
     shared = body_data(data, n, params, origin)
+    for d in shared:
+        if d.name in defaults:
+            raise SpecError(f"{origin}: [data] {d.name}: the name {d.name!r} is also an input")
     matrix = _any_inertia(
         inertia, diagonal, max_index, scale, inertia_data, n, params, origin, shared
     )

@@ -1,8 +1,9 @@
 """The structured [inertia] table: M per body, for chains of any length (never n^2 entries).
 
 Input: the values of an [inertia] table written per body (`diagonal` as one expression,
-`max_index`, `scale`, the per-body `[inertia.data]`), the number of bodies, the parameters and
-the `origin` naming the spec in messages.
+`max_index`, `scale`, the per-body `[inertia.data]`), the number of bodies, the parameters,
+the `origin` naming the spec in messages and the scalar per-body arrays of the spec's [data]
+(`s2gen.spec.data`), which the expressions read by name as they read `[inertia.data]`.
 Output: a `ChainInertia` (`s2gen.inertia`), or a `SpecError` naming the file, the key and the
 offending item.
 
