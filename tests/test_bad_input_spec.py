@@ -488,6 +488,7 @@ TOML_CASES: list[tuple[str, str, list[str]]] = [
         + "[data]\nr = [1.0, 2.0]\n",
         ["[inertia] data.r: 'r' is also a datum of [data]"],
     ),
+    ("data named t", BASE + "[data]\nt = [1.0, 2.0]\n", ["[data] t: the name 't' is time"]),
     ("data not finite", BASE + "[data]\nc = [1.0, nan]\n", ["[data] c[2]: value nan is not"]),
     (
         "data boolean",

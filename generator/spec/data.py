@@ -51,6 +51,8 @@ def body_data(data: Any, n: int, params: Mapping[str, float], origin: str) -> tu
 
 def _datum(name: Any, values: Any, n: int, params: Mapping[str, float], where: str) -> TermData:
     _check_data_name(name, params, where)
+    if name == "t":
+        raise SpecError(f"{where}: the name 't' is time in term expressions (rename the datum)")
     if isinstance(values, (str, bytes, Mapping)) or not hasattr(values, "__len__"):
         raise SpecError(
             f"{where}: expected a list of {n} values (one per body), got {shown(values)}"
