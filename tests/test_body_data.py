@@ -236,3 +236,29 @@ def test_expanded_potential_reads_each_members_bodies() -> None:
     p = np.array(s.parameter_values)
     assert abs(get_backend(s, "reference")._problem(p).potential(Q0) - expanded) < 1e-12
     assert abs(float(get_backend(s, "c").potential(Q0, p)) - expanded) < 1e-12
+
+
+def test_toml_data_table_is_the_python_data_argument() -> None:
+    text = f"""
+name = "tomlions"
+bodies = {N}
+[parameters]
+k = 0.3
+g = 1.0
+[inertia]
+diagonal = "1 + i/10"
+[data]
+c = {CHARGE}
+o = {OFFSET}
+[potential]
+[[potential.body]]
+V = "{BODY_V}"
+[[potential.pair]]
+V = "{PAIR_V}"
+pairs = "chain"
+"""
+    toml = load_spec_text(text)
+    api = _system("chain", True, "tomlions")
+    assert [t.body_data for t in toml.terms] == [t.body_data for t in api.terms]
+    assert [t.expr for t in toml.terms] == [t.expr for t in api.terms]
+    assert toml.inertia_numeric().tolist() == api.inertia_numeric().tolist()
