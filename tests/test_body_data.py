@@ -61,6 +61,8 @@ def test_per_body_data_match_per_pair_data(pairs: Any) -> None:
     tag = pairs if isinstance(pairs, str) else "list"
     body = _system(pairs, True, f"bd_{tag}")
     pair = _system(pairs, False, f"pd_{tag}")
+    if pairs == "all":  # the rows layout, reading a number and a 3-vector per body
+        assert [t.rows for t in lower_system(body).terms] == [False, True]
     truth = simulate(pair, "vi", "reference", h=0.01, T=0.5, energy=False)
     for backend in ("c", "numpy", "reference"):
         run = simulate(body, "vi", backend, h=0.01, T=0.5, energy=False)

@@ -227,8 +227,9 @@ def c_inline(
 
 
 def c_rows_data(prefix: str, t: TermLoop, kernel: Kernel) -> tuple[tuple[str, ...], ...]:
-    """(declarations for body i, for body j) of the scalar per-body data an inlined rows
-    kernel reads, as its argument names b_<datum>i and b_<datum>j.
+    """(declarations for body i, for body j) of the per-body data an inlined rows kernel
+    reads, as its argument names b_<datum>i and b_<datum>j: a number, or a pointer to the
+    body's 3-vector.
 
     Example:
         >>> import sympy as sp
@@ -245,7 +246,8 @@ def c_rows_data(prefix: str, t: TermLoop, kernel: Kernel) -> tuple[tuple[str, ..
         arg = f"b_{body_names(name, kind)[r]}"
         if arg in read:
             at = c_binding(prefix, BodyDatum(t.index, name, width, kind.indices[r]))
-            out[r].append(f"const double {arg} = {at};")
+            decl = f"const double {arg}" if width == 1 else f"const double *const {arg}"
+            out[r].append(f"{decl} = {at};")
     return tuple(out[0]), tuple(out[1])
 
 
