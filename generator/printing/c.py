@@ -19,11 +19,9 @@ import math
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 
-from s2gen.bindings import BodyDatum
 from s2gen.interface import Field, Function, Kind, Param
 from s2gen.ir import Kernel, TermLoop
-from s2gen.printing.c_calls import c_binding
-from s2gen.terms import Enumeration, Rule, TermKind, body_names
+from s2gen.terms import Enumeration, Rule, TermKind
 
 __all__ = [
     "EXACT_INTEGER",
@@ -224,31 +222,6 @@ def c_inline(
         target = a.temp if a.temp is not None else f"{a.output[0]}{a.output[1]}"  # type: ignore[index]
         lines.append(f"const double {target} = {rhs};")
     return tuple(shared), tuple(lines)
-
-
-def c_rows_data(prefix: str, t: TermLoop, kernel: Kernel) -> tuple[tuple[str, ...], ...]:
-    """(declarations for body i, for body j) of the per-body data an inlined rows kernel
-    reads, as its argument names b_<datum>i and b_<datum>j: a number, or a pointer to the
-    body's 3-vector.
-
-    Example:
-        >>> import sympy as sp
-        >>> from s2gen.ir import Argument, Loop, LoopKind
-        >>> t = TermLoop(0, Loop(LoopKind.ALL_PAIRS, 1), (), "v", "g", body_data=(("c", 1, 1),))
-        >>> k = Kernel("v", "", (Argument("b_cj", (sp.Symbol("cj"),), scalar=True),), (), (), 0, 0)
-        >>> c_rows_data("s", t, k)
-        ((), ('const double b_cj = s_data_c[j];',))
-    """
-    kind = t.loop.kind.kind
-    read = {a.name for a in kernel.inputs}
-    out: tuple[list[str], list[str]] = ([], [])
-    for name, width, r in t.body_data:
-        arg = f"b_{body_names(name, kind)[r]}"
-        if arg in read:
-            at = c_binding(prefix, BodyDatum(t.index, name, width, kind.indices[r]))
-            decl = f"const double {arg}" if width == 1 else f"const double *const {arg}"
-            out[r].append(f"{decl} = {at};")
-    return tuple(out[0]), tuple(out[1])
 
 
 def rows(values: list[str], per_row: int = 6) -> tuple[str, ...]:

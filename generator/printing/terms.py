@@ -18,18 +18,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from s2gen.bindings import BodyDatum
 from s2gen.ir import Kernel, Module, TermLoop
 from s2gen.printing.c import (
     c_inline,
     c_loop,
     c_quad_scatter,
-    c_rows_data,
     c_term_gradient,
     c_term_row,
 )
+from s2gen.printing.c_calls import c_binding
 from s2gen.printing.numpy import py_quad, py_term_gradient, py_term_setup
+from s2gen.terms import body_names
 
-__all__ = ["PrintedTerm", "print_term", "py_quad_lines", "quad_init"]
+__all__ = ["PrintedTerm", "c_rows_data", "print_term", "py_quad_lines", "quad_init"]
 
 
 @dataclass(frozen=True)
@@ -71,6 +73,31 @@ class PrintedTerm:
     cells: int  # neighbour-list cells per axis
 
 
+def c_rows_data(prefix: str, t: TermLoop, kernel: Kernel) -> tuple[tuple[str, ...], ...]:
+    """(declarations for body i, for body j) of the per-body data an inlined rows kernel
+    reads, as its argument names b_<datum>i and b_<datum>j: a number, or a pointer to the
+    body's 3-vector.
+
+    Example:
+        >>> import sympy as sp
+        >>> from s2gen.ir import Argument, Loop, LoopKind
+        >>> t = TermLoop(0, Loop(LoopKind.ALL_PAIRS, 1), (), "v", "g", body_data=(("c", 1, 1),))
+        >>> k = Kernel("v", "", (Argument("b_cj", (sp.Symbol("cj"),), scalar=True),), (), (), 0, 0)
+        >>> c_rows_data("s", t, k)
+        ((), ('const double b_cj = s_data_c[j];',))
+    """
+    kind = t.loop.kind.kind
+    read = {a.name for a in kernel.inputs}
+    out: tuple[list[str], list[str]] = ([], [])
+    for name, width, r in t.body_data:
+        arg = f"b_{body_names(name, kind)[r]}"
+        if arg in read:
+            at = c_binding(prefix, BodyDatum(t.index, name, width, kind.indices[r]))
+            decl = f"const double {arg}" if width == 1 else f"const double *const {arg}"
+            out[r].append(f"{decl} = {at};")
+    return tuple(out[0]), tuple(out[1])
+
+
 def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTerm:
     """One term of `module` as text for both languages (`calls`: the printed call sites)."""
     selection = t.loop.kind
@@ -81,7 +108,8 @@ def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTer
     value, gradient = calls[f"t{t.index}_value"], calls[f"t{t.index}_gradient"]
     suffix = "_cutoff" if not fixed else "_quadratic" if t.quadratic else "_rows" if t.rows else ""
     rows_value = rows_gradient = constants_value = constants_gradient = ()
-    data_value = data_gradient = ((), ())
+    data_value: tuple[tuple[str, ...], ...] = ((), ())
+    data_gradient = data_value
     if t.rows:
         value_kernel, gradient_kernel = module.kernel(t.value), module.kernel(t.gradient)
         assert isinstance(value_kernel, Kernel) and isinstance(gradient_kernel, Kernel)
