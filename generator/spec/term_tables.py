@@ -1,11 +1,13 @@
 """Spec term tables: [[potential.body]] and [[potential.pair]], checked one by one.
 
 Input: the list of term tables of one kind (TOML arrays of tables or `define_system`'s
-`body_terms` / `pair_terms`), the body count, the parameters and the spec's origin.
+`body_terms` / `pair_terms`), the body count, the parameters, the spec's origin and the
+per-body arrays of its [data] (`s2gen.spec.data`).
 Output: `Term`s labelled "[[potential.pair]] #k" (k from 1), with their expression in the
-term's own vectors and data, their selection (a word of `s2gen.terms.spellings`, or a list of
-members, 1-based in the spec and 0-based in the Term), per-member `TermData` and cutoff; or a
-`SpecError` naming the table, the key and the offending item.
+term's own vectors, data and per-body data (c, or ci and cj), their selection (a word of
+`s2gen.terms.spellings`, or a list of members, 1-based in the spec and 0-based in the Term),
+per-member `TermData`, the per-body arrays they read and cutoff; or a `SpecError` naming the
+table, the key and the offending item.
 """
 
 from __future__ import annotations
