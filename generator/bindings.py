@@ -4,7 +4,8 @@ A `Call` (`s2gen.ir`) binds each argument of its kernel to one of these records:
 the calling function (`Local`), an array of the per-call context (`ContextArray`), the slot of
 a body, a pair's body or a member in an array (`Slot`, `MemberSlot`), one entry of a per-body
 or per-pair array (`Element`, `Product`), a run of an array from an offset (`Shifted`), the
-body's number (`BodyNumber`), a term's or the inertia's data (`TermDatum`, `InertiaDatum`) or a
+body's number (`BodyNumber`), a term's or the inertia's data (`TermDatum`, `InertiaDatum`), a
+per-body array of [data] at a member's body (`BodyDatum`) or a
 term's member table (`TermTable`). The C printer (`s2gen.printing.c_calls.c_binding`) and
 the NumPy printer (`s2gen.printing.numpy.py_binding`) render them; NumPy calls vectorize over
 the loop, so a slot there is the whole array (or the array indexed by the pairs' or the
@@ -25,6 +26,7 @@ from dataclasses import dataclass
 
 __all__ = [
     "Binding",
+    "BodyDatum",
     "BodyNumber",
     "ContextArray",
     "Element",
@@ -180,6 +182,22 @@ class TermDatum:
 
 
 @dataclass(frozen=True)
+class BodyDatum:
+    """Per-body array `name` of the spec's [data] (`width` doubles per body), at body `body`
+    ("i" or "j", `TermKind.indices`) of member m of term `term`.
+
+    Example:
+        >>> BodyDatum(0, "c", 1, "j").body
+        'j'
+    """
+
+    term: int
+    name: str
+    width: int
+    body: str
+
+
+@dataclass(frozen=True)
 class InertiaDatum:
     """Per-body datum `name` of the inertia, at body i.
 
@@ -215,6 +233,7 @@ Binding = (
     | Shifted
     | BodyNumber
     | TermDatum
+    | BodyDatum
     | InertiaDatum
     | TermTable
 )

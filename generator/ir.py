@@ -177,6 +177,9 @@ class TermLoop:
     #: `quadratic` pass put it into the module's matrix (column -1: linear; row -1: constant)
     quadratic: tuple[tuple[int, int, int], ...] = ()
     rows: bool = False  # all pairs as vectorisable rows on structure-of-arrays copies (`layout`)
+    #: (datum, width, body of the member (0 or 1)) of each per-body array the kernels read,
+    #: in their argument order (kernel argument b_<datum><i or j>, or b_<datum> in body terms)
+    body_data: tuple[tuple[str, int, int], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -300,6 +303,8 @@ class Module:
     solver: InertiaKind = InertiaKind.DIAGONAL  # how the coupled solves are done
     bands: tuple[Band, ...] = ()  # structured solvers: their systems (workspace pass)
     inertia_data: tuple[tuple[str, tuple[float, ...]], ...] = ()  # per-body data of M
+    #: per-body arrays the terms read (name, width, n * width values), one table each
+    body_data: tuple[tuple[str, int, tuple[float, ...]], ...] = ()
     initial_state: tuple[float, ...] = ()  # the spec's q then omega, body-major (or none)
 
     def band(self, name: str) -> Band:

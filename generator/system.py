@@ -348,6 +348,9 @@ class System:
             h.update(sp.srepr(t.expr).encode())
             for d in t.data:
                 h.update(f"{d.name};{d.width};{d.values}".encode())
+            for d in t.body_data:  # none: the digest is unchanged
+                h.update(f"body {d.name};{d.width};".encode())
+                h.update(np.asarray(d.values, dtype=float).tobytes())
         for u, v in zip(self.inputs.names, self.inputs.values):  # none: the digest is unchanged
             h.update(f"input {u}={v!r};".encode())
         for f in self.forces:

@@ -28,7 +28,16 @@ import sympy as sp
 
 from s2gen.symbols import local_vector, q_symbol
 
-__all__ = ["Enumeration", "Rule", "Selection", "Term", "TermData", "TermKind", "spellings"]
+__all__ = [
+    "Enumeration",
+    "Rule",
+    "Selection",
+    "Term",
+    "TermData",
+    "TermKind",
+    "body_names",
+    "spellings",
+]
 
 
 class TermKind(enum.StrEnum):
@@ -264,6 +273,19 @@ class TermData:
         return local_vector(self.name)
 
 
+def body_names(name: str, kind: TermKind) -> tuple[str, ...]:
+    """The names a term of `kind` reads the per-body datum `name` under, one per body of a
+    member: the name itself in a body term, name + i and name + j in a pair term.
+
+    Example:
+        >>> body_names("c", TermKind.PAIR), body_names("c", TermKind.BODY)
+        (('ci', 'cj'), ('c',))
+    """
+    if kind.arity == 1:
+        return (name,)
+    return tuple(f"{name}{i}" for i in kind.indices)
+
+
 @dataclass(frozen=True)
 class Term:
     """A structured part of the potential: a sum of one expression over a list of members.
@@ -273,7 +295,9 @@ class Term:
     is the spec's word for the members ("all", "chain", "list" with `members` 0-based; see
     `spellings`), and with a `cutoff` a term over all pairs visits only the pairs closer than
     it; `selection` is the resulting `Selection`. Per-member data (spring constants, offsets,
-    ...) enter as extra symbols; parameters as usual.
+    ...) enter as extra symbols; parameters as usual. `body_data` are the per-body arrays of
+    the spec's [data] that the expression reads (n entries of `width` values, body-major), under
+    the names `body_names` gives (c in a body term, ci and cj in a pair term), for any selection.
 
     Example:
         >>> qi, qj = sp.Matrix(local_vector("qi")), sp.Matrix(local_vector("qj"))
@@ -289,6 +313,7 @@ class Term:
     data: tuple[TermData, ...] = ()
     label: str = "term"
     cutoff: float | None = None  # pair terms over all pairs: only pairs with |q_i - q_j| < cutoff
+    body_data: tuple[TermData, ...] = ()
 
     def __post_init__(self) -> None:
         kind: object = self.kind
@@ -320,6 +345,15 @@ class Term:
     def data_symbols(self) -> tuple[sp.Symbol, ...]:
         return tuple(s for d in self.data for s in d.symbols())
 
+    def body_symbols(self) -> tuple[tuple[TermData, int, tuple[sp.Symbol, ...]], ...]:
+        """(per-body datum, body of the member (0 or 1), its symbols) for each name under
+        which the expression reads a per-body datum."""
+        return tuple(
+            (d, r, TermData(local, d.width, ()).symbols())
+            for d in self.body_data
+            for r, local in enumerate(body_names(d.name, self.kind))
+        )
+
     def instance(self, member: tuple[int, ...], index: int) -> sp.Expr:
         """The term of one member written in the global symbols q{i}_{c} (for checks)."""
         subs: dict[sp.Symbol, sp.Expr] = {}
@@ -328,4 +362,7 @@ class Term:
         for d in self.data:
             vals = d.values[index * d.width : (index + 1) * d.width]
             subs.update({s: sp.Float(v) for s, v in zip(d.symbols(), vals)})
+        for d, r, symbols in self.body_symbols():
+            vals = d.values[member[r] * d.width : (member[r] + 1) * d.width]
+            subs.update({s: sp.Float(v) for s, v in zip(symbols, vals)})
         return self.expr.xreplace(subs)

@@ -442,6 +442,59 @@ TOML_CASES: list[tuple[str, str, list[str]]] = [
         edit(BASE, 'name = "cat"', 'name = "cat"\nforces = 3'),
         ["'forces' must be a table [forces], got 3"],
     ),
+    # --- per-body data ([data])
+    ("data one value short", BASE + "[data]\nc = [1.0]\n", ["[data] c: expected 2 values"]),
+    (
+        "data not a list",
+        BASE + "[data]\nc = 3.0\n",
+        ["[data] c: expected a list of 2 values (one per body), got 3.0"],
+    ),
+    ("data not a table", "data = [1, 2]\n" + BASE, ["'data' must be a table [data]"]),
+    (
+        "data named like a parameter",
+        BASE + "[data]\nk = [1.0, 2.0]\n",
+        ["[data] k: data name 'k' clashes with the parameter 'k'"],
+    ),
+    (
+        "term datum named like a per-body datum",
+        TERMS + "[data]\nkk = [1.0, 2.0]\n",
+        ["[[potential.pair]] #1 data.kk: 'kk' is also a per-body datum of [data]"],
+    ),
+    (
+        "per-body datum read as a parameter's name",
+        edit(TERMS, "k = 2.0", "k = 2.0\nci = 1.0") + "[data]\nc = [1.0, 2.0]\n",
+        ["[[potential.pair]] #1: the [data] array 'c' (read as ci)", "the parameter 'ci'"],
+    ),
+    (
+        "data mixing numbers and 3-vectors",
+        BASE + "[data]\nc = [1.0, [0, 0, 1]]\n",
+        ["[data] c[2]: a 3-vector, but entry 1 is a number"],
+    ),
+    (
+        "data 3-vector in the inertia",
+        edit(BASE, 'diagonal = ["m", "m"]', 'diagonal = "m*r"')
+        + "[data]\nr = [[1, 0, 0], [0, 1, 0]]\n",
+        ["[inertia]: the datum 'r' of [data] is a 3-vector per body", "one number per body"],
+    ),
+    (
+        "data 3-vector where a term needs a number",
+        edit(TERMS, '"kk*dot(qi, qj)"', '"kk*ci*dot(qi, qj)"')
+        + "[data]\nc = [[1, 0, 0], [0, 1, 0]]\n",
+        ["[[potential.pair]] #1 V: the expression 'kk*ci*dot(qi, qj)' is a vector"],
+    ),
+    (
+        "datum in both [inertia.data] and [data]",
+        edit(BASE, 'diagonal = ["m", "m"]', 'diagonal = "m*r"\n[inertia.data]\nr = [1, 2]')
+        + "[data]\nr = [1.0, 2.0]\n",
+        ["[inertia] data.r: 'r' is also a datum of [data]"],
+    ),
+    ("data named t", BASE + "[data]\nt = [1.0, 2.0]\n", ["[data] t: the name 't' is time"]),
+    ("data not finite", BASE + "[data]\nc = [1.0, nan]\n", ["[data] c[2]: value nan is not"]),
+    (
+        "data boolean",
+        BASE + "[data]\nc = [true, false]\n",
+        ["[data] c[1]: expected a number or a 3-vector, got True"],
+    ),
 ]
 
 
@@ -490,6 +543,16 @@ API_CASES: list[tuple[str, Callable[[], object], list[str]]] = [
         ["key 'bodies': 1000000000 bodies is more than the limit of"],
     ),
     ("name with a newline", lambda: _pendulum(name="abc\n"), ["key 'name': 'abc\\n' is not"]),
+    (
+        "data of the wrong length",
+        lambda: _pendulum(data={"c": [1.0, 2.0, 3.0]}),
+        ["[data] c: expected 2 values (one per body), got 3"],
+    ),
+    (
+        "data named like an input",
+        lambda: _pendulum(inputs={"c": 0.0}, data={"c": [1.0, 2.0]}),
+        ["[data] c: the name 'c' is also an input"],
+    ),
     ("name _math", lambda: _pendulum(name="_math"), ["'_math' starts with '_'", "_MATH_H"]),
     (
         "name of 5000 characters that is not an identifier",

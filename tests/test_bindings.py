@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from s2gen.bindings import Binding, Index, MemberSlot, Slot
+from s2gen.bindings import Binding, BodyDatum, Index, MemberSlot, Slot
 from s2gen.equations.angles import derive_angles
 from s2gen.ir import Module
 from s2gen.passes import lower_angles, lower_system
@@ -29,7 +29,7 @@ from s2gen.spec import load_spec_text
 from s2gen.systems import builtin
 
 #: Module kinds: dense, max-index (one kernel, from the matrix, per body with data),
-#: quadratic, cutoff, rows
+#: quadratic, cutoff, rows, per-body data ([data]) in a member loop and a cutoff
 CASES = (
     "double_pendulum",
     "elastic_rod",
@@ -38,7 +38,29 @@ CASES = (
     "dipoles",
     "lj_cutoff",
     "pendulum_chain",
+    "species",
 )
+SPECIES = """\
+name = "species"
+bodies = 5
+[parameters]
+k = 1.0
+[inertia]
+diagonal = ["1", "1", "1", "1", "1"]
+[data]
+c = [1, 2, 1, 2, 1]
+r = [[0, 0, 1], [0, 1, 0], [1, 0, 0], [0, 0, 1], [0, 1, 0]]
+[potential]
+[[potential.body]]
+V = "c*dot(r, q)"
+[[potential.pair]]
+V = "k*ci*cj/norm(qi - qj) + dot(ri, qj)"
+pairs = [[1, 2], [3, 4], [2, 5], [4, 5]]
+[[potential.pair]]
+V = "ci*cj/dot(qi - qj, qi - qj)"
+pairs = "all"
+cutoff = 0.5
+"""
 STRUCTURED = '[inertia]\nsolver = "structured"\n'
 
 KINDS = typing.get_args(Binding)
@@ -51,6 +73,8 @@ def module(name: str) -> Module:
     if name == "chain4":  # a max-index M's generators from one system kernel
         text = (Path(__file__).parent / "specs" / "chain4.toml").read_text()
         return lower_system(load_spec_text(text.replace("[inertia]\n", STRUCTURED)))
+    if name == "species":
+        return lower_system(load_spec_text(SPECIES))
     return lower_system(builtin(name))
 
 
@@ -114,5 +138,22 @@ def test_c_and_numpy_address_the_same_slot(name: str) -> None:
             checked += 1
         elif isinstance(b, MemberSlot):
             _agree(c_binding("x", b), py_binding(b), "q", 3)
+            checked += 1
+        elif isinstance(b, BodyDatum) and b.width == 3:  # a pointer to the body's 3-vector
+            _agree(
+                c_binding("x", b).removeprefix("x_data_"),
+                py_binding(b).removeprefix("DATA_"),
+                b.name,
+                3,
+            )
+            checked += 1
+        elif isinstance(b, BodyDatum):  # one double: C's index is NumPy's row
+            c_text, py_text = c_binding("x", b), py_binding(b)
+            _agree(
+                c_text.replace(f"x_data_{b.name}[", "(").replace("]", ")"),
+                py_text.removeprefix("DATA_"),
+                b.name,
+                1,
+            )
             checked += 1
     assert checked or name in ("elastic_rod", "chain4", "rope"), name

@@ -110,10 +110,11 @@ def test_only_the_c_backend_needs_a_c_compiler(tmp_path: Path, backend: str, run
     assert out.exists() == runs
 
 
-def test_all_pairs_terms_take_no_per_member_data_as_the_readme_says() -> None:
+def test_all_pairs_terms_take_per_body_not_per_member_data_as_the_readme_says() -> None:
     from s2gen.spec import SpecError, load_spec_text
 
-    assert 'a term over `pairs = "all"` takes none today' in README
+    assert 'need an explicit list of pairs (or bodies), `"chain"` or `"ring"`' in README
+    assert "top-level `[data]`" in README and "a pair term as\n`ci` and `cj`" in README
     spec = """
 name = "charges"
 bodies = 3
@@ -130,3 +131,8 @@ omega = [[0, 0, 1], [0, 0, 1], [1, 0, 0]]
 """
     with pytest.raises(SpecError, match="explicit list of pairs"):
         load_spec_text(spec)
+    per_body = spec.replace('"c*dot(qi, qj)"', '"ci*cj*dot(qi, qj)"')
+    per_body = per_body.replace("[potential.pair.data]", "[data]")
+    per_body = per_body.replace("[[potential.pair]]", "[potential]\n[[potential.pair]]")
+    per_body = per_body.replace("[data]\nc = [1, 2, 3]\n", "") + "[data]\nc = [1, 2, 3]\n"
+    assert [d.name for d in load_spec_text(per_body).terms[0].body_data] == ["c"]

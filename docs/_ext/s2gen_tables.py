@@ -29,6 +29,9 @@ MEANINGS: dict[tuple[str, str], str] = {
     ("", "forces"): "generalized forces F_i conjugate to q_i (its keys below; optional)",
     ("", "initial"): "the initial state (its keys below; optional)",
     ("", "run"): "default run settings (its keys below; optional)",
+    ("", "data"): "a table ``name = list``: per-body arrays, one number or one 3-vector per "
+    "body, read by every term (``c`` in body terms, ``ci`` and ``cj`` in pair terms) and by the "
+    "per-body inertia (optional)",
     ("inertia", "M"): "the n × n entries of M, numbers or expressions in the parameters",
     ("inertia", "diagonal"): "the diagonal of M: a list of n entries, or one expression per "
     "body in ``i`` (1…n), ``n``, the parameters and the data",

@@ -109,6 +109,7 @@ def _term_loop(index: int, term: Term, n: int) -> TermLoop:
         data=tuple((d.name, d.width, d.values) for d in term.data),
         value=f"t{index}_value",
         gradient=f"t{index}_gradient",
+        body_data=tuple((d.name, d.width, r) for d, r, _ in term.body_symbols()),
     )
 
 
@@ -195,6 +196,9 @@ def sphere_module(system: System) -> Module:
         field_calls=tuple(field),
         solver=solver,
         inertia_data=tuple((d.name, d.values) for d in chain_data),
+        body_data=tuple(
+            {d.name: (d.name, d.width, d.values) for _, t in terms for d in t.body_data}.values()
+        ),
         initial_state=_initial_state(system),
     )
 

@@ -26,6 +26,7 @@ from s2gen.inertia import INDEX, ChainInertia, Generators, InertiaKind, coupled_
 from s2gen.ir import Argument, KernelDef, Output
 from s2gen.symbols import local_vector, q_symbols
 from s2gen.system import SpecError, System, Term
+from s2gen.terms import body_names
 
 __all__ = [
     "choose_solver",
@@ -227,8 +228,14 @@ def term_kernels(system: System, index: int, term: Term) -> tuple[KernelDef, Ker
     positions = [Argument(role, local_vector(role)) for role in term.roles()]
     # data arguments are prefixed so that no datum name can clash with p, q, v, g, ...
     data = [Argument(f"d_{d.name}", d.symbols(), scalar=d.width == 1) for d in term.data]
-    inputs = (p, *positions, *data)
-    stages = (("p", 0), *((a.name, 1) for a in data))
+    # per-body data vary with the member's bodies as positions do (stage 2: never hoisted
+    # into member tables, which a cutoff term does not have), but are not coordinates
+    body = [
+        Argument(f"b_{body_names(d.name, term.kind)[r]}", s, scalar=d.width == 1)
+        for d, r, s in term.body_symbols()
+    ]
+    inputs = (p, *positions, *data, *body)
+    stages = (("p", 0), *((a.name, 1) for a in data), *((a.name, 2) for a in body))
     where = f"{term.label}: sum over {term.kind.plural}"
     grads = [
         Output(f"g{role[1:]}" if role != "q" else "g", tuple(sp.diff(term.expr, s) for s in pos))

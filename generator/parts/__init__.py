@@ -22,7 +22,7 @@ Example:
 
 from __future__ import annotations
 
-from s2gen.bindings import Binding, Local, MemberSlot, TermDatum, TermTable
+from s2gen.bindings import Binding, BodyDatum, Local, MemberSlot, TermDatum, TermTable
 from s2gen.ir import Module, TermLoop
 from s2gen.parts.angles import ANGLE_PARTS
 from s2gen.parts.records import CC, Context, Part, Site
@@ -60,6 +60,10 @@ def term_sites(t: TermLoop) -> tuple[Site, ...]:
     bind.update(CC)
     for name, width, _ in t.data:
         bind[f"d_{name}"] = TermDatum(t.index, name, width)
+    for name, width, r in t.body_data:
+        body = kind.indices[r]
+        local = name if kind.arity == 1 else f"{name}{body}"
+        bind[f"b_{local}"] = BodyDatum(t.index, name, width, body)
     sites = [
         Site(f"t{t.index}_value", t.value, Context.SYSTEM, bind),
         Site(f"t{t.index}_gradient", t.gradient, Context.SYSTEM, bind),

@@ -4,7 +4,8 @@ Input: a `Module`. Output: the same module with every term over all pairs (no cu
 the quadratic matrix) marked `rows`: its emitted loop runs over rows i with a contiguous inner
 loop over the partners j > i, on structure-of-arrays copies of q (and of g for the gradient)
 kept in the workspace, with the term's kernel written inline and the row's sums as OpenMP SIMD
-reductions. Each pair is still evaluated once, and every operation stays an IEEE operation
+reductions; per-body data are read from their tables by body index (body i once per row, the
+partners j in order: contiguous for numbers, every third double for a 3-vector's component). Each pair is still evaluated once, and every operation stays an IEEE operation
 (only the order of the sums changes with vectorisation). Functions that run without a
 workspace keep the member loop.
 
@@ -27,7 +28,10 @@ __all__ = ["layout_pass"]
 def layout_pass(module: Module) -> Module:
     """Mark the all-pairs terms that loop over rows."""
     terms = tuple(
-        replace(t, rows=t.loop.kind is LoopKind.ALL_PAIRS and not t.quadratic and not t.data)
+        replace(
+            t,
+            rows=t.loop.kind is LoopKind.ALL_PAIRS and not (t.quadratic or t.data),
+        )
         for t in module.terms
     )
     return replace(module, terms=terms)

@@ -37,6 +37,7 @@ from s2gen.printing.c_module import (
 )
 from s2gen.printing.numpy import (
     py_call,
+    py_data_setup,
     py_docstring,
     py_inertia_setup,
     py_table_names,
@@ -129,6 +130,7 @@ class PrintedModule:
     c_masses: str  # the partial that computes M's entries or generators (C, NumPy)
     py_masses: str
     py_inertia_setup: tuple[str, ...]  # NumPy: the body index and per-body data of M
+    py_data_setup: tuple[str, ...]  # NumPy: the per-body arrays of [data] the terms read
 
 
 def print_module(module: Module) -> PrintedModule:
@@ -241,4 +243,5 @@ def print_module(module: Module) -> PrintedModule:
         c_masses=c_masses,
         py_masses=py_masses,
         py_inertia_setup=py_inertia_setup(module),
+        py_data_setup=py_data_setup(module),
     )

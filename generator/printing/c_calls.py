@@ -15,6 +15,7 @@ from typing import assert_never
 
 from s2gen.bindings import (
     Binding,
+    BodyDatum,
     BodyNumber,
     ContextArray,
     Element,
@@ -73,6 +74,9 @@ def c_binding(prefix: str, b: Binding) -> str:
     if isinstance(b, TermDatum):
         table = f"{prefix}_t{b.term}_{b.name}"
         return f"{table}[m]" if b.width == 1 else f"{table} + {b.width} * m"
+    if isinstance(b, BodyDatum):
+        table = f"{prefix}_data_{b.name}"
+        return f"{table}[{b.body}]" if b.width == 1 else f"{table} + {b.width} * {b.body}"
     if isinstance(b, InertiaDatum):
         return f"{prefix}_inertia_{b.name}[i]"
     if isinstance(b, TermTable):

@@ -105,6 +105,9 @@ def c_tables(module: Module) -> tuple[CTable, ...]:
     for data, values in module.inertia_data:
         lits = [repr(float(v)) for v in values]
         tables.append(("double", f"{name}_inertia_{data}", len(values), rows(lits)))
+    for data, _, values in module.body_data:
+        lits = [repr(float(v)) for v in values]
+        tables.append(("double", f"{name}_data_{data}", len(values), rows(lits)))
     return tuple(tables)
 
 

@@ -21,6 +21,7 @@ from sympy.printing.numpy import NumPyPrinter
 
 from s2gen.bindings import (
     Binding,
+    BodyDatum,
     BodyNumber,
     ContextArray,
     Element,
@@ -42,6 +43,7 @@ __all__ = [
     "PyPrinter",
     "py_binding",
     "py_call",
+    "py_data_setup",
     "py_docstring",
     "py_inertia_setup",
     "py_kernel",
@@ -164,6 +166,8 @@ def py_binding(b: Binding) -> str:
         return "INDEX"
     if isinstance(b, TermDatum):
         return f"T{b.term}_{b.name.upper()}"
+    if isinstance(b, BodyDatum):
+        return f"DATA_{b.name}[T{b.term}_{b.body.upper()}]"
     if isinstance(b, InertiaDatum):
         return f"INERTIA_{b.name.upper()}"
     if isinstance(b, TermTable):
@@ -272,6 +276,23 @@ def py_inertia_setup(module: Module) -> tuple[str, ...]:
     for name, values in module.inertia_data:
         lits = ", ".join(repr(float(v)) for v in values)
         lines.append(f"INERTIA_{name.upper()} = numpy.array([{lits}])")
+    return tuple(lines)
+
+
+def py_data_setup(module: Module) -> tuple[str, ...]:
+    """Module-level arrays of the per-body data the terms read (one per datum, by body).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> py_data_setup(lower_system(builtin("molecular")))
+        ()
+    """
+    lines = []
+    for name, width, values in module.body_data:
+        lits = ", ".join(repr(float(v)) for v in values)
+        shape = "" if width == 1 else f".reshape({module.n}, {width})"
+        lines.append(f"DATA_{name} = numpy.array([{lits}]){shape}")
     return tuple(lines)
 
 

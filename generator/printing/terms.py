@@ -18,11 +18,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from s2gen.bindings import BodyDatum
 from s2gen.ir import Kernel, Module, TermLoop
-from s2gen.printing.c import c_inline, c_loop, c_quad_scatter, c_term_gradient, c_term_row
+from s2gen.printing.c import (
+    c_inline,
+    c_loop,
+    c_quad_scatter,
+    c_term_gradient,
+    c_term_row,
+)
+from s2gen.printing.c_calls import c_binding
 from s2gen.printing.numpy import py_quad, py_term_gradient, py_term_setup
+from s2gen.terms import body_names
 
-__all__ = ["PrintedTerm", "print_term", "py_quad_lines", "quad_init"]
+__all__ = ["PrintedTerm", "c_rows_data", "print_term", "py_quad_lines", "quad_init"]
 
 
 @dataclass(frozen=True)
@@ -48,6 +57,8 @@ class PrintedTerm:
     c_rows_gradient: tuple[str, ...]
     c_rows_constants: tuple[str, ...]  # the context constants they read (c<k>)
     c_rows_constants_gradient: tuple[str, ...]
+    c_rows_data_value: tuple[tuple[str, ...], ...]  # (row i, partner j) per-body data reads
+    c_rows_data_gradient: tuple[tuple[str, ...], ...]
     c_gradient_locals: str
     c_gradient_accumulate: tuple[str, ...]
     py_setup: tuple[str, ...]
@@ -62,6 +73,31 @@ class PrintedTerm:
     cells: int  # neighbour-list cells per axis
 
 
+def c_rows_data(prefix: str, t: TermLoop, kernel: Kernel) -> tuple[tuple[str, ...], ...]:
+    """(declarations for body i, for body j) of the per-body data an inlined rows kernel
+    reads, as its argument names b_<datum>i and b_<datum>j: a number, or a pointer to the
+    body's 3-vector.
+
+    Example:
+        >>> import sympy as sp
+        >>> from s2gen.ir import Argument, Loop, LoopKind
+        >>> t = TermLoop(0, Loop(LoopKind.ALL_PAIRS, 1), (), "v", "g", body_data=(("c", 1, 1),))
+        >>> k = Kernel("v", "", (Argument("b_cj", (sp.Symbol("cj"),), scalar=True),), (), (), 0, 0)
+        >>> c_rows_data("s", t, k)
+        ((), ('const double b_cj = s_data_c[j];',))
+    """
+    kind = t.loop.kind.kind
+    read = {a.name for a in kernel.inputs}
+    out: tuple[list[str], list[str]] = ([], [])
+    for name, width, r in t.body_data:
+        arg = f"b_{body_names(name, kind)[r]}"
+        if arg in read:
+            at = c_binding(prefix, BodyDatum(t.index, name, width, kind.indices[r]))
+            decl = f"const double {arg}" if width == 1 else f"const double *const {arg}"
+            out[r].append(f"{decl} = {at};")
+    return tuple(out[0]), tuple(out[1])
+
+
 def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTerm:
     """One term of `module` as text for both languages (`calls`: the printed call sites)."""
     selection = t.loop.kind
@@ -72,11 +108,15 @@ def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTer
     value, gradient = calls[f"t{t.index}_value"], calls[f"t{t.index}_gradient"]
     suffix = "_cutoff" if not fixed else "_quadratic" if t.quadratic else "_rows" if t.rows else ""
     rows_value = rows_gradient = constants_value = constants_gradient = ()
+    data_value: tuple[tuple[str, ...], ...] = ((), ())
+    data_gradient = data_value
     if t.rows:
         value_kernel, gradient_kernel = module.kernel(t.value), module.kernel(t.gradient)
         assert isinstance(value_kernel, Kernel) and isinstance(gradient_kernel, Kernel)
         constants_value, rows_value = c_inline(value_kernel)
         constants_gradient, rows_gradient = c_inline(gradient_kernel)
+        data_value = c_rows_data(module.name, t, value_kernel)
+        data_gradient = c_rows_data(module.name, t, gradient_kernel)
     label = module.kernel(t.value).doc.split(":")[0]
     table_lines = c_term_row(t, calls[f"t{t.index}_table"]["c"]) if t.table else ()
     return PrintedTerm(
@@ -94,6 +134,8 @@ def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTer
         c_rows_gradient=rows_gradient,
         c_rows_constants=constants_value,
         c_rows_constants_gradient=constants_gradient,
+        c_rows_data_value=data_value,
+        c_rows_data_gradient=data_gradient,
         c_gradient_locals=locals_,
         c_gradient_accumulate=acc,
         py_setup=setup,

@@ -212,6 +212,7 @@ class _TermKernel:
     value: Callable[..., Any]
     gradient: Callable[..., Any]
     cutoff: float | None = None
+    body: tuple[tuple[Array, int], ...] = ()  # per-body columns (n,) and the member's body
 
     def _active(self, qT: Array) -> tuple[Array, ...]:
         """The members' index arrays; with a cutoff, only the pairs closer than it (a plain
@@ -225,9 +226,10 @@ class _TermKernel:
 
     def _args(self, qT: Array, index: tuple[Array, ...]) -> list[Any]:
         """Arguments for `value`/`gradient` from qT (3, n): gathered position columns, data,
-        parameters."""
+        per-body data gathered at the members' bodies, parameters."""
         cols = [qT[c].take(idx) for idx in index for c in range(3)]
-        return [*cols, *self.data, *self.params]
+        body = [column.take(index[r]) for column, r in self.body]
+        return [*cols, *self.data, *body, *self.params]
 
     @staticmethod
     def _members(x: Any, count: int) -> Array:
@@ -258,8 +260,14 @@ def _compile_term(term: Term, n: int, ps: list[sp.Symbol], values: Sequence[floa
     for d in term.data:
         table = np.array(d.values, dtype=float).reshape(count, d.width)
         columns.extend(np.ascontiguousarray(table[:, k]) for k in range(d.width))
+    body: list[tuple[Array, int]] = []
+    body_syms: list[sp.Symbol] = []
+    for d, r, symbols in term.body_symbols():
+        table = np.asarray(d.values, dtype=float).reshape(n, d.width)
+        body.extend((np.ascontiguousarray(table[:, k]), r) for k in range(d.width))
+        body_syms.extend(symbols)
     positions = list(term.position_symbols())
-    data_syms = list(term.data_symbols())
+    data_syms = [*term.data_symbols(), *body_syms]
     # A datum shadows a parameter of the same name (as in Term.instance): give the parameter a
     # fresh placeholder so the argument list has no duplicate symbols.
     taken = set(data_syms) | set(positions)
@@ -277,4 +285,5 @@ def _compile_term(term: Term, n: int, ps: list[sp.Symbol], values: Sequence[floa
         value=value,
         gradient=gradient,
         cutoff=term.cutoff,
+        body=tuple(body),
     )

@@ -56,8 +56,16 @@ max_index_max(i,j) for i != j (the form of every chain of links; the O(n) solver
     l = [0.3, 0.25, 0.2]
     T = [1.2, 0.8, 0.5]
 
-A term expression sees its own vectors (`q`, or `qi` and `qj`), its data, the parameters and
-everything above except the global `q1..qn`. A datum is a list with one entry per member, all
+Per-body data: the top-level [data] table holds arrays of one number or one 3-vector per body
+(`s2gen.spec.data`); every term reads them whatever its selection, a body term as `c`, a pair
+term as `ci` and `cj` (the values at the pair's bodies), and the per-body inertia reads the
+scalar ones by name, as it reads [inertia.data] (an alias)::
+
+    [data]
+    c = [1.0, -1.0, 0.5]
+
+A term expression sees its own vectors (`q`, or `qi` and `qj`), its data, the per-body data,
+the parameters and everything above except the global `q1..qn`. A datum is a list with one entry per member, all
 numbers (a scalar, symbol `name`) or all 3-vectors (usable wherever a vector is: `dot(r, qi)`,
 `r[1]`; symbols `name_0..name_2`); entries are numbers or expression strings in numbers and
 parameters, evaluated to floats. Data names must not clash with parameters, reserved names or
@@ -84,6 +92,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from s2gen.spec.data import body_data, scalar_data
 from s2gen.spec.forces import _forces, _inputs
 from s2gen.spec.inertia import chain_inertia
 from s2gen.spec.parser import RESERVED_NAMES, parse_expression
@@ -98,7 +107,7 @@ from s2gen.spec.tables import (
 )
 from s2gen.spec.term_tables import _terms
 from s2gen.system import INERTIA_SOLVERS, RunSettings, SpecError, System, shown
-from s2gen.terms import TermKind
+from s2gen.terms import TermData, TermKind
 
 __all__ = [
     "RESERVED_NAMES",
@@ -133,6 +142,7 @@ def define_system(
     inputs: Mapping[str, str | float] | None = None,
     forces: Mapping[str, Any] | None = None,
     force_terms: Sequence[Mapping[str, Any]] | None = None,
+    data: Mapping[str, Any] | None = None,
 ) -> System:
     """Build a validated System from Python values (the same rules as a TOML spec).
 
@@ -146,7 +156,9 @@ def define_system(
     then be omitted. Driven systems (`s2gen.spec.forces`): `inputs` maps input names to
     defaults, `forces` the keys ``F1``.. to 3-vectors, `force_terms` is a list of dicts with
     the keys of a ``[[forces.body]]`` table (``F``, ``bodies``, ``data``); potentials may
-    then hold time ``t`` and the inputs. Raises SpecError naming `origin` and the key.
+    then hold time ``t`` and the inputs. `data` maps names to per-body arrays (n numbers or n
+    3-vectors; the [data] table), read by terms as c or ci, cj and by the per-body inertia.
+    Raises SpecError naming `origin` and the key.
 
     Example:
         >>> s = define_system(name="pend", bodies=1, parameters={"m": 1.0, "l": 2.0},
@@ -170,16 +182,27 @@ def define_system(
         ...                   force_terms=[{"F": "-c*cross(w, q)"}])
         >>> s.driven, s.inputs.names, [f.label for f in s.forces]
         (True, ('tau',), ['[forces] F1', '[[forces.body]] #1'])
+        >>> s = define_system(name="ions", bodies=3, parameters={"k": 1.0}, diagonal="1",
+        ...                   data={"c": [1, -1, 2]},
+        ...                   pair_terms=[{"V": "k*ci*cj/norm(qi - qj)", "pairs": "all"}])
+        >>> s.terms[0].body_data
+        (TermData(name='c', width=1, values=(1.0, -1.0, 2.0)),)
     """
     params = _parameters(parameters, origin)
     n = _bodies(bodies, origin)
     defaults = _inputs(inputs, params, origin)
     names = [*params, *defaults]
-    matrix = _any_inertia(inertia, diagonal, max_index, scale, inertia_data, n, params, origin)
+    shared = body_data(data, n, params, origin)
+    for d in shared:
+        if d.name in defaults:
+            raise SpecError(f"{origin}: [data] {d.name}: the name {d.name!r} is also an input")
+    matrix = _any_inertia(
+        inertia, diagonal, max_index, scale, inertia_data, n, params, origin, shared
+    )
     general = sp.Integer(0) if potential is None else _potential(potential, n, names, origin)
     terms = [
-        *_terms(body_terms, TermKind.BODY, n, params, origin, list(defaults)),
-        *_terms(pair_terms, TermKind.PAIR, n, params, origin, list(defaults)),
+        *_terms(body_terms, TermKind.BODY, n, params, origin, list(defaults), shared),
+        *_terms(pair_terms, TermKind.PAIR, n, params, origin, list(defaults), shared),
     ]
     drive = _forces(forces, force_terms, n, params, list(defaults), origin)
     if potential is None and not terms:
@@ -213,8 +236,10 @@ def _any_inertia(
     n: int,
     params: Mapping[str, float],
     origin: str,
+    shared: tuple[TermData, ...] = (),
 ) -> Any:
-    """M as a matrix (`M`, or `diagonal` as a list) or per body (`chain_inertia`)."""
+    """M as a matrix (`M`, or `diagonal` as a list) or per body (`chain_inertia`, which also
+    sees the scalar arrays of [data])."""
     per_body = isinstance(diagonal, (str, sp.Expr)) or any(
         v is not None for v in (max_index, scale, data)
     )
@@ -228,7 +253,8 @@ def _any_inertia(
             f"{where} diagonal: with max_index, scale or data, give the diagonal as one "
             f"expression per body (in i, n, the parameters and [inertia.data]), got {diagonal!r}"
         )
-    return chain_inertia(diagonal, max_index, scale, data, n, params, origin)
+    scalars = scalar_data(shared, (diagonal, max_index, scale), where)
+    return chain_inertia(diagonal, max_index, scale, data, n, params, origin, scalars)
 
 
 def _solver(value: Any, origin: str) -> str:
@@ -251,9 +277,11 @@ _TOP_KEYS = (
     "forces",
     "initial",
     "run",
+    "data",
 )
 _TABLE_KEYS = {
     "parameters": None,
+    "data": None,
     "inputs": None,
     "forces": None,
     "inertia": ("M", "diagonal", "max_index", "scale", "data", "solver"),
@@ -325,6 +353,7 @@ def load_spec_text(text: str, *, origin: str = "<string>") -> System:
         inputs=tables["inputs"] or None,
         forces={k: v for k, v in tables["forces"].items() if k != "body"} or None,
         force_terms=tables["forces"].get("body"),
+        data=tables["data"] or None,
     )
     return dataclasses.replace(system, source=text)
 

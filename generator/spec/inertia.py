@@ -1,8 +1,9 @@
 """The structured [inertia] table: M per body, for chains of any length (never n^2 entries).
 
 Input: the values of an [inertia] table written per body (`diagonal` as one expression,
-`max_index`, `scale`, the per-body `[inertia.data]`), the number of bodies, the parameters and
-the `origin` naming the spec in messages.
+`max_index`, `scale`, the per-body `[inertia.data]`), the number of bodies, the parameters,
+the `origin` naming the spec in messages and the scalar per-body arrays of the spec's [data]
+(`s2gen.spec.data`), which the expressions read by name as they read `[inertia.data]`.
 Output: a `ChainInertia` (`s2gen.inertia`), or a `SpecError` naming the file, the key and the
 offending item.
 
@@ -54,16 +55,31 @@ def chain_inertia(
     n: int,
     params: Mapping[str, float],
     origin: str,
+    shared: tuple[TermData, ...] = (),
 ) -> ChainInertia:
-    """The per-body inertia of an [inertia] table (see the module docstring)."""
+    """The per-body inertia of an [inertia] table (see the module docstring); `shared` are
+    the scalar per-body arrays of the spec's [data], kept when an expression names them."""
     where = f"{origin}: [inertia]"
     values = _data(data, n, params, where)
-    local = {INDEX.name: 1, _N.name: 1, **{d.name: 1 for d in values}}
+    own = {d.name for d in values}
+    for d in shared:
+        if d.name in own:
+            raise SpecError(
+                f"{where} data.{d.name}: {d.name!r} is also a datum of [data] (give it once)"
+            )
+        if d.name in (INDEX.name, _N.name):
+            raise SpecError(
+                f"{where}: [data] {d.name}: {d.name!r} is the body index or count of [inertia] "
+                "expressions"
+            )
+    local = {INDEX.name: 1, _N.name: 1, **{d.name: 1 for d in (*values, *shared)}}
     exprs = [
         _expression(value, key, n, params, local, where)
         for key, value in (("diagonal", diagonal), ("max_index", max_index), ("scale", scale))
     ]
-    return ChainInertia(exprs[0], exprs[1], exprs[2], values)
+    named = {s.name for e in exprs for s in e.free_symbols}
+    used = tuple(d for d in shared if d.name in named)
+    return ChainInertia(exprs[0], exprs[1], exprs[2], (*values, *used))
 
 
 def _expression(

@@ -1,11 +1,13 @@
 """Spec term tables: [[potential.body]] and [[potential.pair]], checked one by one.
 
 Input: the list of term tables of one kind (TOML arrays of tables or `define_system`'s
-`body_terms` / `pair_terms`), the body count, the parameters and the spec's origin.
+`body_terms` / `pair_terms`), the body count, the parameters, the spec's origin and the
+per-body arrays of its [data] (`s2gen.spec.data`).
 Output: `Term`s labelled "[[potential.pair]] #k" (k from 1), with their expression in the
-term's own vectors and data, their selection (a word of `s2gen.terms.spellings`, or a list of
-members, 1-based in the spec and 0-based in the Term), per-member `TermData` and cutoff; or a
-`SpecError` naming the table, the key and the offending item.
+term's own vectors, data and per-body data (c, or ci and cj), their selection (a word of
+`s2gen.terms.spellings`, or a list of members, 1-based in the spec and 0-based in the Term),
+per-member `TermData`, the per-body arrays they read and cutoff; or a `SpecError` naming the
+table, the key and the offending item.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from s2gen.spec.names import _Q_RESERVED
 from s2gen.spec.parser import parse_expression
 from s2gen.spec.tables import _check_data_name, _check_keys, _key, _number, _rows, _scalar
 from s2gen.symbols import local_vector
-from s2gen.terms import Selection, Term, TermData, TermKind, spellings
+from s2gen.terms import Selection, Term, TermData, TermKind, body_names, spellings
 
 __all__: list[str] = []
 
@@ -34,8 +36,10 @@ def _terms(
     params: Mapping[str, float],
     origin: str,
     inputs: Sequence[str] = (),
+    shared: Sequence[TermData] = (),
 ) -> list[Term]:
-    """The terms of one kind (None: none), labelled "[[potential.body]] #k" (k from 1)."""
+    """The terms of one kind (None: none), labelled "[[potential.body]] #k" (k from 1);
+    `shared` are the per-body arrays of the spec's [data]."""
     if entries is None:
         return []
     if isinstance(entries, (Mapping, str, bytes)) or not isinstance(entries, Sequence):
@@ -43,7 +47,10 @@ def _terms(
             f"{origin}: {kind.table}: expected a list of term tables (in TOML an array of "
             f"tables, written {kind.table}), got {shown(entries)}"
         )
-    return [_term(entry, kind, k + 1, n, params, origin, inputs) for k, entry in enumerate(entries)]
+    return [
+        _term(entry, kind, k + 1, n, params, origin, inputs, shared)
+        for k, entry in enumerate(entries)
+    ]
 
 
 def _term(
@@ -54,8 +61,10 @@ def _term(
     params: Mapping[str, float],
     origin: str,
     inputs: Sequence[str] = (),
+    shared: Sequence[TermData] = (),
 ) -> Term:
-    """One term table: its key V, its selection and its per-member data."""
+    """One term table: its key V, its selection, its per-member data and the per-body data
+    of [data] it reads."""
     label = f"{kind.table} #{k}"
     where = f"{origin}: {label}"
     if not isinstance(entry, Mapping):
@@ -77,12 +86,21 @@ def _term(
     select, members = _selection(entry.get(kind.select_key, kind.default), kind, n, where)
     count = Term(kind, sp.Integer(0), select, members).count(n)
     data = _term_data(entry.get("data"), kind, select, count, params, where)
-    _check_symbols(kind, data, params, where)
-    local = {**{role: 3 for role in kind.roles}, **{d.name: d.width for d in data}}
     for d in data:
-        if d.name in inputs:
-            raise SpecError(f"{where} data.{d.name}: the name {shown(d.name)} is an input")
-    expr = _term_expression(entry["V"], kind, n, local, params, f"{where} V", inputs)
+        if any(d.name == s.name for s in shared):
+            raise SpecError(
+                f"{where} data.{d.name}: {shown(d.name)} is also a per-body datum of [data] "
+                "(rename one of them)"
+            )
+    _check_symbols(kind, data, params, where, shared)
+    local = {**{role: 3 for role in kind.roles}, **{d.name: d.width for d in data}}
+    body = {name: d.width for d in shared for name in body_names(d.name, kind)}
+    for name in (*(d.name for d in data), *body):
+        if name in inputs:
+            raise SpecError(f"{where}: the datum name {shown(name)} is also an input")
+    expr = _term_expression(entry["V"], kind, n, {**local, **body}, params, f"{where} V", inputs)
+    named = {s.name for s in expr.free_symbols}
+    used = tuple(d for d in shared if _reads(d, kind, named))
     cutoff = None
     if entry.get("cutoff") is not None:
         cutoff = _number(entry["cutoff"], f"{where} cutoff", params)
@@ -91,7 +109,16 @@ def _term(
                 f"{where} cutoff: must be a positive distance, on a term over all pairs "
                 f"(got {shown(entry['cutoff'])} with pairs = {shown(select)})"
             )
-    return Term(kind, expr, select, members, data, label, cutoff)
+    return Term(kind, expr, select, members, data, label, cutoff, used)
+
+
+def _reads(d: TermData, kind: TermKind, named: set[str]) -> bool:
+    """True when the expression (symbol names `named`) reads the per-body datum `d`."""
+    return any(
+        s.name in named
+        for local in body_names(d.name, kind)
+        for s in _local_symbols(local, d.width)
+    )
 
 
 def _options(kind: TermKind) -> str:
@@ -231,13 +258,24 @@ def _vector_items(entry: Any) -> list[Any] | None:
 
 
 def _check_symbols(
-    kind: TermKind, data: Sequence[TermData], params: Mapping[str, float], where: str
+    kind: TermKind,
+    data: Sequence[TermData],
+    params: Mapping[str, float],
+    where: str,
+    shared: Sequence[TermData] = (),
 ) -> None:
-    """No two of the parameters, the term's own vectors and its data may share a SymPy
-    symbol (a vector datum r owns r_0, r_1, r_2; the vector q owns q_0, q_1, q_2)."""
+    """No two of the parameters, the term's own vectors, its data and the names it reads the
+    per-body data of [data] under may share a SymPy symbol (a vector datum r owns r_0, r_1,
+    r_2; the vector q owns q_0, q_1, q_2; a per-body datum c is ci and cj in a pair term)."""
     owners = {p: f"the parameter {shown(p)}" for p in params}
     claims = [(s.name, f"the term's vector {r}") for r in kind.roles for s in local_vector(r)]
     claims += [(s.name, f"the datum {shown(d.name)}") for d in data for s in d.symbols()]
+    claims += [
+        (s.name, f"the [data] array {shown(d.name)} (read as {local})")
+        for d in shared
+        for local in body_names(d.name, kind)
+        for s in _local_symbols(local, d.width)
+    ]
     for symbol, owner in claims:
         if symbol in owners:
             raise SpecError(

@@ -11,7 +11,7 @@ import numpy as np
 import sympy as sp
 
 from s2gen.errors import SpecError, shown
-from s2gen.terms import Selection, Term, TermKind, spellings
+from s2gen.terms import Selection, Term, TermKind, body_names, spellings
 from s2gen.validate.names import _C_IDENTIFIER, _TEMPORARY, _TEMPORARY_CLASH, _check_real
 
 __all__ = ["MAX_CUTOFF"]
@@ -73,15 +73,28 @@ def _validate_term(term: Term, n: int, psyms: set[sp.Symbol], where: str) -> Non
             )
         if not all(np.isfinite(d.values)):
             raise SpecError(f"{at}: data '{d.name}' contains a non-finite value")
+    for d in term.body_data:
+        if d.width not in (1, 3) or len(d.values) != d.width * n:
+            raise SpecError(
+                f"{at}: the per-body datum '{d.name}' has {len(d.values)} values, expected "
+                f"{n} {'numbers' if d.width == 1 else '3-vectors'} (one per body)"
+            )
+        for local in body_names(d.name, term.kind):
+            if d.width == 1 and _TEMPORARY.fullmatch(local):
+                raise SpecError(f"{at}: the name {shown(local)} {_TEMPORARY_CLASH}")
+        if not bool(np.all(np.isfinite(np.asarray(d.values, dtype=float)))):
+            raise SpecError(f"{at}: the per-body datum '{d.name}' contains a non-finite value")
     if not isinstance(term.expr, sp.Expr) or term.expr.has(sp.Derivative, sp.Integral):
         raise SpecError(f"{at}: must be a scalar expression without derivatives or integrals")
-    names = [s.name for s in (*term.position_symbols(), *term.data_symbols())]
+    body = [s for _, _, symbols in term.body_symbols() for s in symbols]
+    names = [s.name for s in (*term.position_symbols(), *term.data_symbols(), *body)]
     clash = sorted(set(names) & {p.name for p in psyms}) or sorted(
         {x for x in names if names.count(x) > 1}
     )
     if clash:
         raise SpecError(f"{at}: symbol '{clash[0]}' is both a parameter/position and a datum")
-    extra = term.expr.free_symbols - set(term.position_symbols()) - psyms - set(term.data_symbols())
+    extra = term.expr.free_symbols - set(term.position_symbols()) - psyms
+    extra -= {*term.data_symbols(), *body}
     if extra:
         bad = ", ".join(sorted(str(s) for s in extra))
         raise SpecError(f"{at}: depends on {bad}, which is not a position, datum or parameter")
