@@ -15,9 +15,9 @@ import fmpy
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
 
-import s2gen  # noqa: E402
+import s2gen
 
 
 def main() -> None:
