@@ -111,6 +111,20 @@ def test_the_issue_spring_with_sqrt2_rest_length_builds_and_agrees(tmp_path: Pat
     np.testing.assert_allclose(ref, [g1, -g1], rtol=1e-14, atol=1e-15)
 
 
+def test_a_cube_root_means_the_same_on_every_backend(tmp_path: Path) -> None:
+    """x**(1/3) is the principal root (the spec refuses (-8)**(1/3) as not real): for x < 0 the
+    C gradient is NaN like the reference's, not cbrt's real root (the long fuzz found C 0.549
+    against the reference's NaN for (m*q1[1])**(1/3)); for x > 0 the two agree with the closed
+    form k**(1/3) x**(-2/3) / 3."""
+    system = two_bodies("(k*q1[1])**(1/3) + (k*q2[1])**(1/3)", name="cube")
+    compile_strictly(emit(system, "c"), tmp_path)
+    q = np.array([[0.0, -0.6, 0.8], [0.0, 0.6, 0.8]])
+    c, ref = gradients(system, q)
+    assert np.isnan(c[0, 1]) and np.isnan(ref[0, 1])
+    expected = 1.5 ** (1 / 3) * 0.6 ** (-2 / 3) / 3
+    np.testing.assert_allclose([c[1, 1], ref[1, 1]], [expected, expected], rtol=1e-14)
+
+
 @pytest.mark.parametrize(
     ("text", "shown"),
     [

@@ -139,6 +139,14 @@ class CPrinter(ExactIntegers, C99CodePrinter):
             return "0.0"  # also a nonzero float below the smallest double (gcc: an error)
         return str(super()._print_Float(expr))
 
+    def _print_Pow(self, expr: sp.Pow) -> str:
+        """x**(1/3) as pow(x, 1.0/3.0), not SymPy's cbrt: the expression means the principal
+        root (not real for x < 0, as the spec's checks and the NumPy module have it: NaN), and
+        cbrt's real cube root would make the C alone return a number there."""
+        if expr.exp == sp.Rational(1, 3):
+            return f"pow({self._print(expr.base)}, {self._print(expr.exp)})"
+        return str(super()._print_Pow(expr))
+
     def _print_ImaginaryUnit(self, expr: sp.Expr) -> str:
         raise LiteralError("a complex number (I) cannot be printed as C double arithmetic")
 
