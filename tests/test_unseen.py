@@ -8,6 +8,7 @@ from __future__ import annotations
 import doctest
 import importlib
 import shutil
+import tomllib
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from unseen_systems import specs
 from unseen_systems.cases import CASES, CaseMismatch, data_header
 from unseen_systems.programs import build, run
 
+from s2gen.runtime import simulate
 from s2gen.spec import load_spec_text
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not installed")
@@ -58,6 +60,77 @@ def test_data_header_refuses_a_spec_the_program_does_not_model():
     assert "CH_MASS" in data_header(case, heavier)  # parameters may change: read, not retyped
     with pytest.raises(CaseMismatch, match="M is not"):
         data_header(case, load_spec_text(text.replace('"l10*l10*m10"', '"2*l10*l10*m10"')))
+
+
+def _listed_pairs_form(text: str) -> str:
+    """The yukawa spec with its numbers written per member instead of per body: the masses as
+    the diagonal's numbers, the charges as the field term's data c, and the pair term over the
+    listed pairs i < j (loop order) with ci, cj the charges of each pair's bodies."""
+    spec = tomllib.loads(text)
+    n, mass, charge = spec["bodies"], spec["data"]["m"], spec["data"]["c"]
+    pairs = [(i, j) for i in range(1, n + 1) for j in range(i + 1, n + 1)]
+    initial, run = spec["initial"], spec["run"]
+    return "\n".join(
+        [
+            'name = "yukawa_listed"',
+            f"bodies = {n}",
+            "[parameters]",
+            *(f"{k} = {v!r}" for k, v in spec["parameters"].items()),
+            "[inertia]",
+            f"diagonal = {mass!r}",
+            "[[potential.body]]",
+            'V = "-E*c*dot(e3, q)"',
+            'bodies = "all"',
+            "[potential.body.data]",
+            f"c = {charge!r}",
+            "[[potential.pair]]",
+            'V = "A*ci*cj*exp(-kappa*norm(qi - qj))/norm(qi - qj)"',
+            f"pairs = {[list(p) for p in pairs]!r}",
+            "[potential.pair.data]",
+            f"ci = {[charge[i - 1] for i, _ in pairs]!r}",
+            f"cj = {[charge[j - 1] for _, j in pairs]!r}",
+            "[initial]",
+            f"q = {initial['q']!r}",
+            f"omega = {initial['omega']!r}",
+            "[run]",
+            f"h = {run['h']!r}",
+            f"T = {run['T']!r}",
+            f'method = "{run["method"]}"',
+            "",
+        ]
+    )
+
+
+def test_yukawa_per_body_data_run_as_the_listed_pairs():
+    """The shipped yukawa spec ([data] m, c; pairs = "all" reading ci, cj) and the same numbers
+    written per member (4950 listed pairs with per-pair ci, cj) run the same trajectory in C."""
+    text = CASES["yukawa"].spec.read_text()
+    per_body, listed = load_spec_text(text), load_spec_text(_listed_pairs_form(text))
+    assert [t.select for t in per_body.terms] == ["all", "all"]
+    assert [t.count(listed.n) for t in listed.terms] == [100, 4950]
+    assert np.array_equal(per_body.inertia_numeric(), listed.inertia_numeric())
+    h = per_body.run.h
+    new = simulate(per_body, "vi", "c", h=h, T=60 * h, energy=False)
+    old = simulate(listed, "vi", "c", h=h, T=60 * h, energy=False)
+    assert np.max(np.abs(new.q[-1] - per_body.q0)) > 1e-2  # the bodies moved
+    assert np.max(np.abs(new.q - old.q)) < 1e-12
+    assert np.max(np.abs(new.omega - old.omega)) < 1e-12
+
+
+def test_yukawa_data_header_refuses_another_structure():
+    case = CASES["yukawa"]
+    text = case.spec.read_text()
+    assert '\npairs = "all"\n' in text and "A*ci*cj*" in text
+    assert "YK_CHARGE" in data_header(case, load_spec_text(text))
+    with pytest.raises(CaseMismatch, match="pair term over 'all'"):
+        data_header(case, load_spec_text(text.replace('\npairs = "all"\n', '\npairs = "chain"\n')))
+    with pytest.raises(CaseMismatch, match="no cutoff"):
+        data_header(
+            case,
+            load_spec_text(text.replace('\npairs = "all"\n', '\npairs = "all"\ncutoff = 1.5\n')),
+        )
+    with pytest.raises(CaseMismatch, match="potential.pair"):
+        data_header(case, load_spec_text(text.replace("A*ci*cj*", "A*ci*ci*")))
 
 
 @pytest.mark.parametrize(

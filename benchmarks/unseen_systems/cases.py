@@ -123,29 +123,31 @@ def _datum(term: Term, name: str) -> np.ndarray:
     raise CaseMismatch(f"{term.label}: expected the scalar datum {name!r}")
 
 
+def _body_datum(term: Term, name: str) -> np.ndarray:
+    for d in term.body_data:
+        if d.name == name and d.width == 1:
+            return np.array(d.values)
+    raise CaseMismatch(f"{term.label}: expected the per-body scalar {name!r} ([data])")
+
+
 def _yukawa_data(system: System) -> str:
-    """Masses (M's diagonal), charges (the field term's data c) and A, kappa, E; the pair term
-    must list every pair i < j in loop order with ci, cj the charges of its bodies."""
-    n, params = system.n, system.parameters
+    """Masses (M's diagonal), charges (the per-body datum c of [data]) and A, kappa, E; the
+    pair term must run over every pair (pairs = "all", no cutoff) and read c as ci and cj."""
     if not system.is_diagonal:
         raise CaseMismatch(f"{system.origin}: the yukawa program needs a diagonal inertia")
-    field, pair = _term(system, "body", "all"), _term(system, "pair", "list")
-    charge = _datum(field, "c")
+    field, pair = _term(system, "body", "all"), _term(system, "pair", "all")
+    if pair.cutoff is not None:
+        raise CaseMismatch(f"{pair.label}: the yukawa program visits every pair (no cutoff)")
+    charge = _body_datum(field, "c")
+    if not np.array_equal(_body_datum(pair, "c"), charge):
+        raise CaseMismatch(f"{pair.label}: ci, cj must be the charges c of the field term")
     big_a, kappa, big_e, c, ci, cj = _symbols("A", "kappa", "E", "c", "ci", "cj")
     q, qi, qj = vector("q"), vector("qi"), vector("qj")
     r = sp.sqrt((qi - qj).dot(qi - qj))
     _same(system.potential, sp.Integer(0), f"{system.origin}: [potential] V")
     _same(field.expr, -big_e * c * q[2], field.label)
     _same(pair.expr, big_a * ci * cj * sp.exp(-kappa * r) / r, pair.label)
-    every = [(i, j) for i in range(n) for j in range(i + 1, n)]
-    if list(pair.members) != every:
-        raise CaseMismatch(f"{pair.label}: the pairs must be every i < j in loop order")
-    left, right = np.array(every).T
-    if not (
-        np.array_equal(_datum(pair, "ci"), charge[left])
-        and np.array_equal(_datum(pair, "cj"), charge[right])
-    ):
-        raise CaseMismatch(f"{pair.label}: ci, cj must be the charges c of the pair's bodies")
+    params = system.parameters
     return (
         _define("YK_A", params["A"])
         + _define("YK_KAPPA", params["kappa"])

@@ -81,12 +81,7 @@ def yukawa_spec(n: int = 100) -> str:
         w.append(_tangent(qk, 2.4 * k, 0.4 + 0.2 * _frac(k * math.sqrt(3.0))))
         mass.append(round(1.0 + 0.5 * _frac(k * _GOLDEN), 6))
         charge.append(round(0.5 + _frac(k * math.sqrt(2.0)), 6))
-    pairs = [(i, j) for i in range(1, n + 1) for j in range(i + 1, n + 1)]
-    pair_rows = [
-        ", ".join(f"[{i}, {j}]" for i, j in pairs[k : k + 8]) for k in range(0, len(pairs), 8)
-    ]
     steps, h = 2000, 0.002
-    pair_list = "[" + ",\n         ".join(pair_rows) + "]"
     return f"""\
 # Screened Coulomb (Yukawa) charges on the unit sphere: n = {n} bodies, each with its own mass
 # m_i and charge c_i, interacting over every pair i < j through
@@ -94,9 +89,8 @@ def yukawa_spec(n: int = 100) -> str:
 # in a uniform field E along e3 (V_i = -E c_i e3 . q_i). The inertia is diagonal, so the
 # variational integrator is explicit.
 #
-# The pair term carries per-body data (the charges of its two bodies). A pair term over
-# pairs = "all" takes no data, so the pairs are listed, every i < j in loop order, with the
-# charges of each pair's bodies as per-pair data ci and cj.
+# The masses m and charges c are per-body data ([data]): the inertia reads m, the field term
+# c and the pair term, over pairs = "all", ci and cj (the charges of the pair's two bodies).
 #
 # Written by unseen_systems.specs: Fibonacci lattice positions; mass
 # 1 + frac(k g)/2, charge 1/2 + frac(k sqrt 2) for body k (g = (sqrt 5 - 1)/2); tangent
@@ -110,21 +104,20 @@ A = 0.1      # coupling strength
 kappa = 3.0  # inverse screening length
 E = 0.5      # field strength along e3
 
+[data]
+m = {_numbers(mass)}
+c = {_numbers(charge)}
+
 [inertia]
-diagonal = {_numbers(mass, indent="            ")}
+diagonal = "m"
 
 [[potential.body]]
 V = "-E*c*dot(e3, q)"
 bodies = "all"
-[potential.body.data]
-c = {_numbers(charge)}
 
 [[potential.pair]]
 V = "A*ci*cj*exp(-kappa*norm(qi - qj))/norm(qi - qj)"
-pairs = {pair_list}
-[potential.pair.data]
-ci = {_numbers([charge[i - 1] for i, _ in pairs], indent="      ")}
-cj = {_numbers([charge[j - 1] for _, j in pairs], indent="      ")}
+pairs = "all"
 
 [initial]
 q = {_vectors(q, "     ")}
