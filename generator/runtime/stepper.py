@@ -29,6 +29,7 @@ Example:
 
 from __future__ import annotations
 
+import abc
 import ctypes
 from typing import Any
 
@@ -52,7 +53,7 @@ def _readonly(a: np.ndarray) -> np.ndarray:
     return view
 
 
-class Stepper:
+class Stepper(abc.ABC):
     """A run of one fixed-step method, one step per `advance()`.
 
     `q` and `omega` are the current state, shape (n, 3), read-only views valid until the next
@@ -71,24 +72,28 @@ class Stepper:
         self._params = np.array(params, dtype=np.float64)
 
     @property
+    @abc.abstractmethod
     def q(self) -> np.ndarray:
         """The current unit vectors, (n, 3) (a read-only view, valid until the next step)."""
-        raise NotImplementedError
+        ...
 
     @property
+    @abc.abstractmethod
     def omega(self) -> np.ndarray:
         """The current angular velocities, (n, 3) (a read-only view, as `q`)."""
-        raise NotImplementedError
+        ...
 
     @property
+    @abc.abstractmethod
     def t(self) -> float:
         """The time of the current state: t0 plus the steps taken."""
-        raise NotImplementedError
+        ...
 
     @property
+    @abc.abstractmethod
     def iterations(self) -> int:
         """The Newton iterations of the last step (all substeps; 0 for explicit ones)."""
-        raise NotImplementedError
+        ...
 
     def set_state(self, q: np.ndarray | None, omega: np.ndarray | None) -> None:
         """Continue from (q, omega) (None: the spec's), checked as `integrate` checks an
@@ -99,18 +104,20 @@ class Stepper:
         energy_scale(self.backend, q, omega, self._params, energy=False)
         self._load(np.array(q, dtype=np.float64), np.array(omega, dtype=np.float64))
 
-    def _load(self, q: np.ndarray, omega: np.ndarray) -> None:
-        raise NotImplementedError
+    @abc.abstractmethod
+    def _load(self, q: np.ndarray, omega: np.ndarray) -> None: ...
 
+    @abc.abstractmethod
     def advance(self) -> None:
         """One step of size h from the current state; `IntegrationError` with the step's
         status if it fails (the state stays the one before it)."""
-        raise NotImplementedError
+        ...
 
+    @abc.abstractmethod
     def step_copy(self, q: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         """One step from (q, omega) (float64 arrays of shape (n, 3), unchecked): a copy of the
         state after it, or None if the step failed (the state is then unchanged)."""
-        raise NotImplementedError
+        ...
 
     def retarget(self, h: float, params: np.ndarray) -> None:
         """Take steps of size h with parameter values `params` from now on (both already
@@ -120,8 +127,8 @@ class Stepper:
         self._params[...] = params  # in place: the prepared calls point at this array
         self._restart()
 
-    def _restart(self) -> None:
-        raise NotImplementedError
+    @abc.abstractmethod
+    def _restart(self) -> None: ...
 
     def _error(self, status: int) -> IntegrationError:
         t, s = self.t, self._system  # a failed step leaves the time of its start
