@@ -54,6 +54,8 @@ class Kind(enum.Enum):
     STEPPER = "stepper *"
     VECTOR3 = "double J[3]"
     VOID = "void"
+    FEEDBACK = "feedback"  # a driven module's input callback (the header's typedef)
+    POINTER = "void *"  # the caller's context of a callback
 
 
 @dataclass(frozen=True)
@@ -326,10 +328,102 @@ _SPHERE = Interface(
 )
 
 
-def interface(kind: ModuleKind) -> Interface:
-    """The interface of one kind of module (the angle form's in `s2gen.interface_angles`)."""
+_DRIVEN_STEP = Function(
+    "step",
+    Kind.INT,
+    (
+        _p("p", _CA),
+        _p("opt", Kind.OPTIONS, True),
+        _p("method", Kind.INT),
+        _p("t", _D),
+        _p("h", _D),
+        _p("u", _CA, True),
+        _p("q", _CA),
+        _p("w", _CA),
+        _p("qn", _A),
+        _p("wn", _A),
+        _p("W", _A, True),
+        _p("work", _A),
+        _p("iters", Kind.INT_OUT, True),
+    ),
+    "One step of size h of a fixed-step method (METHOD_*: the VI family and the Runge-Kutta "
+    "methods) from (q, w) at time t to (qn, wn) at t + h, the inputs u (NINPUTS doubles, in "
+    "the order of input_names; NULL: their defaults) held over the step (zero-order hold: "
+    "every evaluation inside the step, at its end too, reads u). W (may be NULL) receives the "
+    "work done on the system during the step: (h/2)(P + P+) per VI substep, the method's own "
+    "quadrature of P for Runge-Kutta, P = dV/dt + sum_i F_i . qdot_i. Newton starts cold; "
+    "iters (may be NULL) receives its iterations (those of the velocity equations of "
+    "velocity-dependent forces included). Returns OK or a status: ERR_ARGUMENT for h <= 0 or "
+    "a method that is not fixed-step, ERR_NONFINITE for a non-finite input or state, the "
+    "step's own failures as integrate() reports them.",
+)
+
+_DRIVEN_INTEGRATE = Function(
+    "integrate",
+    Kind.INT,
+    (
+        _p("p", _CA),
+        _p("opt", Kind.OPTIONS, True),
+        _p("method", Kind.INT),
+        _p("t0", _D),
+        _p("h", _D),
+        _p("nsteps", Kind.LONG),
+        _p("u", _CA, True),
+        _p("feedback", Kind.FEEDBACK, True),
+        _p("fctx", Kind.POINTER, True),
+        _p("q0", _CA),
+        _p("w0", _CA),
+        _p("q", _A),
+        _p("w", _A),
+        _p("energy", _A, True),
+        _p("W", _A, True),
+        _p("work", _A),
+        _p("stats", Kind.STATS, True),
+    ),
+    "Integrate nsteps fixed steps of size h (the VI family and the Runge-Kutta methods) from "
+    "(q0, w0) at time t0 with `method` (METHOD_*), step k running from t0 + k h to "
+    "t0 + (k + 1) h with the inputs u_k held over it: from `feedback`, when not NULL, called "
+    "once per step as feedback(fctx, t_k, q_k, w_k, u_k) to write the NINPUTS inputs from the "
+    "state at t_k (state feedback); else u + k * NINPUTS (u: nsteps * NINPUTS doubles; NULL: "
+    "the defaults throughout). The trajectory keeps every opt->every-th "
+    "sample, the initial state first: q and w hold (nsteps / every + 1) * NSTATE doubles; "
+    "energy (may be NULL) the energy E(q_k, w_k, t_k) with the inputs of the step that ended "
+    "at t_k (the step's own at t0); W (may be NULL) the work done since t0, including the "
+    "jumps of V where a held input changes, so that E_k - E_0 - W_k is the energy-balance "
+    "error. opt NULL means the defaults of default_options(); stats may be NULL. Returns OK "
+    "or a status code: ERR_ARGUMENT for h <= 0, nsteps < 0, an every that does not divide "
+    "nsteps, a method that is not fixed-step, or a q0_i that is not a unit vector "
+    "(stats->fail_body names it); ERR_NONFINITE for a non-finite input (stats->fail_step: "
+    "the samples before it are valid) or state; on a failed step the samples before "
+    "stats->fail_step are valid.",
+)
+
+#: What a driven module (forces, inputs or time) replaces: step() takes the time and the
+#: inputs and integrate() the start time, the inputs and the work; vi_step, rk_step and
+#: step_start (whose steps know no time) are absent.
+_DRIVEN_DROPS = ("vi_step", "rk_step", "step_start")
+_DRIVEN = Interface(
+    functions=tuple(
+        {"step": _DRIVEN_STEP, "integrate": _DRIVEN_INTEGRATE}.get(f.name, f)
+        for f in _SPHERE.functions
+        if f.name not in _DRIVEN_DROPS
+    ),
+    options=_SPHERE.options,
+    stats=_SPHERE.stats,
+    stepper=(),
+)
+
+
+def interface(kind: ModuleKind, driven: bool = False) -> Interface:
+    """The interface of one kind of module (the angle form's in `s2gen.interface_angles`);
+    `driven`: a sphere module with forces, inputs or time.
+
+    Example:
+        >>> [p.name for p in interface(ModuleKind.SPHERE, driven=True).function("step").params][:6]
+        ['p', 'opt', 'method', 't', 'h', 'u']
+    """
     if kind is ModuleKind.SPHERE:
-        return _SPHERE
+        return _DRIVEN if driven else _SPHERE
     from s2gen.interface_angles import ANGLES
 
     return ANGLES

@@ -48,6 +48,7 @@ __all__ = [
     "Band",
     "Buffer",
     "Call",
+    "Drive",
     "Kernel",
     "KernelDef",
     "Layout",
@@ -267,6 +268,22 @@ class PassRecord:
 
 
 @dataclass(frozen=True)
+class Drive:
+    """The driven part of a module: the inputs (names and defaults, in the order of ``u``),
+    whether it has forces and whether they depend on the angular velocities."""
+
+    inputs: tuple[str, ...]
+    defaults: tuple[float, ...]
+    forces: bool
+    velocity: bool
+
+    @property
+    def width(self) -> int:
+        """Doubles of ``tu``: the time, then the inputs."""
+        return 1 + len(self.inputs)
+
+
+@dataclass(frozen=True)
 class Module:
     """Everything the printers need for one emitted module, still language-neutral.
 
@@ -306,6 +323,7 @@ class Module:
     #: per-body arrays the terms read (name, width, n * width values), one table each
     body_data: tuple[tuple[str, int, tuple[float, ...]], ...] = ()
     initial_state: tuple[float, ...] = ()  # the spec's q then omega, body-major (or none)
+    drive: Drive | None = None  # a driven system's inputs and forces (None: closed)
 
     def band(self, name: str) -> Band:
         """The band system `name` (KeyError if absent)."""

@@ -35,6 +35,7 @@ __all__ = [
     "BACKENDS",
     "COMPOSITIONS",
     "CONTROLS",
+    "DRIVEN_FAMILIES",
     "KAHAN_LI8",
     "KINDS",
     "LANGUAGES",
@@ -50,6 +51,7 @@ __all__ = [
     "Method",
     "Status",
     "check_method",
+    "driven_methods",
     "explicit_tableaus",
     "fixed_methods",
     "markdown_table",
@@ -416,3 +418,18 @@ def markdown_table() -> str:
             f"{', '.join(m.backends)} | {summary} |"
         )
     return "\n".join(rows)
+
+
+#: The method families a driven module integrates (RATTLE and the adaptive ones refuse).
+DRIVEN_FAMILIES = (Family.VI, Family.FIXED_RK)
+
+
+def driven_methods() -> tuple[str, ...]:
+    """The methods of a driven module: the VI family and the unprojected explicit
+    Runge-Kutta methods.
+
+    Example:
+        >>> driven_methods()
+        ('vi', 'rk2', 'rk4', 'vi4', 'vi6', 'vi8', 'rk3')
+    """
+    return tuple(m.name for m in METHODS if m.family in DRIVEN_FAMILIES and not m.project)

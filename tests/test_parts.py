@@ -161,6 +161,11 @@ SYSTEMS = {
     "three_bodies": lambda: builtin("three_bodies"),  # pair terms laid out as rows
     "dipoles": lambda: builtin("dipoles"),  # quadratic terms (K)
     "lj_cutoff": lambda: builtin("lj_cutoff"),  # cutoff: neighbour lists
+    # driven: dense M with velocity-dependent forces, time and an input; diagonal M with
+    # velocity-dependent forces and a force term; diagonal M with time only (no forces)
+    "driven_double": lambda: resolve(str(SPECS / "driven_double.toml")),
+    "driven_ring": lambda: resolve(str(SPECS / "driven_ring.toml")),
+    "driven_timed": lambda: resolve(str(SPECS / "driven_timed.toml")),
 }
 
 

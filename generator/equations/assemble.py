@@ -24,6 +24,7 @@ import functools
 from s2gen.equations.angles import MIN_PIVOT_RATIO, POLE_TOL, AngleEquations, angle_kernels
 from s2gen.equations.continuous import continuous_kernels
 from s2gen.equations.discrete import explicit_kernels, newton_kernels
+from s2gen.equations.driven import drive_of, driven_kernels
 from s2gen.equations.operators import operator_kernels
 from s2gen.equations.rattle import rattle_kernels
 from s2gen.equations.structure import (
@@ -36,8 +37,8 @@ from s2gen.equations.structure import (
 )
 from s2gen.inertia import InertiaKind
 from s2gen.interface import INITIAL_STATE_MAX_BODIES
-from s2gen.ir import KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
-from s2gen.system import System, Term
+from s2gen.ir import Drive, KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
+from s2gen.system import SpecError, System, Term
 
 __all__ = [
     "MAX_CELLS",
@@ -121,11 +122,15 @@ def _variants(solver: InertiaKind) -> tuple[tuple[str, str], ...]:
     return ()
 
 
-def _parts(solver: InertiaKind, tables: bool, cutoff: bool) -> tuple[str, ...]:
+def _parts(
+    solver: InertiaKind, tables: bool, cutoff: bool, drive: Drive | None = None
+) -> tuple[str, ...]:
     """The partial templates of a sphere module, in order, for its inertia solver: explicit
     updates (diagonal M), dense solves over pair loops, or the structured solves (band
     elimination after the per-call context, products with M by `coupled_banded` or
-    `coupled_chain`)."""
+    `coupled_chain`). A driven module steps with its own driver (`driven`: time, inputs,
+    forces and the work), built on the VI step and the field; uncoupled with
+    forces it solves its velocity equations with `lu`."""
     chain = solver is InertiaKind.MAX_INDEX
     middle: tuple[str, ...]
     if solver is InertiaKind.DIAGONAL:
@@ -141,6 +146,9 @@ def _parts(solver: InertiaKind, tables: bool, cutoff: bool) -> tuple[str, ...]:
         middle += ("vi_structured",)
         rattle = "rattle_structured"
     head = (*(("tables",) if tables else ()), *(("neighbours",) if cutoff else ()))
+    if drive is not None:
+        solve = ("lu",) if drive.forces and solver is InertiaKind.DIAGONAL else ()
+        return (*head, "kernels", "helpers", *solve, *middle, "driven")
     tail = ("vi_step", rattle, "rk", "rk_step", "driver", "step")
     return (*head, "kernels", "helpers", *middle, *tail)
 
@@ -152,10 +160,12 @@ def sphere_module(system: System) -> Module:
     chain = solver is InertiaKind.MAX_INDEX
     pairs = coupling_pairs(system) if coupled and not chain else ()
     terms = [(k, t) for k, t in enumerate(system.terms) if t.count(system.n) > 0]
+    drive = _drive(system, solver)
     kernels: list[KernelDef] = list(system_kernels(system, solver))
     for k, t in terms:
         kernels += term_kernels(system, k, t)
     kernels += generic_kernel_defs(coupled, solver)
+    kernels += driven_kernels(system) if drive is not None else []
     loops = tuple(_term_loop(k, t, system.n) for k, t in terms)
     cutoff = any(not t.loop.kind.fixed for t in loops)
     per_body = per_body_inertia(system, solver) is not None
@@ -171,7 +181,7 @@ def sphere_module(system: System) -> Module:
     else:
         field.append(("rhs_diag", system.n))
     chain_data = system.chain.data if per_body and system.chain is not None else ()
-    parts = _parts(solver, bool(pairs) or bool(loops) or bool(chain_data), cutoff)
+    parts = _parts(solver, bool(pairs) or bool(loops) or bool(chain_data), cutoff, drive)
     return Module(
         kind=ModuleKind.SPHERE,
         name=system.name,
@@ -182,7 +192,7 @@ def sphere_module(system: System) -> Module:
         parameter_values=system.parameter_values,
         kernels=tuple(kernels),
         parts=parts,
-        c_only=("cholesky", "lu", "band"),  # NumPy solves with numpy.linalg and scipy.linalg
+        c_only=("cholesky", "lu", "band", "driven"),  # NumPy: numpy.linalg, scipy.linalg
         variants=_variants(solver),
         pairs=pairs,
         terms=loops,
@@ -200,7 +210,24 @@ def sphere_module(system: System) -> Module:
             {d.name: (d.name, d.width, d.values) for _, t in terms for d in t.body_data}.values()
         ),
         initial_state=_initial_state(system),
+        drive=drive,
     )
+
+
+def _drive(system: System, solver: InertiaKind) -> Drive | None:
+    """The driven part of a system, or None when it is closed; a one-line SpecError for what
+    the emitted code does not take yet (forces with the structured solvers, whose velocity
+    equations would need their own band solves)."""
+    if not system.driven:
+        return None
+    drive = drive_of(system)
+    if drive.forces and solver in (InertiaKind.BANDED, InertiaKind.MAX_INDEX):
+        raise SpecError(
+            f"{system.origin}: {system.forces[0].label}: emitting code for forces with a "
+            f"structured inertia solver ({solver.value}) is not supported yet; set [inertia] "
+            'solver = "dense" (time and inputs in the potential are supported)'
+        )
+    return drive
 
 
 def _initial_state(system: System) -> tuple[float, ...]:

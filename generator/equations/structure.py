@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import sympy as sp
 
+from s2gen.equations.driven import tu_argument
 from s2gen.inertia import INDEX, ChainInertia, Generators, InertiaKind, coupled_pairs
 from s2gen.ir import Argument, KernelDef, Output
 from s2gen.symbols import local_vector, q_symbols
@@ -185,7 +186,7 @@ def system_kernels(system: System, solver: InertiaKind | None = None) -> list[Ke
             KernelDef(
                 "potential",
                 "potential energy V(q) (general part)",
-                (p, q),
+                (p, q, *tu_argument(system, V)),
                 (Output("v", (V,), scalar=True),),
                 system=True,
                 stages=(("p", 0),),
@@ -193,7 +194,7 @@ def system_kernels(system: System, solver: InertiaKind | None = None) -> list[Ke
             KernelDef(
                 "gradient",
                 "dV/dq, body-major (3 per body)",
-                (p, q),
+                (p, q, *tu_argument(system, *grad)),
                 (Output("g", grad),),
                 system=True,
                 stages=(("p", 0),),
@@ -234,7 +235,7 @@ def term_kernels(system: System, index: int, term: Term) -> tuple[KernelDef, Ker
         Argument(f"b_{body_names(d.name, term.kind)[r]}", s, scalar=d.width == 1)
         for d, r, s in term.body_symbols()
     ]
-    inputs = (p, *positions, *data, *body)
+    inputs = (p, *positions, *data, *body, *tu_argument(system, term.expr))
     stages = (("p", 0), *((a.name, 1) for a in data), *((a.name, 2) for a in body))
     where = f"{term.label}: sum over {term.kind.plural}"
     grads = [

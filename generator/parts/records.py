@@ -90,5 +90,6 @@ class Part:
         return (*self.sites, *more)
 
 
-#: The context's constants, as the kernels that read hoisted parameter terms take them
-CC: dict[str, Binding] = {"cc": ContextArray("cc")}
+#: The context's constants, as the kernels that read hoisted parameter terms take them, and a
+#: driven system's time and held inputs (``tu``), as the kernels that read them take them
+CC: dict[str, Binding] = {"cc": ContextArray("cc"), "tu": ContextArray("tu")}

@@ -81,6 +81,35 @@ def _inertia_sites(module: Module) -> tuple[Site, ...]:
     )
 
 
+def _stage_sites(module: Module) -> tuple[Site, ...]:
+    """The power at a Runge-Kutta stage: the stage state ys holds q, then w from 3n on."""
+    at = {"q": Local("ys"), "w": Shifted("ys", 3 * module.n), "pw": Local("pw", address=True)}
+    return (Site("power_stage", "power", _S, {**CC, **at}),)
+
+
+#: A driven module's own driver: the power at a step's ends and at each stage, the forces,
+#: the forced VI's end-velocity terms and the field's force terms (`s2gen.equations.driven`)
+_DRIVEN = Part(
+    "driven",
+    sites=(
+        Site("force", "force", _S, CC),
+        Site("power", "power", _S, {**CC, "pw": Local("p0", address=True)}),
+        Site(
+            "power_end",
+            "power",
+            _S,
+            {**CC, "q": Local("qn"), "w": Local("wn"), "pw": Local("p1", address=True)},
+        ),
+        Site("fvel", "fvel", _S, {"q": Local("qn")}),
+        Site("fstage", "fstage", _S),
+    ),
+    module_sites=_stage_sites,
+    buffers=(
+        ("driven", ("qk", "wk", "q1", "w1", "a", "b", "vc", "vd", "g", "gn", "F", "Fw")),
+        ("driven", ("c", "jc", "jm", "w0", "f", "k", "ys", "ub", "field", "step")),
+    ),
+)
+
 #: The parts of the sphere module (each laid out by `c/_<name>.jinja`, `numpy/_<name>.jinja`)
 SPHERE_PARTS = (
     Part("tables"),
@@ -239,6 +268,7 @@ SPHERE_PARTS = (
             ("carry", ("q", "w", "g", "v", "f", "s")),
         ),
     ),
+    _DRIVEN,
 )
 
 #: The sphere module's parts by name

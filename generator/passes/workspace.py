@@ -295,6 +295,36 @@ def _carry(module: Module, _: _Layouts) -> Layout:
     return layout("carry", *((b, _m3(module)) for b in ("q", "w", "g", "v")), *_starts(module))
 
 
+def _driven(module: Module, lays: _Layouts) -> Layout:
+    """A driven module's driver, one layout for integrate(), step() and the functions they
+    call, all reading the same `work`: the state and the next (qk, wk, q1, w1), the
+    substeps' alternating buffers (a, vc) and (b, vd), g and gn, the forces F and dF/dw,
+    the velocity equations' terms c, Jacobian jc and matrix jm and their start w0, the VI's
+    Newton start f, the Runge-Kutta stages k and stage state ys, the inputs a feedback writes
+    (ub), and the field's and the VI step's own workspace."""
+    assert module.drive is not None
+    m3, ns = _m3(module), _ns(module)
+    forces, velocity = module.drive.forces, module.drive.velocity
+    stages = max(t.stages for t in explicit_tableaus(module.kind.value))
+    return layout(
+        "driven",
+        *((b, m3) for b in ("qk", "wk", "q1", "w1", "a", "b", "vc", "vd", "g", "gn", "F")),
+        ("Fw", m3 * m3 if velocity else 0),
+        # the velocity equations of forced steps (the force terms of the field reuse c, jm)
+        *(
+            (("c", m3), ("jc", m3 * m3 if velocity else 0), ("jm", m3 * padded(m3)), ("w0", m3))
+            if forces
+            else ()
+        ),
+        ("f", m3 if _coupled(module) else 0),
+        ("k", stages * ns),
+        ("ys", ns),
+        ("ub", len(module.drive.inputs)),
+        ("field", lays.size("field")),
+        ("step", lays.size("vi_advance")),
+    )
+
+
 #: The builder of each layout a part of the sphere module may declare
 _SPHERE: dict[str, _Builder] = {
     "field": _field,
@@ -311,6 +341,7 @@ _SPHERE: dict[str, _Builder] = {
     "integrate": _integrate,
     "step": _one_step,
     "carry": _carry,
+    "driven": _driven,
 }
 
 

@@ -35,6 +35,7 @@ from s2gen.printing.c_module import (
     c_macros,
     c_tables,
 )
+from s2gen.printing.driven import print_drive
 from s2gen.printing.numpy import (
     py_call,
     py_data_setup,
@@ -131,6 +132,7 @@ class PrintedModule:
     py_masses: str
     py_inertia_setup: tuple[str, ...]  # NumPy: the body index and per-body data of M
     py_data_setup: tuple[str, ...]  # NumPy: the per-body arrays of [data] the terms read
+    drive: dict[str, Any]  # a driven module's inputs, methods and tables (empty: closed)
 
 
 def print_module(module: Module) -> PrintedModule:
@@ -244,4 +246,5 @@ def print_module(module: Module) -> PrintedModule:
         py_masses=py_masses,
         py_inertia_setup=py_inertia_setup(module),
         py_data_setup=py_data_setup(module),
+        drive=print_drive(module),
     )

@@ -357,6 +357,8 @@ _C_TYPES = {
     Kind.STATS: "{prefix}_stats *{}",
     Kind.STEPPER: "{prefix}_stepper *{}",
     Kind.VECTOR3: "double {}[3]",
+    Kind.FEEDBACK: "{prefix}_feedback {}",
+    Kind.POINTER: "void *{}",
 }
 
 

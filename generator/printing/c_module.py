@@ -79,8 +79,16 @@ def c_macros(module: Module) -> tuple[tuple[Macro, ...], tuple[Macro, ...]]:
         ("NCONST", str(module.constants), "constants of the kernels (computed once per call)"),
         ("WORK_BASE", str(module.work_base), "workspace doubles before the per-call context"),
         size,
-        ("STEP_CARRY", str(module.layout("carry").size), "doubles of step()'s carry"),
+        *_step_macros(module),
     )
+
+
+def _step_macros(module: Module) -> tuple[Macro, ...]:
+    """step()'s carry (closed modules), or the number of inputs (driven modules, whose step()
+    carries nothing)."""
+    if module.drive is not None:
+        return (("NINPUTS", str(len(module.drive.inputs)), "inputs in u (see input_names)"),)
+    return (("STEP_CARRY", str(module.layout("carry").size), "doubles of step()'s carry"),)
 
 
 def c_tables(module: Module) -> tuple[CTable, ...]:
@@ -132,7 +140,7 @@ def c_functions(module: Module) -> tuple[dict[str, str | tuple[str, ...]], ...]:
         'void double_pendulum_default_params(double *p)'
     """
     out: list[dict[str, str | tuple[str, ...]]] = []
-    for f in interface(module.kind).functions:
+    for f in interface(module.kind, module.drive is not None).functions:
         note = nullable_note(f.params)
         doc = f.doc + (" " + note if note and "NULL" not in f.doc else "")
         out.append({"c_decl": c_decl(module.name, f), "doc_lines": _wrap(doc)})
@@ -150,7 +158,7 @@ def c_fields(module: Module, which: str) -> tuple[dict[str, str], ...]:
         >>> c_fields(m, "options")[0]["c_decl"], c_fields(m, "options")[0]["c_default"]
         ('double rtol', '1e-3')
     """
-    api = interface(module.kind)
+    api = interface(module.kind, module.drive is not None)
     upper = module.name.upper()
     return tuple(
         {

@@ -276,6 +276,14 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "explicit_dispatch": ("driver",),
         "initial_table": ("context",),
         "initial_state": ("context",),
+        "context_fields": ("context",),
+        "context_defaults": ("context",),
+        "drive_tables": ("context",),
+        "drive_force": ("driven",),
+        "drive_start": ("driven",),
+        "drive_end": ("driven",),
+        "drive_stage": ("driven",),
+        "drive_operator": ("drive_force_fns",),
     },
     {
         "masses_fill": ("masses", "masses_coupled", "masses_generators"),
@@ -319,6 +327,8 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     coupled = bool(facts.get("coupled", False))  # the VI and RATTLE steps iterate (Newton)
     explicit = "vi_explicit" in module.parts  # the VI has its own driver (component-major)
     initial = bool(module.initial_state)  # the spec's initial state is carried
+    driven = module.drive is not None  # time and inputs in the context, the driven driver
+    forces = driven and module.drive is not None and module.drive.forces
 
     def pick(lang: str, *choices: tuple[bool, str]) -> tuple[str, ...]:
         return tuple(f"{lang}/sections/_{stem}.jinja" for chosen, stem in choices if chosen)
@@ -361,6 +371,16 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "initial_state": pick(
             "c", (initial, "initial_state_copy"), (not initial, "initial_state_none")
         ),
+        "context_fields": pick("c", (driven, "tu_field")),
+        "context_defaults": pick("c", (driven, "tu_defaults")),
+        "drive_tables": pick("c", (driven, "tu_table")),
+        "drive_force": pick("c", (forces, "drive_force_fns")),
+        "drive_operator": pick(
+            "c", (coupled, "drive_operator_dense"), (not coupled, "drive_operator_diagonal")
+        ),
+        "drive_start": pick("c", (forces, "drive_start_force")),
+        "drive_end": pick("c", (forces, "drive_end_force")),
+        "drive_stage": pick("c", (forces, "drive_stage_force")),
     }
     py = {
         "masses_fill": pick("numpy", (uniform, "uniform_fill")),
