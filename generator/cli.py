@@ -122,6 +122,21 @@ def _parser() -> argparse.ArgumentParser:
         help=f"progress bar on stderr for runs longer than {PROGRESS_DELAY:g} s (default: on "
         "when stderr is a terminal)",
     )
+    s.add_argument("--t0", type=float, default=0.0, help="start time (default 0)")
+    s.add_argument(
+        "--input",
+        action="append",
+        default=[],
+        metavar="NAME=EXPR",
+        help="a driven system's input as an expression in t and the parameters, evaluated at "
+        "the start of each step and held over it (repeatable; other inputs keep their defaults)",
+    )
+    s.add_argument(
+        "--inputs",
+        metavar="FILE.csv",
+        help="a driven system's inputs, one row per step: a header line naming the inputs, "
+        "then one line of numbers per step (steps = T / h)",
+    )
 
     sub.add_parser("list", help="list the built-in systems")
 

@@ -44,13 +44,21 @@ def _report(name: str, tr: Any, out: Path | None) -> None:
         f"{grads} gradient evaluations, {c['newton_iters']} Newton iterations, "
         f"in {tr.wall_time:.3f} s"
     )
-    print(f"  |E - E0|          mean {m['mean_dE']:.4e}   max {m['max_dE']:.4e}")
+    if tr.work is None:
+        print(f"  |E - E0|          mean {m['mean_dE']:.4e}   max {m['max_dE']:.4e}")
+    else:
+        balance = abs(tr.balance)
+        print(
+            f"  work W(T)         {tr.work[-1]:.6g}   (E(T) - E0 = {tr.balance[-1] + tr.work[-1]:.6g})"
+        )
+        print(f"  |E - E0 - W|      mean {balance.mean():.4e}   max {balance.max():.4e}")
     print(f"  | |q| - 1 |       mean {m['mean_norm']:.4e}   max {m['max_norm']:.4e}")
     print(f"  | q.q - 1 |       mean {m['mean_dot']:.4e}   max {m['max_dot']:.4e}")
     if out is None:
         print(f"  not saved ({len(tr.t)} samples; give --out FILE to keep them)")
     else:
-        print(f"  saved {out} ({len(tr.t)} samples: t, q, omega, energy, angular_momentum)")
+        driven = "" if tr.work is None else ", work, inputs"
+        print(f"  saved {out} ({len(tr.t)} samples: t, q, omega, energy, angular_momentum{driven})")
 
 
 def _progress_on(args: argparse.Namespace) -> bool:
@@ -61,15 +69,23 @@ def _progress_on(args: argparse.Namespace) -> bool:
 
 
 def _integrate(
-    be: Any, method: str, h: float, T: float, opts: Any, show: bool, every: int, delay: float
+    be: Any,
+    method: str,
+    h: float,
+    T: float,
+    opts: Any,
+    show: bool,
+    every: int,
+    delay: float,
+    drive: dict[str, Any],
 ) -> Any:
-    """One run keeping every `every`-th step; when `show`, a progress bar (steps, rate, time
-    left) on stderr once the run has gone `delay` seconds. The run is one call
-    either way: the bar only reads how far it has come."""
+    """One run keeping every `every`-th step (`drive`: a driven run's t0 and inputs); when
+    `show`, a progress bar (steps, rate, time left) on stderr once the run has gone `delay`
+    seconds. The run is one call either way: the bar only reads how far it has come."""
     from s2gen.runtime import run
 
     if not show:
-        return run(be, method, h, T, opts, every=every)
+        return run(be, method, h, T, opts, every=every, **drive)
     from tqdm import tqdm
 
     steps = round(T / h)
@@ -81,7 +97,7 @@ def _integrate(
         def progress(fraction: float) -> None:
             bar.update(int(steps * fraction) - bar.n)
 
-        return run(be, method, h, T, opts, every=every, progress=progress)
+        return run(be, method, h, T, opts, every=every, progress=progress, **drive)
 
 
 def _output_file(path: str) -> Path:
@@ -115,7 +131,15 @@ def simulate_command(args: argparse.Namespace, delay: float) -> int:
     from s2gen.methods import check_method
 
     check_method(method, args.backend)
-    check_run(system, method, h, T, opts, args.every)  # a request the machine cannot serve
+    nsteps = check_run(system, method, h, T, opts, args.every)  # what the machine cannot serve
+    from s2gen.input_options import cli_inputs
+
+    t0 = getattr(args, "t0", 0.0)
+    given = getattr(args, "input", []) or []
+    drive = {
+        "t0": t0,
+        "inputs": cli_inputs(system, given, getattr(args, "inputs", None), nsteps, h, t0),
+    }
     out = None if args.out is None else _output_file(args.out)  # an unwritable file: refused now
     if args.opt:
         os.environ["S2GEN_OPT"] = args.opt
@@ -126,7 +150,7 @@ def simulate_command(args: argparse.Namespace, delay: float) -> int:
     with warnings.catch_warnings(record=True) as caught:  # shown after the report
         warnings.simplefilter("always")
         try:
-            tr = _integrate(be, method, h, T, opts, _progress_on(args), args.every, delay)
+            tr = _integrate(be, method, h, T, opts, _progress_on(args), args.every, delay, drive)
         except IntegrationError as exc:
             if out is None:
                 print(f"error: {exc} (give --out FILE to save them)", file=sys.stderr)

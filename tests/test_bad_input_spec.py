@@ -649,9 +649,9 @@ API_CASES: list[tuple[str, Callable[[], object], list[str]]] = [
         ["[inputs] u: value inf is not finite"],
     ),
     (
-        "a driven system cannot be emitted yet",
-        lambda: emit(_pendulum(potential="-m*cos(t)*q1[2]"), "c", cache=False),
-        ["[potential] V: t: emitting code for driven systems", "is not supported yet"],
+        "a driven system cannot be emitted in NumPy yet",
+        lambda: emit(_pendulum(potential="-m*cos(t)*q1[2]"), "numpy", cache=False),
+        ["[potential] V: t: emitting numpy code (sphere form) for driven systems", "not supported"],
     ),
     (
         "a driven system has no reference problem yet",

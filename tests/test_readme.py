@@ -35,7 +35,12 @@ def test_readme_starts_with_the_two_set_up_commands_then_says_what_s2gen_is() ->
     first_heading = README.index("\n## ")
     assert intro < first_heading < first_table, "the introduction comes before any table"
     scope = README[intro:first_heading]
-    for words in ("Conservative, time-independent", "constant inertia matrix M", "--backend numpy"):
+    for words in (
+        "constant inertia matrix M",
+        "Driven systems",
+        "energy balance",
+        "--backend numpy",
+    ):
         assert words in scope, words
 
 

@@ -7,7 +7,7 @@ through step() and must end in integrate()'s final state bit for bit, and initia
 hand back the spec's state. Any sanitizer report fails the test; so does a failed integration, a
 non-finite result or a difference.
 
-Every built-in runs in the default suite (about 12 s on two cores); among them the double
+Every closed built-in runs in the default suite (the driven ones in tests/test_driven_c.py) (about 12 s on two cores); among them the double
 pendulum (coupled: Newton, linear solves) and the four pendula (diagonal, with one-body and
 pair terms). Valgrind runs those two in the slow suite.
 """
@@ -39,6 +39,8 @@ REPORTS = ("AddressSanitizer", "LeakSanitizer", "runtime error:", "UndefinedBeha
 STEPS = {"molecular": 10}
 #: The systems valgrind runs (slow suite).
 VALGRIND_SUITE = ("double_pendulum", "four_pendula")
+#: Built-ins whose integrate() takes time and inputs (their own driver: tests/test_driven_c.py)
+DRIVEN = ("forced_double_pendulum", "kapitza")
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not installed")
 
@@ -173,10 +175,11 @@ def test_the_suites_cover_a_coupled_and_a_diagonal_system_with_terms() -> None:
     dp, fp = builtin("double_pendulum"), builtin("four_pendula")
     assert not dp.is_diagonal and fp.is_diagonal and fp.terms
     assert set(VALGRIND_SUITE) <= set(builtin_names())
+    assert {n for n in builtin_names() if builtin(n).driven} == set(DRIVEN)
     assert {m.name for m in C_METHODS} >= {"vi", "vi4", "rattle", "rk45", "rk4"}
 
 
-@pytest.mark.parametrize("name", builtin_names())
+@pytest.mark.parametrize("name", [n for n in builtin_names() if n not in DRIVEN])
 def test_sanitizers(name: str, tmp_path: Path) -> None:
     _sanitized_run(name, tmp_path)
 

@@ -100,10 +100,23 @@ def test_the_driven_part_changes_the_digest() -> None:
     assert base.spec_digest() != other.spec_digest()
 
 
+#: The driven built-ins: the damped, periodically forced double pendulum (forces) and
+#: Kapitza's pendulum (a time-dependent potential)
+DRIVEN_BUILTINS = {"forced_double_pendulum": (True, False), "kapitza": (False, False)}
+
+
 @pytest.mark.parametrize("name", builtin_names())
-def test_builtins_are_closed_systems(name: str) -> None:
+def test_builtins_are_closed_unless_named_driven(name: str) -> None:
     s = builtin(name)
-    assert not s.driven and not s.forces and not s.inputs.names
+    assert s.driven == (name in DRIVEN_BUILTINS)
+    forces, inputs = DRIVEN_BUILTINS.get(name, (False, False))
+    assert bool(s.forces) == forces and bool(s.inputs.names) == inputs
+
+
+def test_the_rope_with_a_moving_top_is_driven_by_time_only() -> None:
+    s = builtin("rope", n=3, top_radius=0.2)
+    assert s.driven and not s.forces and not s.inputs.names
+    assert not builtin("rope", n=3).driven
 
 
 def test_a_parameter_named_t_hides_time() -> None:
@@ -187,14 +200,30 @@ def test_time_is_a_name_of_potentials_only() -> None:
 
 
 @pytest.mark.parametrize(
-    "args",
-    [["generate", "--out", "OUT"], ["simulate", "--h", "0.01", "--T", "0.1", "--out", "OUT"]],
+    ("args", "fragment"),
+    [
+        (
+            ["generate", "--lang", "numpy", "--out", "OUT"],
+            (
+                "[forces] F1: emitting numpy code (sphere form) for driven systems (forces, inputs "
+                "or time t) is not supported yet"
+            ),
+        ),
+        (
+            ["simulate", "--backend", "numpy", "--h", "0.01", "--T", "0.1", "--out", "OUT"],
+            "[forces] F1: emitting numpy code (sphere form) for driven systems",
+        ),
+        (
+            ["simulate", "--method", "rattle", "--h", "0.01", "--T", "0.1", "--out", "OUT"],
+            "method 'rattle' does not integrate driven systems (forces, inputs or time t) yet",
+        ),
+    ],
 )
-def test_the_command_line_refuses_a_driven_spec_in_one_line(
-    args: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+def test_the_command_line_refuses_what_does_not_drive_yet_in_one_line(
+    args: list[str], fragment: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """Until the emitted code handles driven systems: exit 2, one line naming the file and
-    the first driven key, nothing written."""
+    """What does not take driven systems yet (the NumPy backend, RATTLE): exit 2, one line
+    naming the file (and the first driven key or the method), nothing written."""
     spec = tmp_path / "driven.toml"
     spec.write_text(
         SPEC + "[initial]\nq = [[0, 0, 1], [1, 0, 0]]\nomega = [[0, 1, 0], [0, 0, 1]]\n"
@@ -203,6 +232,28 @@ def test_the_command_line_refuses_a_driven_spec_in_one_line(
     code = main([args[0], str(spec), *[str(out) if a == "OUT" else a for a in args[1:]]])
     err = capsys.readouterr().err
     assert code == 2
-    assert err.count("\n") == 1 and err.startswith(f"error: {spec}: [forces] F1: ")
-    assert "driven systems (forces, inputs or time t) is not supported yet" in err
+    assert err.count("\n") == 1 and err.startswith(f"error: {spec}: ")
+    assert fragment in err
     assert not out.exists()
+
+
+def test_the_command_line_simulates_a_driven_spec_with_its_inputs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--input NAME=EXPR is the expression at the start of each step, --t0 the start time; the
+    saved trajectory keeps the inputs and the work, and the report the balance."""
+    spec = tmp_path / "driven.toml"
+    spec.write_text(
+        SPEC + "[initial]\nq = [[0, 0, 1], [1, 0, 0]]\nomega = [[0, 1, 0], [0, 0, 1]]\n"
+    )
+    out = tmp_path / "run.npz"
+    args = ["simulate", str(spec), "--h", "0.01", "--T", "0.1", "--t0", "1.0"]
+    code = main([*args, "--input", "tau=2*t + A", "--param", "A=0.5", "--out", str(out)])
+    report = capsys.readouterr().out
+    assert code == 0 and "|E - E0 - W|" in report and "work W(T)" in report
+    from s2gen.runtime.trajectory import Trajectory
+
+    tr = Trajectory.load(out)
+    assert np.allclose(tr.t, 1.0 + 0.01 * np.arange(11), rtol=0, atol=1e-12)
+    assert tr.inputs is not None and tr.work is not None
+    assert np.allclose(tr.inputs[:, 0], 2 * (1.0 + 0.01 * np.arange(10)) + 0.5, rtol=0, atol=1e-12)

@@ -37,6 +37,8 @@ _KIND_WORDS = {
     Kind.STATS: "the statistics struct to fill",
     Kind.STEPPER: "the stepper record (``step_start`` fills it, ``step`` advances it)",
     Kind.VECTOR3: "output 3-vector",
+    Kind.FEEDBACK: "the state feedback (``NAME_feedback``, below)",
+    Kind.POINTER: "the caller's pointer, handed to the feedback as its ``ctx``",
 }
 
 _SIZES = {
@@ -174,6 +176,44 @@ def c_api_rst(kind: ModuleKind) -> str:
     return "\n".join(lines) + "\n"
 
 
+def c_api_driven_rst() -> str:
+    """What a driven system's module (forces, inputs or time) declares differently: its
+    inputs, the feedback type, and step() and integrate() with time and inputs (vi_step,
+    rk_step and step_start are absent; everything else is the sphere module's).
+
+    Example:
+        >>> text = c_api_driven_rst()
+        >>> "NAME_feedback" in text and "double t0" in text
+        True
+    """
+    api = interface(ModuleKind.SPHERE, driven=True)
+    sizes = {
+        **_SIZES,
+        "u": f"{PREFIX}_NINPUTS doubles (integrate: nsteps * {PREFIX}_NINPUTS)",
+        "W": "1 double (integrate: nsteps / every + 1)",
+    }
+    lines = [
+        f".. c:macro:: {PREFIX.upper()}_NINPUTS",
+        "",
+        "   The number of inputs in ``u``.",
+        "",
+        f".. c:var:: const char *const {PREFIX}_input_names[]",
+        "",
+        "   The input names in the order of ``u``, NULL-terminated.",
+        "",
+        f".. c:type:: void (*{PREFIX}_feedback)(void *ctx, double t, const double *q, "
+        "const double *w, double *u)",
+        "",
+        "   State feedback for ``integrate``: writes the inputs held over the step that starts "
+        "at time t from the state (q, w) there.",
+        "",
+    ]
+    for f in api.functions:
+        if f.name in ("step", "integrate"):
+            lines += _function(f, PREFIX, sizes)
+    return "\n".join(lines) + "\n"
+
+
 def setup(app: Any) -> dict[str, Any]:
     """Register ``.. s2gen-c-api:: sphere|angles`` (Sphinx is imported here only, so that the
     tests can call `c_api_rst` without it)."""
@@ -185,10 +225,14 @@ def setup(app: Any) -> dict[str, Any]:
         required_arguments = 1
 
         def run(self) -> list[Any]:
+            if self.arguments[0] == "driven":
+                return self.parse_text_to_nodes(c_api_driven_rst())
             kinds = {"sphere": ModuleKind.SPHERE, "angles": ModuleKind.ANGLES}
             kind = kinds.get(self.arguments[0])
             if kind is None:
-                raise self.error(f"unknown module kind {self.arguments[0]!r}; use sphere or angles")
+                raise self.error(
+                    f"unknown module kind {self.arguments[0]!r}; use sphere, driven or angles"
+                )
             return self.parse_text_to_nodes(c_api_rst(kind))
 
     app.add_directive("s2gen-c-api", CApiDirective)

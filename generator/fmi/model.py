@@ -158,6 +158,7 @@ def describe(system: System, fmi: int, kind: str, method: str, h: float | None =
         >>> m.model_exchange, m.layout.energy == m.layout.derivatives + 2 * m.nstate
         (False, True)
     """
+    system.refuse_driven("exporting an FMU")
     if fmi not in FMI_VERSIONS:
         raise ValueError(f"--fmi {fmi}: choose 2 or 3")
     if kind not in KINDS:

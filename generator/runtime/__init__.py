@@ -145,12 +145,19 @@ def simulate(
     every: int = 1,
     energy: bool = True,
     progress: Callable[[float], None] | None = None,
+    t0: float = 0.0,
+    inputs: Any = None,
 ) -> Trajectory:
-    """Integrate a system from its (or the given) initial state to T with step h, keeping
-    every `every`-th sample (T/h must be a multiple of it) and, with `energy`, its energy and
-    angular momentum (and the energy check, `s2gen.runtime.diagnostics`);
+    """Integrate a system from its (or the given) initial state at time t0 over T with step
+    h, keeping every `every`-th sample (T/h must be a multiple of it) and, with `energy`, its
+    energy and angular momentum (and the energy check, `s2gen.runtime.diagnostics`);
     `params` are values by name ({"g": 1.62}, the others the spec's) or all of them in
-    declared order; `progress(fraction)` is called as the run goes (see `run`).
+    declared order; `progress(fraction)` is called as the run goes (see `run`). A driven
+    system (forces, inputs or time t; C backend, the VI family and the explicit
+    Runge-Kutta methods) takes `inputs`: None (the defaults), an array of shape (steps,
+    n_inputs), row k held over step k, or state feedback ``u(t, q, w)`` called once per step
+    (`s2gen.runtime.driven`); its trajectory keeps the work done (`Trajectory.work`) and the
+    inputs held, and its energy check is on the balance E - E0 - W.
 
     Example:
         >>> from s2gen.systems import builtin
@@ -171,6 +178,8 @@ def simulate(
         every,
         energy,
         progress,
+        t0,
+        inputs,
     )
 
 
@@ -186,12 +195,23 @@ def run(
     every: int = 1,
     energy: bool = True,
     progress: Callable[[float], None] | None = None,
+    t0: float = 0.0,
+    inputs: Any = None,
 ) -> Trajectory:
     """`simulate` on a given backend object (a `Model` brings its own). `progress(fraction)`
     is called a few times a second while the emitted C runs (the run is one call either way,
-    so the result does not depend on it), and once at the end on the other backends."""
+    so the result does not depend on it), and once at the end on the other backends. `t0`
+    is the start time; `inputs` a driven system's inputs (`s2gen.runtime.driven`)."""
     system, backend = be.system, be.name
     check_method(method, backend)
+    if not isinstance(t0, (int, float, np.floating)) or not math.isfinite(t0):
+        raise ValueError(f"t0 = {t0!r}: must be a finite number")
+    if system.driven:
+        from s2gen.runtime.driven import check_driven_method
+
+        check_driven_method(system, method)
+    elif inputs is not None:
+        raise ValueError(f"{system.origin}: inputs given, but the system has no [inputs]")
     h = h if h is not None else system.run.h
     T = T if T is not None else system.run.T
     if h is None or T is None:
@@ -202,7 +222,18 @@ def run(
     p = parameter_vector(system, params)
     scale = energy_scale(be, q0, omega0, p, energy)  # V not finite at q0: refused here
     start = time.perf_counter()
-    if progress is not None and backend == "c":
+    held: np.ndarray | None = None
+    work: np.ndarray | None = None
+    feedback_error: str | None = None
+    if system.driven:
+        status, q, w, en, work, held, feedback_error, stats = _driven_call(
+            be, method, h, nsteps, q0, omega0, p, opts, t0, inputs, every
+        )
+        if not energy:
+            en = None
+        if progress is not None:
+            progress(1.0)
+    elif progress is not None and backend == "c":
         status, q, w, en, stats = be.integrate(  # type: ignore[call-arg]
             method, h, nsteps, q0, omega0, p, opts, every, energy, progress=progress
         )
@@ -213,10 +244,14 @@ def run(
         if progress is not None:
             progress(1.0)
     wall = time.perf_counter() - start
-    t = h * every * np.arange(nsteps // every + 1)
+    t = t0 + h * every * np.arange(nsteps // every + 1)
     meta = _metadata(system, method, opts, p)
+    if system.driven:
+        meta.update(work=work, inputs=held)
     k = int(stats.get("fail_step", 0)) if status != 0 else len(t)
     why = Status(status).message if status in Status._value2member_map_ else str(status)
+    if feedback_error is not None or (status == int(Status.NONFINITE) and held is not None):
+        why = feedback_error or f"an input is not finite ({why})"
     bad_energy = first_nonfinite(en, k)
     if bad_energy is not None:  # the state is finite there (else the backend had stopped)
         k, status = bad_energy, int(Status.NONFINITE)
@@ -228,6 +263,8 @@ def run(
         stats = {**stats, "fail_step": k}
     if status != 0:
         kept = None if en is None else en[:k]
+        if work is not None:
+            meta.update(work=work[:k])
         partial = Trajectory(t[:k], q[:k], w[:k], kept, method, backend, h, stats, wall, **meta)
         partial = checked(partial, system, scale, opts.energy_warn, warn=False)
         last = f"after t = {t[k - 1]:.6g}" if k else "at the initial state"
@@ -239,6 +276,35 @@ def run(
         )
     tr = Trajectory(t, q, w, en, method, backend, h, stats, wall, **meta)
     return checked(tr, system, scale, opts.energy_warn)
+
+
+def _driven_call(
+    be: Backend,
+    method: str,
+    h: float,
+    nsteps: int,
+    q0: np.ndarray,
+    omega0: np.ndarray,
+    p: np.ndarray,
+    opts: Options,
+    t0: float,
+    inputs: Any,
+    every: int,
+) -> tuple[Any, ...]:
+    """A driven run on the C backend: (status, q, w, energy, work, inputs held, the input
+    function's error or None, stats)."""
+    from s2gen.runtime.driven import Feedback, input_rows
+
+    system = be.system
+    rows = input_rows(system, inputs, nsteps)
+    fb = Feedback(inputs, system.n, len(system.inputs.names)) if callable(inputs) else None
+    status, q, w, en, work, stats = be.integrate_driven(  # type: ignore[attr-defined]
+        method, h, nsteps, q0, omega0, p, opts, t0, rows, every, fb and fb.function
+    )
+    held = rows if fb is None else fb.rows
+    if held is None and system.inputs.names:
+        held = np.tile(np.array(system.inputs.values, dtype=float), (nsteps, 1))
+    return status, q, w, en, work, held, fb and fb.error, stats
 
 
 def _metadata(system: System, method: str, opts: Options, p: np.ndarray) -> dict[str, Any]:

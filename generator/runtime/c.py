@@ -40,6 +40,11 @@ _SCALARS = {Kind.DOUBLE: ctypes.c_double, Kind.INT: ctypes.c_int, Kind.LONG: cty
 
 
 _ARRAYS = (Kind.ARRAY, Kind.CONST_ARRAY, Kind.LONG_ARRAY)
+#: Kinds passed as plain addresses when they may be NULL
+_NULLABLE = (*_ARRAYS, Kind.FEEDBACK, Kind.POINTER)
+_DPTR = ctypes.POINTER(ctypes.c_double)
+#: A driven module's input callback: feedback(ctx, t, q, w, u) (see the emitted header).
+FEEDBACK = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_double, _DPTR, _DPTR, _DPTR)
 #: Seconds between two progress reports of a run in a thread.
 POLL_SECONDS = 0.2
 #: A progress callback: the fraction of the run done, in [0, 1].
@@ -66,14 +71,20 @@ class CLibrary:
     """An emitted C module compiled and loaded, its functions declared from the interface."""
 
     def __init__(
-        self, files: dict[str, str], kind: ModuleKind, prefix: str, opt: str | None = None
+        self,
+        files: dict[str, str],
+        kind: ModuleKind,
+        prefix: str,
+        opt: str | None = None,
+        driven: bool = False,
     ) -> None:
-        self.api: Interface = interface(kind)
+        self.api: Interface = interface(kind, driven)
         self.lib, self.build = load_library(files, build_flags(opt))
         self.work = np.zeros(max(1, header_macro(files[f"{prefix}.h"], "WORK_SIZE")))
         names = {f.name for f in self.api.functions}
         #: Doubles of step()'s carry (0 for a module without step()).
-        self.carry_size = header_macro(files[f"{prefix}.h"], "STEP_CARRY") if "step" in names else 0
+        carry = "step" in names and not driven
+        self.carry_size = header_macro(files[f"{prefix}.h"], "STEP_CARRY") if carry else 0
         self.Options = _struct("Options", self.api.options)
         self.Stats = _struct("Stats", self.api.stats)
         self.Stepper = _struct("Stepper", self.api.stepper)
@@ -91,13 +102,15 @@ class CLibrary:
             Kind.OPTIONS_OUT: ctypes.POINTER(self.Options),
             Kind.STATS: ctypes.POINTER(self.Stats),
             Kind.STEPPER: ctypes.POINTER(self.Stepper),
+            Kind.FEEDBACK: FEEDBACK,
+            Kind.POINTER: ctypes.c_void_p,
             **_SCALARS,
         }
         for f in self.api.functions:
             func = getattr(self.lib, f"{prefix}_{f.name}")
             func.restype = None if f.returns is Kind.VOID else _SCALARS[f.returns]
             func.argtypes = [
-                ctypes.c_void_p if p.nullable and p.kind in _ARRAYS else types[p.kind]
+                ctypes.c_void_p if p.nullable and p.kind in _NULLABLE else types[p.kind]
                 for p in f.params
             ]
             self.fn[f.name] = func
@@ -143,7 +156,7 @@ class CBackend:
         `files` lets a process that never derived the system (a cluster worker) build it."""
         self.system = system
         files = emit(system, "c") if files is None else files
-        self.library = CLibrary(files, ModuleKind.SPHERE, system.name, opt)
+        self.library = CLibrary(files, ModuleKind.SPHERE, system.name, opt, system.driven)
         if self.library.spec_hash != system.spec_hash().encode():
             raise BuildError(
                 f"{system.name}: the library was built from spec {self.library.spec_hash!r}, "
@@ -180,6 +193,70 @@ class CBackend:
         out = np.zeros(3)
         self._fn["angular_momentum"](contiguous(params), contiguous(q), contiguous(w), out)
         return out
+
+    def integrate_driven(
+        self,
+        method_name: str,
+        h: float,
+        nsteps: int,
+        q0: np.ndarray,
+        w0: np.ndarray,
+        params: np.ndarray,
+        options: Options,
+        t0: float = 0.0,
+        inputs: np.ndarray | None = None,
+        every: int = 1,
+        feedback: Any = None,
+    ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """One call of a driven module's integrate(): from (q0, w0) at t0, `inputs` of shape
+        (nsteps, n_inputs) held over each step (None: the defaults), or a `FEEDBACK` function
+        that writes them from the state; (status, q, w, energy, work, stats), the samples
+        after a failure NaN.
+
+        Example:
+            >>> from s2gen.spec import define_system
+            >>> s = define_system(name="spin", bodies=1, parameters={}, inputs={"tau": 1.0},
+            ...                   diagonal=["2"], potential=0,
+            ...                   forces={"F1": "tau*cross(e3, q1)"})
+            >>> be, q0 = CBackend(s), np.array([[1.0, 0, 0]])
+            >>> st, q, w, e, W, _ = be.integrate_driven("vi", 0.01, 100, q0, 0 * q0,
+            ...     be.default_params(), Options(), inputs=np.full((100, 1), 4.0))
+            >>> st, round(float(w[-1, 0, 2]), 12), bool(abs(e[-1] - e[0] - W[-1]) < 1e-3)
+            (0, 2.0, True)
+        """
+        n, samples = self.system.n, nsteps // every + 1
+        q = np.full((samples, n, 3), np.nan)
+        w = np.full((samples, n, 3), np.nan)
+        en = np.full(samples, np.nan)
+        work = np.full(samples, np.nan)
+        u = None if inputs is None else contiguous(np.asarray(inputs, dtype=float))
+        if u is not None and u.shape != (nsteps, len(self.system.inputs.names)):
+            raise ValueError(
+                f"{self.system.name}: inputs of shape {u.shape}, expected "
+                f"({nsteps}, {len(self.system.inputs.names)}): one row of inputs per step"
+            )
+        lib = self.library
+        stats = lib.Stats()
+        status = self._fn["integrate"](
+            contiguous(params),
+            ctypes.byref(lib.options(options, every)),
+            method(method_name).code,
+            t0,
+            h,
+            nsteps,
+            pointer(u),
+            None if feedback is None else ctypes.cast(feedback, ctypes.c_void_p),
+            None,
+            contiguous(q0),
+            contiguous(w0),
+            q,
+            w,
+            pointer(en),
+            pointer(work),
+            self.work,
+            ctypes.byref(stats),
+        )
+        return status, q, w, en, work, lib.stats(stats)
 
     def integrate(
         self,

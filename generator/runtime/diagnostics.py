@@ -135,7 +135,7 @@ def checked(tr: Any, system: Any, scale: float | None, threshold: float, warn: b
     """
     if tr.energy is None or scale is None:  # a bare run (energy=False, as `Model.step`)
         return tr
-    sample = first_drift(tr.energy, scale, threshold)
+    sample = first_drift(tr.energy if tr.work is None else tr.energy - tr.work, scale, threshold)
     tr = dataclasses.replace(
         tr,
         momentum=tr.angular_momentum(system, tr.params or None),
@@ -164,7 +164,7 @@ def drift_message(tr: Any, sample: int, scale: float, threshold: float) -> str:
     from s2gen.methods import NAMES
     from s2gen.methods import method as method_record
 
-    rel = np.abs(tr.energy - tr.energy[0]) / scale
+    rel = np.abs(tr.balance) / scale
     worst = int(np.nanargmax(rel))
     adaptive = tr.method in NAMES and method_record(tr.method).adaptive
     hint = (
@@ -175,6 +175,6 @@ def drift_message(tr: Any, sample: int, scale: float, threshold: float) -> str:
     )
     return (
         f"{tr.system or 'trajectory'}: {tr.method} on {tr.backend}: the relative energy error "
-        f"|E - E0| / {scale:.4g} passed {threshold:g} at sample {sample} (t = {tr.t[sample]:.6g}),"
+        f"|E - E0{'' if tr.work is None else ' - W'}| / {scale:.4g} passed {threshold:g} at sample {sample} (t = {tr.t[sample]:.6g}),"
         f" largest {rel[worst]:.3g} at t = {tr.t[worst]:.6g}; {hint}"
     )

@@ -56,7 +56,7 @@ class Model:
 
             self._backend = CBackend(system, files, opt)
         self._steps: Any = None
-        if backend in ("c", "numpy"):
+        if backend in ("c", "numpy") and not system.driven:
             from s2gen.runtime.step_cache import StepCache
 
             self._steps = StepCache(self._backend)
@@ -91,9 +91,12 @@ class Model:
         params: Mapping[str, float] | Sequence[float] | None = None,
         every: int = 1,
         energy: bool = True,
+        t0: float = 0.0,
+        inputs: Any = None,
     ) -> Trajectory:
-        """Integrate from (q0, omega0) (default: the spec's) to T with step h, keeping every
-        `every`-th sample and, with `energy`, its energy and angular momentum (see `simulate`)."""
+        """Integrate from (q0, omega0) (default: the spec's) at t0 over T with step h, keeping
+        every `every`-th sample and, with `energy`, its energy and angular momentum; a driven
+        system's `inputs` as `simulate` takes them."""
         return run(
             self._backend,
             method,
@@ -105,6 +108,8 @@ class Model:
             omega0=omega0,
             every=every,
             energy=energy,
+            t0=t0,
+            inputs=inputs,
         )
 
     def step(
@@ -115,6 +120,8 @@ class Model:
         method: str = "vi",
         options: Options | None = None,
         params: Mapping[str, float] | None = None,
+        t: float = 0.0,
+        u: Sequence[float] | np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """One step of size h from (q, omega); returns (q, omega) after it (no energy is kept,
         so the step is not checked for energy drift). The result is `integrate`'s: one step
@@ -124,7 +131,8 @@ class Model:
         start). There a fixed-step method from float64 arrays of shape (n, 3) costs one call
         of the emitted step and a few checks (`s2gen.runtime.step_cache`; the figures are
         `benchmarks/python_step.py`'s, and `stepper` is faster still); other calls run a
-        one-step `integrate`, with the same checks and errors.
+        one-step `integrate`, with the same checks and errors. A driven system's step starts
+        at time t with the inputs u (default: the spec's) held over it.
 
         Example:
             >>> from s2gen.systems import builtin
@@ -140,7 +148,10 @@ class Model:
             done = self._steps.step(q, omega, h, method, options, params)
             if done is not None:
                 return done
-        tr = self.integrate(method, h, h, q, omega, options, params, energy=False)
+        inputs = None if u is None else np.reshape(np.asarray(u, dtype=float), (1, -1))
+        tr = self.integrate(
+            method, h, h, q, omega, options, params, energy=False, t0=t, inputs=inputs
+        )
         return tr.q[-1], tr.omega[-1]
 
     def stepper(
@@ -173,6 +184,11 @@ class Model:
         from s2gen.runtime import check_run
         from s2gen.runtime.stepper import make_stepper
 
+        if self.system.driven:
+            raise ValueError(
+                f"{self.system.origin}: the stepper does not take driven systems yet; "
+                "Model.step(q, omega, h, t=..., u=...) and Model.integrate(..., inputs=...) do"
+            )
         if self._steps is None:
             raise ValueError(
                 f"the {self.backend_name} backend has no step function: the stepper runs on "

@@ -9,7 +9,8 @@ energy and unit-length errors; and
 `IntegrationError` (raised on failure, holding the valid samples in `.partial`).
 
 File format (`save`): a NumPy .npz with the arrays ``t`` (N+1), ``q`` and ``omega``
-(N+1, n, 3), ``energy`` (N+1), ``angular_momentum`` (N+1, 3) when present, and ``metadata``,
+(N+1, n, 3), ``energy`` (N+1), ``angular_momentum`` (N+1, 3) when present, a driven run's
+``work`` (N+1) and ``inputs`` (steps, n_inputs), and ``metadata``,
 a JSON text (system, spec_hash, method, backend, h, rtol, atol, control, version, stats,
 wall_time; spec, the text or built-in name that `s2gen.load` rebuilds the system from, and
 params, the run's parameter values by name; energy_warn, energy_scale and drift_sample, the
@@ -123,6 +124,27 @@ class Trajectory:
     energy_warn: float | None = None
     energy_scale: float | None = None
     drift_sample: int | None = None
+    #: A driven run's work done on the system since t[0] per sample (N+1,), and the inputs
+    #: held over each step (steps, n_inputs); None for a closed system.
+    work: np.ndarray | None = field(default=None, compare=False)
+    inputs: np.ndarray | None = field(default=None, compare=False)
+
+    @property
+    def balance(self) -> np.ndarray | None:
+        """The energy-balance error E_k - E_0 - W_k of a driven run (E_k - E_0 of a closed
+        one; None without energy).
+
+        Example:
+            >>> z = np.zeros((2, 1, 3))
+            >>> tr = Trajectory(np.arange(2.0), z, z, np.array([1.0, 3.0]), "vi", "c", 1.0,
+            ...                 work=np.array([0.0, 1.5]))
+            >>> tr.balance.tolist()
+            [0.0, 0.5]
+        """
+        if self.energy is None:
+            return None
+        change = self.energy - self.energy[0]
+        return change if self.work is None else change - self.work
 
     # ------------------------------------------------------------------------ metadata
     @property
@@ -177,6 +199,9 @@ class Trajectory:
             arrays["energy"] = self.energy
         if self.momentum is not None:
             arrays["angular_momentum"] = self.momentum
+        for name in ("work", "inputs"):
+            if getattr(self, name) is not None:
+                arrays[name] = getattr(self, name)
         arrays["metadata"] = np.array(json.dumps(self.metadata, sort_keys=True))
         return write_atomic(path, lambda f: np.savez(f, **arrays))
 
@@ -222,6 +247,8 @@ class Trajectory:
             energy_warn=meta.get("energy_warn"),
             energy_scale=meta.get("energy_scale"),
             drift_sample=meta.get("drift_sample"),
+            work=arrays.get("work"),
+            inputs=arrays.get("inputs"),
         )
 
     # ------------------------------------------------------------------------ derived values

@@ -76,6 +76,8 @@ def rope(
     masses: Sequence[float] | None = None,
     lengths: Sequence[float] | None = None,
     solver: str = "auto",
+    top_radius: float = 0.0,
+    top_rate: float = 3.0,
 ) -> System:
     """A rope: n spherical pendula in a chain, the first pinned at the origin (see above).
 
@@ -86,6 +88,12 @@ def rope(
     the e1-e3 plane, at rest; the default step resolves its fastest motion (`default_step`:
     1e-3 up to n = 50, 2e-4 at n = 200, 2e-5 at n = 1000). `solver` ("auto", "dense",
     "structured") chooses the coupled solves.
+
+    With `top_radius` R > 0 the top moves: it runs round the horizontal circle
+    R (cos W t, sin W t, 0), W = `top_rate` rad/s (parameters R and W), and the rope is
+    written in the top's frame, where every mass m_k feels the inertial force -m_k a(t) of
+    the top's acceleration a(t) = -R W^2 (cos W t, sin W t, 0): gravity's term becomes
+    m L w_k (g q_k[2] + a(t) . q_k), a time-dependent potential (a driven system).
 
     Example:
         >>> s = rope(3, masses=[1, 1, 2])
@@ -110,11 +118,20 @@ def rope(
         data=(TermData("lam", 1, tuple(lam)), TermData("tail", 1, tuple(tail))),
     )
     q, qi, qj = vector("q"), vector("qi"), vector("qj")
+    field = g * q[2]
+    extra: dict[str, float] = {}
+    if top_radius:
+        if not (math.isfinite(top_radius) and top_radius > 0 and math.isfinite(top_rate)):
+            raise ValueError(f"rope: top_radius must be a positive number, got {top_radius!r}")
+        R, W = sp.Symbol("R", real=True), sp.Symbol("W", real=True)
+        t = sp.Symbol("t", real=True)
+        field -= R * W**2 * (sp.cos(W * t) * q[0] + sp.sin(W * t) * q[1])
+        extra = {"R": float(top_radius), "W": float(top_rate)}
     gravity = Term(
         TermKind.BODY,
-        m * g * L * w_s * q[2],
+        m * L * w_s * field,
         data=(TermData("w", 1, tuple(lam * tail)),),
-        label="gravity",
+        label="gravity" if not top_radius else "gravity and the moving top",
     )
     bending = Term(
         TermKind.PAIR, kappa_s * (1 - qi.dot(qj)), select="chain", label="bending springs"
@@ -122,10 +139,17 @@ def rope(
     angle = math.radians(angle_deg)
     q0 = np.tile([math.sin(angle), 0.0, -math.cos(angle)], (n, 1))
     options = f"n={n}" + ("" if solver == "auto" else f", solver={solver!r}")
+    options += f", top_radius={top_radius!r}, top_rate={top_rate!r}" if top_radius else ""
     return System.create(
         name="rope",
         n=n,
-        parameters={"m": float(mass), "L": float(length), "g": 9.81, "kappa": float(kappa)},
+        parameters={
+            "m": float(mass),
+            "L": float(length),
+            "g": 9.81,
+            "kappa": float(kappa),
+            **extra,
+        },
         inertia=inertia,
         potential=sp.Integer(0),
         q0=q0,
