@@ -6,7 +6,7 @@ matrix-vector products per pair), and the pass's choice on small made-up systems
 reason the model gives: a bilinear coupling of every listed pair of a few bodies takes K (its
 gathered loop costs more than the matrix), the same coupling along a chain keeps its loop
 (far fewer members than K has entries), and so does the coupling of every listed pair of many
-bodies (K no longer fits the L2 cache, and streaming it costs more than the loop). Where K is
+bodies (K no longer fits a last-level cache, and streaming it costs more than the loop). Where K is
 taken, the emitted C and NumPy follow the reference integrator.
 """
 
@@ -102,12 +102,18 @@ def test_a_chain_keeps_its_loop() -> None:
 
 
 def test_every_listed_pair_of_many_bodies_keeps_its_loop() -> None:
-    """130 bodies: K (390 x 390, 1.2 MB) is past the L2 tier and streams at 4 bytes per
-    cycle; the 8,385 gathered pairs cost fewer cycles."""
+    """130 bodies: K (390 x 390, 1.2 MB) streams from L3 at 12 bytes per cycle and still costs
+    less than the 8,385 gathered pairs; 400 bodies: K (11.5 MB) streams from memory at 4 bytes
+    per cycle and costs more than the 79,800 pairs."""
     module = sphere_module(coupled(130, listed(130)))
     k, loops = costs(module)
-    assert k.bytes > 1024 * 1024 and k.cycles == k.bytes / 4
-    assert loops[0][1].cycles == 8385 * 36 / 2 < k.cycles
+    assert 1024 * 1024 < k.bytes < 8 * 1024 * 1024 and k.cycles == k.bytes / 12
+    assert k.cycles < loops[0][1].cycles == 8385 * 36 / 2
+    assert quadratic_pass(module).quadratic == 3 * 130
+    module = sphere_module(coupled(400, listed(400)))
+    k, loops = costs(module)
+    assert k.bytes > 8 * 1024 * 1024 and k.cycles == k.bytes / 4
+    assert loops[0][1].cycles == 79800 * 36 / 2 < k.cycles
     assert quadratic_pass(module).quadratic == 0
 
 
