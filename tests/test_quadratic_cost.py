@@ -102,18 +102,17 @@ def test_a_chain_keeps_its_loop() -> None:
 
 
 def test_every_listed_pair_of_many_bodies_keeps_its_loop() -> None:
-    """130 bodies: K (390 x 390, 1.2 MB) streams from L3 at 12 bytes per cycle and still costs
-    less than the 8,385 gathered pairs; 400 bodies: K (11.5 MB) streams from memory at 4 bytes
-    per cycle and costs more than the 79,800 pairs."""
-    module = sphere_module(coupled(130, listed(130)))
-    k, loops = costs(module)
-    assert 1024 * 1024 < k.bytes < 8 * 1024 * 1024 and k.cycles == k.bytes / 12
-    assert k.cycles < loops[0][1].cycles == 8385 * 36 / 2
-    assert quadratic_pass(module).quadratic == 3 * 130
+    """400 bodies: K (1,200 x 1,200, 11.5 MB) streams from L3 at 12 bytes per cycle and still
+    costs less than the 79,800 gathered pairs; 700 bodies: K (35 MB) streams from memory at 4
+    bytes per cycle and costs more than the 244,650 pairs."""
     module = sphere_module(coupled(400, listed(400)))
     k, loops = costs(module)
-    assert k.bytes > 8 * 1024 * 1024 and k.cycles == k.bytes / 4
-    assert loops[0][1].cycles == 79800 * 36 / 2 < k.cycles
+    assert 1024 * 1024 < k.bytes < 32 * 1024 * 1024 and k.cycles == k.bytes / 12
+    assert k.cycles < loops[0][1].cycles == 79800 * 36 / 2
+    module = sphere_module(coupled(700, listed(700)))
+    k, loops = costs(module)
+    assert k.bytes > 32 * 1024 * 1024 and k.cycles == k.bytes / 4
+    assert loops[0][1].cycles == 244650 * 36 / 2 < k.cycles
     assert quadratic_pass(module).quadratic == 0
 
 

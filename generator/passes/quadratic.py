@@ -21,7 +21,7 @@ quadratic terms go into K when K costs fewer cycles than their loops together, e
 their loops. So a bilinear term coupling every pair of a few bodies through a full 3 x 3 block
 (the 16 dipoles: about 600 cycles through K, 2,200 through the gathered pair loop) takes K;
 a chain or a single body (far fewer members than K has entries) keeps its loop; and once K
-no longer fits a last-level cache (beyond about 340 such bodies, 3n = 1,020) the matrix
+no longer fits a last-level cache (beyond about 680 such bodies, 3n = 2,040) the matrix
 streamed from memory costs more than the loop's operations, and the loop is kept.
 
 Example:
