@@ -7,14 +7,19 @@ reason the model gives: a bilinear coupling of every listed pair of a few bodies
 gathered loop costs more than the matrix), the same coupling along a chain keeps its loop
 (far fewer members than K has entries), and so does the coupling of every listed pair of many
 bodies (K no longer fits a last-level cache, and streaming it costs more than the loop). Where K is
-taken, the emitted C and NumPy follow the reference integrator.
+taken, the emitted C and NumPy follow the reference integrator, and K starts on a 64-byte
+boundary whatever the alignment of the caller's workspace.
 """
 
 from __future__ import annotations
 
+import subprocess
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from s2gen import generate
 from s2gen.equations.assemble import sphere_module
 from s2gen.passes import lower_system
 from s2gen.passes.cost import LANES, PIPES, Cost, bandwidth, loop_cost, matrix_cost
@@ -22,6 +27,7 @@ from s2gen.passes.quadratic import costs, quadratic_pass
 from s2gen.runtime import simulate
 from s2gen.spec import define_system
 from s2gen.system import System
+from s2gen.systems import builtin
 
 #: A bilinear coupling through a full 3 x 3 block (9 coefficients, like two dipoles).
 COUPLING = (
@@ -126,3 +132,70 @@ def test_the_matrix_follows_the_reference(few: System, method: str) -> None:
         run = simulate(few, method, backend, h=0.01, T=0.5, energy=False)
         assert np.max(np.abs(run.q - truth.q)) < 1e-12, backend
         assert np.max(np.abs(run.omega - truth.omega)) < 1e-11, backend
+
+
+ALIGNED_DRIVER = r"""
+#include "@N@.c" /* the static context too: where K starts */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+int main(void)
+{
+    double p[@U@_NPARAMS > 0 ? @U@_NPARAMS : 1], q0[@U@_NSTATE], w0[@U@_NSTATE];
+    double *first = NULL;
+    int off, bad = 0;
+    long k;
+    @N@_default_params(p);
+    @N@_initial_state(q0, w0);
+    for (off = 0; off < 8; ++off) {
+        /* the workspace ends exactly at WORK_SIZE doubles, from 8 starting alignments */
+        double *raw = (double *)malloc((@U@_WORK_SIZE + off) * sizeof(double));
+        double *work = raw + off;
+        double *q = (double *)malloc((@STEPS@ + 1) * @U@_NSTATE * sizeof(double));
+        double *w = (double *)malloc((@STEPS@ + 1) * @U@_NSTATE * sizeof(double));
+        @N@_ctx cx;
+        @N@_ctx_init(&cx, p, work);
+        bad |= (uintptr_t)cx.kq % 64 != 0 || cx.kq + @U@_N3 * @U@_N3 > cx.kb;
+        bad |= @N@_integrate(p, NULL, @U@_METHOD_VI, @H@, @STEPS@, q0, w0, q, w, NULL, work,
+                NULL) != @U@_OK;
+        if (!first) {
+            first = (double *)malloc(@U@_NSTATE * sizeof(double));
+            memcpy(first, q + @STEPS@ * @U@_NSTATE, @U@_NSTATE * sizeof(double));
+            for (k = 0; k < @U@_NSTATE; ++k) printf("%.17g\n", first[k]);
+        }
+        bad |= memcmp(first, q + @STEPS@ * @U@_NSTATE, @U@_NSTATE * sizeof(double)) != 0;
+        free(raw);
+        free(q);
+        free(w);
+    }
+    free(first);
+    return bad;
+}
+"""
+
+
+@pytest.mark.parametrize("name", ["dipoles", "coupled8"])
+def test_the_matrix_starts_on_a_cache_line_whatever_the_workspace(
+    few: System, name: str, tmp_path: Path
+) -> None:
+    """From each of 8 alignments of a workspace of exactly WORK_SIZE doubles (under
+    AddressSanitizer), K starts on a 64-byte boundary before b, and the VI gives the same state
+    bit for bit, the reference integrator's to 1e-10."""
+    system = builtin("dipoles") if name == "dipoles" else few
+    steps, h = 200, 1e-3
+    for fname, text in generate(system, "c").items():
+        (tmp_path / fname).write_text(text)
+    source = ALIGNED_DRIVER.replace("@N@", system.name).replace("@U@", system.name.upper())
+    source = source.replace("@STEPS@", str(steps)).replace("@H@", repr(h))
+    (tmp_path / "driver.c").write_text(source)
+    exe = tmp_path / "driver"
+    flags = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all"]
+    cmd = ["gcc", "-std=c99", "-O2", "-g", *flags, "-o", str(exe), "driver.c", "-lm"]
+    built = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, check=False)
+    assert built.returncode == 0, built.stderr[:3000]
+    run = subprocess.run([str(exe)], capture_output=True, text=True, check=False)
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[:3000]
+    q = np.array(run.stdout.split(), dtype=float).reshape(-1, 3)
+    truth = simulate(system, "vi", "reference", h=h, T=steps * h, energy=False)
+    assert np.max(np.abs(q - truth.q[-1])) < 1e-10
