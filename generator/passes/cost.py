@@ -18,8 +18,9 @@ cycles on one core, the larger of
 K costs (3n)^2 multiply-adds (plus 3n additions of its linear part b) on contiguous rows and
 streams its 8 (3n)^2 bytes once per evaluation, whatever the terms in it. A member loop costs,
 per member, the operations of the member's gradient written from its coefficients (B_m x_m +
-b_m, counted by `opcount.profile`: the `hoist` pass makes those coefficients, which depend
-only on parameters and data, a member table, so the term's own kernel costs at most this),
+b_m, counted by `opcount.profile`: the `hoist` pass makes what depends only on parameters and
+data a member table, so the term's own kernel costs about this; the dipoles' takes 30
+operations a pair where this counts 36),
 plus 3 additions per body to scatter it into the gradient, and streams the coefficient slots
 and the member's body indices. Positions and gradient (48 n bytes) stay in cache either way.
 
