@@ -190,8 +190,9 @@ def test_all_pairs_rows_read_per_body_data() -> None:
 
 
 def test_bilinear_per_body_terms_enter_the_quadratic_form() -> None:
-    """k ci cj qi.qj over all pairs is quadratic in q: its coefficients read per-body data."""
-    v = "k*ci*cj*dot(qi, qj) + c2i*q2j"
+    """k ci cj qi.qj + k ci qi_x qj_y over a list of all pairs is quadratic in q (gathered from a
+    list, its loop costs more than K): its coefficients read per-body data."""
+    v = "k*ci*cj*dot(qi, qj) + k*ci*qi[0]*qj[1] + c2i*q2j"
     extra = {"c2": [0.1 * k for k in range(N)]}
     common: dict[str, Any] = {
         "bodies": N,
@@ -200,21 +201,22 @@ def test_bilinear_per_body_terms_enter_the_quadratic_form() -> None:
         "initial_q": Q0,
         "initial_omega": W0,
     }
+    members = [[i, j] for i in range(1, N + 1) for j in range(i + 1, N + 1)]
     body = define_system(
         name="quad_body",
         data={"c": CHARGE, **extra},
-        pair_terms=[{"V": v.replace("q2j", "qj[2]"), "pairs": "all"}],
+        pair_terms=[{"V": v.replace("q2j", "qj[2]"), "pairs": members}],
         **common,
     )
-    members = [[i, j] for i in range(1, N + 1) for j in range(i + 1, N + 1)]
     pair = define_system(
         name="quad_pair",
         pair_terms=[
             {
-                "V": "k*cc*dot(qi, qj) + di*qj[2]",
+                "V": "k*cc*dot(qi, qj) + k*ai*qi[0]*qj[1] + di*qj[2]",
                 "pairs": members,
                 "data": {
                     "cc": [CHARGE[i - 1] * CHARGE[j - 1] for i, j in members],
+                    "ai": [CHARGE[i - 1] for i, _ in members],
                     "di": [extra["c2"][i - 1] for i, _ in members],
                 },
             }

@@ -2,7 +2,8 @@
 
 One system exercises every optional pass: six bodies with different masses (`reciprocal`), a
 Lennard-Jones term over all pairs (`layout`'s rows, `hoist`'s parameter powers, `strength`'s
-shared division), a quadratic term over all pairs (`quadratic`'s matrix K), and a body term
+shared division), a bilinear term over a list of all pairs with per-pair coefficients
+(`quadratic`'s matrix K: gathered from a list, its loop costs more than K), and a body term
 with a half-integer power (`strength`'s square root, `powers`). For each pass the emitted C is
 built without it and with the whole pipeline: both must follow the independent reference
 integrator (1e-10), and the pass must show its effect on the kernels it rewrites.
@@ -42,12 +43,21 @@ def passes_system() -> System:
     w -= np.einsum("ij,ij->i", w, q)[:, None] * q
     masses = {f"m{i + 1}": 1.0 + 0.1 * i for i in range(N)}
     lj = "4*eps*((sigma**2/dot(qi-qj, qi-qj))**6 - (sigma**2/dot(qi-qj, qi-qj))**3)"
+    pairs = [[i + 1, j + 1] for i in range(N) for j in range(i + 1, N)]
+    coupling = {
+        "V": "k*(a*dot(qi, qj) + b*(qi[0]*qj[1] + qi[1]*qj[0]))",
+        "pairs": pairs,
+        "data": {
+            "a": rng.uniform(0.5, 1.5, len(pairs)).tolist(),
+            "b": rng.uniform(-1, 1, len(pairs)).tolist(),
+        },
+    }
     return define_system(
         name="passes",
         bodies=N,
         parameters={"eps": 0.01, "sigma": 0.5, "k": 0.2, "c": 0.3, **masses},
         diagonal=list(masses),
-        pair_terms=[{"V": lj, "pairs": "all"}, {"V": "k*dot(qi, qj)", "pairs": "all"}],
+        pair_terms=[{"V": lj, "pairs": "all"}, coupling],
         body_terms=[{"V": "c*(2 + q[2])**(3/2)", "bodies": "all"}],
         initial_q=q.tolist(),
         initial_omega=w.tolist(),
@@ -110,8 +120,9 @@ def _symbols(kernel: Kernel) -> set[str]:
 
 
 def test_quadratic_puts_the_quadratic_term_into_one_matrix() -> None:
-    """The quadratic pair term (k q_i.q_j over all pairs fills K) is marked and gets its
-    coefficient kernel; the Lennard-Jones term, not quadratic, is not."""
+    """The bilinear pair term (listed pairs, per-pair coefficients: K is cheaper than its
+    gathered loop) is marked and gets its coefficient kernel; the Lennard-Jones term, not
+    quadratic, is not."""
     full, without = lowered(), lowered("quadratic")
     assert full.quadratic == 3 * N and without.quadratic == 0
     marked = [bool(t.quadratic) for t in full.terms]

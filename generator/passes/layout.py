@@ -20,9 +20,22 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from s2gen.ir import LoopKind, Module
+from s2gen.ir import LoopKind, Module, TermLoop
 
-__all__ = ["layout_pass"]
+__all__ = ["contiguous", "layout_pass"]
+
+
+def contiguous(t: TermLoop) -> bool:
+    """Whether the term's member loop can run as rows (all pairs, no per-member data), unless
+    its members go into the quadratic matrix instead.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.equations.assemble import sphere_module
+        >>> [contiguous(t) for t in sphere_module(builtin("dipoles")).terms]  # a listed term
+        [False]
+    """
+    return t.loop.kind is LoopKind.ALL_PAIRS and not t.data
 
 
 def layout_pass(module: Module) -> Module:
@@ -30,7 +43,7 @@ def layout_pass(module: Module) -> Module:
     terms = tuple(
         replace(
             t,
-            rows=t.loop.kind is LoopKind.ALL_PAIRS and not (t.quadratic or t.data),
+            rows=contiguous(t) and not t.quadratic,
         )
         for t in module.terms
     )

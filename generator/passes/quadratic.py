@@ -7,10 +7,22 @@ coefficients in the parameters and the member's data (V_m = 1/2 x^T B_m x + b_m 
 x the member's 3 or 6 coordinates), is marked `quadratic`: the new kernel `t<k>_quad` computes
 the entries of B_m, b_m and c_m that are not identically zero (the zero pattern is found here,
 once), and the emitted code adds them into one 3n x 3n matrix K, a vector b and a constant c
-once per call, so that V = 1/2 q.Kq + b.q + c and dV/dq = Kq + b. This pays when K is at
-least a quarter full (many members, such as all pairs of a small system); sparser quadratic
-terms keep their member loops. The term's own kernels stay for the functions that run without
-workspace.
+once per call, so that V = 1/2 q.Kq + b.q + c and dV/dq = Kq + b. The term's own kernels stay
+for the functions that run without workspace.
+
+Whether K pays is decided by a cost model (`passes/cost.py`) of one gradient evaluation, the
+larger of its operations over the vector lanes and its bytes streamed over the bandwidth of
+the cache level they fit in. K costs (3n)^2 multiply-adds on contiguous rows and streams its
+8 (3n)^2 bytes, once for all the terms in it; each term's own loop costs, per member, the
+operations of its gradient from its coefficients (B_m x_m + b_m: the `hoist` pass makes them a
+member table; the dipoles' hoisted kernel takes 30 operations per pair, this counts 36) plus the scatter into the gradient, gathered (one lane) unless the term runs as
+contiguous rows (`layout.contiguous`), and streams the member's coefficients and indices. The
+quadratic terms go into K when K costs fewer cycles than their loops together, else all keep
+their loops. So a bilinear term coupling every pair of a few bodies through a full 3 x 3 block
+(the 16 dipoles: about 600 cycles through K, 2,200 through the gathered pair loop) takes K;
+a chain or a single body (far fewer members than K has entries) keeps its loop; and once K
+no longer fits a last-level cache (beyond about 680 such bodies, 3n = 2,040) the matrix
+streamed from memory costs more than the loop's operations, and the loop is kept.
 
 Example:
     >>> from s2gen.systems import builtin
@@ -27,13 +39,15 @@ from dataclasses import replace
 import sympy as sp
 
 from s2gen.ir import KernelDef, Module, Output, TermLoop
+from s2gen.passes.cost import Cost, loop_cost, matrix_cost
+from s2gen.passes.layout import contiguous
 
-__all__ = ["CONSTANT_ENTRY", "LINEAR", "MAX_BODIES", "quadratic_pass"]
+__all__ = ["CONSTANT_ENTRY", "LINEAR", "MAX_BODIES", "costs", "quadratic_pass"]
 
 #: Column index of a linear coefficient, and (row, column) of the constant, in an entry.
 LINEAR = -1
 CONSTANT_ENTRY = (-1, -1)
-#: Largest system given a dense K (9 n^2 doubles of workspace).
+#: Largest system given a dense K (9 n^2 doubles of workspace), whatever the cost model says.
 MAX_BODIES = 1024
 
 
@@ -93,11 +107,13 @@ def _coefficients(expr: sp.Expr, coords: list[sp.Symbol]) -> list[tuple[int, int
     return out
 
 
-def quadratic_pass(module: Module) -> Module:
-    """Mark the quadratic terms that make K at least a quarter full; add their kernels."""
-    if module.n > MAX_BODIES:
-        return module
-    found: list[tuple[TermLoop, KernelDef, list[tuple[int, int, sp.Expr]]]] = []
+Candidate = tuple[TermLoop, KernelDef, list[tuple[int, int, sp.Expr]]]
+
+
+def _candidates(module: Module) -> list[Candidate]:
+    """The terms over fixed members whose member potential is quadratic (not merely linear)
+    in the positions, with their value kernel and coefficients."""
+    found: list[Candidate] = []
     for t in module.terms:
         if not t.loop.kind.fixed:  # members found per call: no constant matrix
             continue
@@ -109,10 +125,38 @@ def quadratic_pass(module: Module) -> Module:
         entries = _coefficients(value.outputs[0].exprs[0], coords)
         if entries is not None and any(c >= 0 for _, c, _ in entries):
             found.append((t, value, entries))
-    nonzero = sum(
-        t.loop.count * sum(1 if r == c else 2 for r, c, _ in e if c >= 0) for t, _, e in found
-    )
-    if not found or 4 * nonzero < (3 * module.n) ** 2:
+    return found
+
+
+def _loop_cost(t: TermLoop, value: KernelDef, entries: list[tuple[int, int, sp.Expr]]) -> Cost:
+    stages = dict(value.stages or ())
+    arity = sum(1 for a in value.inputs if a.name not in stages)
+    return loop_cost(t.loop.count, [(r, c) for r, c, _ in entries], arity, contiguous(t))
+
+
+def costs(module: Module) -> tuple[Cost, tuple[tuple[int, Cost], ...]]:
+    """The cost of one gradient evaluation through K, and (term index, cost) of each quadratic
+    term's own loop, in the unlowered `module` (see the module's docstring).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.equations.assemble import sphere_module
+        >>> k, loops = costs(sphere_module(builtin("dipoles")))
+        >>> k.cycles, [(i, c.cycles) for i, c in loops]
+        (612.0, [(0, 2160.0)])
+    """
+    loops = tuple((t.index, _loop_cost(t, v, e)) for t, v, e in _candidates(module))
+    return matrix_cost(3 * module.n), loops
+
+
+def quadratic_pass(module: Module) -> Module:
+    """Put the quadratic terms into K when the cost model says K is cheaper than their loops;
+    add their kernels."""
+    if module.n > MAX_BODIES:
+        return module
+    found = _candidates(module)
+    matrix = matrix_cost(3 * module.n)
+    if not found or matrix.cycles >= sum(_loop_cost(*f).cycles for f in found):
         return module
     kernels = list(module.kernels)
     terms = list(module.terms)

@@ -366,6 +366,9 @@ _NOT_WORKSPACE = ("carry",)
 
 #: Name of the layout of the per-call context kept at the tail of the workspace.
 CONTEXT = "context"
+#: Doubles of K's buffer beyond (3n)^2: K starts at the buffer's first 64-byte boundary (its
+#: rows are read as whole vectors; see templates/c/sections/_build_quadratic.jinja).
+KQ_SLACK = 7
 
 
 def _context(module: Module) -> Layout:
@@ -386,7 +389,11 @@ def _context(module: Module) -> Layout:
         ("nb", max(cells, default=0)),
         ("cc", module.constants),
         ("soa", 6 * n if any(t.rows for t in module.terms) else 0),
-        *((("kq", module.quadratic**2), ("kb", module.quadratic + 10)) if module.quadratic else ()),
+        *(
+            (("kq", module.quadratic**2 + KQ_SLACK), ("kb", module.quadratic + 10))
+            if module.quadratic
+            else ()
+        ),
         *((f"t{t.index}", t.table * t.loop.count) for t in module.terms if t.table),
     )
 

@@ -99,7 +99,7 @@ def workspace(module: Module) -> dict[str, dict[str, Any]]:
 
 _CONTEXT_DOC = {
     "cc": "constants of the kernels that depend only on the parameters",
-    "kq": "the quadratic terms' matrix K (row-major, N3 x N3)",
+    "kq": "the quadratic terms' matrix K (row-major, N3 x N3, from a 64-byte boundary)",
     "soa": "structure-of-arrays copies of q and g (x, y, z, gx, gy, gz) for the pair rows",
     "kb": "the quadratic terms' linear part b (N3), then their constant",
     "md": "M_ii, one per body",
