@@ -1,8 +1,9 @@
 """Generalized forces and inputs: the driven part of a system, as frozen records.
 
 Input: nothing (this module is data). Output: `Force` (a 3-vector F_i conjugate to q_i, on
-one body in the global symbols, or a term over bodies in a body's own q and w with per-body
-data) and `Inputs` (the names and default values of the caller's inputs). `System` holds them;
+one body in the global symbols; a term over bodies in a body's own q and w with per-body
+data; or a term over pairs, the forces Fi and Fj on a pair's two bodies in their qi, qj, wi,
+wj and per-pair data) and `Inputs` (the names and default values of the caller's inputs). `System` holds them;
 the spec (`s2gen.spec.forces`) builds them; `System.force_vectors` sums them per body.
 
 A force F_i acts through its virtual work F_i . delta q_i (only its part orthogonal to q_i
@@ -47,34 +48,69 @@ class Force:
     data: tuple[TermData, ...] = ()
     label: str = "force"
     global_: bool = False
+    #: A pair term's force on its second body (`expr` is then the first body's, Fi): both in
+    #: the pair's qi, qj, wi, wj and data ("[[forces.pair]] #1"); None for a body's force.
+    expr_j: sp.ImmutableMatrix | None = None
+
+    @property
+    def kind(self) -> TermKind:
+        """BODY, or PAIR for a pair term."""
+        return TermKind.BODY if self.expr_j is None else TermKind.PAIR
 
     @property
     def selection(self) -> Selection:
-        """The selection of the bodies the force acts on."""
-        found = Selection.of(TermKind.BODY, self.select)
+        """The selection of the bodies (or pairs) the force acts on."""
+        found = Selection.of(self.kind, self.select)
         if found is None:
-            raise ValueError(f"{self.label}: no body selection {self.select!r}")
+            raise ValueError(f"{self.label}: no {self.kind.value} selection {self.select!r}")
         return found
 
     def member_list(self, n: int) -> list[tuple[int, ...]]:
-        """The bodies (0-based, one per member) for n bodies, in loop order."""
+        """The bodies or pairs (0-based, one per member) for n bodies, in loop order."""
         return self.selection.members(n, self.members)
 
     def data_symbols(self) -> tuple[sp.Symbol, ...]:
         return tuple(s for d in self.data for s in d.symbols())
 
     def instance(self, member: tuple[int, ...], index: int) -> sp.ImmutableMatrix:
-        """The force on one member's body in the global symbols q{i}_{c}, w{i}_{c}."""
+        """The force on one member's body in the global symbols q{i}_{c}, w{i}_{c} (a body's
+        force; a pair term's is `contributions`)."""
+        return self.contributions(member, index)[0][1]
+
+    def contributions(
+        self, member: tuple[int, ...], index: int
+    ) -> list[tuple[int, sp.ImmutableMatrix]]:
+        """(body, force) of member number `index`: its body's force, or a pair's forces on its
+        two bodies, in the global symbols (bodies 0-based).
+
+        Example:
+            >>> from s2gen.symbols import vector
+            >>> c = sp.Symbol("c", real=True)
+            >>> wi, wj, qi, qj = (vector(s) for s in ("wi", "wj", "qi", "qj"))
+            >>> joint = Force(sp.ImmutableMatrix(c * (wj - wi).cross(qi)), "chain",
+            ...               expr_j=sp.ImmutableMatrix(-c * (wj - wi).cross(qj)))
+            >>> [b for b, _ in joint.contributions((0, 1), 0)]
+            [0, 1]
+        """
         if self.global_:
-            return self.expr
-        body = member[0] + 1
+            return [(member[0], self.expr)]
         subs: dict[sp.Symbol, sp.Expr] = {}
-        subs.update(zip(local_vector("q"), (q_symbol(body, c) for c in range(3))))
-        subs.update(zip(local_vector("w"), (w_symbol(body, c) for c in range(3))))
+        roles = ("q", "w") if self.expr_j is None else ("qi", "wi", "qj", "wj")
+        for role in roles:
+            body = member[0 if role[-1] != "j" else 1] + 1
+            symbol = q_symbol if role[0] == "q" else w_symbol
+            subs.update(zip(local_vector(role), (symbol(body, c) for c in range(3))))
         for d in self.data:
             vals = d.values[index * d.width : (index + 1) * d.width]
             subs.update({s: sp.Float(v) for s, v in zip(d.symbols(), vals)})
-        return sp.ImmutableMatrix(self.expr.xreplace(subs))
+        out = [(member[0], sp.ImmutableMatrix(self.expr.xreplace(subs)))]
+        if self.expr_j is not None:
+            out.append((member[1], sp.ImmutableMatrix(self.expr_j.xreplace(subs))))
+        return out
+
+    def total(self, n: int) -> list[tuple[int, sp.ImmutableMatrix]]:
+        """(body, force) of every member, in loop order."""
+        return [c for k, m in enumerate(self.member_list(n)) for c in self.contributions(m, k)]
 
 
 @dataclass(frozen=True)

@@ -302,8 +302,8 @@ class System:
         """
         total = [sp.zeros(3, 1) for _ in range(self.n)]
         for f in self.forces:
-            for k, member in enumerate(f.member_list(self.n)):
-                total[member[0]] += f.instance(member, k)
+            for body, force in f.total(self.n):
+                total[body] += force
         subs = dict(zip(self.parameter_symbols, self.parameter_values))
         return [sp.expand(v.xreplace(subs)) for v in total]
 

@@ -271,3 +271,58 @@ def test_forced_noether_with_a_diagonal_inertia(method: str) -> None:
     impulse = 0.5 * h * U[:, 0] * (torque[:-1] + torque[1:])
     assert np.max(np.abs(np.diff(J) - impulse)) < 1e-13
     assert np.max(np.abs(np.diff(J))) > 1e-3
+
+
+CHAIN3 = """\
+name = "chain3"
+bodies = 3
+[parameters]
+m = 1.0
+g = 9.81
+c = 0.3
+[inertia]
+M = [["3*m", "2*m", "m"], ["2*m", "2*m", "m"], ["m", "m", "m"]]
+[potential]
+V = "m*g*(3*q1[2] + 2*q2[2] + q3[2])"
+[initial]
+q = [[0.6, 0.0, -0.8], [0.0, 0.6, -0.8], [0.8, 0.0, -0.6]]
+omega = [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]
+"""
+JOINTS = """
+[[forces.pair]]
+Fi = "cross(c*(wj - wi), qi)"
+Fj = "cross(-c*(wj - wi), qj)"
+pairs = "chain"
+"""
+SPELLED = """
+[forces]
+F1 = "cross(c*(w2 - w1), q1)"
+F2 = "cross(-c*(w2 - w1), q2) + cross(c*(w3 - w2), q2)"
+F3 = "cross(-c*(w3 - w2), q3)"
+"""
+
+
+@pytest.mark.parametrize("method", ["vi4", "rk4"])
+def test_joint_damping_as_a_pair_term(method: str) -> None:
+    """Joint damping between neighbours as one [[forces.pair]] term: the same run as the same
+    forces spelled body by body, and the reference's; it only dissipates (the power
+    -c |w_j - w_i|^2 <= 0: W never grows) and the balance holds at the method's error."""
+    from s2gen.spec import load_spec_text
+
+    pair, spelled = load_spec_text(CHAIN3 + JOINTS), load_spec_text(CHAIN3 + SPELLED)
+    h, n = 0.005, 200
+    a = quiet_simulate(pair, method, h=h, T=n * h)
+    b = quiet_simulate(spelled, method, h=h, T=n * h)
+    assert np.max(np.abs(a.q - b.q)) < 1e-13 and np.max(np.abs(a.work - b.work)) < 1e-12  # type: ignore[operator]
+    ref = integrate_driven(
+        driven_problem_from_system(pair),
+        method,
+        pair.q0,
+        pair.omega0,
+        h,
+        n,
+        inputs=np.zeros((n, 0)),
+    )
+    assert np.max(np.abs(a.q - ref.q)) < 1e-10
+    assert np.all(np.diff(a.work) <= 1e-15) and a.work[-1] < -1e-3  # type: ignore[arg-type,index]
+    assert np.max(np.abs(a.balance)) < 1e-4 * abs(a.work[-1])  # type: ignore[arg-type,index]

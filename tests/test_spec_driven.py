@@ -16,6 +16,7 @@ import sympy as sp
 from s2gen.cli import main
 from s2gen.spec import define_system, load_spec_text, parse_expression
 from s2gen.symbols import TIME, q_vector, w_vector
+from s2gen.system import SpecError
 from s2gen.systems import builtin, builtin_names, with_parameters
 
 SPEC = """\
@@ -257,3 +258,39 @@ def test_the_command_line_simulates_a_driven_spec_with_its_inputs(
     assert np.allclose(tr.t, 1.0 + 0.01 * np.arange(11), rtol=0, atol=1e-12)
     assert tr.inputs is not None and tr.work is not None
     assert np.allclose(tr.inputs[:, 0], 2 * (1.0 + 0.01 * np.arange(10)) + 0.5, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("table", "fragment"),
+    [
+        ('Fi = "cross(wi, qi)"\n', "[[forces.pair]] #1: missing required key 'Fj'"),
+        (
+            'Fi = "cross(wi, qi)"\nFj = "cross(wj, qj)"\npairs = "cutoff"\n',
+            "[[forces.pair]] #1 pairs",
+        ),
+        (
+            'Fi = "cross(wi, qi)"\nFj = "cross(wk, qj)"\n',
+            "[[forces.pair]] #1 Fj",
+        ),
+        ('Fi = "cross(wi, qi)"\nFj = "qj"\nforce = 1\n', "[[forces.pair]] #1: unknown key"),
+    ],
+)
+def test_bad_pair_forces_are_one_line_errors(table: str, fragment: str) -> None:
+    text = SPEC + "[[forces.pair]]\n" + table
+    with pytest.raises(SpecError) as info:
+        load_spec_text(text, origin="p.toml")
+    message = str(info.value)
+    assert "\n" not in message and message.startswith("p.toml: ") and fragment in message
+
+
+def test_a_pair_force_acts_on_both_bodies() -> None:
+    """Equal and opposite forces between a chain's neighbours: F_1 + F_2 = 0 summed."""
+    s = load_spec_text(
+        SPEC + '[[forces.pair]]\nFi = "k*(qj - qi)"\nFj = "k*(qi - qj)"\n[forces.pair.data]\n'
+        "k = [2.0]\n",
+        origin="p.toml",
+    )
+    pair = s.forces[-1]
+    (b1, f1), (b2, f2) = pair.contributions((0, 1), 0)
+    assert (b1, b2) == (0, 1) and sp.simplify(f1 + f2) == sp.zeros(3, 1)
+    assert f1[0] == 2.0 * (q_vector(2)[0] - q_vector(1)[0])

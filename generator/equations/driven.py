@@ -65,9 +65,8 @@ def _force_total(system: System) -> sp.Matrix:
     """The forces summed per body (3n x 1, body-major), parameters as symbols."""
     total = sp.zeros(3 * system.n, 1)
     for f in system.forces:
-        for k, member in enumerate(f.member_list(system.n)):
-            body = member[0]
-            total[3 * body : 3 * body + 3, 0] += f.instance(member, k)
+        for body, force in f.total(system.n):
+            total[3 * body : 3 * body + 3, 0] += force
     return total
 
 

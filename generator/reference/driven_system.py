@@ -72,8 +72,8 @@ def driven_problem_from_system(
     if system.forces:
         total = [sp.zeros(3, 1) for _ in range(n)]
         for f in system.forces:
-            for k, member in enumerate(f.member_list(n)):
-                total[member[0]] += f.instance(member, k)
+            for body, force in f.total(n):
+                total[body] += force
         F = [e.xreplace(subs) for v in total for e in v]
         moving = any(e.has(*ws) for e in F)
         f_fn = sp.lambdify([qs, ws, TIME, us], F, modules="numpy", dummify=True)

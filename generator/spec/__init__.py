@@ -143,6 +143,7 @@ def define_system(
     forces: Mapping[str, Any] | None = None,
     force_terms: Sequence[Mapping[str, Any]] | None = None,
     data: Mapping[str, Any] | None = None,
+    force_pairs: Sequence[Mapping[str, Any]] | None = None,
 ) -> System:
     """Build a validated System from Python values (the same rules as a TOML spec).
 
@@ -155,8 +156,9 @@ def define_system(
     ``bodies`` / ``pairs`` with 1-based indices, ``data``); `potential` (the general part) may
     then be omitted. Driven systems (`s2gen.spec.forces`): `inputs` maps input names to
     defaults, `forces` the keys ``F1``.. to 3-vectors, `force_terms` is a list of dicts with
-    the keys of a ``[[forces.body]]`` table (``F``, ``bodies``, ``data``); potentials may
-    then hold time ``t`` and the inputs. `data` maps names to per-body arrays (n numbers or n
+    the keys of a ``[[forces.body]]`` table (``F``, ``bodies``, ``data``), `force_pairs` of
+    a ``[[forces.pair]]`` table (``Fi``, ``Fj``, ``pairs``, ``data``); potentials may then
+    hold time ``t`` and the inputs. `data` maps names to per-body arrays (n numbers or n
     3-vectors; the [data] table), read by terms as c or ci, cj and by the per-body inertia.
     Raises SpecError naming `origin` and the key.
 
@@ -204,7 +206,7 @@ def define_system(
         *_terms(body_terms, TermKind.BODY, n, params, origin, list(defaults), shared),
         *_terms(pair_terms, TermKind.PAIR, n, params, origin, list(defaults), shared),
     ]
-    drive = _forces(forces, force_terms, n, params, list(defaults), origin)
+    drive = _forces(forces, force_terms, n, params, list(defaults), origin, force_pairs)
     if potential is None and not terms:
         raise SpecError(
             f"{origin}: [potential] V: missing (give V, or terms [[potential.body]] / "
@@ -351,8 +353,9 @@ def load_spec_text(text: str, *, origin: str = "<string>") -> System:
         body_terms=potential.get("body"),
         pair_terms=potential.get("pair"),
         inputs=tables["inputs"] or None,
-        forces={k: v for k, v in tables["forces"].items() if k != "body"} or None,
+        forces={k: v for k, v in tables["forces"].items() if k not in ("body", "pair")} or None,
         force_terms=tables["forces"].get("body"),
+        force_pairs=tables["forces"].get("pair"),
         data=tables["data"] or None,
     )
     return dataclasses.replace(system, source=text)

@@ -16,6 +16,12 @@ Output: the inputs (name -> default value) and `Force`s labelled "[forces] F2" o
     bodies = "all"           # or a list of 1-based body indices; default "all"
     [forces.body.data]       # optional per-body data, as for [[potential.body]]
     c = [0.1, 0.2]
+
+    [[forces.pair]]          # forces on both bodies of each pair, in qi, qj, wi, wj
+    Fi = "cross(c*(wj - wi), qi)"    # joint damping: torque -c (wj - wi) on j, its reaction
+    Fj = "cross(-c*(wj - wi), qj)"   # on i (F = tau x q)
+    pairs = "chain"          # "chain", "ring", "all" or a list of [i, j]; default "chain"
+    [forces.pair.data]       # optional per-pair data, as for [[potential.pair]]
 """
 
 from __future__ import annotations
@@ -38,6 +44,7 @@ __all__: list[str] = []
 
 _GENERAL = re.compile(r"F([1-9][0-9]*)")
 _FORCE_TERM = "[[forces.body]]"
+_PAIR_TERM = "[[forces.pair]]"
 
 
 def _inputs(value: Any, params: Mapping[str, float], origin: str) -> dict[str, float]:
@@ -60,8 +67,10 @@ def _forces(
     params: Mapping[str, float],
     inputs: Sequence[str],
     origin: str,
+    pairs: Any = None,
 ) -> list[Force]:
-    """The general forces F1..Fn (a mapping) and the [[forces.body]] terms (a list)."""
+    """The general forces F1..Fn (a mapping), the [[forces.body]] terms and the
+    [[forces.pair]] terms (lists)."""
     out: list[Force] = []
     if general is not None:
         if not isinstance(general, Mapping):
@@ -72,7 +81,7 @@ def _forces(
             match = _GENERAL.fullmatch(key) if isinstance(key, str) else None
             if match is None:
                 raise SpecError(
-                    f"{origin}: [forces]: unknown key {shown(key)} (allowed: F1..F{n}, body)"
+                    f"{origin}: [forces]: unknown key {shown(key)} (allowed: F1..F{n}, body, pair)"
                 )
             body = int(match.group(1))
             if body > n:
@@ -80,15 +89,17 @@ def _forces(
             label = f"[forces] {key}"
             expr = _vector(value, n, [*params, *inputs], None, f"{origin}: {label}")
             out.append(Force(expr, "list", ((body - 1,),), (), label, global_=True))
-    if terms is None:
-        return out
-    if isinstance(terms, (Mapping, str, bytes)) or not isinstance(terms, Sequence):
-        raise SpecError(
-            f"{origin}: {_FORCE_TERM}: expected a list of force tables (in TOML an array of "
-            f"tables, written {_FORCE_TERM}), got {shown(terms)}"
-        )
-    for k, entry in enumerate(terms):
-        out.append(_force_term(entry, k + 1, n, params, inputs, origin))
+    for table, entries in ((_FORCE_TERM, terms), (_PAIR_TERM, pairs)):
+        if entries is None:
+            continue
+        if isinstance(entries, (Mapping, str, bytes)) or not isinstance(entries, Sequence):
+            raise SpecError(
+                f"{origin}: {table}: expected a list of force tables (in TOML an array of "
+                f"tables, written {table}), got {shown(entries)}"
+            )
+        for k, entry in enumerate(entries):
+            term = _force_term if table == _FORCE_TERM else _pair_term
+            out.append(term(entry, k + 1, n, params, inputs, origin))
     return out
 
 
@@ -120,6 +131,43 @@ def _force_term(
     local = {"q": 3, "w": 3, **{d.name: d.width for d in data}}
     expr = _vector(entry["F"], n, [*params, *inputs], local, f"{where} F")
     return Force(expr, select, members, data, label)
+
+
+def _pair_term(
+    entry: Any, k: int, n: int, params: Mapping[str, float], inputs: Sequence[str], origin: str
+) -> Force:
+    """One [[forces.pair]] table: Fi and Fj in the pair's qi, qj, wi, wj, its pairs and
+    per-pair data."""
+    label = f"{_PAIR_TERM} #{k}"
+    where = f"{origin}: {label}"
+    if not isinstance(entry, Mapping):
+        raise SpecError(f"{where}: expected a table (Fi, Fj, pairs, data), got {shown(entry)}")
+    _check_keys(entry, ("Fi", "Fj", "pairs", "data"), where)
+    for key in ("Fi", "Fj"):
+        if key not in entry:
+            raise SpecError(f"{where}: missing required key {key!r}")
+    roles = ("qi", "qj", "wi", "wj")
+    for role in roles:
+        if role in params or role in inputs:
+            raise SpecError(
+                f"{where}: the name {shown(role)} clashes with the pair's own vector {role} "
+                "(rename the parameter or input)"
+            )
+    kind = TermKind.PAIR
+    select, members = _selection(entry.get("pairs", "chain"), kind, n, where)
+    if select not in ("chain", "ring", "all", "list"):
+        raise SpecError(f"{where} pairs: a force term takes 'chain', 'ring', 'all' or a list")
+    count = Term(kind, sp.Integer(0), select, members).count(n)
+    data = _term_data(entry.get("data"), kind, select, count, params, where)
+    _check_symbols(kind, data, params, where)
+    for d in data:
+        if d.name in ("wi", "wj", *inputs):
+            raise SpecError(f"{where} data.{d.name}: the name {shown(d.name)} is taken")
+    local = {**dict.fromkeys(roles, 3), **{d.name: d.width for d in data}}
+    names = [*params, *inputs]
+    fi = _vector(entry["Fi"], n, names, local, f"{where} Fi")
+    fj = _vector(entry["Fj"], n, names, local, f"{where} Fj")
+    return Force(fi, select, members, data, label, expr_j=fj)
 
 
 def _vector(

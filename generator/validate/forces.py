@@ -19,7 +19,7 @@ import sympy as sp
 from s2gen.errors import SpecError, shown
 from s2gen.forces import Force, Inputs
 from s2gen.symbols import TIME, local_vector, q_symbol, w_symbol
-from s2gen.terms import Selection, TermKind
+from s2gen.terms import Selection
 from s2gen.validate.names import _C_IDENTIFIER, _TEMPORARY, _TEMPORARY_CLASH
 
 __all__: list[str] = []
@@ -70,14 +70,19 @@ def _validate_force(force: Force, n: int, allowed: set[sp.Symbol], where: str) -
     if not isinstance(expr, sp.MatrixBase) or expr.shape != (3, 1):
         shape = expr.shape if isinstance(expr, sp.MatrixBase) else "a scalar"
         raise SpecError(f"{at}: a force is a 3-vector (3x1), got {shape}")
+    if force.expr_j is not None:
+        expr = sp.ImmutableMatrix.vstack(expr, force.expr_j)
+        if force.expr_j.shape != (3, 1):
+            raise SpecError(f"{at}: a force is a 3-vector (3x1), got {force.expr_j.shape}")
     if any(e.has(sp.Derivative, sp.Integral) for e in expr):
         raise SpecError(f"{at}: must not contain derivatives or integrals")
-    selection = Selection.of(TermKind.BODY, force.select)
-    if selection is None:
-        raise SpecError(f"{at}: selection must be 'all' or 'list', got {shown(force.select)}")
+    selection = Selection.of(force.kind, force.select)
+    if selection is None or not selection.fixed:
+        raise SpecError(f"{at}: unknown {force.kind.value} selection {shown(force.select)}")
+    arity = force.kind.arity
     for k, member in enumerate(force.members):
-        if len(member) != 1 or not 0 <= member[0] < n:
-            raise SpecError(f"{at}: member {k + 1} {shown(member)} is not a body of 1..{n}")
+        if len(member) != arity or not all(0 <= b < n for b in member):
+            raise SpecError(f"{at}: member {k + 1} {shown(member)} is not of bodies 1..{n}")
     if force.global_ and (force.select != "list" or len(force.members) != 1):
         raise SpecError(f"{at}: a general force acts on exactly one listed body")
     if force.global_:
@@ -86,12 +91,19 @@ def _validate_force(force: Force, n: int, allowed: set[sp.Symbol], where: str) -
         }
         kinds = f"q1..q{n}, w1..w{n}"
     else:
-        own = {*local_vector("q"), *local_vector("w"), *force.data_symbols()}
-        kinds = "the body's q and w, its data"
+        roles = ("q", "w") if force.expr_j is None else ("qi", "qj", "wi", "wj")
+        own = {s for role in roles for s in local_vector(role)} | set(force.data_symbols())
+        kinds = (
+            "the body's q and w, its data"
+            if force.expr_j is None
+            else "the pair's qi, qj, wi, wj, its data"
+        )
         for d in force.data:
             count = len(force.member_list(n))
             if len(d.values) != d.width * count or not np.all(np.isfinite(d.values)):
-                raise SpecError(f"{at}: data '{d.name}' needs {count} finite value(s) per body")
+                raise SpecError(
+                    f"{at}: data '{d.name}' needs {count} finite value(s) per {force.kind.value}"
+                )
     extra = set().union(*(e.free_symbols for e in expr)) - own - allowed
     if extra:
         bad = ", ".join(sorted(str(s) for s in extra))
