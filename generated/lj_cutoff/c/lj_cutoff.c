@@ -390,21 +390,28 @@ static double lj_cutoff_potential_cx(const lj_cutoff_ctx *cx, const double *q)
     /* pairs closer than 1.3: a cell list when storage is given (O(n)), else all pairs */
     if (nb) {
         const long nc = 1, cells = nc * nc * nc;
-        long i;
+        long k;
         lj_cutoff_cells(q, nb, nc);
-        for (i = 0; i < 8; ++i) {
-            const long ci = lj_cutoff_cell_of(q + 3 * i, nc);
-            const long x0 = ci / (nc * nc), y0 = (ci / nc) % nc, z0 = ci % nc;
-            long dx, dy, dz, j;
-            for (dx = -1; dx <= 1; ++dx) {
+        /* each pair once: body k with the bodies after it in its own cell's list and with every
+         * body of the 13 cells of a half stencil (dx, dy, dz) > (0, 0, 0); the pair is (i, j),
+         * i < j, as the term defines it */
+        for (k = 0; k < 8; ++k) {
+            const long ck = lj_cutoff_cell_of(q + 3 * k, nc);
+            const long x0 = ck / (nc * nc), y0 = (ck / nc) % nc, z0 = ck % nc;
+            long dx, dy, dz, l;
+            for (dx = 0; dx <= 1; ++dx) {
             for (dy = -1; dy <= 1; ++dy) {
             for (dz = -1; dz <= 1; ++dz) {
                 const long x = x0 + dx, y = y0 + dy, z = z0 + dz;
-                if (x < 0 || y < 0 || z < 0 || x >= nc || y >= nc || z >= nc) {
+                const int own = dx == 0 && dy == 0 && dz == 0;
+                if ((dx == 0 && (dy < 0 || (dy == 0 && dz < 0))) || y < 0 || z < 0 || x >= nc
+                    || y >= nc || z >= nc) {
                     continue;
                 }
-                for (j = (long)nb[(x * nc + y) * nc + z]; j >= 0; j = (long)nb[cells + j]) {
-                    if (j > i && lj_cutoff_near(q + 3 * i, q + 3 * j, 1.6900000000000002)) {
+                for (l = (long)nb[own ? cells + k : (x * nc + y) * nc + z]; l >= 0;
+                     l = (long)nb[cells + l]) {
+                    if (lj_cutoff_near(q + 3 * k, q + 3 * l, 1.6900000000000002)) {
+                        const long i = k < l ? k : l, j = k < l ? l : k;
                         double v;
                         lj_cutoff_k_t0_value(q + 3 * i, q + 3 * j, cx->cc, &v);
                         total += v;
@@ -457,21 +464,28 @@ static void lj_cutoff_gradient_cx(const lj_cutoff_ctx *cx, const double *q, doub
     /* pairs closer than 1.3: a cell list when storage is given (O(n)), else all pairs */
     if (nb) {
         const long nc = 1, cells = nc * nc * nc;
-        long i;
+        long k;
         lj_cutoff_cells(q, nb, nc);
-        for (i = 0; i < 8; ++i) {
-            const long ci = lj_cutoff_cell_of(q + 3 * i, nc);
-            const long x0 = ci / (nc * nc), y0 = (ci / nc) % nc, z0 = ci % nc;
-            long dx, dy, dz, j;
-            for (dx = -1; dx <= 1; ++dx) {
+        /* each pair once: body k with the bodies after it in its own cell's list and with every
+         * body of the 13 cells of a half stencil (dx, dy, dz) > (0, 0, 0); the pair is (i, j),
+         * i < j, as the term defines it */
+        for (k = 0; k < 8; ++k) {
+            const long ck = lj_cutoff_cell_of(q + 3 * k, nc);
+            const long x0 = ck / (nc * nc), y0 = (ck / nc) % nc, z0 = ck % nc;
+            long dx, dy, dz, l;
+            for (dx = 0; dx <= 1; ++dx) {
             for (dy = -1; dy <= 1; ++dy) {
             for (dz = -1; dz <= 1; ++dz) {
                 const long x = x0 + dx, y = y0 + dy, z = z0 + dz;
-                if (x < 0 || y < 0 || z < 0 || x >= nc || y >= nc || z >= nc) {
+                const int own = dx == 0 && dy == 0 && dz == 0;
+                if ((dx == 0 && (dy < 0 || (dy == 0 && dz < 0))) || y < 0 || z < 0 || x >= nc
+                    || y >= nc || z >= nc) {
                     continue;
                 }
-                for (j = (long)nb[(x * nc + y) * nc + z]; j >= 0; j = (long)nb[cells + j]) {
-                    if (j > i && lj_cutoff_near(q + 3 * i, q + 3 * j, 1.6900000000000002)) {
+                for (l = (long)nb[own ? cells + k : (x * nc + y) * nc + z]; l >= 0;
+                     l = (long)nb[cells + l]) {
+                    if (lj_cutoff_near(q + 3 * k, q + 3 * l, 1.6900000000000002)) {
+                        const long i = k < l ? k : l, j = k < l ? l : k;
                         double gi[3], gj[3];
                         lj_cutoff_k_t0_gradient(q + 3 * i, q + 3 * j, cx->cc, gi, gj);
                         g[3 * i] += gi[0];
@@ -628,21 +642,28 @@ static void lj_cutoff_gradient_soa(const lj_cutoff_ctx *cx, const double *LJ_CUT
     /* pairs closer than 1.3: a cell list when storage is given (O(n)), else all pairs */
     if (nb) {
         const long nc = 1, cells = nc * nc * nc;
-        long i;
+        long k;
         lj_cutoff_cells(q, nb, nc);
-        for (i = 0; i < 8; ++i) {
-            const long ci = lj_cutoff_cell_of(q + 3 * i, nc);
-            const long x0 = ci / (nc * nc), y0 = (ci / nc) % nc, z0 = ci % nc;
-            long dx, dy, dz, j;
-            for (dx = -1; dx <= 1; ++dx) {
+        /* each pair once: body k with the bodies after it in its own cell's list and with every
+         * body of the 13 cells of a half stencil (dx, dy, dz) > (0, 0, 0); the pair is (i, j),
+         * i < j, as the term defines it */
+        for (k = 0; k < 8; ++k) {
+            const long ck = lj_cutoff_cell_of(q + 3 * k, nc);
+            const long x0 = ck / (nc * nc), y0 = (ck / nc) % nc, z0 = ck % nc;
+            long dx, dy, dz, l;
+            for (dx = 0; dx <= 1; ++dx) {
             for (dy = -1; dy <= 1; ++dy) {
             for (dz = -1; dz <= 1; ++dz) {
                 const long x = x0 + dx, y = y0 + dy, z = z0 + dz;
-                if (x < 0 || y < 0 || z < 0 || x >= nc || y >= nc || z >= nc) {
+                const int own = dx == 0 && dy == 0 && dz == 0;
+                if ((dx == 0 && (dy < 0 || (dy == 0 && dz < 0))) || y < 0 || z < 0 || x >= nc
+                    || y >= nc || z >= nc) {
                     continue;
                 }
-                for (j = (long)nb[(x * nc + y) * nc + z]; j >= 0; j = (long)nb[cells + j]) {
-                    if (j > i && lj_cutoff_near(q + 3 * i, q + 3 * j, 1.6900000000000002)) {
+                for (l = (long)nb[own ? cells + k : (x * nc + y) * nc + z]; l >= 0;
+                     l = (long)nb[cells + l]) {
+                    if (lj_cutoff_near(q + 3 * k, q + 3 * l, 1.6900000000000002)) {
+                        const long i = k < l ? k : l, j = k < l ? l : k;
                         double gi[3], gj[3];
                         lj_cutoff_k_t0_gradient(q + 3 * i, q + 3 * j, cx->cc, gi, gj);
                         g[3 * i] += gi[0];
