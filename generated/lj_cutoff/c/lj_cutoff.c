@@ -518,15 +518,19 @@ static void lj_cutoff_gradient_cx(const lj_cutoff_ctx *cx, const double *q, doub
             for (dz = -1; dz <= 1; ++dz) {
                 const long x = cl_cx + dx, y = cl_cy + dy, z = cl_cz + dz;
                 const int own = dx == 0 && dy == 0 && dz == 0;
-                long d, j1;
+                long d, j1, js;
                 if ((dx == 0 && (dy < 0 || (dy == 0 && dz < 0))) || y < 0 || z < 0 || x >= nc
                     || y >= nc || z >= nc) {
                     continue;
                 }
                 d = (x * nc + y) * nc + z;
                 j1 = (long)cl_start[d + 1];
+                if (!own && (long)cl_start[d] == j1) { /* an empty cell: no loops to set up */
+                    continue;
+                }
+                js = (long)cl_start[d];
                 for (i = i0; i < i1; ++i) {
-                    const long j0 = own ? i + 1 : (long)cl_start[d];
+                    const long j0 = own ? i + 1 : js;
                     const double qi0 = cl_x[i], qi1 = cl_y[i], qi2 = cl_z[i];
                     double a0 = 0.0, a1 = 0.0, a2 = 0.0;
 LJ_CUTOFF_SIMD_SUM(a0, a1, a2)
@@ -769,15 +773,19 @@ static void lj_cutoff_gradient_soa(const lj_cutoff_ctx *cx, const double *LJ_CUT
             for (dz = -1; dz <= 1; ++dz) {
                 const long x = cl_cx + dx, y = cl_cy + dy, z = cl_cz + dz;
                 const int own = dx == 0 && dy == 0 && dz == 0;
-                long d, j1;
+                long d, j1, js;
                 if ((dx == 0 && (dy < 0 || (dy == 0 && dz < 0))) || y < 0 || z < 0 || x >= nc
                     || y >= nc || z >= nc) {
                     continue;
                 }
                 d = (x * nc + y) * nc + z;
                 j1 = (long)cl_start[d + 1];
+                if (!own && (long)cl_start[d] == j1) { /* an empty cell: no loops to set up */
+                    continue;
+                }
+                js = (long)cl_start[d];
                 for (i = i0; i < i1; ++i) {
-                    const long j0 = own ? i + 1 : (long)cl_start[d];
+                    const long j0 = own ? i + 1 : js;
                     const double qi0 = cl_x[i], qi1 = cl_y[i], qi2 = cl_z[i];
                     double a0 = 0.0, a1 = 0.0, a2 = 0.0;
 LJ_CUTOFF_SIMD_SUM(a0, a1, a2)
