@@ -209,9 +209,10 @@ def _chain_data(system: System) -> str:
 
 
 def _mixture_data(system: System) -> str:
-    """rc, masses (M's diagonal), sizes s and strengths e (per-body data); the pair term must
-    run over the pairs closer than rc and read s and e as si, sj, ei, ej in the shifted
-    Lennard-Jones potential with the Lorentz-Berthelot mixing rule."""
+    """rc, the cells per axis (floor(2 / rc)), masses (M's diagonal), sizes s and strengths e
+    (per-body data); the pair term must run over the pairs closer than rc and read s and e as
+    si, sj, ei, ej in the shifted Lennard-Jones potential with the Lorentz-Berthelot mixing
+    rule."""
     if not system.is_diagonal:
         raise CaseMismatch(f"{system.origin}: the mixture program needs a diagonal inertia")
     if len(system.terms) != 1:
@@ -229,6 +230,7 @@ def _mixture_data(system: System) -> str:
     _same_values(pair.expr, 4 * sp.sqrt(ei * ej) * (x**6 - x**3 - xc**6 + xc**3), pair.label)
     return (
         _define("MX_RC", params["rc"])
+        + _define("MX_NC", int(2.0 / params["rc"]))
         + _array("MX_MASS", np.diag(system.inertia_numeric()))
         + _array("MX_SIGMA", _body_datum(pair, "s"))
         + _array("MX_EPS", _body_datum(pair, "e"))

@@ -17,9 +17,9 @@
  * stencil; the inner loop runs over the partner cell's contiguous range as a SIMD loop with
  * the cutoff as a mask. The sorted gradient is scattered back to the bodies' order.
  *
- * System data (n, rc, masses, sizes s, strengths e, initial state, h) come from
- * mixture_data.h, which the benchmark writes from mixture.toml; sizes are compile-time
- * constants.
+ * System data (n, rc, the cells per axis, masses, sizes s, strengths e, initial state, h)
+ * come from mixture_data.h, which the benchmark writes from mixture.toml; sizes are
+ * compile-time constants.
  *
  * usage: mixture NSTEPS REPEATS
  * prints ns_per_step and cpu_ns_per_step (medians over REPEATS runs of the NSTEPS steps,
@@ -37,8 +37,8 @@
 #define N BENCH_N
 /* component-major arrays are padded to a multiple of 8 doubles (64 bytes) */
 #define NP ((N + 7) / 8 * 8)
-/* cells per axis: each at least rc wide */
-#define NC ((int)(2.0 / MX_RC))
+/* cells per axis (floor(2 / rc), from the header): each at least rc wide */
+#define NC MX_NC
 #define CELLS (NC * NC * NC)
 
 typedef struct {
