@@ -127,6 +127,21 @@ def test_sorted_cells_only_for_symmetric_terms_and_both_agree(V: str, symmetric:
     assert np.max(np.abs(run.q - truth.q)) < 1e-11
 
 
+@pytest.mark.parametrize(
+    "V, symmetric",
+    [
+        ("exp(-dot(qi - qj, qi - qj))*(ci + cj)*cos(si*sj)", True),
+        ("(si*cj + sj*ci)/norm(qi - qj)", True),
+        ("(1 + 1e-12*qi[2])*ci*cj/dot(qi - qj, qi - qj)", False),
+        ("si/norm(qi - qj) + sj/dot(qi - qj, qi - qj)", False),
+    ],
+)
+def test_symmetry_is_told_apart(V: str, symmetric: bool) -> None:
+    """Only a term that is symmetric in its two bodies is laid out on sorted cells, however
+    small its asymmetric part."""
+    assert [t.sorted_cells for t in lower_system(_two_species(V, n=20)).terms] == [symmetric]
+
+
 def test_cutoff_only_on_all_pairs() -> None:
     qi = sp.Matrix(local_vector("qi"))
     with pytest.raises(SpecError, match="cutoff applies only"):

@@ -44,8 +44,10 @@ __all__ = ["layout_pass", "symmetric_pair"]
 
 #: Random points at which a pair kernel is evaluated with its bodies swapped.
 _POINTS = 3
-#: Largest relative difference of the two values taken as equal (round-off of the kernel).
-_TOLERANCE = 1e-9
+#: Largest relative difference of the two values taken as equal: they are evaluated with 30
+#: significant digits, so a symmetric term differs only by that round-off, and a term with a
+#: small asymmetric part (say 1e-12 of its size) is still told apart.
+_TOLERANCE = 1e-20
 
 
 def _unit(rng: random.Random) -> list[float]:
