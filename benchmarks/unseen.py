@@ -1,4 +1,4 @@
-"""``python benchmarks/unseen.py``: emitted C against hand-written C on two new systems.
+"""``python benchmarks/unseen.py``: emitted C against hand-written C on three new systems.
 
 Input: command-line options (``--cases``, ``--flavours``, ``--launches``, ``--steps``,
 ``--json``, ``--keep``). Output: a table on stdout, one row per case and flavour: the median
@@ -82,8 +82,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(
         prog="python benchmarks/unseen.py",
         description="Per-step speed of the emitted C against hand-written C (same algorithm, "
-        "same flags) on two systems the tests never see: yukawa (all pairs, exp and sqrt, "
-        "per-body data; explicit VI) and chain (coupled inertia; implicit VI).",
+        "same flags) on three systems the tests never see: yukawa (all pairs, exp and sqrt, "
+        "per-body data; explicit VI), chain (coupled inertia; implicit VI) and mixture (two "
+        "species with per-body data over the pairs within a cutoff; explicit VI).",
     )
     ap.add_argument("--cases", default=",".join(CASES), help="comma-separated (default: all)")
     ap.add_argument("--flavours", default=",".join(FLAVOURS), help="O2, O3n (default: both)")

@@ -178,6 +178,9 @@ class TermLoop:
     #: `quadratic` pass put it into the module's matrix (column -1: linear; row -1: constant)
     quadratic: tuple[tuple[int, int, int], ...] = ()
     rows: bool = False  # all pairs as vectorisable rows on structure-of-arrays copies (`layout`)
+    #: cutoff pairs from cell lists sorted into structure-of-arrays copies, the gradient
+    #: kernel inline in a masked SIMD loop (`layout`)
+    sorted_cells: bool = False
     #: (datum, width, body of the member (0 or 1)) of each per-body array the kernels read,
     #: in their argument order (kernel argument b_<datum><i or j>, or b_<datum> in body terms)
     body_data: tuple[tuple[str, int, int], ...] = ()

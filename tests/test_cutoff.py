@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from s2gen.passes import lower_system
 from s2gen.runtime import get_backend, simulate
+from s2gen.spec import define_system
 from s2gen.symbols import local_vector
 from s2gen.system import SpecError, System, Term
 
@@ -75,6 +77,69 @@ def test_cutoff_system_backends_agree(method: str) -> None:
     runs = {b: simulate(s, method, b, h=0.005, T=0.5) for b in ("c", "numpy", "reference")}
     for b in ("c", "numpy"):
         assert np.max(np.abs(runs[b].q - runs["reference"].q)) < 1e-10, b
+
+
+def _two_species(V: str, n: int = 150) -> System:
+    """n bodies on a Fibonacci sphere, two species (size s, strength c) per body, one pair
+    term `V` over the pairs closer than 0.45 (a grid of 4 cells per axis)."""
+    q0 = fibonacci_sphere(n)
+    species = np.arange(n) % 3 == 0
+    return define_system(
+        name="species",
+        bodies=n,
+        parameters={"m": 1.0},
+        diagonal="m",
+        data={
+            "s": np.where(species, 0.16, 0.11).tolist(),
+            "c": np.where(species, 2.0, 0.5).tolist(),
+        },
+        pair_terms=[{"V": V, "pairs": "all", "cutoff": 0.45}],
+        initial_q=q0,
+        initial_omega=0.4 * np.cross(q0, [0.3, 0.0, 1.0]),
+    )
+
+
+@pytest.mark.parametrize(
+    "V, symmetric",
+    [
+        ("sqrt(ci*cj)*((si + sj)**2/(4*dot(qi - qj, qi - qj)))**3", True),
+        ("ci*(si**2/dot(qi - qj, qi - qj))**3 + cj*dot(qi, e3)*sj", False),
+    ],
+    ids=["symmetric", "lopsided"],
+)
+def test_sorted_cells_only_for_symmetric_terms_and_both_agree(V: str, symmetric: bool) -> None:
+    """A term symmetric in its two bodies gets the sorted cells (each pair met in whichever
+    order the cells meet it); one that is not keeps the linked list (pairs as i < j). Both
+    give the reference's gradient and trajectory."""
+    s = _two_species(V)
+    assert [t.sorted_cells for t in lower_system(s).terms] == [symmetric]
+    p = np.array(s.parameter_values)
+    rng = np.random.default_rng(4)
+    q = s.q0 + 0.03 * rng.normal(size=s.q0.shape)
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    g_ref = get_backend(s, "reference")._problem(p).grad(q)
+    _, dw = get_backend(s, "c").rhs(q, np.zeros_like(q), p)  # with workspace: the cells
+    scale = np.max(np.abs(g_ref))
+    assert np.max(np.abs(dw + np.cross(q, g_ref))) < 1e-12 * scale
+    truth = simulate(s, "vi", "reference", h=0.002, T=0.2, energy=False)
+    run = simulate(s, "vi", "c", h=0.002, T=0.2, energy=False)
+    assert np.max(np.abs(truth.q[-1] - s.q0)) > 1e-2
+    assert np.max(np.abs(run.q - truth.q)) < 1e-11
+
+
+@pytest.mark.parametrize(
+    "V, symmetric",
+    [
+        ("exp(-dot(qi - qj, qi - qj))*(ci + cj)*cos(si*sj)", True),
+        ("(si*cj + sj*ci)/norm(qi - qj)", True),
+        ("(1 + 1e-12*qi[2])*ci*cj/dot(qi - qj, qi - qj)", False),
+        ("si/norm(qi - qj) + sj/dot(qi - qj, qi - qj)", False),
+    ],
+)
+def test_symmetry_is_told_apart(V: str, symmetric: bool) -> None:
+    """Only a term that is symmetric in its two bodies is laid out on sorted cells, however
+    small its asymmetric part."""
+    assert [t.sorted_cells for t in lower_system(_two_species(V, n=20)).terms] == [symmetric]
 
 
 def test_cutoff_only_on_all_pairs() -> None:

@@ -139,6 +139,19 @@ def per_body_diagonal() -> System:
     )
 
 
+def lopsided_cutoff() -> System:
+    """A cutoff term that is not symmetric in its two bodies (it reads ci alone): its gradient
+    keeps the linked cell list, where a symmetric one is laid out on sorted cells."""
+    return define_system(
+        name="lopsided",
+        bodies=4,
+        parameters={},
+        diagonal="1",
+        data={"c": [1.0, 2.0, 3.0, 4.0]},
+        pair_terms=[{"V": "ci/dot(qi - qj, qi - qj)", "pairs": "all", "cutoff": 0.5}],
+    )
+
+
 def chain4_structured() -> System:
     """The chain of tests/specs with its max-index M solved by the structured solvers, M's
     generators from one system kernel (not per body)."""
@@ -160,7 +173,8 @@ SYSTEMS = {
     "springs4_terms": lambda: resolve(str(SPECS / "springs4_terms.toml")),  # listed terms
     "three_bodies": lambda: builtin("three_bodies"),  # pair terms laid out as rows
     "dipoles": lambda: builtin("dipoles"),  # quadratic terms (K)
-    "lj_cutoff": lambda: builtin("lj_cutoff"),  # cutoff: neighbour lists
+    "lj_cutoff": lambda: builtin("lj_cutoff"),  # cutoff: sorted cell lists
+    "lopsided": lopsided_cutoff,  # cutoff, not symmetric: linked cell lists
     # driven: dense M with velocity-dependent forces, time and an input; diagonal M with
     # velocity-dependent forces and a force term; diagonal M with time only (no forces)
     "driven_double": lambda: resolve(str(SPECS / "driven_double.toml")),

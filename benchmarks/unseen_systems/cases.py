@@ -1,13 +1,14 @@
 """The benchmark's cases: each system's spec, hand-written program, horizon and C data.
 
-Input: a case name ("yukawa", "chain"). Output: a `Case` (spec file, hand-written program,
-steps and repeats per launch) and, for a loaded `System`, the C headers both programs read:
-``NAME_state.h`` (n, h and the initial state, as the spec's loader normalized it: the emitted
-driver's only input besides the emitted code) and ``NAME_data.h`` (the state plus the numbers
-the hand-written program needs: parameters, masses, charges, lengths, springs). The numbers are
-read from the System, never retyped, and the structure the hand-written program assumes (which
-data, which pairs, which inertia) is checked against the spec first: a spec edited so that the
-hand-written program no longer models it is an error here, not a silent mismatch.
+Input: a case name ("yukawa", "chain", "mixture"). Output: a `Case` (spec file, hand-written
+program, steps and repeats per launch) and, for a loaded `System`, the C headers both programs
+read: ``NAME_state.h`` (n, h and the initial state, as the spec's loader normalized it: the
+emitted driver's only input besides the emitted code) and ``NAME_data.h`` (the state plus the
+numbers the hand-written program needs: parameters, masses, charges, lengths, springs, sizes,
+strengths). The numbers are read from the System, never retyped, and the structure the
+hand-written program assumes (which data, which pairs, which inertia) is checked against the
+spec first: a spec edited so that the hand-written program no longer models it is an error
+here, not a silent mismatch.
 
 Example:
     >>> case = CASES["chain"]
@@ -64,6 +65,12 @@ CASES: dict[str, Case] = {
         3,
         "10 coupled spherical pendula, dense M; implicit VI (Newton on 30 unknowns)",
     ),
+    "mixture": Case(
+        "mixture",
+        250,
+        3,
+        "2000 Lennard-Jones particles of two species (per-body m, s, e), cutoff 0.2; explicit VI",
+    ),
 }
 
 
@@ -110,6 +117,20 @@ def _same(expr: sp.Expr, expected: sp.Expr, where: str) -> None:
     """The spec's expression is the formula the hand-written program implements."""
     if sp.simplify(expr - expected) != 0:
         raise CaseMismatch(f"{where}: expected {expected}, got {expr}")
+
+
+def _same_values(expr: sp.Expr, expected: sp.Expr, where: str) -> None:
+    """`_same` for expressions too large to simplify: equal as written, or equal in value at
+    three points drawn in [0.5, 1.5] for every symbol (qi and qj kept apart)."""
+    if expr == expected:
+        return
+    symbols = sorted(expr.free_symbols | expected.free_symbols, key=str)
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        point = {s: float(v) for s, v in zip(symbols, rng.uniform(0.5, 1.5, len(symbols)))}
+        a, b = float(expr.subs(point)), float(expected.subs(point))
+        if not abs(a - b) <= 1e-9 * max(abs(a), abs(b), 1.0):
+            raise CaseMismatch(f"{where}: expected {expected}, got {expr}")
 
 
 def _symbols(*names: str) -> list[sp.Symbol]:
@@ -187,7 +208,40 @@ def _chain_data(system: System) -> str:
     )
 
 
-_DATA: dict[str, Callable[[System], str]] = {"yukawa": _yukawa_data, "chain": _chain_data}
+def _mixture_data(system: System) -> str:
+    """rc, the cells per axis (floor(2 / rc)), masses (M's diagonal), sizes s and strengths e
+    (per-body data); the pair term must run over the pairs closer than rc and read s and e as
+    si, sj, ei, ej in the shifted Lennard-Jones potential with the Lorentz-Berthelot mixing
+    rule."""
+    if not system.is_diagonal:
+        raise CaseMismatch(f"{system.origin}: the mixture program needs a diagonal inertia")
+    if len(system.terms) != 1:
+        raise CaseMismatch(f"{system.origin}: expected the pair term alone")
+    pair, params = _term(system, "pair", "all"), system.parameters
+    if pair.cutoff is None or pair.cutoff != params["rc"]:
+        raise CaseMismatch(f"{pair.label}: the mixture program needs cutoff = rc")
+    if not 0.0 < params["rc"] <= 1.0:
+        raise CaseMismatch(f"{pair.label}: the mixture program needs 0 < rc <= 1")
+    rc, si, sj, ei, ej = _symbols("rc", "si", "sj", "ei", "ej")
+    qi, qj = vector("qi"), vector("qj")
+    x = (si + sj) ** 2 / (4 * (qi - qj).dot(qi - qj))
+    xc = (si + sj) ** 2 / (4 * rc**2)
+    _same(system.potential, sp.Integer(0), f"{system.origin}: [potential] V")
+    _same_values(pair.expr, 4 * sp.sqrt(ei * ej) * (x**6 - x**3 - xc**6 + xc**3), pair.label)
+    return (
+        _define("MX_RC", params["rc"])
+        + _define("MX_NC", int(2.0 / params["rc"]))
+        + _array("MX_MASS", np.diag(system.inertia_numeric()))
+        + _array("MX_SIGMA", _body_datum(pair, "s"))
+        + _array("MX_EPS", _body_datum(pair, "e"))
+    )
+
+
+_DATA: dict[str, Callable[[System], str]] = {
+    "yukawa": _yukawa_data,
+    "chain": _chain_data,
+    "mixture": _mixture_data,
+}
 
 
 def data_header(case: Case, system: System) -> str:

@@ -26,7 +26,7 @@ import math
 import sys
 from pathlib import Path
 
-__all__ = ["HERE", "chain_spec", "write_specs", "yukawa_spec"]
+__all__ = ["HERE", "MIXTURE_SPECIES", "chain_spec", "mixture_spec", "write_specs", "yukawa_spec"]
 
 HERE = Path(__file__).resolve().parent
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0  # fractional parts of k * _GOLDEN spread evenly
@@ -204,18 +204,97 @@ method = "vi"
 """
 
 
+#: The mixture's two species: (mass, sigma, epsilon) of the small (A) and large (B) particles.
+MIXTURE_SPECIES = {"A": (1.0, 0.065, 1.0), "B": (1.5, 0.08, 0.8)}
+
+
+def mixture_spec(n: int = 2000, steps: int = 250) -> str:
+    """The mixture system's TOML: two species of Lennard-Jones particles with a cutoff.
+
+    Body k (k = 1..n): q_k on the Fibonacci lattice (as yukawa's), species B when
+    frac(k sqrt 2) < 0.4 and A otherwise (mass, sigma, epsilon from `MIXTURE_SPECIES`),
+    omega_k of size 0.3 + 0.3 frac(k sqrt 3) in the direction 2.4 k rad from east in the
+    tangent plane. The cutoff is 2.5 times the larger sigma. `n` smaller than 2000 keeps the
+    particles' spacing by shrinking the sigmas, the cutoff and h with it.
+    """
+    golden_angle = math.pi * (3.0 - math.sqrt(5.0))
+    shrink = math.sqrt(2000.0 / n)  # the mean spacing grows as 1/sqrt(n)
+    q, w, mass, sigma, eps = [], [], [], [], []
+    for k in range(1, n + 1):
+        z = 1.0 - (2 * k - 1) / n
+        rho = math.sqrt(1.0 - z * z)
+        phi = k * golden_angle
+        qk = (rho * math.cos(phi), rho * math.sin(phi), z)
+        q.append(list(qk))
+        w.append(_tangent(qk, 2.4 * k, (0.3 + 0.3 * _frac(k * math.sqrt(3.0))) * shrink))
+        m, s, e = MIXTURE_SPECIES["B" if _frac(k * math.sqrt(2.0)) < 0.4 else "A"]
+        mass.append(m)
+        sigma.append(round(s * shrink, 6))
+        eps.append(e)
+    rc = round(2.5 * max(s for _, s, _ in MIXTURE_SPECIES.values()) * shrink, 6)
+    h = round(0.0005 * shrink, 8)
+    x = "(si + sj)**2/(4*dot(qi - qj, qi - qj))"
+    xc = "(si + sj)**2/(4*rc**2)"
+    pair = f"4*sqrt(ei*ej)*(({x})**6 - ({x})**3 - ({xc})**6 + ({xc})**3)"
+    return f"""\
+# A two-species Lennard-Jones mixture on the unit sphere: n = {n} particles, each of species A
+# or B with its own mass m_i, size sigma_i (s) and well depth epsilon_i (e), interacting over
+# the pairs closer than rc (chord distance r_ij = |q_i - q_j|) through the truncated and
+# shifted potential
+#     V_ij = 4 e_ij ((s_ij/r_ij)^12 - (s_ij/r_ij)^6) - (the same at r_ij = rc),
+# with the Lorentz-Berthelot mixing rule s_ij = (s_i + s_j)/2, e_ij = sqrt(e_i e_j). The
+# inertia is diagonal, so the variational integrator is explicit.
+#
+# The species are per-body data ([data] m, s, e): the inertia reads m and the pair term, over
+# pairs = "all" with a cutoff, si, sj, ei and ej.
+#
+# Written by unseen_systems.specs: Fibonacci lattice positions; species B (m, s, e =
+# {MIXTURE_SPECIES["B"]}) for body k when frac(k sqrt 2) < 0.4, else A ({MIXTURE_SPECIES["A"]});
+# tangent angular velocities of size 0.3 + 0.3 frac(k sqrt 3).
+
+name = "mixture"
+bodies = {n}
+
+[parameters]
+rc = {rc}  # the cutoff: 2.5 times the larger sigma
+
+[data]
+m = {_numbers(mass, 10)}
+s = {_numbers(sigma, 10)}
+e = {_numbers(eps, 10)}
+
+[inertia]
+diagonal = "m"
+
+[[potential.pair]]
+V = "{pair}"
+pairs = "all"
+cutoff = "rc"
+
+[initial]
+q = {_vectors(q, "     ")}
+omega = {_vectors(w, "         ")}
+
+[run]
+h = {h}
+T = {round(steps * h, 10)}
+method = "vi"
+"""
+
+
 def write_specs(folder: str | Path = HERE) -> list[Path]:
-    """Write yukawa.toml and chain.toml into `folder`; returns their paths.
+    """Write yukawa.toml, chain.toml and mixture.toml into `folder`; returns their paths.
 
     Example:
         >>> import tempfile
         >>> with tempfile.TemporaryDirectory() as d:
         ...     [p.name for p in write_specs(d)]
-        ['yukawa.toml', 'chain.toml']
+        ['yukawa.toml', 'chain.toml', 'mixture.toml']
     """
     folder = Path(folder)
     out = []
-    for name, text in (("yukawa", yukawa_spec()), ("chain", chain_spec())):
+    specs = (("yukawa", yukawa_spec()), ("chain", chain_spec()), ("mixture", mixture_spec()))
+    for name, text in specs:
         path = folder / f"{name}.toml"
         path.write_text(text, encoding="utf-8")
         out.append(path)

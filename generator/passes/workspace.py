@@ -23,7 +23,7 @@ from collections.abc import Callable
 from dataclasses import replace
 
 from s2gen.inertia import InertiaKind
-from s2gen.ir import Band, Buffer, Layout, LoopKind, Module, ModuleKind
+from s2gen.ir import Band, Buffer, Layout, LoopKind, Module, ModuleKind, TermLoop
 from s2gen.methods import METHODS, explicit_tableaus
 from s2gen.parts import selected
 from s2gen.tableaus import DOP853
@@ -375,6 +375,23 @@ CONTEXT = "context"
 KQ_SLACK = 7
 
 
+def _cell_storage(t: TermLoop, n: int) -> int:
+    """Doubles of a cutoff term's cell lists: the linked list (each cell's first body, each
+    body's next), or for `sorted_cells` each cell's start (cells + 1), each sorted place's body
+    and each body's cell, the sorted q and g (component-major) and one sorted copy per datum.
+
+    Example:
+        >>> from s2gen.ir import Loop, LoopKind, TermLoop
+        >>> t = TermLoop(0, Loop(LoopKind.CUTOFF_PAIRS, 45, cutoff=0.5, cells=4), (), "v", "g")
+        >>> _cell_storage(t, 10), _cell_storage(replace(t, sorted_cells=True), 10)
+        (74, 145)
+    """
+    if not t.sorted_cells:
+        return t.loop.cells**3 + n
+    data = len({name for name, _, _ in t.body_data})
+    return t.loop.cells**3 + 1 + (8 + data) * n
+
+
 def _context(module: Module) -> Layout:
     """Per-call context after `work_base`: masses and their inverses, coupled entries, A's
     diagonal in the VI,
@@ -382,7 +399,7 @@ def _context(module: Module) -> Layout:
     if module.kind is not ModuleKind.SPHERE:
         return layout(CONTEXT)
     n = module.n
-    cells = [t.loop.cells**3 + n for t in module.terms if t.loop.kind is LoopKind.CUTOFF_PAIRS]
+    cells = [_cell_storage(t, n) for t in module.terms if t.loop.kind is LoopKind.CUTOFF_PAIRS]
     coupled = module.solver is not InertiaKind.DIAGONAL
     return layout(
         CONTEXT,

@@ -31,7 +31,7 @@ from s2gen.printing.c_calls import c_binding
 from s2gen.printing.numpy import py_quad, py_term_gradient, py_term_setup
 from s2gen.terms import body_names
 
-__all__ = ["PrintedTerm", "c_rows_data", "print_term", "py_quad_lines", "quad_init"]
+__all__ = ["PrintedTerm", "c_cells_data", "c_rows_data", "print_term", "py_quad_lines", "quad_init"]
 
 
 @dataclass(frozen=True)
@@ -68,6 +68,12 @@ class PrintedTerm:
     py_gradient_call: str
     py_gradient_accumulate: tuple[str, ...]
     py_index: tuple[str, ...]
+    #: sorted cells (`TermLoop.sorted_cells`): the sorted copies of the per-body numbers in
+    #: the cell storage (declarations), the copy of body k's numbers to sorted place s, and
+    #: (row i, partner j) reads of them for the inlined gradient kernel
+    c_cells_buffers: tuple[str, ...]
+    c_cells_copy: tuple[str, ...]
+    c_cells_data: tuple[tuple[str, ...], ...]
     cutoff: str  # round-trip literal of the cutoff distance ("" without cutoff)
     rc2: str  # its square
     cells: int  # neighbour-list cells per axis
@@ -98,6 +104,35 @@ def c_rows_data(prefix: str, t: TermLoop, kernel: Kernel) -> tuple[tuple[str, ..
     return tuple(out[0]), tuple(out[1])
 
 
+def c_cells_data(
+    prefix: str, t: TermLoop, n: int
+) -> tuple[tuple[str, ...], tuple[str, ...], tuple[tuple[str, ...], ...]]:
+    """(buffer declarations, copy lines, (row reads, partner reads)) of the per-body numbers a
+    sorted-cells term reads: datum number d is copied to cl_d<d>, n doubles after the sorted
+    gradient (cl_gz) or the previous copy.
+
+    Example:
+        >>> from s2gen.ir import Loop, LoopKind
+        >>> t = TermLoop(0, Loop(LoopKind.CUTOFF_PAIRS, 1), (), "v", "g",
+        ...              body_data=(("c", 1, 0), ("c", 1, 1)))
+        >>> buffers, copy, reads = c_cells_data("s", t, 4)
+        >>> buffers, copy, reads
+        (('double *const cl_d0 = cl_gz + 4;',), ('cl_d0[s] = s_data_c[k];',), (('const double b_ci = cl_d0[i];',), ('const double b_cj = cl_d0[j];',)))
+    """
+    kind = t.loop.kind.kind
+    names = list(dict.fromkeys(name for name, _, _ in t.body_data))
+    buffers, copy = [], []
+    for d, name in enumerate(names):
+        before = f"cl_d{d - 1}" if d else "cl_gz"
+        buffers.append(f"double *const cl_d{d} = {before} + {n};")
+        copy.append(f"cl_d{d}[s] = {c_binding(prefix, BodyDatum(t.index, name, 1, 'k'))};")
+    reads: tuple[list[str], list[str]] = ([], [])
+    for name, _, r in t.body_data:
+        arg = f"b_{body_names(name, kind)[r]}"
+        reads[r].append(f"const double {arg} = cl_d{names.index(name)}[{'ij'[r]}];")
+    return tuple(buffers), tuple(copy), (tuple(reads[0]), tuple(reads[1]))
+
+
 def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTerm:
     """One term of `module` as text for both languages (`calls`: the printed call sites)."""
     selection = t.loop.kind
@@ -110,6 +145,14 @@ def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTer
     rows_value = rows_gradient = constants_value = constants_gradient = ()
     data_value: tuple[tuple[str, ...], ...] = ((), ())
     data_gradient = data_value
+    cells_buffers: tuple[str, ...] = ()
+    cells_copy: tuple[str, ...] = ()
+    cells_data: tuple[tuple[str, ...], ...] = ((), ())
+    if t.sorted_cells:
+        gradient_kernel = module.kernel(t.gradient)
+        assert isinstance(gradient_kernel, Kernel)
+        constants_gradient, rows_gradient = c_inline(gradient_kernel)
+        cells_buffers, cells_copy, cells_data = c_cells_data(module.name, t, module.n)
     if t.rows:
         value_kernel, gradient_kernel = module.kernel(t.value), module.kernel(t.gradient)
         assert isinstance(value_kernel, Kernel) and isinstance(gradient_kernel, Kernel)
@@ -126,7 +169,7 @@ def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTer
         c_open=c_open,
         c_close=c_close,
         c_value_part=f"c/_term_value{suffix}.jinja",
-        c_gradient_part=f"c/_term_gradient{suffix}.jinja",
+        c_gradient_part=f"c/_term_gradient{'_cells' if t.sorted_cells else suffix}.jinja",
         c_value_call=value["c"],
         c_gradient_call=gradient["c"],
         c_table_lines=table_lines,
@@ -145,6 +188,9 @@ def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTer
         py_gradient_call=gradient["py"],
         py_gradient_accumulate=py_term_gradient(t, gradient["py"]),
         py_index=index,
+        c_cells_buffers=cells_buffers,
+        c_cells_copy=cells_copy,
+        c_cells_data=cells_data,
         cutoff="" if t.loop.cutoff is None else repr(float(t.loop.cutoff)),
         rc2="" if t.loop.cutoff is None else repr(float(t.loop.cutoff) ** 2),
         cells=t.loop.cells,

@@ -323,8 +323,8 @@ static void lj_cutoff_ctx_init(lj_cutoff_ctx *cx, const double *p, double *work)
     cx->mp = tail + 16;
     cx->adiag = tail + 16;
     cx->nb = tail + 16;
-    cx->cc = tail + 25;
-    cx->soa = tail + 29;
+    cx->cc = tail + 82;
+    cx->soa = tail + 86;
     lj_cutoff_masses(p, cx->md, cx->mp);
     for (i = 0; i < 8; ++i) {
         cx->mi[i] = 1.0 / cx->md[i];
@@ -390,21 +390,28 @@ static double lj_cutoff_potential_cx(const lj_cutoff_ctx *cx, const double *q)
     /* pairs closer than 1.3: a cell list when storage is given (O(n)), else all pairs */
     if (nb) {
         const long nc = 1, cells = nc * nc * nc;
-        long i;
+        long k;
         lj_cutoff_cells(q, nb, nc);
-        for (i = 0; i < 8; ++i) {
-            const long ci = lj_cutoff_cell_of(q + 3 * i, nc);
-            const long x0 = ci / (nc * nc), y0 = (ci / nc) % nc, z0 = ci % nc;
-            long dx, dy, dz, j;
-            for (dx = -1; dx <= 1; ++dx) {
+        /* each pair once: body k with the bodies after it in its own cell's list and with every
+         * body of the 13 cells of a half stencil (dx, dy, dz) > (0, 0, 0); the pair is (i, j),
+         * i < j, as the term defines it */
+        for (k = 0; k < 8; ++k) {
+            const long ck = lj_cutoff_cell_of(q + 3 * k, nc);
+            const long x0 = ck / (nc * nc), y0 = (ck / nc) % nc, z0 = ck % nc;
+            long dx, dy, dz, l;
+            for (dx = 0; dx <= 1; ++dx) {
             for (dy = -1; dy <= 1; ++dy) {
             for (dz = -1; dz <= 1; ++dz) {
                 const long x = x0 + dx, y = y0 + dy, z = z0 + dz;
-                if (x < 0 || y < 0 || z < 0 || x >= nc || y >= nc || z >= nc) {
+                const int own = dx == 0 && dy == 0 && dz == 0;
+                if ((dx == 0 && (dy < 0 || (dy == 0 && dz < 0))) || y < 0 || z < 0 || x >= nc
+                    || y >= nc || z >= nc) {
                     continue;
                 }
-                for (j = (long)nb[(x * nc + y) * nc + z]; j >= 0; j = (long)nb[cells + j]) {
-                    if (j > i && lj_cutoff_near(q + 3 * i, q + 3 * j, 1.6900000000000002)) {
+                for (l = (long)nb[own ? cells + k : (x * nc + y) * nc + z]; l >= 0;
+                     l = (long)nb[cells + l]) {
+                    if (lj_cutoff_near(q + 3 * k, q + 3 * l, 1.6900000000000002)) {
+                        const long i = k < l ? k : l, j = k < l ? l : k;
                         double v;
                         lj_cutoff_k_t0_value(q + 3 * i, q + 3 * j, cx->cc, &v);
                         total += v;
@@ -454,38 +461,123 @@ static void lj_cutoff_gradient_cx(const lj_cutoff_ctx *cx, const double *q, doub
         g[e] = 0.0;
     }
     /* term 0, [[potential.pair]] #1: sum over pairs within the cutoff, gradient */
-    /* pairs closer than 1.3: a cell list when storage is given (O(n)), else all pairs */
+    /* pairs closer than 1.3: sorted cell lists when storage is given (O(n)), else all pairs */
     if (nb) {
+        /* the bodies sorted by cell (a counting sort): cell c holds the sorted places
+         * cl_start[c] .. cl_start[c + 1] - 1, place s body cl_order[s]; q, g and the per-body
+         * numbers are copied to (or summed in) sorted, component-major arrays, so that a cell's
+         * bodies are contiguous. Each pair is met once: a cell with itself (j > i) and with the
+         * 13 cells of a half stencil (dx, dy, dz) > (0, 0, 0); the partners of a body run as a
+         * SIMD loop with the cutoff as a mask. (The term is symmetric in its two bodies, so a
+         * pair may be met in either order.) Indices are stored exactly as doubles. */
         const long nc = 1, cells = nc * nc * nc;
-        long i;
-        lj_cutoff_cells(q, nb, nc);
-        for (i = 0; i < 8; ++i) {
-            const long ci = lj_cutoff_cell_of(q + 3 * i, nc);
-            const long x0 = ci / (nc * nc), y0 = (ci / nc) % nc, z0 = ci % nc;
-            long dx, dy, dz, j;
-            for (dx = -1; dx <= 1; ++dx) {
+        double *const cl_start = nb, *const cl_order = cl_start + cells + 1;
+        double *const cl_cell = cl_order + 8, *const cl_x = cl_cell + 8;
+        double *const cl_y = cl_x + 8, *const cl_z = cl_y + 8;
+        double *const cl_gx = cl_z + 8, *const cl_gy = cl_gx + 8;
+        double *const cl_gz = cl_gy + 8;
+        const double c2 = cx->cc[2];
+        const double c3 = cx->cc[3];
+        long c, k, i, j;
+        for (c = 0; c <= cells; ++c) {
+            cl_start[c] = 0.0;
+        }
+        for (k = 0; k < 8; ++k) {
+            const long ck = lj_cutoff_cell_of(q + 3 * k, nc);
+            cl_cell[k] = (double)ck;
+            cl_start[ck + 1] += 1.0;
+        }
+        for (c = 0; c < cells; ++c) {
+            cl_start[c + 1] += cl_start[c];
+        }
+        for (k = 0; k < 8; ++k) {
+            const long ck = (long)cl_cell[k], s = (long)cl_start[ck];
+            cl_start[ck] += 1.0;
+            cl_order[s] = (double)k;
+            cl_x[s] = q[3 * k];
+            cl_y[s] = q[3 * k + 1];
+            cl_z[s] = q[3 * k + 2];
+            cl_gx[s] = 0.0;
+            cl_gy[s] = 0.0;
+            cl_gz[s] = 0.0;
+        }
+        /* each start moved to the next cell's: shift back */
+        for (c = cells; c > 0; --c) {
+            cl_start[c] = cl_start[c - 1];
+        }
+        cl_start[0] = 0.0;
+        for (c = 0; c < cells; ++c) {
+            const long i0 = (long)cl_start[c], i1 = (long)cl_start[c + 1];
+            const long cl_cx = c / (nc * nc), cl_cy = (c / nc) % nc, cl_cz = c % nc;
+            long dx, dy, dz;
+            if (i0 == i1) {
+                continue;
+            }
+            for (dx = 0; dx <= 1; ++dx) {
             for (dy = -1; dy <= 1; ++dy) {
             for (dz = -1; dz <= 1; ++dz) {
-                const long x = x0 + dx, y = y0 + dy, z = z0 + dz;
-                if (x < 0 || y < 0 || z < 0 || x >= nc || y >= nc || z >= nc) {
+                const long x = cl_cx + dx, y = cl_cy + dy, z = cl_cz + dz;
+                const int own = dx == 0 && dy == 0 && dz == 0;
+                long d, j1, js;
+                if ((dx == 0 && (dy < 0 || (dy == 0 && dz < 0))) || y < 0 || z < 0 || x >= nc
+                    || y >= nc || z >= nc) {
                     continue;
                 }
-                for (j = (long)nb[(x * nc + y) * nc + z]; j >= 0; j = (long)nb[cells + j]) {
-                    if (j > i && lj_cutoff_near(q + 3 * i, q + 3 * j, 1.6900000000000002)) {
-                        double gi[3], gj[3];
-                        lj_cutoff_k_t0_gradient(q + 3 * i, q + 3 * j, cx->cc, gi, gj);
-                        g[3 * i] += gi[0];
-                        g[3 * i + 1] += gi[1];
-                        g[3 * i + 2] += gi[2];
-                        g[3 * j] += gj[0];
-                        g[3 * j + 1] += gj[1];
-                        g[3 * j + 2] += gj[2];
-
+                d = (x * nc + y) * nc + z;
+                j1 = (long)cl_start[d + 1];
+                if (!own && (long)cl_start[d] == j1) { /* an empty cell: no loops to set up */
+                    continue;
+                }
+                js = (long)cl_start[d];
+                for (i = i0; i < i1; ++i) {
+                    const long j0 = own ? i + 1 : js;
+                    const double qi0 = cl_x[i], qi1 = cl_y[i], qi2 = cl_z[i];
+                    double a0 = 0.0, a1 = 0.0, a2 = 0.0;
+LJ_CUTOFF_SIMD_SUM(a0, a1, a2)
+                    for (j = j0; j < j1; ++j) {
+                        const double qj0 = cl_x[j], qj1 = cl_y[j], qj2 = cl_z[j];
+                        const double cl_e0 = qi0 - qj0, cl_e1 = qi1 - qj1, cl_e2 = qi2 - qj2;
+                        const int cl_near = cl_e0 * cl_e0 + cl_e1 * cl_e1 + cl_e2 * cl_e2 < 1.6900000000000002;
+                        const double x0 = qi0 - qj0;
+                        const double pw0 = x0*x0;
+                        const double x2 = qi1 - qj1;
+                        const double pw1 = x2*x2;
+                        const double x3 = qi2 - qj2;
+                        const double pw2 = x3*x3;
+                        const double x4 = pw0 + pw1 + pw2;
+                        const double pw3 = 1.0/x4;
+                        const double pw4 = pw3*pw3;
+                        const double pw5 = pw4*pw4;
+                        const double x5 = c3*pw5*(c2*pw3*pw4 - 1);
+                        const double x6 = -x0*x5;
+                        const double x7 = -x2*x5;
+                        const double x8 = -x3*x5;
+                        const double gi0 = x6;
+                        const double gi1 = x7;
+                        const double gi2 = x8;
+                        const double gj0 = -x6;
+                        const double gj1 = -x7;
+                        const double gj2 = -x8;
+                        a0 += cl_near ? gi0 : 0.0;
+                        a1 += cl_near ? gi1 : 0.0;
+                        a2 += cl_near ? gi2 : 0.0;
+                        cl_gx[j] += cl_near ? gj0 : 0.0;
+                        cl_gy[j] += cl_near ? gj1 : 0.0;
+                        cl_gz[j] += cl_near ? gj2 : 0.0;
                     }
+                    cl_gx[i] += a0;
+                    cl_gy[i] += a1;
+                    cl_gz[i] += a2;
                 }
             }
             }
             }
+        }
+        for (k = 0; k < 8; ++k) {
+            const long b = (long)cl_order[k];
+            g[3 * b] += cl_gx[k];
+            g[3 * b + 1] += cl_gy[k];
+            g[3 * b + 2] += cl_gz[k];
         }
     } else {
         long i, j;
@@ -500,7 +592,6 @@ static void lj_cutoff_gradient_cx(const lj_cutoff_ctx *cx, const double *q, doub
                         g[3 * j] += gj[0];
                         g[3 * j + 1] += gj[1];
                         g[3 * j + 2] += gj[2];
-
                 }
             }
         }
@@ -625,38 +716,123 @@ static void lj_cutoff_gradient_soa(const lj_cutoff_ctx *cx, const double *LJ_CUT
         g[e] = 0.0;
     }
     /* term 0, [[potential.pair]] #1: sum over pairs within the cutoff, gradient */
-    /* pairs closer than 1.3: a cell list when storage is given (O(n)), else all pairs */
+    /* pairs closer than 1.3: sorted cell lists when storage is given (O(n)), else all pairs */
     if (nb) {
+        /* the bodies sorted by cell (a counting sort): cell c holds the sorted places
+         * cl_start[c] .. cl_start[c + 1] - 1, place s body cl_order[s]; q, g and the per-body
+         * numbers are copied to (or summed in) sorted, component-major arrays, so that a cell's
+         * bodies are contiguous. Each pair is met once: a cell with itself (j > i) and with the
+         * 13 cells of a half stencil (dx, dy, dz) > (0, 0, 0); the partners of a body run as a
+         * SIMD loop with the cutoff as a mask. (The term is symmetric in its two bodies, so a
+         * pair may be met in either order.) Indices are stored exactly as doubles. */
         const long nc = 1, cells = nc * nc * nc;
-        long i;
-        lj_cutoff_cells(q, nb, nc);
-        for (i = 0; i < 8; ++i) {
-            const long ci = lj_cutoff_cell_of(q + 3 * i, nc);
-            const long x0 = ci / (nc * nc), y0 = (ci / nc) % nc, z0 = ci % nc;
-            long dx, dy, dz, j;
-            for (dx = -1; dx <= 1; ++dx) {
+        double *const cl_start = nb, *const cl_order = cl_start + cells + 1;
+        double *const cl_cell = cl_order + 8, *const cl_x = cl_cell + 8;
+        double *const cl_y = cl_x + 8, *const cl_z = cl_y + 8;
+        double *const cl_gx = cl_z + 8, *const cl_gy = cl_gx + 8;
+        double *const cl_gz = cl_gy + 8;
+        const double c2 = cx->cc[2];
+        const double c3 = cx->cc[3];
+        long c, k, i, j;
+        for (c = 0; c <= cells; ++c) {
+            cl_start[c] = 0.0;
+        }
+        for (k = 0; k < 8; ++k) {
+            const long ck = lj_cutoff_cell_of(q + 3 * k, nc);
+            cl_cell[k] = (double)ck;
+            cl_start[ck + 1] += 1.0;
+        }
+        for (c = 0; c < cells; ++c) {
+            cl_start[c + 1] += cl_start[c];
+        }
+        for (k = 0; k < 8; ++k) {
+            const long ck = (long)cl_cell[k], s = (long)cl_start[ck];
+            cl_start[ck] += 1.0;
+            cl_order[s] = (double)k;
+            cl_x[s] = q[3 * k];
+            cl_y[s] = q[3 * k + 1];
+            cl_z[s] = q[3 * k + 2];
+            cl_gx[s] = 0.0;
+            cl_gy[s] = 0.0;
+            cl_gz[s] = 0.0;
+        }
+        /* each start moved to the next cell's: shift back */
+        for (c = cells; c > 0; --c) {
+            cl_start[c] = cl_start[c - 1];
+        }
+        cl_start[0] = 0.0;
+        for (c = 0; c < cells; ++c) {
+            const long i0 = (long)cl_start[c], i1 = (long)cl_start[c + 1];
+            const long cl_cx = c / (nc * nc), cl_cy = (c / nc) % nc, cl_cz = c % nc;
+            long dx, dy, dz;
+            if (i0 == i1) {
+                continue;
+            }
+            for (dx = 0; dx <= 1; ++dx) {
             for (dy = -1; dy <= 1; ++dy) {
             for (dz = -1; dz <= 1; ++dz) {
-                const long x = x0 + dx, y = y0 + dy, z = z0 + dz;
-                if (x < 0 || y < 0 || z < 0 || x >= nc || y >= nc || z >= nc) {
+                const long x = cl_cx + dx, y = cl_cy + dy, z = cl_cz + dz;
+                const int own = dx == 0 && dy == 0 && dz == 0;
+                long d, j1, js;
+                if ((dx == 0 && (dy < 0 || (dy == 0 && dz < 0))) || y < 0 || z < 0 || x >= nc
+                    || y >= nc || z >= nc) {
                     continue;
                 }
-                for (j = (long)nb[(x * nc + y) * nc + z]; j >= 0; j = (long)nb[cells + j]) {
-                    if (j > i && lj_cutoff_near(q + 3 * i, q + 3 * j, 1.6900000000000002)) {
-                        double gi[3], gj[3];
-                        lj_cutoff_k_t0_gradient(q + 3 * i, q + 3 * j, cx->cc, gi, gj);
-                        g[3 * i] += gi[0];
-                        g[3 * i + 1] += gi[1];
-                        g[3 * i + 2] += gi[2];
-                        g[3 * j] += gj[0];
-                        g[3 * j + 1] += gj[1];
-                        g[3 * j + 2] += gj[2];
-
+                d = (x * nc + y) * nc + z;
+                j1 = (long)cl_start[d + 1];
+                if (!own && (long)cl_start[d] == j1) { /* an empty cell: no loops to set up */
+                    continue;
+                }
+                js = (long)cl_start[d];
+                for (i = i0; i < i1; ++i) {
+                    const long j0 = own ? i + 1 : js;
+                    const double qi0 = cl_x[i], qi1 = cl_y[i], qi2 = cl_z[i];
+                    double a0 = 0.0, a1 = 0.0, a2 = 0.0;
+LJ_CUTOFF_SIMD_SUM(a0, a1, a2)
+                    for (j = j0; j < j1; ++j) {
+                        const double qj0 = cl_x[j], qj1 = cl_y[j], qj2 = cl_z[j];
+                        const double cl_e0 = qi0 - qj0, cl_e1 = qi1 - qj1, cl_e2 = qi2 - qj2;
+                        const int cl_near = cl_e0 * cl_e0 + cl_e1 * cl_e1 + cl_e2 * cl_e2 < 1.6900000000000002;
+                        const double x0 = qi0 - qj0;
+                        const double pw0 = x0*x0;
+                        const double x2 = qi1 - qj1;
+                        const double pw1 = x2*x2;
+                        const double x3 = qi2 - qj2;
+                        const double pw2 = x3*x3;
+                        const double x4 = pw0 + pw1 + pw2;
+                        const double pw3 = 1.0/x4;
+                        const double pw4 = pw3*pw3;
+                        const double pw5 = pw4*pw4;
+                        const double x5 = c3*pw5*(c2*pw3*pw4 - 1);
+                        const double x6 = -x0*x5;
+                        const double x7 = -x2*x5;
+                        const double x8 = -x3*x5;
+                        const double gi0 = x6;
+                        const double gi1 = x7;
+                        const double gi2 = x8;
+                        const double gj0 = -x6;
+                        const double gj1 = -x7;
+                        const double gj2 = -x8;
+                        a0 += cl_near ? gi0 : 0.0;
+                        a1 += cl_near ? gi1 : 0.0;
+                        a2 += cl_near ? gi2 : 0.0;
+                        cl_gx[j] += cl_near ? gj0 : 0.0;
+                        cl_gy[j] += cl_near ? gj1 : 0.0;
+                        cl_gz[j] += cl_near ? gj2 : 0.0;
                     }
+                    cl_gx[i] += a0;
+                    cl_gy[i] += a1;
+                    cl_gz[i] += a2;
                 }
             }
             }
             }
+        }
+        for (k = 0; k < 8; ++k) {
+            const long b = (long)cl_order[k];
+            g[3 * b] += cl_gx[k];
+            g[3 * b + 1] += cl_gy[k];
+            g[3 * b + 2] += cl_gz[k];
         }
     } else {
         long i, j;
@@ -671,7 +847,6 @@ static void lj_cutoff_gradient_soa(const lj_cutoff_ctx *cx, const double *LJ_CUT
                         g[3 * j] += gj[0];
                         g[3 * j + 1] += gj[1];
                         g[3 * j + 2] += gj[2];
-
                 }
             }
         }

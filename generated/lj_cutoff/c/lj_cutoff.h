@@ -33,7 +33,7 @@ extern "C" {
 #define LJ_CUTOFF_NPAIRS 0 /* coupled pairs of M (off-diagonal entries not zero) */
 #define LJ_CUTOFF_NCONST 4 /* constants of the kernels (computed once per call) */
 #define LJ_CUTOFF_WORK_BASE 1032 /* workspace doubles before the per-call context */
-#define LJ_CUTOFF_WORK_SIZE 1061 /* workspace doubles every `work` must hold */
+#define LJ_CUTOFF_WORK_SIZE 1118 /* workspace doubles every `work` must hold */
 #define LJ_CUTOFF_STEP_CARRY 96 /* doubles of step()'s carry */
 
 /* Status codes returned by the step and integrate functions. */
