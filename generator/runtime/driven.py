@@ -1,9 +1,9 @@
 """Runs of driven systems from Python: the start time, the inputs (an array or state feedback)
 and the work done, through the emitted C's or NumPy's driven integrate().
 
-Input: a C or NumPy backend of a driven system (forces, inputs or time t), a fixed-step method of the
-VI family or an explicit Runge-Kutta method, h, the number of steps, the initial state at t0,
-the parameters and the inputs: None (the spec's defaults), an array of shape
+Input: a C or NumPy backend of a driven system (forces, inputs or time t), a fixed-step
+method of the VI family or an explicit Runge-Kutta method, h, the number of steps, the initial
+state at t0, the parameters and the inputs: None (the spec's defaults), an array of shape
 (steps, n_inputs) (row k held over step k), or a callable ``u(t, q, w)`` returning the
 n_inputs values to hold over the step that starts at t from the state (q, w) (arrays of
 shape (n, 3)), called once per step. Output: the arrays of the run, the work done and the
@@ -88,10 +88,10 @@ def input_rows(system: System, inputs: Inputs, nsteps: int) -> np.ndarray | None
 class Feedback:
     """A Python state feedback ``u(t, q, w)`` as the emitted integrate()'s callback.
 
-    `function` is the ctypes function to pass to the emitted C, `held` the Python function
-    to pass to the emitted NumPy; `rows` collects the inputs returned (one row per step); a call that raises or returns something else than n_inputs finite numbers
-    writes NaN (the C run stops there with a non-finite input) and keeps the reason in
-    `error`.
+    `function` is the ctypes function to pass to the emitted C, `held` the Python function to
+    pass to the emitted NumPy; `rows` collects the inputs returned (one row per step); a call
+    that raises or returns something else than n_inputs finite numbers writes NaN (the run
+    stops there with a non-finite input) and keeps the reason in `error`.
 
     Example:
         >>> import ctypes
