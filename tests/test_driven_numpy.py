@@ -3,9 +3,10 @@
 Independent checks only: the NumPy run against the reference integrator's own forced equations
 (`s2gen.reference.forced*`, which never sees the templates) and against the emitted C, for every
 driven method on the four driven cases of `tests/test_driven.py`, with random array inputs and
-with a state feedback (the inputs it returned recomputed from the stored samples); one step of
-the module's step() against one reference step; the failures that stop a run (a feedback that
-raises or returns NaN, a non-finite input) keep the samples before them as the C does.
+with a state feedback (the inputs it returned recomputed from the stored samples), and on a
+rope solved by the structured solvers; one step of the module's step() against one reference
+step; the failures that stop a run (a feedback that raises or returns NaN, a non-finite input)
+keep the samples before them as the C does.
 """
 
 from __future__ import annotations
@@ -67,6 +68,20 @@ def test_numpy_agrees_with_the_reference_and_the_c(case: str, method_name: str) 
     assert_agree(tr, ref)
     assert_agree(tr, run(system, method_name, "c", h=h, T=n * h, t0=0.3, inputs=U))
     assert tr.inputs is not None and np.array_equal(tr.inputs, U)
+
+
+@pytest.mark.parametrize("method_name", ["vi", "vi4", "rk4"])
+def test_numpy_with_structured_solves_agrees_with_the_reference_and_the_c(method_name: str) -> None:
+    """The rope of 12 links whose top moves (max-index M, the structured O(n) solves, time in
+    its potential): NumPy against the reference and the C, to 1e-10."""
+    system = s2gen.load("rope:n=12,top_radius=0.2")
+    h, n = 0.002, 20
+    tr = run(system, method_name, "numpy", h=h, T=n * h, t0=0.1)
+    ref = integrate_driven(
+        driven_problem_from_system(system), method_name, system.q0, system.omega0, h, n, t0=0.1
+    )
+    assert_agree(tr, ref)
+    assert_agree(tr, run(system, method_name, "c", h=h, T=n * h, t0=0.1))
 
 
 def feedback_law(system: System) -> Law:
