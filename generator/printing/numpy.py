@@ -328,9 +328,15 @@ def py_docstring(module: Module) -> tuple[str, str]:
     n, name = module.n, module.name
     facts = dict(module.facts)
     if module.kind is ModuleKind.SPHERE:
+        driven = (
+            " Driven system (forces, inputs or time t): potential, gradient, energy and rhs take "
+            "the time and the inputs as a last argument tu (tu[0] = t, tu[1 + k] = input k of "
+            "INPUTS; default TU_DEFAULTS: t = 0 and the inputs' defaults); integrate() and "
+            "step() hold the inputs over each step (zero-order hold)."
+        )
         return (
             f'Equations of motion and integrators for the system "{name}" on (S^2)^{n} (NumPy).',
-            f"States are arrays q, w of shape ({n}, 3).",
+            f"States are arrays q, w of shape ({n}, 3).{driven if module.drive else ''}",
         )
     title = (
         f'The classical spherical-angle form of the system "{facts.get("system", name)}" '
