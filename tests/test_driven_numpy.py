@@ -23,6 +23,7 @@ from s2gen.emit import emit, emit_angles
 from s2gen.methods import driven_methods, method
 from s2gen.reference.driven_system import driven_problem_from_system
 from s2gen.reference.forced_integrate import integrate_driven
+from s2gen.runtime.c import CBackend
 from s2gen.runtime.numpy_module import NumpyBackend
 from s2gen.runtime.trajectory import IntegrationError
 from s2gen.system import SpecError, System
@@ -185,3 +186,42 @@ def test_what_numpy_still_refuses() -> None:
         s2gen.simulate(system, "rk45", backend="numpy", h=0.01, T=0.1)
     with pytest.raises(SpecError, match=r"emitting numpy code \(angles form\) for driven"):
         emit_angles(system, "numpy")
+
+
+@pytest.mark.parametrize(
+    ("change", "status"),
+    [
+        ({"h": 0.0}, 4),
+        ({"every": 3}, 4),
+        ({"method_name": "rattle"}, 4),
+        ({"t0": float("nan")}, 4),
+        ({"q0": np.array([[0.0, 0.0, 1.1], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])}, 4),
+        ({"w0": np.full((3, 3), np.inf)}, 3),
+    ],
+)
+def test_bad_arguments_get_the_c_status(change: dict[str, object], status: int) -> None:
+    """integrate() refuses what the C's refuses, with the same status (ERR_ARGUMENT 4,
+    ERR_NONFINITE 3), the same statistics and no sample."""
+    system = CASES["driven_ring"]()
+    args: dict[str, object] = {
+        "method_name": "vi", "h": 0.01, "nsteps": 10, "q0": system.q0, "w0": system.omega0,
+        "params": np.array(system.parameter_values), "options": s2gen.Options(), "t0": 0.0,
+        "every": 1,
+    }  # fmt: skip
+    args.update(change)
+    got = NumpyBackend(system).integrate_driven(**args)  # type: ignore[arg-type]
+    want = CBackend(system).integrate_driven(**args)  # type: ignore[arg-type]
+    assert got[0] == want[0] == status
+    assert got[5] == want[5] and np.all(np.isnan(got[1]))
+
+
+def test_step_refuses_a_bad_step_and_a_non_finite_input() -> None:
+    """step(): ERR_ARGUMENT (4) for h <= 0 or a method that does not drive, ERR_NONFINITE (3)
+    for a non-finite input, as the C's step."""
+    system = CASES["driven_ring"]()
+    be = NumpyBackend(system)
+    p, q, w = be.default_params(), system.q0, system.omega0
+    assert be.module.step(p, method("vi").code, 0.0, -0.01, q, w)[0] == 4
+    assert be.module.step(p, method("rattle").code, 0.0, 0.01, q, w)[0] == 4
+    assert be.module.step(p, method("rk4").code, 0.0, 0.01, q, w, [np.nan, 0.0])[0] == 3
+    assert be.module.step(p, method("rk4").code, 0.0, 0.01, q, w, [1.0, 0.0])[0] == 0
