@@ -147,6 +147,7 @@ class Product:
 @dataclass(frozen=True)
 class Shifted:
     """`array` from entry `offset` on (a second block of outputs in the same array).
+    `vector`: the name NumPy's code keeps that block under, when not a slice of `array`.
 
     Example:
         >>> Shifted("mp", 5).offset
@@ -155,6 +156,7 @@ class Shifted:
 
     array: str
     offset: int
+    vector: str | None = None
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,7 @@ import pytest
 import sympy as sp
 
 from s2gen.cli import main
-from s2gen.emit import emit
+from s2gen.emit import emit_angles
 from s2gen.reference import problem_from_system
 from s2gen.runtime import Options, simulate
 from s2gen.spec import define_system, load_spec_text
@@ -649,9 +649,9 @@ API_CASES: list[tuple[str, Callable[[], object], list[str]]] = [
         ["[inputs] u: value inf is not finite"],
     ),
     (
-        "a driven system cannot be emitted in NumPy yet",
-        lambda: emit(_pendulum(potential="-m*cos(t)*q1[2]"), "numpy", cache=False),
-        ["[potential] V: t: emitting numpy code (sphere form) for driven systems", "not supported"],
+        "a driven system has no angle form yet",
+        lambda: emit_angles(_pendulum(potential="-m*cos(t)*q1[2]"), "numpy", cache=False),
+        ["[potential] V: t: emitting numpy code (angles form) for driven systems", "not supported"],
     ),
     (
         "a driven system has no reference problem yet",

@@ -204,15 +204,11 @@ def test_time_is_a_name_of_potentials_only() -> None:
     ("args", "fragment"),
     [
         (
-            ["generate", "--lang", "numpy", "--out", "OUT"],
+            ["simulate", "--backend", "reference", "--h", "0.01", "--T", "0.1", "--out", "OUT"],
             (
-                "[forces] F1: emitting numpy code (sphere form) for driven systems (forces, inputs "
+                "[forces] F1: building the reference problem for driven systems (forces, inputs "
                 "or time t) is not supported yet"
             ),
-        ),
-        (
-            ["simulate", "--backend", "numpy", "--h", "0.01", "--T", "0.1", "--out", "OUT"],
-            "[forces] F1: emitting numpy code (sphere form) for driven systems",
         ),
         (
             ["simulate", "--method", "rattle", "--h", "0.01", "--T", "0.1", "--out", "OUT"],
@@ -223,7 +219,7 @@ def test_time_is_a_name_of_potentials_only() -> None:
 def test_the_command_line_refuses_what_does_not_drive_yet_in_one_line(
     args: list[str], fragment: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """What does not take driven systems yet (the NumPy backend, RATTLE): exit 2, one line
+    """What does not take driven systems yet (the reference backend, RATTLE): exit 2, one line
     naming the file (and the first driven key or the method), nothing written."""
     spec = tmp_path / "driven.toml"
     spec.write_text(
@@ -238,8 +234,9 @@ def test_the_command_line_refuses_what_does_not_drive_yet_in_one_line(
     assert not out.exists()
 
 
+@pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_the_command_line_simulates_a_driven_spec_with_its_inputs(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    backend: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """--input NAME=EXPR is the expression at the start of each step, --t0 the start time; the
     saved trajectory keeps the inputs and the work, and the report the balance."""
@@ -249,6 +246,7 @@ def test_the_command_line_simulates_a_driven_spec_with_its_inputs(
     )
     out = tmp_path / "run.npz"
     args = ["simulate", str(spec), "--h", "0.01", "--T", "0.1", "--t0", "1.0"]
+    args += ["--backend", backend]
     code = main([*args, "--input", "tau=2*t + A", "--param", "A=0.5", "--out", str(out)])
     report = capsys.readouterr().out
     assert code == 0 and "|E - E0 - W|" in report and "work W(T)" in report

@@ -192,7 +192,7 @@ def sphere_module(system: System) -> Module:
         parameter_values=system.parameter_values,
         kernels=tuple(kernels),
         parts=parts,
-        c_only=("cholesky", "lu", "band", "driven"),  # NumPy: numpy.linalg, scipy.linalg
+        c_only=("cholesky", "lu", "band"),  # NumPy: numpy.linalg, scipy.linalg
         variants=_variants(solver),
         pairs=pairs,
         terms=loops,

@@ -82,8 +82,10 @@ def _inertia_sites(module: Module) -> tuple[Site, ...]:
 
 
 def _stage_sites(module: Module) -> tuple[Site, ...]:
-    """The power at a Runge-Kutta stage: the stage state ys holds q, then w from 3n on."""
-    at = {"q": Local("ys"), "w": Shifted("ys", 3 * module.n), "pw": Local("pw", address=True)}
+    """The power at a Runge-Kutta stage: the stage state ys holds q, then w from 3n on (NumPy
+    keeps them as qs and ws)."""
+    q, w = Local("ys", vector="qs"), Shifted("ys", 3 * module.n, vector="ws")
+    at = {"q": q, "w": w, "pw": Local("pw", address=True)}
     return (Site("power_stage", "power", _S, {**CC, **at}),)
 
 

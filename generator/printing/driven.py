@@ -1,6 +1,7 @@
 """Print a driven module's own records: its inputs and their defaults, the driven methods'
-tables (the VI family's step fractions, the explicit Runge-Kutta tableaus as arrays) and the
-lines of the velocity equations' Newton iteration.
+tables (the VI family's step fractions, the explicit Runge-Kutta tableaus as arrays, which
+method takes which) and the lines of the velocity equations' Newton iteration (C's here,
+NumPy's from `s2gen.printing.numpy.py_drive`).
 
 Input: a lowered `Module` with a `Drive`. Output: the dict the `driven` partial (and its
 sections) read as ``m.drive``; empty for a closed module.
@@ -22,6 +23,7 @@ from typing import Any
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Module
 from s2gen.methods import METHODS, Family, driven_methods
+from s2gen.printing.numpy import py_drive
 
 __all__ = ["print_drive"]
 
@@ -39,6 +41,8 @@ _KEYS = (
     "tableaus",
     "compositions",
     "methods",
+    "vi_methods",
+    "rk_methods",
 )
 
 
@@ -50,7 +54,7 @@ def print_drive(module: Module) -> dict[str, Any]:
     """The ``m.drive`` record of a driven module (empty dict for a closed one)."""
     drive = module.drive
     if drive is None:
-        return dict.fromkeys(_KEYS, ())
+        return {**dict.fromkeys(_KEYS, ()), **py_drive(None)}
     name, upper = module.name, module.name.upper()
     rattle = not drive.forces or module.solver is InertiaKind.DIAGONAL
     rows = [m for m in METHODS if m.name in driven_methods(rattle)]
@@ -142,4 +146,20 @@ def print_drive(module: Module) -> dict[str, Any]:
             for c in comps.values()
         ),
         "methods": tuple(methods),
+        # per method: its enum constant, its table and its gradient (or field) evaluations
+        "vi_methods": tuple(
+            {
+                "c_name": m.c_name,
+                "table": m.composition.name,
+                "evals": 2 * len(m.composition.fractions),
+            }
+            for m in rows
+            if m.composition is not None and m.family is Family.VI
+        ),
+        "rk_methods": tuple(
+            {"c_name": m.c_name, "table": m.tableau.name, "evals": m.tableau.stages}
+            for m in rows
+            if m.tableau is not None
+        ),
+        **py_drive(drive),
     }

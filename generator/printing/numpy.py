@@ -14,7 +14,7 @@ Example:
 from __future__ import annotations
 
 import math
-from typing import assert_never
+from typing import Any, assert_never
 
 import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
@@ -35,7 +35,7 @@ from s2gen.bindings import (
     TermDatum,
     TermTable,
 )
-from s2gen.ir import Call, Kernel, Module, ModuleKind, TermLoop
+from s2gen.ir import Call, Drive, Kernel, Module, ModuleKind, TermLoop
 from s2gen.printing.c import EXACT_INTEGER, ExactIntegers, LiteralError, double_literal
 from s2gen.terms import Enumeration
 
@@ -45,6 +45,7 @@ __all__ = [
     "py_call",
     "py_data_setup",
     "py_docstring",
+    "py_drive",
     "py_inertia_setup",
     "py_kernel",
     "py_quad",
@@ -86,6 +87,11 @@ class PyPrinter(ExactIntegers, NumPyPrinter):
         raise LiteralError("a complex number (I) cannot be printed as real NumPy arithmetic")
 
 
+#: A system kernel's state arguments, arrays of shape (NBODIES, 3) in NumPy's code (its other
+#: arrays, such as forces F and their Jacobian Fw, are flat)
+_BODY_ROWS = ("q", "w")
+
+
 def _slots(kernel: Kernel) -> dict[sp.Symbol, str]:
     names: dict[sp.Symbol, str] = {}
     for arg in kernel.inputs:
@@ -93,8 +99,8 @@ def _slots(kernel: Kernel) -> dict[sp.Symbol, str]:
             names[arg.symbols[0]] = arg.name
         elif arg.shared:
             names.update({s: f"{arg.name}[{k}]" for k, s in enumerate(arg.symbols)})
-        elif kernel.system and arg.name == "q":
-            names.update({s: f"q[{k // 3}, {k % 3}]" for k, s in enumerate(arg.symbols)})
+        elif kernel.system and arg.name in _BODY_ROWS:
+            names.update({s: f"{arg.name}[{k // 3}, {k % 3}]" for k, s in enumerate(arg.symbols)})
         elif kernel.system:
             names.update({s: f"{arg.name}[{k}]" for k, s in enumerate(arg.symbols)})
         else:
@@ -161,7 +167,7 @@ def py_binding(b: Binding) -> str:
     if isinstance(b, Product):
         return " * ".join(py_binding(f) for f in b.factors)
     if isinstance(b, Shifted):
-        return f"{b.array}[{b.offset}:]"
+        return b.vector or f"{b.array}[{b.offset}:]"
     if isinstance(b, BodyNumber):
         return "INDEX"
     if isinstance(b, TermDatum):
@@ -322,9 +328,15 @@ def py_docstring(module: Module) -> tuple[str, str]:
     n, name = module.n, module.name
     facts = dict(module.facts)
     if module.kind is ModuleKind.SPHERE:
+        driven = (
+            " Driven system (forces, inputs or time t): potential, gradient, energy and rhs take "
+            "the time and the inputs as a last argument tu (tu[0] = t, tu[1 + k] = input k of "
+            "INPUTS; default TU_DEFAULTS: t = 0 and the inputs' defaults); integrate() and "
+            "step() hold the inputs over each step (zero-order hold)."
+        )
         return (
             f'Equations of motion and integrators for the system "{name}" on (S^2)^{n} (NumPy).',
-            f"States are arrays q, w of shape ({n}, 3).",
+            f"States are arrays q, w of shape ({n}, 3).{driven if module.drive else ''}",
         )
     title = (
         f'The classical spherical-angle form of the system "{facts.get("system", name)}" '
@@ -339,3 +351,31 @@ def py_docstring(module: Module) -> tuple[str, str]:
         "POLE_TOL, rhs returns ERR_SINGULAR when min |pivot| <= MIN_PIVOT_RATIO max |pivot|."
     )
     return title, state
+
+
+def py_drive(drive: Drive | None) -> dict[str, Any]:
+    """NumPy's entries of ``m.drive``: the functions' time-and-inputs parameter ``tu`` (its
+    default the time 0 and the inputs' defaults) and how they pass it on, the forces' and the
+    end-velocity terms' outputs, and the end velocity's Newton iteration (its limit, whether
+    one solve is exact, the Jacobian's update). A closed module has no ``tu``.
+
+    Example:
+        >>> from s2gen.ir import Drive
+        >>> d = py_drive(Drive(("tau",), (1.0,), True, True))
+        >>> d["py_tu"], d["py_force"], d["py_limit"]
+        (', tu=TU_DEFAULTS', 'F, Fw', 'newton_maxiter')
+        >>> py_drive(None)["py_tu"]
+        ''
+    """
+    if drive is None:
+        return {"py_tu": "", "py_pass": "", "py_jacobian": ()}
+    velocity = drive.velocity
+    return {
+        "py_tu": ", tu=TU_DEFAULTS",
+        "py_pass": ", tu",
+        "py_force": "F, Fw" if velocity else "F",
+        "py_fvel": "c, jc" if velocity else "c",
+        "py_limit": "newton_maxiter" if velocity else "1",
+        "py_exact": "False" if velocity else "True",
+        "py_jacobian": ("jm = jm - jc.reshape(3 * NBODIES, 3 * NBODIES)",) if velocity else (),
+    }

@@ -292,6 +292,13 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "gradient": ("potential",),
         "imports": ("module",),
         "initial_state": ("context",),
+        "drive_tables": ("module",),
+        "drive_force": ("driven",),
+        "drive_operator": ("driven",),
+        "vi_operator": ("vi_newton",),
+        "drive_start": ("driven",),
+        "drive_end": ("driven",),
+        "drive_stage": ("driven",),
     },
 )
 
@@ -407,6 +414,17 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "initial_state": pick(
             "numpy", (initial, "initial_state_copy"), (not initial, "initial_state_none")
         ),
+        "drive_tables": pick("numpy", (driven, "tu_defaults")),
+        "drive_force": pick("numpy", (forces, "drive_force_fns")),
+        "drive_operator": pick(
+            "numpy",
+            (forces and coupled, "drive_operator_dense"),
+            (forces and not coupled, "drive_operator_diagonal"),
+        ),
+        "vi_operator": pick("numpy", (forces, "vi_operator_dense")),
+        "drive_start": pick("numpy", (forces, "drive_start_force")),
+        "drive_end": pick("numpy", (forces, "drive_end_force")),
+        "drive_stage": pick("numpy", (forces, "drive_stage_force")),
     }
     variant = dict(module.variants)
     laid = {variant.get(p, p) for p in module.parts} | {"module"}

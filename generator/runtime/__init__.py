@@ -209,7 +209,7 @@ def run(
     if system.driven:
         from s2gen.runtime.driven import check_driven_method
 
-        check_driven_method(system, method)
+        check_driven_method(system, method, backend)
     elif inputs is not None:
         raise ValueError(f"{system.origin}: inputs given, but the system has no [inputs]")
     h = h if h is not None else system.run.h
@@ -291,15 +291,16 @@ def _driven_call(
     inputs: Any,
     every: int,
 ) -> tuple[Any, ...]:
-    """A driven run on the C backend: (status, q, w, energy, work, inputs held, the input
-    function's error or None, stats)."""
+    """A driven run on the C or NumPy backend: (status, q, w, energy, work, inputs held, the
+    input function's error or None, stats)."""
     from s2gen.runtime.driven import Feedback, input_rows
 
     system = be.system
     rows = input_rows(system, inputs, nsteps)
     fb = Feedback(inputs, system.n, len(system.inputs.names)) if callable(inputs) else None
+    feedback = fb and (fb.function if be.name == "c" else fb.held)
     status, q, w, en, work, stats = be.integrate_driven(  # type: ignore[attr-defined]
-        method, h, nsteps, q0, omega0, p, opts, t0, rows, every, fb and fb.function
+        method, h, nsteps, q0, omega0, p, opts, t0, rows, every, feedback
     )
     held = rows if fb is None else fb.rows
     if held is None and system.inputs.names:

@@ -1,9 +1,9 @@
 """Runs of driven systems from Python: the start time, the inputs (an array or state feedback)
-and the work done, through the emitted C's driven integrate().
+and the work done, through the emitted C's or NumPy's driven integrate().
 
-Input: a C backend of a driven system (forces, inputs or time t), a fixed-step method of the
-VI family or an explicit Runge-Kutta method, h, the number of steps, the initial state at t0,
-the parameters and the inputs: None (the spec's defaults), an array of shape
+Input: a C or NumPy backend of a driven system (forces, inputs or time t), a fixed-step
+method of the VI family or an explicit Runge-Kutta method, h, the number of steps, the initial
+state at t0, the parameters and the inputs: None (the spec's defaults), an array of shape
 (steps, n_inputs) (row k held over step k), or a callable ``u(t, q, w)`` returning the
 n_inputs values to hold over the step that starts at t from the state (q, w) (arrays of
 shape (n, 3)), called once per step. Output: the arrays of the run, the work done and the
@@ -37,8 +37,9 @@ __all__ = ["Feedback", "check_driven_method", "input_rows"]
 Inputs = Any
 
 
-def check_driven_method(system: System, method: str) -> None:
-    """ValueError of one line when `method` does not integrate this driven system (yet).
+def check_driven_method(system: System, method: str, backend: str = "c") -> None:
+    """ValueError of one line when `method` does not integrate this driven system (yet) on
+    `backend` (the NumPy module has no RATTLE for driven systems).
 
     Example:
         >>> from s2gen.spec import define_system
@@ -49,6 +50,11 @@ def check_driven_method(system: System, method: str) -> None:
         ...
         ValueError: <python api>: method 'rk45' does not integrate driven systems (forces, inputs or time t) yet; choose one of vi, rk2, rk4, vi4, rattle, vi6, vi8, rattle4, rattle6, rattle8, rk3
     """
+    if backend == "numpy" and method in driven_methods() and method not in driven_methods(False):
+        raise ValueError(
+            f"{system.origin}: method {method!r} integrates driven systems on the c backend "
+            f"only yet; on numpy choose one of {', '.join(driven_methods(False))}"
+        )
     rattle = not system.forces or system.is_diagonal
     if method in driven_methods() and method not in driven_methods(rattle):
         raise ValueError(
@@ -94,10 +100,10 @@ def input_rows(system: System, inputs: Inputs, nsteps: int) -> np.ndarray | None
 class Feedback:
     """A Python state feedback ``u(t, q, w)`` as the emitted integrate()'s callback.
 
-    `function` is the ctypes function to pass; `rows` collects the inputs returned (one row
-    per step); a call that raises or returns something else than n_inputs finite numbers
-    writes NaN (the C run stops there with a non-finite input) and keeps the reason in
-    `error`.
+    `function` is the ctypes function to pass to the emitted C, `held` the Python function to
+    pass to the emitted NumPy; `rows` collects the inputs returned (one row per step); a call
+    that raises or returns something else than n_inputs finite numbers writes NaN (the run
+    stops there with a non-finite input) and keeps the reason in `error`.
 
     Example:
         >>> import ctypes
@@ -122,10 +128,17 @@ class Feedback:
         """The inputs returned so far, one row per step."""
         return np.array(self._rows, dtype=float).reshape(len(self._rows), self.n_inputs)
 
-    def _called(self, _ctx: Any, t: float, q: Any, w: Any, u: Any) -> None:
-        n3 = 3 * self.n
-        qa = np.ctypeslib.as_array(q, shape=(n3,)).reshape(self.n, 3).copy()
-        wa = np.ctypeslib.as_array(w, shape=(n3,)).reshape(self.n, 3).copy()
+    def held(self, t: float, q: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """The inputs to hold over the step that starts at t from (q, w) (copied for the
+        call): the function's values, or NaN where it failed (the run stops there).
+
+        Example:
+            >>> fb = Feedback(lambda t, q, w: [q[0, 2] + t], n=1, n_inputs=1)
+            >>> fb.held(0.5, np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 3))).tolist()
+            [1.5]
+        """
+        qa = np.array(q, dtype=float).reshape(self.n, 3)
+        wa = np.array(w, dtype=float).reshape(self.n, 3)
         try:
             out = np.asarray(self.call(t, qa, wa), dtype=float).reshape(-1)
             if out.shape != (self.n_inputs,) or not np.all(np.isfinite(out)):
@@ -137,5 +150,12 @@ class Feedback:
                 self.error = f"the input function at t = {t:.6g}: {type(exc).__name__}: {exc}"
             out = np.full(self.n_inputs, np.nan)
         self._rows.append(out)
+        return out
+
+    def _called(self, _ctx: Any, t: float, q: Any, w: Any, u: Any) -> None:
+        n3 = 3 * self.n
+        qa = np.ctypeslib.as_array(q, shape=(n3,))
+        wa = np.ctypeslib.as_array(w, shape=(n3,))
+        out = self.held(t, qa, wa)
         for k in range(self.n_inputs):
             u[k] = float(out[k])

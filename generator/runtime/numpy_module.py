@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
@@ -94,4 +95,58 @@ class NumpyBackend:
             every=every,
             unit_tol=options.unit_tol,
             with_energy=with_energy,
+        )
+
+    def integrate_driven(
+        self,
+        method_name: str,
+        h: float,
+        nsteps: int,
+        q0: np.ndarray,
+        w0: np.ndarray,
+        params: np.ndarray,
+        options: Options,
+        t0: float = 0.0,
+        inputs: np.ndarray | None = None,
+        every: int = 1,
+        feedback: Callable[[float, np.ndarray, np.ndarray], np.ndarray] | None = None,
+    ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
+        """One call of a driven module's integrate(), as `CBackend.integrate_driven`: from
+        (q0, w0) at t0, `inputs` of shape (nsteps, n_inputs) held over each step (None: the
+        defaults), or `feedback(t, q, w)` returning them from the state at each step's start
+        (called once per step); (status, q, w, energy, work, stats), the samples after a
+        failure NaN.
+
+        Example:
+            >>> from s2gen.spec import define_system
+            >>> from s2gen.runtime.options import Options
+            >>> s = define_system(name="spin", bodies=1, parameters={}, inputs={"tau": 1.0},
+            ...                   diagonal=["2"], potential=0,
+            ...                   forces={"F1": "tau*cross(e3, q1)"})
+            >>> be, q0 = NumpyBackend(s), np.array([[1.0, 0, 0]])
+            >>> st, q, w, e, W, _ = be.integrate_driven("vi", 0.01, 100, q0, 0 * q0,
+            ...     be.default_params(), Options(), inputs=np.full((100, 1), 4.0))
+            >>> st, round(float(w[-1, 0, 2]), 12), bool(abs(e[-1] - e[0] - W[-1]) < 1e-3)
+            (0, 2.0, True)
+        """
+        u = None if inputs is None else np.asarray(inputs, dtype=float)
+        if u is not None and u.shape != (nsteps, len(self.system.inputs.names)):
+            raise ValueError(
+                f"{self.system.name}: inputs of shape {u.shape}, expected "
+                f"({nsteps}, {len(self.system.inputs.names)}): one row of inputs per step"
+            )
+        return self.module.integrate(  # type: ignore[no-any-return]
+            params,
+            method(method_name).code,
+            t0,
+            h,
+            nsteps,
+            q0,
+            w0,
+            u=u,
+            feedback=feedback,
+            newton_tol=options.newton_tol,
+            newton_maxiter=options.newton_maxiter,
+            every=every,
+            unit_tol=options.unit_tol,
         )
