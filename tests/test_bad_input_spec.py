@@ -410,7 +410,7 @@ TOML_CASES: list[tuple[str, str, list[str]]] = [
     (
         "force with an unknown key",
         edit(DRIVEN, "F1 = ", "G1 = "),
-        ["[forces]: unknown key 'G1' (allowed: F1..F2, body)"],
+        ["[forces]: unknown key 'G1' (allowed: F1..F2, body, pair)"],
     ),
     (
         "force on a velocity that does not exist",
