@@ -33,7 +33,11 @@ __all__ = ["FMI_VERSIONS", "KINDS", "export", "fmu_files"]
 
 
 def fmu_files(
-    system: System, fmi: int = 2, kind: str | None = None, method: str = "vi", h: float | None = None
+    system: System,
+    fmi: int = 2,
+    kind: str | None = None,
+    method: str = "vi",
+    h: float | None = None,
 ) -> dict[str, bytes]:
     """The entries of the FMU of `system` ({path in the archive: content}, in archive order).
 
