@@ -155,6 +155,42 @@ def test_work_closes_the_energy_balance(tmp_path: Path, inverted) -> None:
     assert np.abs(balance).max() <= 1e-4
 
 
+def test_a_parameter_set_between_steps_is_work(tmp_path: Path, inverted) -> None:
+    """Setting g between two steps moves V = m l (g + az) q_z by m l (g' - g) q_z at that
+    state: the work output takes exactly that jump (no force, no t in V: the steps do no
+    work), and the energy balance stays closed across it."""
+    from fmpy.fmi2 import FMU2Slave
+
+    path = export(inverted, tmp_path / "ip.fmu", fmi=2, method="rk4", h=0.001)
+    md = fmpy.read_model_description(str(path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=fmpy.extract(str(path), str(tmp_path / "u")),
+                    modelIdentifier="inverted_pendulum", instanceName="ip")  # fmt: skip
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    names = ["q1_z", "energy", "work"]
+
+    def read() -> dict[str, float]:
+        return dict(zip(names, fmu.getReal([vr[n] for n in names])))
+
+    start = read()
+    for k in range(4):
+        fmu.doStep(currentCommunicationPoint=k * DT, communicationStepSize=DT)
+    before = read()
+    fmu.setReal([vr["g"]], [5.0])
+    fmu.doStep(currentCommunicationPoint=4 * DT, communicationStepSize=DT)
+    after = read()
+    fmu.terminate()
+    fmu.freeInstance()
+    m, l = 1.0, 0.5  # the spec's
+    assert abs(before["work"]) <= 1e-12
+    assert abs(after["work"] - m * l * (5.0 - 9.81) * before["q1_z"]) <= 1e-12
+    assert abs(after["energy"] - start["energy"]) > 1.0
+    assert abs(after["energy"] - start["energy"] - after["work"]) <= 1e-9
+
+
 def test_time_is_the_fmus(tmp_path: Path) -> None:
     """Kapitza's potential depends on t: started at t0 = 0.3 by FMPy it follows s2gen's run
     from t0 = 0.3, not the one from 0."""
