@@ -8,7 +8,9 @@ and method is the comparison, and the energy balance E - E0 - W closes the work.
 
 from __future__ import annotations
 
+import shutil
 import subprocess
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -204,6 +206,27 @@ def test_time_is_the_fmus(tmp_path: Path) -> None:
     got = _state(r, 1)
     assert np.abs(got - _reference(tr)[::10]).max() <= 1e-10
     assert np.abs(got - _reference(from_zero)[::10]).max() > 1e-3
+
+
+@pytest.mark.skipif(shutil.which("cmake") is None, reason="FMPy compiles source FMUs with CMake")
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_source_fmu_compiles_with_fmpy_and_matches_the_binary(tmp_path: Path, double, fmi):
+    from fmpy.build import build_platform_binary
+
+    shipped = export(double, tmp_path / "dd.fmu", fmi=fmi, h=0.01)
+    unzipped = tmp_path / "unzipped"
+    with zipfile.ZipFile(shipped) as z:
+        z.extractall(unzipped)
+    shutil.rmtree(unzipped / "binaries")
+    (tmp_path / "build").mkdir()
+    build_platform_binary(unzipped, build_dir=tmp_path / "build")
+    assert list((unzipped / "binaries").rglob("*.so"))
+    signal = _signal(("push",), _pieces(("push",), 0.5))
+    kwargs = {"stop_time": 0.5, "output_interval": DT, "input": signal}
+    built = fmpy.simulate_fmu(str(unzipped), **kwargs)
+    ours = fmpy.simulate_fmu(str(shipped), **kwargs)
+    assert np.abs(_state(built, 2) - _state(ours, 2)).max() <= 1e-12
+    assert np.abs(built["work"] - ours["work"]).max() <= 1e-12
 
 
 # ------------------------------------------------------------------ failures
