@@ -420,16 +420,23 @@ def markdown_table() -> str:
     return "\n".join(rows)
 
 
-#: The method families a driven module integrates (RATTLE and the adaptive ones refuse).
-DRIVEN_FAMILIES = (Family.VI, Family.FIXED_RK)
+#: The method families a driven module integrates (the adaptive ones refuse).
+DRIVEN_FAMILIES = (Family.VI, Family.RATTLE, Family.FIXED_RK)
 
 
-def driven_methods() -> tuple[str, ...]:
-    """The methods of a driven module: the VI family and the unprojected explicit
-    Runge-Kutta methods.
+def driven_methods(rattle: bool = True) -> tuple[str, ...]:
+    """The methods of a driven module: the VI and RATTLE families and the unprojected
+    explicit Runge-Kutta methods; without `rattle` (forces with a coupled M, whose RATTLE
+    velocity projection is not the VI's) the RATTLE family is left out.
 
     Example:
-        >>> driven_methods()
+        >>> driven_methods(rattle=False)
         ('vi', 'rk2', 'rk4', 'vi4', 'vi6', 'vi8', 'rk3')
     """
-    return tuple(m.name for m in METHODS if m.family in DRIVEN_FAMILIES and not m.project)
+    return tuple(
+        m.name
+        for m in METHODS
+        if m.family in DRIVEN_FAMILIES
+        and not m.project
+        and (rattle or m.family is not Family.RATTLE)
+    )

@@ -103,8 +103,8 @@ def test_driven_builtins_validate(tmp_path: Path, name: str) -> None:
     [
         ("me", "vi", "Co-Simulation only"),
         ("both", "vi", "Co-Simulation only"),
-        ("cs", "rattle", "steps with one of vi, rk2"),
-        ("cs", "dop853", "steps with one of vi, rk2"),
+        ("cs", "rattle", "takes forces only with a diagonal inertia yet"),
+        ("cs", "dop853", "does not integrate driven systems"),
     ],
 )
 def test_model_exchange_and_other_methods_are_refused(double, kind, method, words) -> None:
@@ -116,7 +116,8 @@ def test_model_exchange_and_other_methods_are_refused(double, kind, method, word
 # ------------------------------------------------------------------ Co-Simulation
 @pytest.mark.parametrize("fmi", [2, 3])
 @pytest.mark.parametrize(
-    ("which", "method", "h"), [("double", "vi", 0.01), ("inverted", "rk4", 0.005)]
+    ("which", "method", "h"),
+    [("double", "vi", 0.01), ("inverted", "rk4", 0.005), ("inverted", "rattle4", 0.005)],
 )
 def test_co_simulation_with_an_input_table_is_s2gen_simulate(
     tmp_path: Path, request: pytest.FixtureRequest, which: str, method: str, h: float, fmi: int
@@ -280,9 +281,12 @@ def test_driven_wrapper_is_strict_c99_and_cxx(tmp_path: Path, name: str, fmi: in
         assert proc.returncode == 0, proc.stderr
 
 
-def test_every_driven_method_is_offered(double) -> None:
-    for method in driven_methods():
+def test_every_driven_method_is_offered(double, inverted) -> None:
+    """Every method of s2gen's driven runs (RATTLE's with forces for a diagonal M only)."""
+    for method in driven_methods(rattle=False):
         assert describe(double, 3, "cs", method, 0.01).method == method
+    for method in driven_methods():
+        assert describe(inverted, 3, "cs", method).method == method
 
 
 def test_command_line_exports_a_driven_system(tmp_path: Path, capsys) -> None:

@@ -215,7 +215,7 @@ def test_time_is_a_name_of_potentials_only() -> None:
         ),
         (
             ["simulate", "--method", "rattle", "--h", "0.01", "--T", "0.1", "--out", "OUT"],
-            "method 'rattle' does not integrate driven systems (forces, inputs or time t) yet",
+            "method 'rattle' takes forces only with a diagonal inertia yet",
         ),
     ],
 )

@@ -129,7 +129,7 @@ def _parts(
     updates (diagonal M), dense solves over pair loops, or the structured solves (band
     elimination after the per-call context, products with M by `coupled_banded` or
     `coupled_chain`). A driven module steps with its own driver (`driven`: time, inputs,
-    forces and the work), built on the VI step and the field; uncoupled with
+    forces and the work), built on the VI and RATTLE steps and the field; uncoupled with
     forces it solves its velocity equations with `lu`."""
     chain = solver is InertiaKind.MAX_INDEX
     middle: tuple[str, ...]
@@ -148,7 +148,7 @@ def _parts(
     head = (*(("tables",) if tables else ()), *(("neighbours",) if cutoff else ()))
     if drive is not None:
         solve = ("lu",) if drive.forces and solver is InertiaKind.DIAGONAL else ()
-        return (*head, "kernels", "helpers", *solve, *middle, "driven")
+        return (*head, "kernels", "helpers", *solve, *middle, rattle, "driven")
     tail = ("vi_step", rattle, "rk", "rk_step", "driver", "step")
     return (*head, "kernels", "helpers", *middle, *tail)
 

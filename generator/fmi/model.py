@@ -26,8 +26,8 @@ import hashlib
 import uuid
 from dataclasses import dataclass
 
-from s2gen.methods import driven_methods
 from s2gen.methods import method as method_record
+from s2gen.runtime.driven import check_driven_method
 from s2gen.system import System
 
 __all__ = [
@@ -167,11 +167,7 @@ def _check_choices(system: System, fmi: int, kind: str, method: str) -> None:
                 f"--kind {kind}: a driven system's FMU is Co-Simulation only (the emitted rhs() "
                 "is the field at t = 0 with the default inputs, without the forces): use --kind cs"
             )
-        if method not in driven_methods():
-            raise ValueError(
-                f"--method {method}: a driven system's FMU steps with one of "
-                f"{', '.join(driven_methods())}"
-            )
+        check_driven_method(system, method)  # the rule of s2gen's own driven runs
         return
     record = method_record(method)
     if "c" not in record.backends or "sphere" not in record.kinds:
@@ -213,7 +209,7 @@ def describe(
     """The variables and experiment of an FMU of `system` (`kind` None: "both", "cs" for a
     driven system; `h`: the sub-step size, default the spec's [run] h). Raises ValueError for
     a choice the FMU cannot make: a driven system (forces, inputs or time t) is Co-Simulation
-    only, by one of `s2gen.methods.driven_methods()`.
+    only, by a method that integrates it (`s2gen.runtime.driven.check_driven_method`).
 
     Example:
         >>> import s2gen

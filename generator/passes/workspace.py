@@ -301,7 +301,8 @@ def _driven(module: Module, lays: _Layouts) -> Layout:
     substeps' alternating buffers (a, vc) and (b, vd), g and gn, the forces F and dF/dw,
     the velocity equations' terms c, Jacobian jc and matrix jm and their start w0, the VI's
     Newton start f, the Runge-Kutta stages k and stage state ys, the inputs a feedback writes
-    (ub), and the field's and the VI step's own workspace."""
+    (ub), RATTLE's velocities v and vr and its multipliers' start ss, and the field's and the
+    VI or RATTLE step's own workspace."""
     assert module.drive is not None
     m3, ns = _m3(module), _ns(module)
     forces, velocity = module.drive.forces, module.drive.velocity
@@ -320,8 +321,11 @@ def _driven(module: Module, lays: _Layouts) -> Layout:
         ("k", stages * ns),
         ("ys", ns),
         ("ub", len(module.drive.inputs)),
+        ("v", m3),
+        ("vr", m3),
+        ("ss", module.n if _coupled(module) else 0),
         ("field", lays.size("field")),
-        ("step", lays.size("vi_advance")),
+        ("step", max(lays.size("vi_advance"), lays.size("rattle_advance"))),
     )
 
 

@@ -19,8 +19,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from s2gen.inertia import InertiaKind
 from s2gen.ir import Module
-from s2gen.methods import METHODS, driven_methods
+from s2gen.methods import METHODS, Family, driven_methods
 
 __all__ = ["print_drive"]
 
@@ -51,7 +52,8 @@ def print_drive(module: Module) -> dict[str, Any]:
     if drive is None:
         return dict.fromkeys(_KEYS, ())
     name, upper = module.name, module.name.upper()
-    rows = [m for m in METHODS if m.name in driven_methods()]
+    rattle = not drive.forces or module.solver is InertiaKind.DIAGONAL
+    rows = [m for m in METHODS if m.name in driven_methods(rattle)]
     tableaus = {m.tableau.name: m.tableau for m in rows if m.tableau is not None}
     comps = {m.composition.name: m.composition for m in rows if m.composition is not None}
     methods = []
@@ -64,7 +66,15 @@ def print_drive(module: Module) -> dict[str, Any]:
             t = f"{name}_drive_{m.tableau.name}"
             a, b, c, count, stages = f"{t}_a", f"{t}_b", f"{t}_c", 0, m.tableau.stages
         methods.append(
-            {"c_name": m.c_name, "count": count, "stages": stages, "a": a, "b": b, "c": c}
+            {
+                "c_name": m.c_name,
+                "rattle": int(m.family is Family.RATTLE),
+                "count": count,
+                "stages": stages,
+                "a": a,
+                "b": b,
+                "c": c,
+            }
         )
     n3 = 3 * module.n
     jacobian = (

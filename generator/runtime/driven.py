@@ -38,21 +38,27 @@ Inputs = Any
 
 
 def check_driven_method(system: System, method: str) -> None:
-    """ValueError of one line when `method` does not integrate driven systems (yet).
+    """ValueError of one line when `method` does not integrate this driven system (yet).
 
     Example:
         >>> from s2gen.spec import define_system
         >>> s = define_system(name="p", bodies=1, parameters={}, diagonal=["1"],
         ...                   potential="cos(t)*q1[2]")
-        >>> check_driven_method(s, "rattle")
+        >>> check_driven_method(s, "rk45")
         Traceback (most recent call last):
         ...
-        ValueError: <python api>: method 'rattle' does not integrate driven systems (forces, inputs or time t) yet; choose one of vi, rk2, rk4, vi4, vi6, vi8, rk3
+        ValueError: <python api>: method 'rk45' does not integrate driven systems (forces, inputs or time t) yet; choose one of vi, rk2, rk4, vi4, rattle, vi6, vi8, rattle4, rattle6, rattle8, rk3
     """
-    if method not in driven_methods():
+    rattle = not system.forces or system.is_diagonal
+    if method in driven_methods() and method not in driven_methods(rattle):
+        raise ValueError(
+            f"{system.origin}: method {method!r} takes forces only with a diagonal inertia "
+            f"yet; choose one of {', '.join(driven_methods(rattle))}"
+        )
+    if method not in driven_methods(rattle):
         raise ValueError(
             f"{system.origin}: method {method!r} does not integrate driven systems (forces, "
-            f"inputs or time t) yet; choose one of {', '.join(driven_methods())}"
+            f"inputs or time t) yet; choose one of {', '.join(driven_methods(rattle))}"
         )
 
 
