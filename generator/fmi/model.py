@@ -119,7 +119,7 @@ class FmuModel:
     #: command line's defaults (as `s2gen simulate` takes them)
     rtol: float = 1e-3
     atol: float = 1e-6
-    #: a driven system: Co-Simulation only, the driven step(), inputs and the work output
+    #: a driven system: Co-Simulation only (the driven integrate(), inputs held), inputs, work
     driven: bool = False
 
     @property
