@@ -177,14 +177,17 @@ def fmu(
     system: System,
     out: str | Path,
     fmi: int = 2,
-    kind: str = "both",
+    kind: str | None = None,
     method: str = "vi",
     h: float | None = None,
 ) -> Path:
     """Write `system` as a Functional Mock-up Unit to `out` and return its path: FMI `fmi`
-    (2 or 3); `kind` "cs" (Co-Simulation), "me" (Model Exchange) or "both"; Co-Simulation
-    advances each communication interval by `method`'s steps of size `h` (default the spec's
-    [run] h; the FMU's `stepSize` parameter changes it). The archive holds the model
+    (2 or 3); `kind` "cs" (Co-Simulation), "me" (Model Exchange) or "both" (None: "both",
+    "cs" for a driven system); Co-Simulation advances each communication interval by
+    `method`'s steps of size `h` (default the spec's [run] h; the FMU's `stepSize` parameter
+    changes it). A driven system (forces, inputs or time t) is Co-Simulation only, by one of
+    `s2gen.methods.driven_methods()`: its inputs become FMI inputs held over each step, and
+    the output `work` is the work done on it since the start. The archive holds the model
     description, the sources (emitted C and the FMI wrapper) and a binary for this machine;
     it is byte-reproducible apart from the binary. The FMI headers come from FMPy
     (``pip install fmpy``).

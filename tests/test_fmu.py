@@ -317,8 +317,8 @@ def test_wrapper_is_strict_c99_and_cxx(tmp_path: Path, pendulum, fmi: int, metho
 
 
 def test_templates_read_only_the_record_and_are_all_laid_out(pendulum: s2gen.System) -> None:
-    """Every `f.NAME` a wrapper template reads is a field of WrapperSource; the four
-    combinations (FMI 2/3, fixed/adaptive) lay out every template of templates/fmu/."""
+    """Every `f.NAME` a wrapper template reads is a field of WrapperSource; the six
+    combinations (FMI 2/3, fixed/adaptive/driven) lay out every template of templates/fmu/."""
     from jinja2 import meta, nodes
 
     env = environment()
@@ -330,14 +330,15 @@ def test_templates_read_only_the_record_and_are_all_laid_out(pendulum: s2gen.Sys
                 and n.node.name == "f"}  # fmt: skip
         assert read <= fields, (path.name, read - fields)
         assert meta.find_undeclared_variables(tree) <= {"f"}
-    laid_out: set[str] = set()
-    for fmi in (2, 3):
-        for method in ("vi", "dop853"):
-            model = describe(pendulum, fmi, "both", method)
-            from s2gen.fmi.wrapper import source_record
+    from s2gen.fmi.wrapper import source_record
 
-            record = source_record(model)
-            laid_out |= {f"fmu/fmi{fmi}.c.jinja", "fmu/_core.jinja", record.advance_part}
+    laid_out: set[str] = {"fmu/_checks.jinja"}  # included by both instance partials
+    kapitza = s2gen.load("kapitza")
+    for fmi in (2, 3):
+        for system, kind, method in ((pendulum, "both", "vi"), (pendulum, "both", "dop853"),
+                                     (kapitza, "cs", "vi")):  # fmt: skip
+            record = source_record(describe(system, fmi, kind, method))
+            laid_out |= {f"fmu/fmi{fmi}.c.jinja", record.core_part, record.advance_part}
     assert {f"fmu/{p.name}" for p in every} == laid_out
 
 

@@ -6,8 +6,10 @@ Input: a `System` and the export choices. Output: the .fmu file: modelDescriptio
 source FMU, and a binary for this platform (`archive`). What the FMU declares (variables,
 value references, start values, default experiment) is one record (`model`).
 
-Conservative systems only, for now: parameters (tunable), outputs q1_x .. wn_z, energy,
-J_x, J_y, J_z, and in Co-Simulation the sub-step `stepSize`.
+Variables: parameters (tunable), outputs q1_x .. wn_z, energy, J_x, J_y, J_z, and in
+Co-Simulation the sub-step `stepSize`. A driven system (forces, inputs or time t) is
+Co-Simulation only, by one of its fixed-step methods: its inputs are FMI inputs (held over
+each step), its time is the FMU's, and it has the output `work`.
 
 Example:
     >>> import s2gen, tempfile, zipfile
@@ -31,7 +33,11 @@ __all__ = ["FMI_VERSIONS", "KINDS", "export", "fmu_files"]
 
 
 def fmu_files(
-    system: System, fmi: int = 2, kind: str = "both", method: str = "vi", h: float | None = None
+    system: System,
+    fmi: int = 2,
+    kind: str | None = None,
+    method: str = "vi",
+    h: float | None = None,
 ) -> dict[str, bytes]:
     """The entries of the FMU of `system` ({path in the archive: content}, in archive order).
 
@@ -49,12 +55,12 @@ def export(
     system: System,
     out: str | Path,
     fmi: int = 2,
-    kind: str = "both",
+    kind: str | None = None,
     method: str = "vi",
     h: float | None = None,
 ) -> Path:
     """Write the FMU of `system` to `out` and return its path: FMI `fmi` (2 or 3), `kind`
-    "cs", "me" or "both", Co-Simulation by `method` (any method of the emitted C; fixed-step
+    "cs", "me" or "both" (None: "both", "cs" for a driven system), Co-Simulation by `method` (any method of the emitted C; fixed-step
     ones sub-step each communication interval with `h`, default the spec's [run] h, which the
     FMU's `stepSize` parameter can change).
 

@@ -8,7 +8,7 @@ Example:
     >>> add_parser(p.add_subparsers(dest="command"))
     >>> a = p.parse_args(["fmu", "double_pendulum", "--out", "dp.fmu", "--fmi", "3"])
     >>> a.fmi, a.kind, a.method
-    (3, 'both', 'vi')
+    (3, None, 'vi')
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ examples:
   s2gen fmu double_pendulum --out double_pendulum.fmu
   s2gen fmu double_pendulum:g=1.62 --out moon.fmu --fmi 3 --kind cs --method vi4
   fmpy simulate double_pendulum.fmu --stop-time 10 --show-plot
+  s2gen fmu kapitza --out kapitza.fmu --method vi4
 """
 
 
@@ -37,8 +38,9 @@ def add_parser(subparsers: Any) -> None:
         description="Write SPEC as an FMU: model description, sources (a source FMU) and a "
         "binary for this machine. Co-Simulation advances each communication interval by "
         "--method's steps of size h (the FMU's stepSize parameter); Model Exchange gives the "
-        "continuous (q, w) field to the importer's solver. Needs FMPy's FMI headers (pip "
-        "install fmpy).",
+        "continuous (q, w) field to the importer's solver. A driven system (forces, inputs or "
+        "time t) is Co-Simulation only: its inputs are FMI inputs held over each step, and "
+        "`work` is the work done on it. Needs FMPy's FMI headers (pip install fmpy).",
         epilog=_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -48,8 +50,8 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument(
         "--kind",
         choices=("cs", "me", "both"),
-        default="both",
-        help="Co-Simulation, Model Exchange or both (default both)",
+        help="Co-Simulation, Model Exchange or both (default both; cs for a driven system, "
+        "whose FMU is Co-Simulation only)",
     )
     p.add_argument(
         "--method", choices=NAMES, default="vi", help="Co-Simulation's method (default vi)"
@@ -77,8 +79,9 @@ def run(args: argparse.Namespace) -> int:
     system = resolve(args.spec, args.param)
     start = time.perf_counter()
     path = export(system, out, fmi=args.fmi, kind=args.kind, method=args.method, h=args.h)
+    kind = args.kind or ("cs" if system.driven else "both")
     print(
-        f"{system.name}: FMI {args.fmi} FMU ({args.kind}, {args.method}) in "
+        f"{system.name}: FMI {args.fmi} FMU ({kind}, {args.method}) in "
         f"{time.perf_counter() - start:.2f} s: {path} ({path.stat().st_size} bytes)"
     )
     return 0

@@ -7,7 +7,8 @@ references of the XML and of the C code come from one place.
 
 Value references: 0 is time, then the parameters in the spec's order, the Co-Simulation
 sub-step size, the state (q1_x .. qn_z, then w1_x .. wn_z, body-major as the emitted C), the
-derivatives of the state (Model Exchange), the energy and J_x, J_y, J_z.
+derivatives of the state (Model Exchange), the energy and J_x, J_y, J_z; a driven system
+(forces, inputs or time t) then has the work done and its inputs in the spec's order.
 
 Example:
     >>> import s2gen
@@ -26,6 +27,7 @@ import uuid
 from dataclasses import dataclass
 
 from s2gen.methods import method as method_record
+from s2gen.runtime.driven import check_driven_method
 from s2gen.system import System
 
 __all__ = [
@@ -51,6 +53,7 @@ class Causality(enum.Enum):
 
     INDEPENDENT = "independent"
     PARAMETER = "parameter"
+    INPUT = "input"
     OUTPUT = "output"
     LOCAL = "local"
 
@@ -72,7 +75,8 @@ class Variable:
 
 @dataclass(frozen=True)
 class Layout:
-    """First value reference of each group (contiguous; `end` is one past the last)."""
+    """First value reference of each group (contiguous; `end` is one past the last). A closed
+    system has no work and no inputs: `work`, `inputs` and `end` are then equal."""
 
     time: int
     params: int
@@ -81,6 +85,8 @@ class Layout:
     derivatives: int
     energy: int
     momentum: int
+    work: int
+    inputs: int
     end: int
 
 
@@ -113,6 +119,8 @@ class FmuModel:
     #: command line's defaults (as `s2gen simulate` takes them)
     rtol: float = 1e-3
     atol: float = 1e-6
+    #: a driven system: Co-Simulation only (the driven integrate(), inputs held), inputs, work
+    driven: bool = False
 
     @property
     def guid(self) -> str:
@@ -148,24 +156,73 @@ def _state_variables(system: System, first: int) -> list[Variable]:
     return out
 
 
-def describe(system: System, fmi: int, kind: str, method: str, h: float | None = None) -> FmuModel:
-    """The variables and experiment of an FMU of `system` (`h`: the sub-step size, default
-    the spec's [run] h). Raises ValueError for a choice the FMU cannot make.
+def _check_choices(system: System, fmi: int, kind: str, method: str) -> None:
+    if fmi not in FMI_VERSIONS:
+        raise ValueError(f"--fmi {fmi}: choose 2 or 3")
+    if kind not in KINDS:
+        raise ValueError(f"--kind {kind!r}: choose one of {', '.join(KINDS)}")
+    if system.driven:
+        if kind != "cs":
+            raise ValueError(
+                f"--kind {kind}: a driven system's FMU is Co-Simulation only (the emitted rhs() "
+                "is the field at t = 0 with the default inputs, without the forces): use --kind cs"
+            )
+        check_driven_method(system, method)  # the rule of s2gen's own driven runs
+        return
+    record = method_record(method)
+    if "c" not in record.backends or "sphere" not in record.kinds:
+        raise ValueError(f"--method {method}: not a method of the emitted C")
+
+
+def _driven_variables(system: System, layout: Layout) -> list[Variable]:
+    """The work output and the inputs (start: the spec's defaults) of a driven system."""
+    out = [
+        Variable(
+            "work",
+            layout.work,
+            Causality.OUTPUT,
+            "continuous",
+            "calculated",
+            None,
+            "work done on the system since the start: the forces' and dV/dt's work over the "
+            "steps plus the jumps of the energy where an input or a parameter changes",
+        )
+    ]
+    for k, (name, value) in enumerate(zip(system.inputs.names, system.inputs.values)):
+        out.append(
+            Variable(
+                name,
+                layout.inputs + k,
+                Causality.INPUT,
+                "continuous",
+                None,
+                float(value),
+                f"input {name} of the spec, held over each step (zero-order hold)",
+            )
+        )
+    return out
+
+
+def describe(
+    system: System, fmi: int, kind: str | None, method: str, h: float | None = None
+) -> FmuModel:
+    """The variables and experiment of an FMU of `system` (`kind` None: "both", "cs" for a
+    driven system; `h`: the sub-step size, default the spec's [run] h). Raises ValueError for
+    a choice the FMU cannot make: a driven system (forces, inputs or time t) is Co-Simulation
+    only, by a method that integrates it (`s2gen.runtime.driven.check_driven_method`).
 
     Example:
         >>> import s2gen
         >>> m = describe(s2gen.load("double_pendulum"), fmi=3, kind="cs", method="vi")
         >>> m.model_exchange, m.layout.energy == m.layout.derivatives + 2 * m.nstate
         (False, True)
+        >>> k = describe(s2gen.load("kapitza"), fmi=2, kind=None, method="vi")
+        >>> k.co_simulation, k.model_exchange, k.variables[-1].name, k.variables[-1].vr
+        (True, False, 'work', 23)
     """
-    system.refuse_driven("exporting an FMU")
-    if fmi not in FMI_VERSIONS:
-        raise ValueError(f"--fmi {fmi}: choose 2 or 3")
-    if kind not in KINDS:
-        raise ValueError(f"--kind {kind!r}: choose one of {', '.join(KINDS)}")
+    kind = kind if kind is not None else ("cs" if system.driven else "both")
+    _check_choices(system, fmi, kind, method)
     record = method_record(method)
-    if "c" not in record.backends or "sphere" not in record.kinds:
-        raise ValueError(f"--method {method}: not a method of the emitted C")
     step = h if h is not None else system.run.h
     if step is None or not step > 0:
         raise ValueError(f"{system.origin}: no step size: give [run] h in the spec, or h > 0")
@@ -180,7 +237,9 @@ def describe(system: System, fmi: int, kind: str, method: str, h: float | None =
         derivatives=2 + np_ + 2 * nstate,
         energy=2 + np_ + 4 * nstate,
         momentum=3 + np_ + 4 * nstate,
-        end=6 + np_ + 4 * nstate,
+        work=6 + np_ + 4 * nstate,
+        inputs=6 + np_ + 4 * nstate + int(system.driven),
+        end=6 + np_ + 4 * nstate + int(system.driven) + len(system.inputs.names),
     )
     variables = [
         Variable("time", 0, Causality.INDEPENDENT, "continuous", None, None, "simulation time")
@@ -248,6 +307,8 @@ def describe(system: System, fmi: int, kind: str, method: str, h: float | None =
                 f"{axis} component of the angular momentum",
             )
         )
+    if system.driven:
+        variables += _driven_variables(system, layout)
     return FmuModel(
         name=system.name,
         fmi=fmi,
@@ -263,4 +324,5 @@ def describe(system: System, fmi: int, kind: str, method: str, h: float | None =
         description=f"{system.name} on (S^2)^{system.n}, generated by s2gen",
         rtol=system.run.rtol or 1e-3,
         atol=system.run.atol or 1e-6,
+        driven=system.driven,
     )

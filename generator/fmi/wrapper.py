@@ -2,8 +2,10 @@
 
 Input: an `FmuModel` and the emitted C files of its system. Output: {file name: C text},
 rendered by the one jinja environment from `templates/fmu/` (the FMI version's top-level
-template, the shared instance code `_core.jinja`, and the advance partial of the method's
-driver: fixed steps through the emitted `step()`, adaptive ones through `integrate()`). Every
+template, the instance code: `_core.jinja` of a closed system or `_core_driven.jinja` of a
+driven one, both with the shared checks `_checks.jinja`, and the advance partial of the
+method's driver: fixed steps through the emitted `step()`, adaptive ones through
+`integrate()`, a driven system's steps through its `integrate()` with the inputs held). Every
 value a template lays out is printed here as C text (numbers by the C printer's
 `double_literal`, strings as C string literals) and arrives in a frozen `WrapperSource`.
 
@@ -24,13 +26,13 @@ from fractions import Fraction
 import sympy as sp
 
 from s2gen.fmi.description import LOG_CATEGORY
-from s2gen.fmi.model import FmuModel, Layout
+from s2gen.fmi.model import Causality, FmuModel, Layout
 from s2gen.methods import Status
 from s2gen.methods import method as method_record
 from s2gen.printing.c import c_string, double_literal
 from s2gen.render import environment
 
-__all__ = ["TANGENT_TOLERANCE", "StatusText", "WrapperSource", "wrapper_files"]
+__all__ = ["TANGENT_TOLERANCE", "InputDefault", "StatusText", "WrapperSource", "wrapper_files"]
 
 #: A start value w_i is refused when |w_i . q_i| > this * (1 + |w_i|) (q_i must be a unit
 #: vector to the options' unit_tol, as integrate() asks).
@@ -40,6 +42,10 @@ TANGENT_TOLERANCE = 1e-9
 _TEMPLATES = {2: "fmu/fmi2.c.jinja", 3: "fmu/fmi3.c.jinja"}
 #: The partial that advances the state over a communication interval, by driver kind.
 _ADVANCE = {False: "fmu/_advance_fixed.jinja", True: "fmu/_advance_adaptive.jinja"}
+#: The instance code (state, variables, advance) of a closed and of a driven system.
+_CORE = {False: "fmu/_core.jinja", True: "fmu/_core_driven.jinja"}
+#: The advance partial of a driven system (its methods are all fixed-step).
+_ADVANCE_DRIVEN = "fmu/_advance_driven.jinja"
 
 
 #: FMI 3 variable types this FMU has none of (Float64 aside; Binary and Clock have their own
@@ -59,6 +65,14 @@ class StatusText:
 
 
 @dataclass(frozen=True)
+class InputDefault:
+    """A driven system's input: its index in u and its start value as a C literal."""
+
+    index: int
+    literal: str
+
+
+@dataclass(frozen=True)
 class WrapperSource:
     """What the wrapper templates lay out (every value already C text or an integer)."""
 
@@ -70,7 +84,9 @@ class WrapperSource:
     guid: str
     method: str
     method_enum: str
+    core_part: str
     advance_part: str
+    input_defaults: tuple[InputDefault, ...]
     step_size: str
     rtol: str
     atol: str
@@ -101,7 +117,13 @@ def source_record(model: FmuModel) -> WrapperSource:
         guid=model.guid,
         method=model.method,
         method_enum=f"{macro}_{record.c_name}",
-        advance_part=_ADVANCE[model.adaptive],
+        core_part=_CORE[model.driven],
+        advance_part=_ADVANCE_DRIVEN if model.driven else _ADVANCE[model.adaptive],
+        input_defaults=tuple(
+            InputDefault(v.vr - model.layout.inputs, _literal(v.start))
+            for v in model.variables
+            if v.causality is Causality.INPUT and v.start is not None
+        ),
         step_size=_literal(model.default_experiment.step_size),
         rtol=_literal(model.rtol),
         atol=_literal(model.atol),
