@@ -35,6 +35,7 @@ __all__ = [
     "BACKENDS",
     "COMPOSITIONS",
     "CONTROLS",
+    "DRIVEN_ADAPTIVE",
     "DRIVEN_FAMILIES",
     "KAHAN_LI8",
     "KINDS",
@@ -420,23 +421,27 @@ def markdown_table() -> str:
     return "\n".join(rows)
 
 
-#: The method families a driven module integrates (the adaptive ones refuse).
+#: The method families a driven module integrates, and its adaptive methods (DOP853 not yet).
 DRIVEN_FAMILIES = (Family.VI, Family.RATTLE, Family.FIXED_RK)
+DRIVEN_ADAPTIVE = ("rk45",)
 
 
-def driven_methods(rattle: bool = True) -> tuple[str, ...]:
-    """The methods of a driven module: the VI and RATTLE families and the unprojected
-    explicit Runge-Kutta methods; without `rattle` (forces with a coupled M, whose RATTLE
-    velocity projection is not the VI's) the RATTLE family is left out.
+def driven_methods(rattle: bool = True, adaptive: bool = True) -> tuple[str, ...]:
+    """The methods of a driven module: the VI and RATTLE families, the unprojected explicit
+    Runge-Kutta methods and RK45; without `rattle` (forces with a coupled M, whose RATTLE
+    velocity projection is not the VI's) the RATTLE family is left out, without `adaptive`
+    RK45.
 
     Example:
-        >>> driven_methods(rattle=False)
+        >>> driven_methods(rattle=False, adaptive=False)
         ('vi', 'rk2', 'rk4', 'vi4', 'vi6', 'vi8', 'rk3')
     """
     return tuple(
         m.name
         for m in METHODS
-        if m.family in DRIVEN_FAMILIES
-        and not m.project
+        if (
+            (m.family in DRIVEN_FAMILIES and not m.project)
+            or (adaptive and m.name in DRIVEN_ADAPTIVE)
+        )
         and (rattle or m.family is not Family.RATTLE)
     )

@@ -42,7 +42,7 @@ ORDERS |= {"rattle": 2, "rattle4": 4, "rattle6": 6, "rattle8": 8}
 RUNS = [
     (case, method)
     for case in sorted(CASES)
-    for method in driven_methods(rattle=case != "driven_double")
+    for method in driven_methods(rattle=case != "driven_double", adaptive=False)
 ]
 
 
@@ -205,7 +205,7 @@ def test_a_failing_feedback_stops_the_run_with_its_reason(law: object, fragment:
     assert "the input function at t = 0" in str(err.value) and "\n" not in str(err.value)
 
 
-@pytest.mark.parametrize("method", ["rk45", "dop853", "rk2-proj"])
+@pytest.mark.parametrize("method", ["dop853", "rk2-proj"])
 def test_methods_that_do_not_drive_yet_are_refused(method: str) -> None:
     with pytest.raises(ValueError, match=f"method '{method}' does not integrate driven"):
         s2gen.simulate(CASES["driven_timed"](), method, h=0.01, T=0.1)
@@ -330,3 +330,43 @@ def test_joint_damping_as_a_pair_term(method: str) -> None:
 def test_rattle_on_numpy_is_refused_for_driven_systems() -> None:
     with pytest.raises(ValueError, match="method 'rattle' integrates driven systems on the c"):
         s2gen.simulate(CASES["driven_timed"](), "rattle", backend="numpy", h=0.01, T=0.1)
+
+
+@pytest.mark.parametrize("case", ["driven_double", "driven_ring", "driven_timed"])
+def test_rk45_agrees_with_scipy_on_the_forced_field(case: str) -> None:
+    """The emitted RK45 of a driven system (each output interval in adaptive steps with its
+    inputs held, stages at their own times) against SciPy's DOP853 at 1e-12 on the
+    reference's forced field (`s2gen.reference.forced.driven_rhs`) with the same held inputs,
+    the work as one more component W' = P; rtol 1e-10 gives agreement to about 1e-8."""
+    from scipy.integrate import solve_ivp
+
+    from s2gen.reference.forced import driven_rhs
+
+    system = CASES[case]()
+    problem = driven_problem_from_system(system)
+    h, n = 0.02, 25
+    rng = np.random.default_rng(3)
+    U = rng.normal(size=(n, len(system.inputs.names)))
+    opts = s2gen.Options(rtol=1e-10, atol=1e-12)
+    tr = quiet_simulate(system, "rk45", h=h, T=n * h, t0=0.3, inputs=U, options=opts)
+    shape = system.q0.shape
+    y = np.concatenate([system.q0.ravel(), system.omega0.ravel(), [0.0]])
+    for k in range(n):
+
+        def rhs(t: float, y: np.ndarray, u: np.ndarray = U[k]) -> np.ndarray:
+            q = y[: system.n * 3].reshape(shape)
+            w = y[system.n * 3 : system.n * 6].reshape(shape)
+            dq, dw = driven_rhs(problem, t, q, w, u)
+            return np.concatenate([dq.ravel(), dw.ravel(), [problem.power(q, w, t, u)]])
+
+        t0 = 0.3 + k * h
+        y = solve_ivp(rhs, (t0, t0 + h), y, method="DOP853", rtol=1e-12, atol=1e-12).y[:, -1]
+    q, w, W = y[: system.n * 3], y[system.n * 3 : system.n * 6], y[-1]
+    assert np.max(np.abs(tr.q[-1].ravel() - q)) < 1e-7
+    assert np.max(np.abs(tr.omega[-1].ravel() - w)) < 1e-7 * max(1.0, np.max(np.abs(w)))
+    jumps = sum(
+        problem.V(ref_q, 0.3 + k * h, U[k]) - problem.V(ref_q, 0.3 + k * h, U[k - 1])
+        for k, ref_q in ((k, tr.q[k]) for k in range(1, n))
+    )
+    assert abs(tr.work[-1] - (W + jumps)) < 1e-7 * max(1.0, abs(W))  # type: ignore[index]
+    assert tr.stats["rejected"] >= 0 and tr.stats["steps"] >= n

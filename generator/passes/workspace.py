@@ -26,7 +26,7 @@ from s2gen.inertia import InertiaKind
 from s2gen.ir import Band, Buffer, Layout, LoopKind, Module, ModuleKind, TermLoop
 from s2gen.methods import METHODS, explicit_tableaus
 from s2gen.parts import selected
-from s2gen.tableaus import DOP853
+from s2gen.tableaus import DOP853, DOPRI5
 
 __all__ = ["CONTEXT", "band", "bands", "layout", "padded", "workspace_pass"]
 
@@ -300,7 +300,8 @@ def _driven(module: Module, lays: _Layouts) -> Layout:
     call, all reading the same `work`: the state and the next (qk, wk, q1, w1), the
     substeps' alternating buffers (a, vc) and (b, vd), g and gn, the forces F and dF/dw,
     the velocity equations' terms c, Jacobian jc and matrix jm and their start w0, the VI's
-    Newton start f, the Runge-Kutta stages k and stage state ys, the inputs a feedback writes
+    Newton start f, the Runge-Kutta stages k (RK45's seven at least), the stage state ys and
+    RK45's accepted state yk, the inputs a feedback writes
     (ub), RATTLE's velocities v and vr and its multipliers' start ss, and the field's and the
     VI or RATTLE step's own workspace."""
     assert module.drive is not None
@@ -318,8 +319,9 @@ def _driven(module: Module, lays: _Layouts) -> Layout:
             else ()
         ),
         ("f", m3 if _coupled(module) else 0),
-        ("k", stages * ns),
+        ("k", max(stages, DOPRI5.stages) * ns),
         ("ys", ns),
+        ("yk", ns),
         ("ub", len(module.drive.inputs)),
         ("v", m3),
         ("vr", m3),

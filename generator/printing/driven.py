@@ -13,7 +13,7 @@ Example:
     ...                   diagonal=["2"], potential=0, forces={"F1": "tau*cross(e3, q1)"})
     >>> d = print_drive(lower_system(s))
     >>> d["defaults"], d["limit"], [x["c_name"] for x in d["methods"]][:2]
-    ('0.0, 1.5', '1', ['METHOD_VI', 'METHOD_RK2'])
+    ('0.0, 1.5', '1', ['METHOD_VI', 'METHOD_RK45'])
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from s2gen.inertia import InertiaKind
 from s2gen.ir import Module
 from s2gen.methods import METHODS, Family, driven_methods
 from s2gen.printing.numpy import py_drive
+from s2gen.tableaus import DOPRI5
 
 __all__ = ["print_drive"]
 
@@ -41,6 +42,7 @@ _KEYS = (
     "tableaus",
     "compositions",
     "methods",
+    "dp_c",
     "vi_methods",
     "rk_methods",
 )
@@ -62,6 +64,20 @@ def print_drive(module: Module) -> dict[str, Any]:
     comps = {m.composition.name: m.composition for m in rows if m.composition is not None}
     methods = []
     for m in rows:
+        if m.family is Family.ADAPTIVE_RK:
+            methods.append(
+                {
+                    "c_name": m.c_name,
+                    "adaptive": 1,
+                    "rattle": 0,
+                    "count": 0,
+                    "stages": 0,
+                    "a": "NULL",
+                    "b": "NULL",
+                    "c": "NULL",
+                }
+            )
+            continue
         if m.composition is not None:
             a, b, c = f"{name}_drive_{m.composition.name}", "NULL", "NULL"
             count, stages = len(m.composition.fractions), 0
@@ -72,6 +88,7 @@ def print_drive(module: Module) -> dict[str, Any]:
         methods.append(
             {
                 "c_name": m.c_name,
+                "adaptive": 0,
                 "rattle": int(m.family is Family.RATTLE),
                 "count": count,
                 "stages": stages,
@@ -146,6 +163,7 @@ def print_drive(module: Module) -> dict[str, Any]:
             for c in comps.values()
         ),
         "methods": tuple(methods),
+        "dp_c": _lits(DOPRI5.c),
         # per method: its enum constant, its table and its gradient (or field) evaluations
         "vi_methods": tuple(
             {
