@@ -347,15 +347,15 @@ _DRIVEN_STEP = Function(
         _p("iters", Kind.INT_OUT, True),
     ),
     "One step of size h of a driven method (METHOD_*: the VI and RATTLE families, the "
-    "Runge-Kutta methods; RK45 covers the step in adaptive steps under opt's tolerances, its "
-    "first one estimated afresh) from (q, w) at time t to (qn, wn) at t + h, the inputs u (NINPUTS doubles, in "
+    "Runge-Kutta methods; RK45 and DOP853 cover the step in adaptive steps under opt's "
+    "tolerances, the first one estimated afresh) from (q, w) at time t to (qn, wn) at t + h, the inputs u (NINPUTS doubles, in "
     "the order of input_names; NULL: their defaults) held over the step (zero-order hold: "
     "every evaluation inside the step, at its end too, reads u). W (may be NULL) receives the "
     "work done on the system during the step: (h/2)(P + P+) per VI substep, the method's own "
     "quadrature of P for Runge-Kutta, P = dV/dt + sum_i F_i . qdot_i. Newton starts cold; "
     "iters (may be NULL) receives its iterations (those of the velocity equations of "
     "velocity-dependent forces included). Returns OK or a status: ERR_ARGUMENT for h <= 0 or "
-    "a method that is not driven (DOP853), ERR_NONFINITE for a non-finite input or state, the "
+    "a method that is not driven (rk2-proj), ERR_NONFINITE for a non-finite input or state, the "
     "step's own failures as integrate() reports them.",
 )
 
@@ -382,7 +382,7 @@ _DRIVEN_INTEGRATE = Function(
         _p("stats", Kind.STATS, True),
     ),
     "Integrate nsteps steps of size h (the VI and RATTLE families, the Runge-Kutta methods; "
-    "RK45 covers each in adaptive steps, the step size carried from one to the next) from "
+    "RK45 and DOP853 cover each in adaptive steps, the step size carried from one to the next) from "
     "(q0, w0) at time t0 with `method` (METHOD_*), step k running from t0 + k h to "
     "t0 + (k + 1) h with the inputs u_k held over it: from `feedback`, when not NULL, called "
     "once per step as feedback(fctx, t_k, q_k, w_k, u_k) to write the NINPUTS inputs from the "
@@ -394,7 +394,7 @@ _DRIVEN_INTEGRATE = Function(
     "jumps of V where a held input changes, so that E_k - E_0 - W_k is the energy-balance "
     "error. opt NULL means the defaults of default_options(); stats may be NULL. Returns OK "
     "or a status code: ERR_ARGUMENT for h <= 0, nsteps < 0, an every that does not divide "
-    "nsteps, a method that is not driven (DOP853), or a q0_i that is not a unit vector "
+    "nsteps, a method that is not driven (rk2-proj), or a q0_i that is not a unit vector "
     "(stats->fail_body names it); ERR_NONFINITE for a non-finite input (stats->fail_step: "
     "the samples before it are valid) or state; on a failed step the samples before "
     "stats->fail_step are valid.",

@@ -421,16 +421,16 @@ def markdown_table() -> str:
     return "\n".join(rows)
 
 
-#: The method families a driven module integrates, and its adaptive methods (DOP853 not yet).
+#: The method families a driven module integrates, and its adaptive methods.
 DRIVEN_FAMILIES = (Family.VI, Family.RATTLE, Family.FIXED_RK)
-DRIVEN_ADAPTIVE = ("rk45",)
+DRIVEN_ADAPTIVE = ("rk45", "dop853")
 
 
 def driven_methods(rattle: bool = True, adaptive: bool = True) -> tuple[str, ...]:
     """The methods of a driven module: the VI and RATTLE families, the unprojected explicit
-    Runge-Kutta methods and RK45; without `rattle` (forces with a coupled M, whose RATTLE
-    velocity projection is not the VI's) the RATTLE family is left out, without `adaptive`
-    RK45.
+    Runge-Kutta methods, RK45 and DOP853; without `rattle` (forces with a coupled M, whose
+    RATTLE velocity projection is not the VI's) the RATTLE family is left out, without
+    `adaptive` RK45 and DOP853.
 
     Example:
         >>> driven_methods(rattle=False, adaptive=False)

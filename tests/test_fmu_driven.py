@@ -104,7 +104,7 @@ def test_driven_builtins_validate(tmp_path: Path, name: str) -> None:
         ("me", "vi", "Co-Simulation only"),
         ("both", "vi", "Co-Simulation only"),
         ("cs", "rattle", "takes forces only with a diagonal inertia yet"),
-        ("cs", "dop853", "does not integrate driven systems"),
+        ("cs", "rk2-proj", "does not integrate driven systems"),
     ],
 )
 def test_model_exchange_and_other_methods_are_refused(double, kind, method, words) -> None:

@@ -108,7 +108,7 @@ _DRIVEN = Part(
     module_sites=_stage_sites,
     buffers=(
         ("driven", ("qk", "wk", "q1", "w1", "a", "b", "vc", "vd", "g", "gn", "F", "Fw")),
-        ("driven", ("c", "jc", "jm", "w0", "f", "k", "ys", "yk", "ub", "v", "vr", "ss")),
+        ("driven", ("c", "jc", "jm", "w0", "f", "k", "ys", "yk", "yd", "ub", "v", "vr", "ss")),
         ("driven", ("field",)),
         ("driven", ("step",)),
     ),

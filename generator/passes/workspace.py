@@ -300,8 +300,9 @@ def _driven(module: Module, lays: _Layouts) -> Layout:
     call, all reading the same `work`: the state and the next (qk, wk, q1, w1), the
     substeps' alternating buffers (a, vc) and (b, vd), g and gn, the forces F and dF/dw,
     the velocity equations' terms c, Jacobian jc and matrix jm and their start w0, the VI's
-    Newton start f, the Runge-Kutta stages k (RK45's seven at least), the stage state ys and
-    RK45's accepted state yk, the inputs a feedback writes
+    Newton start f, the Runge-Kutta stages k (DOP853's thirteen at least), the stage state ys,
+    the adaptive methods' accepted state yk and DOP853's trial state yd, the inputs a feedback
+    writes
     (ub), RATTLE's velocities v and vr and its multipliers' start ss, and the field's and the
     VI or RATTLE step's own workspace."""
     assert module.drive is not None
@@ -319,9 +320,10 @@ def _driven(module: Module, lays: _Layouts) -> Layout:
             else ()
         ),
         ("f", m3 if _coupled(module) else 0),
-        ("k", max(stages, DOPRI5.stages) * ns),
+        ("k", max(stages, DOPRI5.stages, DOP853.stages + 1) * ns),
         ("ys", ns),
         ("yk", ns),
+        ("yd", ns),
         ("ub", len(module.drive.inputs)),
         ("v", m3),
         ("vr", m3),

@@ -24,7 +24,7 @@ from s2gen.inertia import InertiaKind
 from s2gen.ir import Module
 from s2gen.methods import METHODS, Family, driven_methods
 from s2gen.printing.numpy import py_drive
-from s2gen.tableaus import DOPRI5
+from s2gen.tableaus import DOP853, DOPRI5
 
 __all__ = ["print_drive"]
 
@@ -43,6 +43,8 @@ _KEYS = (
     "compositions",
     "methods",
     "dp_c",
+    "dop_c",
+    "dop_b",
     "vi_methods",
     "rk_methods",
 )
@@ -68,7 +70,7 @@ def print_drive(module: Module) -> dict[str, Any]:
             methods.append(
                 {
                     "c_name": m.c_name,
-                    "adaptive": 1,
+                    "adaptive": 1 if m.name == "rk45" else 2,
                     "rattle": 0,
                     "count": 0,
                     "stages": 0,
@@ -164,6 +166,8 @@ def print_drive(module: Module) -> dict[str, Any]:
         ),
         "methods": tuple(methods),
         "dp_c": _lits(DOPRI5.c),
+        "dop_c": _lits(DOP853.c),
+        "dop_b": _lits(DOP853.b),
         # per method: its enum constant, its table and its gradient (or field) evaluations
         "vi_methods": tuple(
             {

@@ -45,10 +45,10 @@ def check_driven_method(system: System, method: str, backend: str = "c") -> None
         >>> from s2gen.spec import define_system
         >>> s = define_system(name="p", bodies=1, parameters={}, diagonal=["1"],
         ...                   potential="cos(t)*q1[2]")
-        >>> check_driven_method(s, "dop853")
+        >>> check_driven_method(s, "rk2-proj")
         Traceback (most recent call last):
         ...
-        ValueError: <python api>: method 'dop853' does not integrate driven systems (forces, inputs or time t) yet; choose one of vi, rk45, rk2, rk4, vi4, rattle, vi6, vi8, rattle4, rattle6, rattle8, rk3
+        ValueError: <python api>: method 'rk2-proj' does not integrate driven systems (forces, inputs or time t) yet; choose one of vi, rk45, rk2, rk4, vi4, rattle, vi6, vi8, rattle4, rattle6, rattle8, dop853, rk3
     """
     numpy = driven_methods(rattle=False, adaptive=False)
     if backend == "numpy" and method in driven_methods() and method not in numpy:
