@@ -371,3 +371,18 @@ def test_adaptive_methods_agree_with_scipy_on_the_forced_field(case: str, method
     )
     assert abs(tr.work[-1] - (W + jumps)) < 1e-7 * max(1.0, abs(W))  # type: ignore[index]
     assert tr.stats["rejected"] >= 0 and tr.stats["steps"] >= n
+
+
+@pytest.mark.parametrize("method", ["vi", "rattle4", "rk4", "rk45"])
+def test_model_step_of_a_driven_system_is_a_one_step_run(method: str) -> None:
+    """Model.step(q, w, h, t=, u=) (the emitted step() called directly) returns what a
+    one-step run from t with u held does, bit for bit; a bad input falls back to the checked
+    run and its one-line error."""
+    system = CASES["driven_ring"]()
+    model = s2gen.compile(system)
+    u = [0.3, -0.2]
+    q, w = model.step(system.q0, system.omega0, 0.01, method, t=0.7, u=u)
+    tr = quiet_simulate(system, method, h=0.01, T=0.01, t0=0.7, inputs=np.array([u]), energy=False)
+    assert np.array_equal(q, tr.q[-1]) and np.array_equal(w, tr.omega[-1])
+    with pytest.raises(ValueError, match=r"inputs of shape \(1, 1\): expected \(1, 2\)"):
+        model.step(system.q0, system.omega0, 0.01, method, t=0.7, u=[0.3])

@@ -258,6 +258,51 @@ class CBackend:
         )
         return status, q, w, en, work, lib.stats(stats)
 
+    def step_driven(
+        self,
+        method_name: str,
+        h: float,
+        q: np.ndarray,
+        w: np.ndarray,
+        params: np.ndarray,
+        options: Options,
+        t: float,
+        u: np.ndarray | None,
+    ) -> tuple[int, np.ndarray, np.ndarray]:
+        """One call of a driven module's step() from (q, w) at t with u held (None: the
+        defaults): (status, q+, w+). The options struct is built once per Options object.
+
+        Example:
+            >>> from s2gen.spec import define_system
+            >>> s = define_system(name="spin", bodies=1, parameters={}, inputs={"tau": 1.0},
+            ...                   diagonal=["2"], potential=0,
+            ...                   forces={"F1": "tau*cross(e3, q1)"})
+            >>> be, q0 = CBackend(s), np.array([[1.0, 0, 0]])
+            >>> st, q, w = be.step_driven("vi", 0.1, q0, 0 * q0, be.default_params(),
+            ...                           Options(), 0.0, np.array([2.0]))
+            >>> st, w.round(12).tolist()  # w+ = h tau / m
+            (0, [[0.0, 0.0, 0.1]])
+        """
+        if getattr(self, "_step_options", (None,))[0] is not options:
+            self._step_options = (options, self.library.options(options))
+        qn, wn = np.empty_like(q), np.empty_like(w)
+        status = self._fn["step"](
+            params,
+            ctypes.byref(self._step_options[1]),
+            method(method_name).code,
+            t,
+            h,
+            pointer(u),
+            q,
+            w,
+            qn,
+            wn,
+            None,
+            self.work,
+            None,
+        )
+        return int(status), qn, wn
+
     def integrate(
         self,
         method_name: str,

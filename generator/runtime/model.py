@@ -14,6 +14,7 @@ Example:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -29,6 +30,9 @@ if TYPE_CHECKING:
     from s2gen.runtime.stepper import Stepper
 
 __all__ = ["Model"]
+
+#: The options of a step given none (one object, so that its C struct is built once).
+_DEFAULT_OPTIONS = Options()
 
 
 class Model:
@@ -149,10 +153,53 @@ class Model:
             if done is not None:
                 return done
         inputs = None if u is None else np.reshape(np.asarray(u, dtype=float), (1, -1))
+        if self.system.driven and self.backend_name == "c":
+            done = self._driven_step(q, omega, h, method, options, params, t, inputs)
+            if done is not None:
+                return done
         tr = self.integrate(
             method, h, h, q, omega, options, params, energy=False, t0=t, inputs=inputs
         )
         return tr.q[-1], tr.omega[-1]
+
+    def _driven_step(
+        self,
+        q: np.ndarray,
+        omega: np.ndarray,
+        h: float,
+        method: str,
+        options: Options | None,
+        params: Mapping[str, float] | None,
+        t: float,
+        inputs: np.ndarray | None,
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """A driven system's step through the emitted step() when the arguments are plainly
+        valid (else None: the checked one-step `integrate` decides, and reports a failure)."""
+        from s2gen.methods import driven_methods
+
+        n = self.system.n
+        if method not in driven_methods() or not (isinstance(h, float) and h > 0.0):
+            return None
+        if not (isinstance(t, (int, float)) and math.isfinite(t)):
+            return None
+        qa, wa = _state(q), _state(omega)
+        if qa.shape != (n, 3) or wa.shape != (n, 3):
+            return None
+        if not (np.all(np.isfinite(qa)) and np.all(np.isfinite(wa))):
+            return None
+        u = None
+        if inputs is not None:
+            u = np.ascontiguousarray(inputs.reshape(-1))
+            if u.shape != (len(self.system.inputs.names),) or not np.all(np.isfinite(u)):
+                return None
+        try:
+            p = self.params(params)
+        except ValueError:
+            return None
+        status, qn, wn = self._backend.step_driven(  # type: ignore[attr-defined]
+            method, h, qa, wa, p, options or _DEFAULT_OPTIONS, float(t), u
+        )
+        return (qn, wn) if status == 0 else None
 
     def stepper(
         self,
