@@ -400,15 +400,45 @@ _DRIVEN_INTEGRATE = Function(
     "stats->fail_step are valid.",
 )
 
+_DRIVEN_FIELD = Function(
+    "field_at",
+    Kind.INT,
+    (
+        _p("p", _CA),
+        _p("t", _D),
+        _p("u", _CA, True),
+        _p("q", _CA),
+        _p("w", _CA),
+        _p("dq", _A),
+        _p("dw", _A),
+        _p("work", _A),
+    ),
+    "The driven continuous equations at time t with the inputs u (NINPUTS doubles; NULL: the "
+    "defaults): qdot_i = omega_i x q_i and A(q) omegadot = b + q x F, the forces included "
+    "(for a solver of the caller's). Returns OK or a status (ERR_NONFINITE for a non-finite "
+    "input).",
+)
+
+_DRIVEN_ENERGY = Function(
+    "energy_at",
+    Kind.DOUBLE,
+    (_p("p", _CA), _p("t", _D), _p("u", _CA, True), _p("q", _CA), _p("w", _CA)),
+    "Total energy, kinetic plus V(q, t, u), at time t with the inputs u (NULL: the defaults).",
+)
+
 #: What a driven module (forces, inputs or time) replaces: step() takes the time and the
 #: inputs and integrate() the start time, the inputs and the work; vi_step, rk_step and
 #: step_start (whose steps know no time) are absent.
 _DRIVEN_DROPS = ("vi_step", "rk_step", "step_start")
 _DRIVEN = Interface(
-    functions=tuple(
-        {"step": _DRIVEN_STEP, "integrate": _DRIVEN_INTEGRATE}.get(f.name, f)
-        for f in _SPHERE.functions
-        if f.name not in _DRIVEN_DROPS
+    functions=(
+        *(
+            {"step": _DRIVEN_STEP, "integrate": _DRIVEN_INTEGRATE}.get(f.name, f)
+            for f in _SPHERE.functions
+            if f.name not in _DRIVEN_DROPS
+        ),
+        _DRIVEN_FIELD,
+        _DRIVEN_ENERGY,
     ),
     options=_SPHERE.options,
     stats=_SPHERE.stats,

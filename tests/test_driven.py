@@ -386,3 +386,29 @@ def test_model_step_of_a_driven_system_is_a_one_step_run(method: str) -> None:
     assert np.array_equal(q, tr.q[-1]) and np.array_equal(w, tr.omega[-1])
     with pytest.raises(ValueError, match=r"inputs of shape \(1, 1\): expected \(1, 2\)"):
         model.step(system.q0, system.omega0, 0.01, method, t=0.7, u=[0.3])
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_the_driven_field_and_energy_at_t_and_u(case: str) -> None:
+    """NAME_field_at and NAME_energy_at (for a solver of the caller's) against the reference's
+    forced field and energy at a random time, inputs and state."""
+    from s2gen.reference.forced import driven_rhs
+    from s2gen.runtime.c import CBackend
+
+    system = CASES[case]()
+    be, problem = CBackend(system), driven_problem_from_system(system)
+    rng = np.random.default_rng(11)
+    q = system.q0 + 0.1 * rng.normal(size=system.q0.shape)
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    w = np.cross(q, rng.normal(size=q.shape))  # tangent
+    u = rng.normal(size=len(system.inputs.names))
+    t, p = 0.37, be.default_params()
+    dq, dw = np.zeros(q.size), np.zeros(q.size)
+    uu = u if u.size else None
+    status = be._fn["field_at"](p, t, None if uu is None else uu.ctypes.data, q, w, dq, dw, be.work)
+    rq, rw = driven_rhs(problem, t, q, w, u)
+    assert status == 0
+    assert np.max(np.abs(dq.reshape(q.shape) - rq)) < 1e-12
+    assert np.max(np.abs(dw.reshape(q.shape) - rw)) < 1e-10 * max(1.0, np.max(np.abs(rw)))
+    e = be._fn["energy_at"](p, t, None if uu is None else uu.ctypes.data, q, w)
+    assert abs(e - problem.energy(q, w, t, u)) < 1e-12 * max(1.0, abs(e))
