@@ -15,8 +15,8 @@ free of those calls:
 3. the outputs, reading the buffers, and recomputing the cheap temporaries (sums and products
    of the inputs) rather than storing them.
 
-Every operation stays the same IEEE operation on the same operands, so the split loops give the
-same numbers bit for bit as the single loop.
+Each pair's operations stay the same IEEE operations on the same operands; only the row's sums,
+a SIMD reduction once the loop vectorises, are added in another order.
 
 Example:
     >>> import sympy as sp
