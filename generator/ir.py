@@ -49,6 +49,7 @@ __all__ = [
     "Buffer",
     "Call",
     "Drive",
+    "Fission",
     "Kernel",
     "KernelDef",
     "Layout",
@@ -162,6 +163,25 @@ class Loop:
 
 
 @dataclass(frozen=True)
+class Fission:
+    """A pair kernel's inline loop split at its calls of libm functions (`s2gen.passes.fission`).
+
+    Three loops over the same partners: `first` computes the call-free temporaries that
+    `stores` need and writes buffer k := stores[k][1] (a call's argument, or a temporary worth
+    keeping); the calls then set buffer k := calls[k](buffer k) for each k with a call; `last`
+    computes the outputs, reading buffer k as the symbol stores[k][0]. A call in `calls` is
+    applied to the symbol `ARG`.
+    """
+
+    first: tuple[Assignment, ...]
+    stores: tuple[tuple[sp.Symbol, sp.Expr], ...]
+    calls: tuple[sp.Expr | None, ...]
+    last: tuple[Assignment, ...]
+
+    ARG = sp.Symbol("fission_arg", real=True)
+
+
+@dataclass(frozen=True)
 class TermLoop:
     """One structured potential term: its loop, kernels and per-member data tables.
 
@@ -184,6 +204,9 @@ class TermLoop:
     #: (datum, width, body of the member (0 or 1)) of each per-body array the kernels read,
     #: in their argument order (kernel argument b_<datum><i or j>, or b_<datum> in body terms)
     body_data: tuple[tuple[str, int, int], ...] = ()
+    #: the rows gradient loop split at its calls so that the call-free parts vectorise
+    #: (`layout`; None: one loop)
+    fission: Fission | None = None
 
 
 @dataclass(frozen=True)

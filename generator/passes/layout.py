@@ -7,7 +7,9 @@ Input: a `Module`. Output: the same module with
   structure-of-arrays copies of q (and of g for the gradient) kept in the workspace, with the
   term's kernel written inline and the row's sums as OpenMP SIMD reductions; per-body data are
   read from their tables by body index (body i once per row, the partners j in order:
-  contiguous for numbers, every third double for a 3-vector's component);
+  contiguous for numbers, every third double for a 3-vector's component); when the gradient
+  kernel calls a libm function (exp, log, ...), which gcc does not vectorise, its row loop is
+  split at the calls (`s2gen.passes.fission`) so that the rest vectorises;
 - every term over the pairs within a cutoff whose value is symmetric in its two bodies (the
   same number with qi and qj, and each per-body datum's i and j, swapped) and that reads only
   q, numbers per body and the shared constants, marked `sorted_cells`: its gradient sorts the
@@ -37,10 +39,11 @@ from dataclasses import replace
 
 import sympy as sp
 
-from s2gen.ir import Kernel, LoopKind, Module, TermLoop
+from s2gen.ir import Fission, Kernel, LoopKind, Module, TermLoop
+from s2gen.passes.fission import split_at_calls
 from s2gen.terms import body_names
 
-__all__ = ["contiguous", "layout_pass", "symmetric_pair"]
+__all__ = ["STACK_BYTES", "contiguous", "layout_pass", "symmetric_pair"]
 
 
 def contiguous(t: TermLoop) -> bool:
@@ -139,14 +142,35 @@ def _sorted_cells(module: Module, t: TermLoop) -> bool:
     return isinstance(value, Kernel) and symmetric_pair(value, t.body_data)
 
 
+#: Largest size of the row buffers of a split rows loop (`Fission`), which live on the stack:
+#: one double per body and buffer.
+STACK_BYTES = 64 * 1024
+
+
+def _fission(module: Module, t: TermLoop) -> Fission | None:
+    """The rows gradient loop split at its calls, when it has calls to split at and the row
+    buffers fit in `STACK_BYTES`."""
+    gradient = module.kernel(t.gradient)
+    if not isinstance(gradient, Kernel):
+        return None
+    split = split_at_calls(gradient)
+    if split is None or 8 * module.n * len(split.stores) > STACK_BYTES:
+        return None
+    return split
+
+
 def layout_pass(module: Module) -> Module:
-    """Mark the all-pairs terms that loop over rows and the cutoff terms on sorted cells."""
-    terms = tuple(
-        replace(
-            t,
-            rows=contiguous(t) and not t.quadratic,
-            sorted_cells=_sorted_cells(module, t),
+    """Mark the all-pairs terms that loop over rows (split at their calls where that lets the
+    rest vectorise) and the cutoff terms on sorted cells."""
+    terms = []
+    for t in module.terms:
+        rows = contiguous(t) and not t.quadratic
+        terms.append(
+            replace(
+                t,
+                rows=rows,
+                sorted_cells=_sorted_cells(module, t),
+                fission=_fission(module, t) if rows else None,
+            )
         )
-        for t in module.terms
-    )
-    return replace(module, terms=terms)
+    return replace(module, terms=tuple(terms))

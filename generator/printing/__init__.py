@@ -92,6 +92,7 @@ class PrintedModule:
     table_inits: tuple[dict[str, Any], ...]  # per term with a table: index, count, table, call
     py_tables: tuple[str, ...]  # calls computing the terms' member tables (NumPy)
     quadratic: int  # order of the quadratic terms' matrix K (0: none)
+    c_stdint: bool  # the C aligns a buffer to 64 bytes (K, the explicit VI's): uintptr_t
     quad_inits: tuple[dict[str, Any], ...]  # per quadratic term: loop, coefficient call, scatter
     py_quad_lines: tuple[str, ...]  # NumPy lines building K and b
     py_table_names: tuple[str, ...]
@@ -201,6 +202,7 @@ def print_module(module: Module) -> PrintedModule:
         py_tables=tuple(calls[f"t{t.index}_table"]["py"] for t in module.terms if t.table),
         py_table_names=py_table_names(module),
         quadratic=module.quadratic,
+        c_stdint=module.quadratic > 0 or any(lay.name == "explicit" for lay in module.layouts),
         quad_inits=tuple(quad_init(module, t, calls) for t in module.terms if t.quadratic),
         py_quad_lines=tuple(
             line for t in module.terms if t.quadratic for line in py_quad_lines(t, calls, module.n)

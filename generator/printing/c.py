@@ -39,6 +39,7 @@ __all__ = [
     "c_term_row",
     "c_term_tables",
     "double_literal",
+    "inline_names",
     "rows",
 ]
 
@@ -188,6 +189,30 @@ def c_kernel(kernel: Kernel, restrict: str) -> tuple[str, tuple[str, ...]]:
     return ", ".join(params), tuple(lines)
 
 
+def inline_names(kernel: Kernel, scalars: tuple[str, ...] = POSITIONS) -> dict[sp.Symbol, str]:
+    """The C names of `kernel`'s inputs when it is written inline (see `c_inline`).
+
+    Example:
+        >>> from s2gen.ir import Argument
+        >>> a = sp.symbols("qi_0:3", real=True)
+        >>> b = sp.Symbol("b", real=True)
+        >>> k = Kernel("k", "", (Argument("qi", a), Argument("b_c", (b,), scalar=True)), (), (), 0, 0)
+        >>> list(inline_names(k).values())
+        ['qi0', 'qi1', 'qi2', 'b_c']
+    """
+    names: dict[sp.Symbol, str] = {}
+    for arg in kernel.inputs:
+        if arg.shared:
+            names.update({s: f"c{k}" for k, s in enumerate(arg.symbols)})
+        elif arg.name in scalars:
+            names.update({s: f"{arg.name}{k}" for k, s in enumerate(arg.symbols)})
+        elif arg.scalar:
+            names[arg.symbols[0]] = arg.name
+        else:
+            names.update({s: f"{arg.name}[{k}]" for k, s in enumerate(arg.symbols)})
+    return names
+
+
 def c_inline(
     kernel: Kernel, scalars: tuple[str, ...] = POSITIONS
 ) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -206,17 +231,8 @@ def c_inline(
         >>> c_inline(k)[1]
         ('const double g0 = 2*qi0;',)
     """
-    names: dict[sp.Symbol, str] = {}
+    names = inline_names(kernel, scalars)
     shared: list[str] = []
-    for arg in kernel.inputs:
-        if arg.shared:
-            names.update({s: f"c{k}" for k, s in enumerate(arg.symbols)})
-        elif arg.name in scalars:
-            names.update({s: f"{arg.name}{k}" for k, s in enumerate(arg.symbols)})
-        elif arg.scalar:
-            names[arg.symbols[0]] = arg.name
-        else:
-            names.update({s: f"{arg.name}[{k}]" for k, s in enumerate(arg.symbols)})
     used: set[sp.Basic] = set()
     for a in kernel.assignments:
         used |= a.expr.free_symbols

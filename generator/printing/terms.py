@@ -28,6 +28,7 @@ from s2gen.printing.c import (
     c_term_row,
 )
 from s2gen.printing.c_calls import c_binding
+from s2gen.printing.c_fission import SplitRows, c_split_rows
 from s2gen.printing.numpy import py_quad, py_term_gradient, py_term_setup
 from s2gen.terms import body_names
 
@@ -59,6 +60,7 @@ class PrintedTerm:
     c_rows_constants_gradient: tuple[str, ...]
     c_rows_data_value: tuple[tuple[str, ...], ...]  # (row i, partner j) per-body data reads
     c_rows_data_gradient: tuple[tuple[str, ...], ...]
+    c_rows_split: SplitRows | None  # the rows gradient split at its calls (`TermLoop.fission`)
     c_gradient_locals: str
     c_gradient_accumulate: tuple[str, ...]
     py_setup: tuple[str, ...]
@@ -148,6 +150,7 @@ def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTer
     cells_buffers: tuple[str, ...] = ()
     cells_copy: tuple[str, ...] = ()
     cells_data: tuple[tuple[str, ...], ...] = ((), ())
+    split: SplitRows | None = None
     if t.sorted_cells:
         gradient_kernel = module.kernel(t.gradient)
         assert isinstance(gradient_kernel, Kernel)
@@ -160,6 +163,8 @@ def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTer
         constants_gradient, rows_gradient = c_inline(gradient_kernel)
         data_value = c_rows_data(module.name, t, value_kernel)
         data_gradient = c_rows_data(module.name, t, gradient_kernel)
+        if t.fission is not None:
+            split = c_split_rows(t.fission, gradient_kernel, data_gradient[1], module.n)
     label = module.kernel(t.value).doc.split(":")[0]
     table_lines = c_term_row(t, calls[f"t{t.index}_table"]["c"]) if t.table else ()
     return PrintedTerm(
@@ -179,6 +184,7 @@ def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTer
         c_rows_constants_gradient=constants_gradient,
         c_rows_data_value=data_value,
         c_rows_data_gradient=data_gradient,
+        c_rows_split=split,
         c_gradient_locals=locals_,
         c_gradient_accumulate=acc,
         py_setup=setup,

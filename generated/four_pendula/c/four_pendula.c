@@ -19,6 +19,7 @@
 #include <float.h>
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
 
 /* Loop hints for the vectorizer (OpenMP SIMD): they take effect with -fopenmp-simd or -fopenmp
  * and are inert, without a warning, otherwise; compiled as C++ they are left out. */
@@ -1797,15 +1798,18 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
 /* A composition of explicit VI steps from (q0, w0), on component-major copies of the state
  * (see vi_explicit); every `every`-th state is stored, body-major. One gradient per substep
  * (the gradient at the new state is reused by the next substep).
- * work: x (12), v (12), gx (12), xn (12), vn (12), gn (12), s (4), bridge (24). */
+ * work: x (16), v (16), gx (16), xn (16), vn (16), gn (16), s (8), bridge (24), slack (7). */
 static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, const four_pendula_scheme *sc, double h,
         long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
         double *energy, double *work, four_pendula_stats *stats)
 {
-    double *x = work + 0, *v = work + 12;
-    double *gx = work + 24, *xn = work + 36;
-    double *vn = work + 48, *gn = work + 60;
-    double *sv = work + 72, *bridge = work + 76;
+    /* the buffers start at the first 64-byte boundary of work (the layout ends in 7 doubles
+     * to spare, from 128), so that the loops over bodies do not read across cache lines */
+    double *const line = work + (8 - (long)((uintptr_t)work / sizeof(double) % 8)) % 8;
+    double *x = line + 0, *v = line + 16;
+    double *gx = line + 32, *xn = line + 48;
+    double *vn = line + 64, *gn = line + 80;
+    double *sv = line + 96, *bridge = line + 104;
     double *tmp;
     long k;
     int sub, status = FOUR_PENDULA_OK;

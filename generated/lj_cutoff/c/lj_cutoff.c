@@ -19,6 +19,7 @@
 #include <float.h>
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
 
 /* Loop hints for the vectorizer (OpenMP SIMD): they take effect with -fopenmp-simd or -fopenmp
  * and are inert, without a warning, otherwise; compiled as C++ they are left out. */
@@ -2015,15 +2016,18 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
 /* A composition of explicit VI steps from (q0, w0), on component-major copies of the state
  * (see vi_explicit); every `every`-th state is stored, body-major. One gradient per substep
  * (the gradient at the new state is reused by the next substep).
- * work: x (24), v (24), gx (24), xn (24), vn (24), gn (24), s (8), bridge (48). */
+ * work: x (24), v (24), gx (24), xn (24), vn (24), gn (24), s (8), bridge (48), slack (7). */
 static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, const lj_cutoff_scheme *sc, double h,
         long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
         double *energy, double *work, lj_cutoff_stats *stats)
 {
-    double *x = work + 0, *v = work + 24;
-    double *gx = work + 48, *xn = work + 72;
-    double *vn = work + 96, *gn = work + 120;
-    double *sv = work + 144, *bridge = work + 152;
+    /* the buffers start at the first 64-byte boundary of work (the layout ends in 7 doubles
+     * to spare, from 200), so that the loops over bodies do not read across cache lines */
+    double *const line = work + (8 - (long)((uintptr_t)work / sizeof(double) % 8)) % 8;
+    double *x = line + 0, *v = line + 24;
+    double *gx = line + 48, *xn = line + 72;
+    double *vn = line + 96, *gn = line + 120;
+    double *sv = line + 144, *bridge = line + 152;
     double *tmp;
     long k;
     int sub, status = LJ_CUTOFF_OK;
