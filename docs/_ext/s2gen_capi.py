@@ -209,7 +209,7 @@ def c_api_driven_rst() -> str:
         "",
     ]
     for f in api.functions:
-        if f.name in ("step", "integrate"):
+        if f.name in ("step", "integrate", "field_at", "energy_at"):
             lines += _function(f, PREFIX, sizes)
     return "\n".join(lines) + "\n"
 
