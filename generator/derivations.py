@@ -42,7 +42,15 @@ from s2gen.version import fingerprint
 if TYPE_CHECKING:
     from s2gen.ir import KernelDef
 
-__all__ = ["cached", "entry_path", "kernel_key", "uncached"]
+__all__ = [
+    "cached",
+    "enabled",
+    "entry_path",
+    "kernel_key",
+    "read_payload",
+    "uncached",
+    "write_payload",
+]
 
 log = logging.getLogger("s2gen.derivations")
 
@@ -115,8 +123,15 @@ def entry_path(root: Path, namespace: str, key: str) -> Path:
     return root / "derived" / namespace / f"{_digest(namespace, key)}.pickle"
 
 
-def _read(path: Path) -> object | None:
-    """The value of an intact entry, or None (missing, or damaged: logged)."""
+def read_payload(path: Path) -> bytes | None:
+    """The payload of an intact entry file, or None (missing, or damaged: logged).
+
+    Example:
+        >>> import tempfile
+        >>> path = Path(tempfile.mkdtemp()) / "entry"
+        >>> write_payload(path, b"abc"); read_payload(path)
+        b'abc'
+    """
     try:
         data = path.read_bytes()
     except OSError:
@@ -126,17 +141,13 @@ def _read(path: Path) -> object | None:
     if head + b"\n" != _HEADER or hashlib.sha256(payload).hexdigest().encode() != digest:
         log.warning("derivation cache entry %s is damaged; deriving again", path.name)
         return None
-    try:
-        return pickle.loads(payload)
-    except (pickle.UnpicklingError, AttributeError, ImportError, EOFError, TypeError) as exc:
-        log.warning("derivation cache entry %s does not load (%s); deriving again", path.name, exc)
-        return None
+    return payload
 
 
-def _write(path: Path, value: object) -> None:
-    """Write an entry atomically (a private temporary file renamed into place); best effort:
-    a cache that cannot be written only costs the next process a derivation."""
-    payload = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+def write_payload(path: Path, payload: bytes) -> None:
+    """Write an entry file atomically (a private temporary file renamed into place) with its
+    header and checksum; best effort: a cache that cannot be written only costs the next
+    process a derivation."""
     data = _HEADER + hashlib.sha256(payload).hexdigest().encode() + b"\n" + payload
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -155,6 +166,33 @@ def _write(path: Path, value: object) -> None:
             os.unlink(tmp)
 
 
+def _read(path: Path) -> object | None:
+    """The value of an intact entry, or None (missing, or damaged: logged)."""
+    payload = read_payload(path)
+    if payload is None:
+        return None
+    try:
+        return pickle.loads(payload)
+    except (pickle.UnpicklingError, AttributeError, ImportError, EOFError, TypeError) as exc:
+        log.warning("derivation cache entry %s does not load (%s); deriving again", path.name, exc)
+        return None
+
+
+def _write(path: Path, value: object) -> None:
+    """Write a value's entry (`write_payload` of its pickle)."""
+    write_payload(path, pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL))
+
+
+def enabled() -> bool:
+    """False inside `uncached()`.
+
+    Example:
+        >>> enabled()
+        True
+    """
+    return _ENABLED.get()
+
+
 def cached(root: Path, namespace: str, key: str, derive: Callable[[], T]) -> T:
     """`derive()`, read from the entry (`namespace`, `key`) under the cache folder `root` when
     it is intact, else derived and written there. `key` must name everything the value
@@ -164,7 +202,7 @@ def cached(root: Path, namespace: str, key: str, derive: Callable[[], T]) -> T:
     path = entry_path(root, namespace, key)
     value = _read(path)
     if value is not None:
-        log.info("reused derivation %s/%s", namespace, key)
+        log.info("reused derivation %s/%s", namespace, path.name)
         return value  # type: ignore[return-value]
     value = derive()
     _write(path, value)

@@ -131,7 +131,7 @@ def _emit(system: System, lang: str, form: str, cache: bool) -> dict[str, str]:
             module = printed(system)
         else:
             module = _printed_angles(system, form == "angles-simplified")
-    files = render(module, lang)
+        files = render(module, lang)
     if cache:
         _write_cached(folder, files)
     return files

@@ -39,22 +39,31 @@ def _emit_in_process(name: str, cache: Path, out: Path, hashseed: str) -> dict[s
     return {p.name: p.read_text() for p in sorted(out.iterdir())}
 
 
-@pytest.mark.parametrize("name", ["double_pendulum", "molecular", "rope"])
-def test_derivations_read_back_emit_the_same_bytes(name: str, tmp_path: Path) -> None:
-    """A process with an empty cache folder derives everything; a second one (another hash
-    seed, the emitted files removed so that only the derivations are reused) emits the same
-    files byte for byte, and so does a derivation in this process with no cache at all. The
-    coupled (dense), diagonal and banded solvers each read their own generic kernels."""
-    cache = tmp_path / "cache"
-    cold = _emit_in_process(name, cache, tmp_path / "cold", "1")
-    entries = {p.parent.name for p in (cache / "derived").rglob("*.pickle")}
-    assert entries == {"generic", "factor", "cse"}
+def _drop_emitted(cache: Path) -> None:
+    """Remove the cached emitted files, so that the next emission reads only derivations."""
     for folder in (cache / "emitted").iterdir():
         for file in folder.iterdir():
             file.unlink()
         folder.rmdir()
-    warm = _emit_in_process(name, cache, tmp_path / "warm", "2")
-    assert warm == cold
+
+
+@pytest.mark.parametrize("name", ["double_pendulum", "molecular", "rope"])
+def test_derivations_read_back_emit_the_same_bytes(name: str, tmp_path: Path) -> None:
+    """A process with an empty cache folder derives everything; a second one (another hash
+    seed, the emitted files removed so that only the derivations and compiled templates are
+    reused) emits the same files byte for byte, so does a third after every entry was
+    truncated, and so does a derivation in this process with no cache at all. The coupled
+    (dense), diagonal and banded solvers each read their own generic kernels."""
+    cache = tmp_path / "cache"
+    cold = _emit_in_process(name, cache, tmp_path / "cold", "1")
+    entries = {p.parent.name for p in (cache / "derived").rglob("*.pickle")}
+    assert entries == {"generic", "factor", "cse", "templates"}
+    _drop_emitted(cache)
+    assert _emit_in_process(name, cache, tmp_path / "warm", "2") == cold
+    for path in (cache / "derived").rglob("*.pickle"):
+        _damage(path, "truncated")
+    _drop_emitted(cache)
+    assert _emit_in_process(name, cache, tmp_path / "damaged", "3") == cold
     clear_caches()
     system = builtin(name)
     fresh = {**emit(system, "c", cache=False), **emit(system, "numpy", cache=False)}
@@ -81,10 +90,7 @@ def test_read_back_derivations_are_not_derived_again(
     for module, name in ((assemble, "_derive_generic"), (factor, "_factored_kernel")):
         monkeypatch.setattr(module, name, refuse)
     monkeypatch.setattr(cse, "_eliminate", refuse)
-    for folder in (tmp_path / "emitted").iterdir():
-        for file in folder.iterdir():
-            file.unlink()
-        folder.rmdir()
+    _drop_emitted(tmp_path)
     assert emit(builtin("four_pendula"), "c", cache=True) == first
     clear_caches()
 
@@ -148,10 +154,7 @@ def test_a_damaged_generic_entry_does_not_change_the_emitted_code(
     clear_caches()
     for path in (tmp_path / "derived").rglob("*.pickle"):
         _damage(path, "truncated")
-    for folder in (tmp_path / "emitted").iterdir():
-        for file in folder.iterdir():
-            file.unlink()
-        folder.rmdir()
+    _drop_emitted(tmp_path)
     assert emit(builtin("lj_cutoff"), "numpy", cache=True) == first
     clear_caches()
 
@@ -199,3 +202,40 @@ def test_uncached_block_derives_every_time(tmp_path: Path) -> None:
         assert cached(tmp_path, "t", "b", lambda: 3) == 3
     assert not entry_path(tmp_path, "t", "b").exists()
     assert cached(tmp_path, "t", "a", lambda: 4) == 1
+
+
+def test_compiled_templates_are_read_back(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A second Environment takes the compiled template from disk (it compiles nothing) and
+    renders the same text as the first; a truncated entry is compiled again."""
+    import jinja2
+
+    from s2gen.render import TemplateCache
+
+    monkeypatch.setenv("S2GEN_CACHE", str(tmp_path))
+
+    def fresh() -> jinja2.Environment:
+        loader = jinja2.DictLoader({"t.jinja": "{% for k in range(n) %}{{ k * k }} {% endfor %}"})
+        return jinja2.Environment(loader=loader, bytecode_cache=TemplateCache())
+
+    first = fresh().get_template("t.jinja").render(n=5)
+    assert first == "0 1 4 9 16 "
+    (entry,) = (tmp_path / "derived" / "templates").iterdir()
+    second = fresh()
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise AssertionError("compiled again")
+
+    monkeypatch.setattr(second, "compile", refuse)
+    assert second.get_template("t.jinja").render(n=5) == first
+    _damage(entry, "truncated")
+    third = fresh()
+    compiled: list[int] = []
+    compile_ = third.compile
+
+    def counting(*args: object, **kwargs: object) -> object:
+        compiled.append(1)
+        return compile_(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(third, "compile", counting)
+    assert third.get_template("t.jinja").render(n=5) == first
+    assert compiled == [1]
