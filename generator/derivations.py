@@ -1,4 +1,10 @@
-"""The disk cache of derivations that do not depend on the system (the generic kernels).
+"""The disk cache of derivations: what one process derived, the next one reads back.
+
+It holds the generic kernels (the same for every system with one inertia solver), the
+`factor` and `cse` passes' result for each kernel definition (keyed by the whole definition,
+so a term another system had is not factored again) and the compiled templates
+(`s2gen.render.TemplateCache`); SymPy is still imported by every derivation (the system's own
+kernels and the spec's expressions are SymPy).
 
 Input: a namespace, a key text (what the value was derived from) and a function that derives
 the value. Output: the value, read back from ``derived/<namespace>/<digest>.pickle`` under the
@@ -10,7 +16,8 @@ so an entry is never read by another generator or library than the one that wrot
 An entry is a header line, the sha256 of the payload and the payload (a pickle of frozen IR
 records holding SymPy expressions). The payload's checksum is verified before it is unpickled:
 a truncated, emptied or overwritten entry is logged, derived again and rewritten, never
-trusted. Entries are written to a private temporary file and renamed into place
+trusted. (Pickle, not text: rebuilding SymPy trees from text costs about what deriving them
+does; the folder is the user's own, as are the shared libraries loaded from it.) Entries are written to a private temporary file and renamed into place
 (`os.replace`), so concurrent writers leave one whole entry and readers never see half of one.
 
 Example:

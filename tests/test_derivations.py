@@ -163,9 +163,9 @@ def test_a_damaged_generic_entry_does_not_change_the_emitted_code(
 _BIG = tuple(float(k) for k in range(200_000))
 
 
-def _writer(root: str, rounds: int) -> None:
+def _writer(path: str, rounds: int) -> None:
     for _ in range(rounds):
-        derivations._write(entry_path(Path(root), "race", "big"), _BIG)
+        derivations._write(Path(path), _BIG)
 
 
 def test_concurrent_writers_leave_a_whole_entry(
@@ -175,12 +175,12 @@ def test_concurrent_writers_leave_a_whole_entry(
     no entry or the whole value (never a damaged one), and no temporary file is left."""
     path = entry_path(tmp_path, "race", "big")
     context = multiprocessing.get_context("spawn")
-    writers = [context.Process(target=_writer, args=(str(tmp_path), 40)) for _ in range(4)]
+    writers = [context.Process(target=_writer, args=(str(path), 40)) for _ in range(4)]
     for w in writers:
         w.start()
     seen = 0
     with caplog.at_level(logging.WARNING, logger="s2gen.derivations"):
-        while any(w.is_alive() for w in writers) or seen == 0:
+        while any(w.is_alive() for w in writers):
             value = derivations._read(path)
             if value is not None:
                 assert value == _BIG
