@@ -16,6 +16,7 @@ Example:
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import json
@@ -121,14 +122,16 @@ def _emit(system: System, lang: str, form: str, cache: bool) -> dict[str, str]:
     if files is not None:
         log.info("reused emitted %s (%s, %s)", system.name, form, lang)
         return files
+    from s2gen.derivations import uncached
     from s2gen.render import render
 
     _warn_if_unstructured(system)
-    if form == "sphere":
-        module = printed(system)
-    else:
-        module = _printed_angles(system, form == "angles-simplified")
-    files = render(module, lang)
+    with contextlib.nullcontext() if cache else uncached():
+        if form == "sphere":
+            module = printed(system)
+        else:
+            module = _printed_angles(system, form == "angles-simplified")
+        files = render(module, lang)
     if cache:
         _write_cached(folder, files)
     return files
@@ -146,7 +149,8 @@ def _warn_if_unstructured(system: System) -> None:
 
 def emit(system: System, lang: str, cache: bool = True) -> dict[str, str]:
     """All files of one language for a system's (S^2)^n module; with `cache`, read from and
-    written to the disk cache of emitted files."""
+    written to the disk cache of emitted files and of derivations (`s2gen.derivations`);
+    without it, derived again (apart from what this process keeps)."""
     return _emit(system, lang, "sphere", cache)
 
 

@@ -72,6 +72,13 @@ _STRUCTURED_KEEP = {
 
 @functools.cache
 def _generic(solver: InertiaKind) -> tuple[KernelDef, ...]:
+    from s2gen.build import cache_dir
+    from s2gen.derivations import cached
+
+    return cached(cache_dir(), "generic", solver.value, lambda: _derive_generic(solver))
+
+
+def _derive_generic(solver: InertiaKind) -> tuple[KernelDef, ...]:
     coupled = solver is not InertiaKind.DIAGONAL
     defs = continuous_kernels(coupled) + (
         newton_kernels() if coupled else explicit_kernels() + rattle_kernels()
@@ -86,7 +93,8 @@ def generic_kernel_defs(coupled: bool, solver: InertiaKind | None = None) -> tup
     """The system-independent kernels: the continuous field, energy and momenta, and the
     discrete flows (Newton's residual for coupled M, the explicit updates and RATTLE's closed
     form for diagonal M); with a structured `solver`, the factored kernels of
-    `s2gen.equations.operators` instead of the pair kernels. Derived once per process."""
+    `s2gen.equations.operators` instead of the pair kernels. Derived once per generator version
+    and read back from the disk cache (`s2gen.derivations`), then kept in the process."""
     if solver is None:
         solver = InertiaKind.DENSE if coupled else InertiaKind.DIAGONAL
     return _generic(solver)

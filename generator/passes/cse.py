@@ -4,7 +4,7 @@ Input: a `Module` whose kernels are `KernelDef`s. Output: the same module with `
 outputs of one kernel share one elimination, temporaries are named x0, x1, ... in the order
 SymPy's canonical cse produces them (the same input always gives the same names), and
 `ops_before` holds the operations of the expressions as derived. Kernels are lowered once per
-process (the generic ones are shared by every system).
+process and kept on disk (the generic ones are shared by every system).
 
 Example:
     >>> import sympy as sp
@@ -37,7 +37,15 @@ def count_ops(exprs: list[sp.Expr] | tuple[sp.Expr, ...]) -> int:
 
 @functools.lru_cache(maxsize=1024)
 def lower_kernel(kdef: KernelDef) -> Kernel:
-    """Eliminate common subexpressions of all outputs of one kernel together."""
+    """Eliminate common subexpressions of all outputs of one kernel together (read from the
+    disk cache of derivations, `s2gen.derivations`, when it holds this kernel)."""
+    from s2gen.build import cache_dir
+    from s2gen.derivations import cached, kernel_key
+
+    return cached(cache_dir(), "cse", kernel_key(kdef), lambda: _eliminate(kdef))
+
+
+def _eliminate(kdef: KernelDef) -> Kernel:
     flat = [sp.sympify(e) for out in kdef.outputs for e in out.exprs]
     slots = [(out.name, k) for out in kdef.outputs for k in range(out.size)]
     temps, reduced = sp.cse(flat, symbols=sp.numbered_symbols("x", real=True), order="canonical")

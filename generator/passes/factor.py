@@ -6,7 +6,7 @@ out of sums without expanding anything), so that, e.g., the two components 12*qi
 6*qi_0 - 6*qj_0 of a gradient become 12*(qi_0 - qj_0) and 6*(qi_0 - qj_0) and `cse` finds the
 shared difference. Factoring can also hide a subexpression two outputs share, so a kernel keeps
 its factored form only when `cse` then leaves fewer operations. Factored once per kernel
-definition and process.
+definition, kept in the process and on disk (`s2gen.derivations`).
 
 Example:
     >>> import sympy as sp
@@ -34,6 +34,14 @@ def factored(expr: sp.Expr) -> sp.Expr:
 
 @functools.lru_cache(maxsize=1024)
 def _factor_kernel(kdef: KernelDef) -> KernelDef:
+    """`_factored_kernel`, read from the disk cache of derivations when it holds this kernel."""
+    from s2gen.build import cache_dir
+    from s2gen.derivations import cached, kernel_key
+
+    return cached(cache_dir(), "factor", kernel_key(kdef), lambda: _factored_kernel(kdef))
+
+
+def _factored_kernel(kdef: KernelDef) -> KernelDef:
     """The factored kernel, when common subexpressions then cost fewer operations; else the
     kernel as it is (factoring can hide a subexpression two outputs share)."""
     from s2gen.passes.cse import lower_kernel
