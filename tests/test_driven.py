@@ -242,8 +242,8 @@ def test_what_does_not_take_driven_systems_yet_says_so() -> None:
     system = CASES["driven_timed"]()
     with pytest.raises(ValueError, match="the stepper does not take driven systems yet"):
         s2gen.compile(system).stepper("vi", h=0.01)
-    with pytest.raises(ValueError, match="a driven system's FMU is Co-Simulation only"):
-        s2gen.fmu(system, "unused.fmu", kind="me", h=0.01)  # tests/test_fmu_driven.py: cs
+    with pytest.raises(ValueError, match="method 'rk2-proj' does not integrate driven"):
+        s2gen.fmu(system, "unused.fmu", method="rk2-proj", h=0.01)
 
 
 @pytest.mark.parametrize("method", ["vi", "rattle"])

@@ -1,6 +1,6 @@
 """FMUs of driven systems (forces, inputs or time t), checked through FMPy as the importer.
 
-A driven FMU is Co-Simulation only: its inputs are FMI inputs held over each communication
+A driven FMU (Co-Simulation, and Model Exchange through the driven field): its inputs are FMI inputs held over each communication
 step, its time is the FMU's, and its output `work` is the work done since the start. FMPy
 drives it with a piecewise-constant input table; s2gen's own run with the same inputs, step
 and method is the comparison, and the energy balance E - E0 - W closes the work.
@@ -94,20 +94,18 @@ def test_description_lists_the_inputs_and_the_work(tmp_path: Path, double, fmi: 
 @pytest.mark.parametrize("name", ["kapitza", "forced_double_pendulum"])
 def test_driven_builtins_validate(tmp_path: Path, name: str) -> None:
     for fmi in (2, 3):
-        path = export(s2gen.load(name), tmp_path / f"{name}{fmi}.fmu", fmi=fmi)
+        path = export(s2gen.load(name), tmp_path / f"{name}{fmi}.fmu", fmi=fmi, kind="both")
         assert validate_fmu(str(path)) == [], (name, fmi)
 
 
 @pytest.mark.parametrize(
     ("kind", "method", "words"),
     [
-        ("me", "vi", "Co-Simulation only"),
-        ("both", "vi", "Co-Simulation only"),
         ("cs", "rattle", "takes forces only with a diagonal inertia yet"),
         ("cs", "rk2-proj", "does not integrate driven systems"),
     ],
 )
-def test_model_exchange_and_other_methods_are_refused(double, kind, method, words) -> None:
+def test_methods_that_do_not_drive_are_refused(double, kind, method, words) -> None:
     with pytest.raises(ValueError, match=words) as info:
         describe(double, 2, kind, method, h=0.01)
     assert "\n" not in str(info.value)
@@ -295,6 +293,31 @@ def test_command_line_exports_a_driven_system(tmp_path: Path, capsys) -> None:
     out = tmp_path / "kapitza.fmu"
     assert main(["fmu", "kapitza", "--out", str(out), "--fmi", "3"]) == 0
     assert "FMI 3 FMU (cs, vi)" in capsys.readouterr().out
-    assert main(["fmu", "kapitza", "--out", str(out), "--kind", "me"]) == 2
+    assert main(["fmu", "kapitza", "--out", str(out), "--kind", "me"]) == 0
+    assert "FMI 2 FMU (me" in capsys.readouterr().out
+    assert main(["fmu", "kapitza", "--out", str(out), "--method", "rk2-proj"]) == 2
     err = capsys.readouterr().err
-    assert "Co-Simulation only" in err and len(err.strip().splitlines()) == 1
+    assert "does not integrate driven systems" in err and len(err.strip().splitlines()) == 1
+
+
+# ------------------------------------------------------------------ Model Exchange
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_model_exchange_of_a_driven_system_with_cvode(tmp_path: Path, double, fmi: int) -> None:
+    """The driven field (forces, time and the input held by FMPy's input table) integrated by
+    FMPy's CVODE at rtol 1e-10 against s2gen's DOP853 at 1e-12 with the same inputs held over
+    the same pieces; the energy output is E(q, w, t, u) at the importer's state."""
+    path = export(double, tmp_path / f"me{fmi}.fmu", fmi=fmi, kind="me", h=0.01)
+    T = 1.0
+    values = _pieces(double.inputs.names, T)
+    r = fmpy.simulate_fmu(str(path), stop_time=T, output_interval=PIECE, fmi_type="ModelExchange",
+                          solver="CVode", relative_tolerance=1e-10,
+                          input=_signal(double.inputs.names, values),
+                          output=[*_outputs(double.n), "energy"])  # fmt: skip
+    tight = s2gen.Options(rtol=1e-12, atol=1e-12)
+    tr = s2gen.simulate(double, "dop853", h=PIECE, T=T, inputs=values, options=tight)
+    # FMPy records the output grid and each input switch (twice: before and after): the state
+    # is continuous there, so the last row at each grid time is the sample
+    rows = [int(np.flatnonzero(np.abs(r["time"] - t) < 1e-9)[-1]) for t in tr.t]
+    assert np.abs(_state(r, double.n)[rows] - _reference(tr)).max() <= 1e-6
+    # the energy at T with the inputs held over the last piece (the trajectory's sample there)
+    assert abs(r["energy"][-1] - tr.energy[-1]) <= 1e-6 * max(1.0, abs(tr.energy[-1]))

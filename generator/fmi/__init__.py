@@ -7,9 +7,9 @@ source FMU, and a binary for this platform (`archive`). What the FMU declares (v
 value references, start values, default experiment) is one record (`model`).
 
 Variables: parameters (tunable), outputs q1_x .. wn_z, energy, J_x, J_y, J_z, and in
-Co-Simulation the sub-step `stepSize`. A driven system (forces, inputs or time t) is
-Co-Simulation only, by one of its fixed-step methods: its inputs are FMI inputs (held over
-each step), its time is the FMU's, and it has the output `work`.
+Co-Simulation the sub-step `stepSize`. A driven system (forces, inputs or time t) has its
+inputs as FMI inputs (held over each step), its time is the FMU's, and it has the output
+`work` (Co-Simulation; its Model Exchange hands out the driven field).
 
 Example:
     >>> import s2gen, tempfile, zipfile

@@ -39,8 +39,8 @@ def add_parser(subparsers: Any) -> None:
         "binary for this machine. Co-Simulation advances each communication interval by "
         "--method's steps of size h (the FMU's stepSize parameter); Model Exchange gives the "
         "continuous (q, w) field to the importer's solver. A driven system (forces, inputs or "
-        "time t) is Co-Simulation only: its inputs are FMI inputs held over each step, and "
-        "`work` is the work done on it. Needs FMPy's FMI headers (pip install fmpy).",
+        "time t) has FMI inputs, held over each step, and the output `work` (the work done on "
+        "it, in Co-Simulation). Needs FMPy's FMI headers (pip install fmpy).",
         epilog=_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -50,8 +50,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument(
         "--kind",
         choices=("cs", "me", "both"),
-        help="Co-Simulation, Model Exchange or both (default both; cs for a driven system, "
-        "whose FMU is Co-Simulation only)",
+        help="Co-Simulation, Model Exchange or both (default both; cs for a driven system)",
     )
     p.add_argument(
         "--method", choices=NAMES, default="vi", help="Co-Simulation's method (default vi)"

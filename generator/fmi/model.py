@@ -119,7 +119,7 @@ class FmuModel:
     #: command line's defaults (as `s2gen simulate` takes them)
     rtol: float = 1e-3
     atol: float = 1e-6
-    #: a driven system: Co-Simulation only (the driven integrate(), inputs held), inputs, work
+    #: a driven system: the driven integrate() and field, inputs held, the work output
     driven: bool = False
 
     @property
@@ -162,11 +162,6 @@ def _check_choices(system: System, fmi: int, kind: str, method: str) -> None:
     if kind not in KINDS:
         raise ValueError(f"--kind {kind!r}: choose one of {', '.join(KINDS)}")
     if system.driven:
-        if kind != "cs":
-            raise ValueError(
-                f"--kind {kind}: a driven system's FMU is Co-Simulation only (the emitted rhs() "
-                "is the field at t = 0 with the default inputs, without the forces): use --kind cs"
-            )
         check_driven_method(system, method)  # the rule of s2gen's own driven runs
         return
     record = method_record(method)
@@ -185,7 +180,8 @@ def _driven_variables(system: System, layout: Layout) -> list[Variable]:
             "calculated",
             None,
             "work done on the system since the start: the forces' and dV/dt's work over the "
-            "steps plus the jumps of the energy where an input or a parameter changes",
+            "steps plus the jumps of the energy where an input or a parameter changes "
+            "(Co-Simulation; 0 in Model Exchange, where the importer integrates)",
         )
     ]
     for k, (name, value) in enumerate(zip(system.inputs.names, system.inputs.values)):
