@@ -110,6 +110,13 @@ _DRIVEN = Part(
     ),
 )
 
+#: The step Jacobians (systems of a few bodies): the field's derivatives at each stage
+_JACOBIAN = Part(
+    "jacobian",
+    sites=(Site("field_jacobian", "field_jacobian", _S, CC),),
+    buffers=(("jacobian", ("ys", "k", "dy", "kd", "d", "jx", "jq", "jr", "am", "ju")),),
+)
+
 #: The parts of the sphere module (each laid out by `c/_<name>.jinja`, `numpy/_<name>.jinja`)
 SPHERE_PARTS = (
     Part("tables"),
@@ -269,6 +276,7 @@ SPHERE_PARTS = (
         ),
     ),
     _DRIVEN,
+    _JACOBIAN,
 )
 
 #: The sphere module's parts by name

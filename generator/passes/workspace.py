@@ -325,6 +325,30 @@ def _driven(module: Module, lays: _Layouts) -> Layout:
     )
 
 
+def _jacobian(module: Module, _: _Layouts) -> Layout:
+    """step_jacobian(): the stage state ys and fields k, the derivatives of the stage state
+    (dy) and of each stage (kd) and the step's (d), all with the state's 6n columns and then
+    the inputs', the field's Jacobian jx and the field_jacobian kernel's outputs (jq, jr, am,
+    ju). Kept after the per-call context (see `workspace_pass`), so that WORK_SIZE, which
+    every other function reads, stays as it is."""
+    ns, m3 = _ns(module), _m3(module)
+    cols = ns + (len(module.drive.inputs) if module.drive is not None else 0)
+    stages = max(t.stages for t in explicit_tableaus(module.kind.value))
+    return layout(
+        "jacobian",
+        ("ys", ns),
+        ("k", stages * ns),
+        ("dy", ns * cols),
+        ("kd", stages * ns * cols),
+        ("d", ns * cols),
+        ("jx", ns * cols),
+        ("jq", m3 * ns),
+        ("jr", m3 * ns),
+        ("am", m3 * m3),
+        ("ju", m3 * (cols - ns)),
+    )
+
+
 #: The builder of each layout a part of the sphere module may declare
 _SPHERE: dict[str, _Builder] = {
     "field": _field,
@@ -342,6 +366,7 @@ _SPHERE: dict[str, _Builder] = {
     "step": _one_step,
     "carry": _carry,
     "driven": _driven,
+    "jacobian": _jacobian,
 }
 
 
@@ -362,6 +387,8 @@ _ANGLES: dict[str, _Builder] = {
 
 #: Layouts that are not workspace (kept by the caller between calls)
 _NOT_WORKSPACE = ("carry",)
+#: Layouts placed after the per-call context (their offsets count from the workspace's start)
+_TAIL = ("jacobian",)
 
 
 #: Name of the layout of the per-call context kept at the tail of the workspace.
@@ -404,8 +431,15 @@ def workspace_pass(module: Module) -> Module:
     lays = _Layouts(module, _SPHERE if module.kind is ModuleKind.SPHERE else _ANGLES)
     names = dict.fromkeys(lay for part in selected(module) for lay, _ in part.buffers)
     layouts = [lay for lay in map(lays.get, names) if lay is not None]
-    base = max((lay.size for lay in layouts if lay.name not in _NOT_WORKSPACE), default=0)
+    base = max((lay.size for lay in layouts if lay.name not in _NOT_WORKSPACE + _TAIL), default=0)
     context = _context(module)
+    tail = base + context.size
+    layouts = [
+        Layout(lay.name, tuple(replace(b, offset=b.offset + tail) for b in lay.buffers))
+        if lay.name in _TAIL
+        else lay
+        for lay in layouts
+    ]
     return replace(
         module,
         layouts=(*layouts, context),

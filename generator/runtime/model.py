@@ -26,6 +26,7 @@ from s2gen.runtime.trajectory import Trajectory
 from s2gen.system import System
 
 if TYPE_CHECKING:
+    from s2gen.runtime.linearize import Linearization
     from s2gen.runtime.stepper import Stepper
 
 __all__ = ["Model"]
@@ -153,6 +154,35 @@ class Model:
             method, h, h, q, omega, options, params, energy=False, t0=t, inputs=inputs
         )
         return tr.q[-1], tr.omega[-1]
+
+    def linearize(
+        self,
+        q: np.ndarray,
+        omega: np.ndarray,
+        h: float,
+        method: str = "rk4",
+        t: float = 0.0,
+        u: Sequence[float] | np.ndarray | None = None,
+        basis: str = "tangent",
+        params: Mapping[str, float] | None = None,
+    ) -> Linearization:
+        """The exact derivatives of one step of an explicit Runge-Kutta method from (q, omega)
+        at time t with the inputs u held (None: the spec's): A = dx+/dx and B = dx+/du in the
+        tangent basis of T(S^2)^n (4n coordinates) or the embedding coordinates (6n), with the
+        state after the step and the bases (`s2gen.runtime.linearize`); C backend only.
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> s = builtin("double_pendulum")
+            >>> lin = Model(s).linearize(s.q0, s.omega0, 0.01, "rk4", basis="embedding")
+            >>> lin.A.shape, bool((lin.q == Model(s).step(s.q0, s.omega0, 0.01, "rk4")[0]).all())
+            ((12, 12), True)
+        """
+        from s2gen.runtime.linearize import linearize
+
+        p = parameter_vector(self.system, params)
+        uu = None if u is None else np.asarray(u, dtype=float)
+        return linearize(self._backend, q, omega, h, method, p, t, uu, basis)
 
     def stepper(
         self,

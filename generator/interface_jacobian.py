@@ -1,0 +1,48 @@
+"""The C interface of the step Jacobians: ``step_jacobian()``, as an `interface.Function`.
+
+A sphere module of at most `s2gen.equations.jacobian.JACOBIAN_MAX_BODIES` bodies has it
+(closed or driven: one signature for both); its header also defines JACOBIAN_WORK_SIZE.
+
+Example:
+    >>> [p.name for p in STEP_JACOBIAN.params][-3:]
+    ['A', 'B', 'work']
+"""
+
+from __future__ import annotations
+
+from s2gen.interface import Function, Kind, Param
+
+__all__ = ["STEP_JACOBIAN"]
+
+_D, _CA, _A = Kind.DOUBLE, Kind.CONST_ARRAY, Kind.ARRAY
+
+STEP_JACOBIAN = Function(
+    "step_jacobian",
+    Kind.INT,
+    (
+        Param("p", _CA),
+        Param("opt", Kind.OPTIONS, True),
+        Param("method", Kind.INT),
+        Param("t", _D),
+        Param("h", _D),
+        Param("u", _CA, True),
+        Param("q", _CA),
+        Param("w", _CA),
+        Param("qn", _A),
+        Param("wn", _A),
+        Param("A", _A),
+        Param("B", _A, True),
+        Param("work", _A),
+    ),
+    "One step of size h of an explicit Runge-Kutta method (METHOD_RK2, METHOD_RK4, ...; the "
+    "VI family is refused with ERR_ARGUMENT) from (q, w) at time t into (qn, wn), exactly as "
+    "step() takes it, and its exact derivatives in the embedding coordinates: with "
+    "x = (q, w) (NS = 2 NSTATE doubles, q body-major then w), A (NS x NS, row-major) "
+    "receives dx+/dx and B (NS x NINPUTS, row-major; may be NULL) dx+/du. They are the chain "
+    "rule of the method's tableau through its stages (the projection of q_i onto the sphere "
+    "included for the -proj methods), on the field's Jacobian derived by SymPy (the Hessian of "
+    "V, the derivatives of the forces): no differences are taken. t and u (NINPUTS doubles; "
+    "NULL: the defaults) are read by a driven module only, opt by its step only. work: "
+    "JACOBIAN_WORK_SIZE doubles. Returns OK or the step's own status (ERR_ARGUMENT for h <= 0 "
+    "or a method without a Jacobian, ERR_NONFINITE).",
+)
