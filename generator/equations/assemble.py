@@ -36,6 +36,7 @@ from s2gen.equations.structure import (
     system_kernels,
     term_kernels,
 )
+from s2gen.equations.vi_jacobian import vi_jacobian_kernels
 from s2gen.inertia import InertiaKind
 from s2gen.interface import INITIAL_STATE_MAX_BODIES
 from s2gen.ir import Drive, KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
@@ -168,6 +169,7 @@ def sphere_module(system: System) -> Module:
     kernels += generic_kernel_defs(coupled, solver)
     kernels += driven_kernels(system) if drive is not None else []
     kernels += jacobian_kernels(system)
+    kernels += vi_jacobian_kernels(system, solver)
     loops = tuple(_term_loop(k, t, system.n) for k, t in terms)
     cutoff = any(not t.loop.kind.fixed for t in loops)
     per_body = per_body_inertia(system, solver) is not None

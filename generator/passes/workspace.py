@@ -26,6 +26,7 @@ from s2gen.inertia import InertiaKind
 from s2gen.ir import Band, Buffer, Layout, LoopKind, Module, ModuleKind
 from s2gen.methods import METHODS, explicit_tableaus
 from s2gen.parts import selected
+from s2gen.passes.jacobian_layout import jacobian_layout
 from s2gen.tableaus import DOP853
 
 __all__ = ["CONTEXT", "band", "bands", "layout", "padded", "workspace_pass"]
@@ -325,30 +326,6 @@ def _driven(module: Module, lays: _Layouts) -> Layout:
     )
 
 
-def _jacobian(module: Module, _: _Layouts) -> Layout:
-    """step_jacobian(): the stage state ys and fields k, the derivatives of the stage state
-    (dy) and of each stage (kd) and the step's (d), all with the state's 6n columns and then
-    the inputs', the field's Jacobian jx and the field_jacobian kernel's outputs (jq, jr, am,
-    ju). Kept after the per-call context (see `workspace_pass`), so that WORK_SIZE, which
-    every other function reads, stays as it is."""
-    ns, m3 = _ns(module), _m3(module)
-    cols = ns + (len(module.drive.inputs) if module.drive is not None else 0)
-    stages = max(t.stages for t in explicit_tableaus(module.kind.value))
-    return layout(
-        "jacobian",
-        ("ys", ns),
-        ("k", stages * ns),
-        ("dy", ns * cols),
-        ("kd", stages * ns * cols),
-        ("d", ns * cols),
-        ("jx", ns * cols),
-        ("jq", m3 * ns),
-        ("jr", m3 * ns),
-        ("am", m3 * m3),
-        ("ju", m3 * (cols - ns)),
-    )
-
-
 #: The builder of each layout a part of the sphere module may declare
 _SPHERE: dict[str, _Builder] = {
     "field": _field,
@@ -366,7 +343,7 @@ _SPHERE: dict[str, _Builder] = {
     "step": _one_step,
     "carry": _carry,
     "driven": _driven,
-    "jacobian": _jacobian,
+    "jacobian": lambda module, _: jacobian_layout(module),
 }
 
 

@@ -95,6 +95,11 @@ def _step_macros(module: Module) -> tuple[Macro, ...]:
                 str(module.layout("jacobian").size),
                 "workspace doubles step_jacobian() needs (more than WORK_SIZE)",
             ),
+            (
+                "JACOBIAN_VI",
+                "1" if any(k.name == "vi_jacobian" for k in module.kernels) else "0",
+                "1: step_jacobian() differentiates the VI family too (M diagonal or dense)",
+            ),
         )
     if module.drive is not None:
         return (("NINPUTS", str(len(module.drive.inputs)), "inputs in u (see input_names)"), *jac)

@@ -20,8 +20,9 @@ from __future__ import annotations
 from fractions import Fraction
 from typing import Any
 
+from s2gen.inertia import InertiaKind
 from s2gen.ir import Module
-from s2gen.methods import METHODS, driven_methods, fixed_methods
+from s2gen.methods import METHODS, Family, driven_methods, fixed_methods
 
 __all__ = ["JACOBIAN_PART", "print_jacobian"]
 
@@ -38,6 +39,13 @@ _KEYS = (
     "setup",
     "stage_time",
     "stage_force",
+    "vi_methods",
+    "vi_count",
+    "max_sub",
+    "ny",
+    "vi_sections",
+    "vi_substep",
+    "other",
 )
 
 
@@ -96,6 +104,7 @@ def print_jacobian(module: Module) -> dict[str, Any]:
             "}",
         )
     return {
+        **_vi(module),
         "methods": tuple(methods),
         "count": str(len(methods)),
         "max_stages": str(max(int(m["stages"]) for m in methods)),
@@ -105,4 +114,64 @@ def print_jacobian(module: Module) -> dict[str, Any]:
         "setup": setup,
         "stage_time": stage_time,
         "stage_force": stage_force,
+    }
+
+
+def _vi(module: Module) -> dict[str, Any]:
+    """The VI family's entries of ``m.jac``: each method's substeps (step fractions), the
+    size of the unknowns of one step's equations (``ny``), the section that differentiates
+    them (none without the ``vi_jacobian`` kernel: structured M) and the C lines of one
+    substep from (qs, ws) at ts into (qd, wd), the Cayley parameters into f."""
+    name, upper, n = module.name, module.name.upper(), module.n
+    if "vi_jacobian" not in {k.name for k in module.kernels}:
+        return {
+            "vi_methods": (),
+            "vi_count": "0",
+            "max_sub": "1",
+            "ny": "0",
+            "vi_sections": (),
+            "vi_substep": (),
+            "other": (f"return {upper}_ERR_ARGUMENT;",),
+        }
+    drive = module.drive
+    rows = [
+        m
+        for m in METHODS
+        if m.family is Family.VI
+        and m.composition is not None
+        and (drive is None or m.name in driven_methods())
+    ]
+    methods = tuple(
+        {
+            "c_name": m.c_name,
+            "name": m.name,
+            "count": str(len(m.composition.fractions)),
+            "fractions": ", ".join(repr(float(x)) for x in m.composition.fractions),
+        }
+        for m in rows
+        if m.composition is not None
+    )
+    coupled = module.solver is not InertiaKind.DIAGONAL
+    if drive is None:
+        substep: tuple[str, ...] = (
+            f"{name}_gradient_cx(cx, qs, g);",
+            f"status = {name}_vi_advance(cx, opt, hs, qs, ws, g, qd, wd, gn, f, 0, work, &its);",
+        )
+    else:
+        f_at = f"work + {module.layout('driven').offset('f')}"
+        substep = (
+            f"status = {name}_driven_vi(cx, opt, ts, hs, qs, ws, qd, wd, &part, work, &its);",
+            *((f"{name}_copy(f, {f_at}, {upper}_N3);",) if coupled else ()),
+            "cx->tu[0] = ts;",
+        )
+    return {
+        "vi_methods": methods,
+        "vi_count": str(len(methods)),
+        "max_sub": str(max(int(m["count"]) for m in methods)),
+        "ny": str((9 if coupled else 6) * n),
+        "vi_sections": ("c/sections/_jacobian_vi.jinja",),
+        "vi_substep": substep,
+        "other": (
+            f"return {name}_jac_vi_step(p, opt, method, t, h, u, q, w, qn, wn, A, B, work);",
+        ),
     }

@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from s2gen.methods import Status, driven_methods, fixed_methods, method
+from s2gen.methods import METHODS, Family, Status, driven_methods, fixed_methods, method
 from s2gen.runtime.c import CBackend, contiguous, pointer
 
 __all__ = ["BASES", "Linearization", "frame", "linearize", "tangent_basis"]
@@ -119,12 +119,15 @@ def _refuse(backend: Any, method_name: str, basis: str) -> None:
             f"{system.name}: step Jacobians are emitted for systems of a few bodies, not n = "
             f"{system.n} (s2gen.equations.jacobian.JACOBIAN_MAX_BODIES)"
         )
-    rk = [m.name for m in fixed_methods("sphere")]
-    allowed = [m for m in rk if not system.driven or m in driven_methods()]
+    names = [m.name for m in fixed_methods("sphere")]
+    if backend.library.jacobian_vi:
+        names += [m.name for m in METHODS if m.family is Family.VI]
+    allowed = [m for m in names if not system.driven or m in driven_methods()]
     if method_name not in allowed:
+        more = "" if backend.library.jacobian_vi else " (the VI family's: M diagonal or dense)"
         raise ValueError(
-            f"{system.name}: method {method_name!r} has no step Jacobian yet (the VI family's "
-            f"is to come); choose one of {', '.join(allowed)}"
+            f"{system.name}: method {method_name!r} has no step Jacobian{more}; choose one of "
+            f"{', '.join(allowed)}"
         )
 
 
