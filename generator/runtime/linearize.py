@@ -41,6 +41,7 @@ import numpy as np
 
 from s2gen.methods import METHODS, Family, Status, driven_methods, fixed_methods, method
 from s2gen.runtime.c import CBackend, contiguous, pointer
+from s2gen.runtime.options import Options
 
 __all__ = ["BASES", "Linearization", "frame", "linearize", "tangent_basis"]
 
@@ -141,9 +142,11 @@ def linearize(
     t: float = 0.0,
     u: np.ndarray | None = None,
     basis: str = "tangent",
+    options: Options | None = None,
 ) -> Linearization:
     """The `Linearization` of one step of `method_name` from (q, w) (shape (n, 3)) at time t
-    with the inputs u (None: the spec's defaults) on a `CBackend`.
+    with the inputs u (None: the spec's defaults) on a `CBackend`, with the step's `options`
+    (None: the defaults).
 
     Example:
         >>> from s2gen.systems import builtin
@@ -162,9 +165,10 @@ def linearize(
     qn, wn = np.empty((n, 3)), np.empty((n, 3))
     A, B = np.empty((6 * n, 6 * n)), np.empty((6 * n, ni))
     work = np.zeros(backend.library.jacobian_work)
+    opt = backend.library.options(Options() if options is None else options)
     status = backend.library.fn["step_jacobian"](
         contiguous(params),
-        None,
+        ctypes.byref(opt),
         method(method_name).code,
         ctypes.c_double(t),
         ctypes.c_double(h),

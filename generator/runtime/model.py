@@ -165,11 +165,14 @@ class Model:
         u: Sequence[float] | np.ndarray | None = None,
         basis: str = "tangent",
         params: Mapping[str, float] | None = None,
+        options: Options | None = None,
     ) -> Linearization:
         """The exact derivatives of one step of an explicit Runge-Kutta method from (q, omega)
         at time t with the inputs u held (None: the spec's): A = dx+/dx and B = dx+/du in the
         tangent basis of T(S^2)^n (4n coordinates) or the embedding coordinates (6n), with the
-        state after the step and the bases (`s2gen.runtime.linearize`); C backend only.
+        state after the step and the bases (`s2gen.runtime.linearize`); the VI family (M
+        diagonal or dense) and the fixed-step Runge-Kutta methods, C backend only. `options`:
+        the step's (Newton's tolerance for a coupled M).
 
         Example:
             >>> from s2gen.systems import builtin
@@ -182,7 +185,7 @@ class Model:
 
         p = parameter_vector(self.system, params)
         uu = None if u is None else np.asarray(u, dtype=float)
-        return linearize(self._backend, q, omega, h, method, p, t, uu, basis)
+        return linearize(self._backend, q, omega, h, method, p, t, uu, basis, options)
 
     def stepper(
         self,
