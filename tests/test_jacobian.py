@@ -7,6 +7,7 @@ linearized normal modes (computed here from M and V with NumPy)."""
 from __future__ import annotations
 
 from fractions import Fraction
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -218,3 +219,20 @@ def test_linearize_refuses_in_one_line(double: Model) -> None:
         double.linearize(s.q0, s.omega0, H, "vi", basis="polar")
     with pytest.raises(TypeError, match="C backend"):
         Model(s, "numpy").linearize(s.q0, s.omega0, H, "rk4")
+
+
+def test_readme_linearization_block(double: Model) -> None:
+    """The README's Linearization block, run as it stands: the image it computes of a tangent
+    displacement agrees with central differences of the emitted VI step."""
+    readme = (Path(__file__).parent.parent / "README.md").read_text()
+    code = readme.split("## Linearization", 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
+    ns: dict[str, object] = {}
+    exec(compile(code, "README.md", "exec"), ns)  # noqa: S102 (the README's own example)
+    lin, emb, dx, after = ns["lin"], ns["emb"], ns["dx"], ns["after"]
+    assert lin.A.shape == (8, 8) and emb.A.shape == (12, 12)  # type: ignore[attr-defined]
+    x0 = _state(double)
+    fd = (
+        _step(double, x0 + 100 * dx, "vi", 0.0, None)
+        - _step(double, x0 - 100 * dx, "vi", 0.0, None)
+    ) / 200  # type: ignore[operator]
+    assert np.abs(after - fd).max() < 1e-6 * np.abs(fd).max()  # type: ignore[operator]
