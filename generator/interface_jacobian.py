@@ -1,7 +1,8 @@
 """The C interface of the step Jacobians: ``step_jacobian()``, as an `interface.Function`.
 
 A sphere module of at most `s2gen.equations.jacobian.JACOBIAN_MAX_BODIES` bodies has it
-(closed or driven: one signature for both); its header also defines JACOBIAN_WORK_SIZE.
+(closed or driven: one signature for both); its header also defines JACOBIAN_WORK_SIZE and
+JACOBIAN_VI.
 
 Example:
     >>> [p.name for p in STEP_JACOBIAN.params][-3:]
@@ -34,15 +35,18 @@ STEP_JACOBIAN = Function(
         Param("B", _A, True),
         Param("work", _A),
     ),
-    "One step of size h of an explicit Runge-Kutta method (METHOD_RK2, METHOD_RK4, ...; the "
-    "VI family is refused with ERR_ARGUMENT) from (q, w) at time t into (qn, wn), exactly as "
-    "step() takes it, and its exact derivatives in the embedding coordinates: with "
-    "x = (q, w) (NS = 2 NSTATE doubles, q body-major then w), A (NS x NS, row-major) "
-    "receives dx+/dx and B (NS x NINPUTS, row-major; may be NULL) dx+/du. They are the chain "
-    "rule of the method's tableau through its stages (the projection of q_i onto the sphere "
-    "included for the -proj methods), on the field's Jacobian derived by SymPy (the Hessian of "
-    "V, the derivatives of the forces): no differences are taken. t and u (NINPUTS doubles; "
-    "NULL: the defaults) are read by a driven module only, opt by its step only. work: "
-    "JACOBIAN_WORK_SIZE doubles. Returns OK or the step's own status (ERR_ARGUMENT for h <= 0 "
-    "or a method without a Jacobian, ERR_NONFINITE).",
+    "One step of size h of a fixed-step method (the fixed-step Runge-Kutta methods; the VI "
+    "family, vi, vi4, vi6, vi8, when JACOBIAN_VI is 1: M diagonal or solved densely) from "
+    "(q, w) at time t into (qn, wn), as step() takes it (Newton from its cold start), and its "
+    "exact derivatives in the embedding coordinates: with x = (q, w) (NS = 2 NSTATE doubles, "
+    "q body-major then w), A (NS x NS, row-major) receives dx+/dx and B (NS x NINPUTS, "
+    "row-major; may be NULL) dx+/du. Runge-Kutta: the chain rule of the tableau through its "
+    "stages (and the normalization of q_i for the -proj methods) on the field's Jacobian; VI: "
+    "the implicit function theorem on each substep's equations (Newton's residual in the "
+    "Cayley parameters, the Cayley update and the velocity equations; diagonal M: the "
+    "explicit update), the substeps' derivatives multiplied. SymPy derives every derivative "
+    "(the Hessian of V, those of the forces); no differences are taken. t and u (NINPUTS "
+    "doubles; NULL: the defaults) are read by a driven module only; opt (NULL: the defaults) "
+    "by the VI. work: JACOBIAN_WORK_SIZE doubles. Returns OK or the step's own status "
+    "(ERR_ARGUMENT for h <= 0 or a method without a Jacobian, ERR_NONFINITE, ERR_NEWTON)",
 )
