@@ -1,7 +1,7 @@
 """The C interface of the step Jacobians: ``step_jacobian()``, as an `interface.Function`.
 
-A sphere module of at most `s2gen.equations.jacobian.JACOBIAN_MAX_BODIES` bodies has it
-(closed or driven: one signature for both); its header also defines JACOBIAN_WORK_SIZE and
+A sphere module emitted from `System.with_jacobians` has it (systems of at most
+`s2gen.equations.jacobian.JACOBIAN_MAX_BODIES` bodies; closed or driven: one signature); its header also defines JACOBIAN_WORK_SIZE and
 JACOBIAN_VI.
 
 Example:

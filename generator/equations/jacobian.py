@@ -1,7 +1,7 @@
 """The exact Jacobian of the continuous field on (S^2)^n, for the step Jacobians.
 
-Input: a `System` of at most `JACOBIAN_MAX_BODIES` bodies (the kernel is whole-system and
-dense). Output: the whole-system kernel ``field_jacobian`` that the ``jacobian`` part calls at
+Input: a `System` of at most `JACOBIAN_MAX_BODIES` bodies without cutoff terms
+(`has_jacobian`; the kernel is whole-system and dense). Output: the whole-system kernel ``field_jacobian`` that the ``jacobian`` part calls at
 every Runge-Kutta stage to propagate the derivative of a step through it (the chain rule of
 the tableau, in `templates/c/_jacobian.jinja`).
 
@@ -17,7 +17,7 @@ takes every derivative (the Hessian of V enters through dg/dq), nothing is diffe
 
 Example:
     >>> from s2gen.systems import builtin
-    >>> k = jacobian_kernels(builtin("double_pendulum"))[0]
+    >>> k = jacobian_kernels(builtin("double_pendulum").with_jacobians())[0]
     >>> k.name, [o.name for o in k.outputs], [o.size for o in k.outputs]
     ('field_jacobian', ['jq', 'jr', 'am'], [72, 72, 36])
 """
@@ -32,7 +32,13 @@ from s2gen.ir import Argument, KernelDef, Output
 from s2gen.symbols import q_symbols, w_symbol
 from s2gen.system import System
 
-__all__ = ["JACOBIAN_MAX_BODIES", "field_jacobian", "has_jacobian", "jacobian_kernels"]
+__all__ = [
+    "JACOBIAN_MAX_BODIES",
+    "field_jacobian",
+    "has_jacobian",
+    "jacobian_kernels",
+    "jacobian_refusal",
+]
 
 #: The step Jacobians are emitted for systems of at most this many bodies: their kernel is
 #: whole-system and dense ((3n)^2 derivatives of the field), as are the products the chain rule
@@ -41,14 +47,36 @@ JACOBIAN_MAX_BODIES = 8
 
 
 def has_jacobian(system: System) -> bool:
-    """Whether the emitted C of `system` carries step_jacobian().
+    """Whether the emitted C of `system` carries step_jacobian(): asked for
+    (`System.with_jacobians`), at most `JACOBIAN_MAX_BODIES` bodies and no pair terms within a
+    cutoff (whose members are found per call, and whose second derivatives jump there).
 
     Example:
         >>> from s2gen.systems import builtin
-        >>> has_jacobian(builtin("double_pendulum")), has_jacobian(builtin("rope", n=20))
-        (True, False)
+        >>> s = builtin("double_pendulum")
+        >>> has_jacobian(s), has_jacobian(s.with_jacobians())
+        (False, True)
     """
-    return system.n <= JACOBIAN_MAX_BODIES
+    return system.jacobians and jacobian_refusal(system) is None
+
+
+def jacobian_refusal(system: System) -> str | None:
+    """Why `system`'s C cannot carry step_jacobian(), or None.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> jacobian_refusal(builtin("rope", n=20))
+        'step Jacobians are emitted for systems of at most 8 bodies, not n = 20'
+    """
+    if system.n > JACOBIAN_MAX_BODIES:
+        return (
+            f"step Jacobians are emitted for systems of at most {JACOBIAN_MAX_BODIES} bodies, "
+            f"not n = {system.n}"
+        )
+    cutoff = [t.label for t in system.terms if not t.selection.fixed]
+    if cutoff:
+        return f"{cutoff[0]}: step Jacobians are not emitted for terms within a cutoff"
+    return None
 
 
 def _blocks(vec: list[sp.Symbol], n: int) -> list[sp.Matrix]:

@@ -24,7 +24,7 @@ SymPy takes every derivative (the Hessian of V at both ends, dF/dq and dF/dw).
 
 Example:
     >>> from s2gen.systems import builtin
-    >>> k = vi_jacobian_kernels(builtin("double_pendulum"))[0]
+    >>> k = vi_jacobian_kernels(builtin("double_pendulum").with_jacobians())[0]
     >>> k.name, [o.size for o in k.outputs]
     ('vi_jacobian', [324, 216])
 """
@@ -56,7 +56,7 @@ def has_vi_jacobian(system: System, solver: InertiaKind) -> bool:
 
     Example:
         >>> from s2gen.systems import builtin
-        >>> has_vi_jacobian(builtin("double_pendulum"), InertiaKind.DENSE)
+        >>> has_vi_jacobian(builtin("double_pendulum").with_jacobians(), InertiaKind.DENSE)
         True
     """
     return has_jacobian(system) and solver in (InertiaKind.DIAGONAL, InertiaKind.DENSE)

@@ -8,7 +8,7 @@ end.
 Example:
     >>> from s2gen.systems import builtin
     >>> from s2gen.passes import lower_system
-    >>> lay = lower_system(builtin("double_pendulum")).layout("jacobian")
+    >>> lay = lower_system(builtin("double_pendulum").with_jacobians()).layout("jacobian")
     >>> [b.name for b in lay.buffers][:4]
     ['ys', 'k', 'dy', 'kd']
 """

@@ -10,7 +10,7 @@ derivative's columns (the state's 6n, then the inputs). Empty for a module witho
 Example:
     >>> from s2gen.systems import builtin
     >>> from s2gen.passes import lower_system
-    >>> jac = print_jacobian(lower_system(builtin("double_pendulum")))
+    >>> jac = print_jacobian(lower_system(builtin("double_pendulum").with_jacobians()))
     >>> [x["c_name"] for x in jac["methods"]][:3], jac["columns"]
     (['METHOD_RK2', 'METHOD_RK4', 'METHOD_RK2_PROJ'], '12')
 """

@@ -1,8 +1,9 @@
 """Linearize one step: the exact Jacobians of the emitted step, in the tangent basis or the
 embedding coordinates.
 
-Input: a C backend whose module has step_jacobian() (systems of a few bodies), a state, a step
-size, an explicit Runge-Kutta method, time and inputs. Output: a `Linearization`.
+Input: a C backend whose module has step_jacobian() (built from `System.with_jacobians`:
+systems of a few bodies), a state, a step size, a fixed-step method, time and inputs. Output:
+a `Linearization`.
 
 The tangent basis. The state (q, w) lives on T(S^2)^n = {|q_i| = 1, q_i . w_i = 0}, of
 dimension 4n inside the 6n embedding coordinates x = (q, w) (the 3n components of q
@@ -39,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from s2gen.equations.jacobian import jacobian_refusal
 from s2gen.methods import METHODS, Family, Status, driven_methods, fixed_methods, method
 from s2gen.runtime.c import CBackend, contiguous, pointer
 from s2gen.runtime.options import Options
@@ -116,10 +118,8 @@ def _refuse(backend: Any, method_name: str, basis: str) -> None:
     if not isinstance(backend, CBackend):
         raise TypeError(f"{system.name}: linearize runs on the C backend, not {backend.name!r}")
     if not backend.library.jacobian:
-        raise ValueError(
-            f"{system.name}: step Jacobians are emitted for systems of a few bodies, not n = "
-            f"{system.n} (s2gen.equations.jacobian.JACOBIAN_MAX_BODIES)"
-        )
+        why = jacobian_refusal(system) or "built without them (System.with_jacobians)"
+        raise ValueError(f"{system.name}: {why}")
     names = [m.name for m in fixed_methods("sphere")]
     if backend.library.jacobian_vi:
         names += [m.name for m in METHODS if m.family is Family.VI]
@@ -151,7 +151,7 @@ def linearize(
     Example:
         >>> from s2gen.systems import builtin
         >>> s = builtin("double_pendulum")
-        >>> be = CBackend(s)
+        >>> be = CBackend(s.with_jacobians())
         >>> lin = linearize(be, s.q0, s.omega0, 0.01, "rk4", be.default_params())
         >>> lin.A.shape, lin.B.shape, lin.basis_in.shape
         ((8, 8), (8, 0), (12, 8))
