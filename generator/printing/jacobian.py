@@ -12,7 +12,7 @@ Example:
     >>> from s2gen.passes import lower_system
     >>> jac = print_jacobian(lower_system(builtin("double_pendulum").with_jacobians()))
     >>> [x["c_name"] for x in jac["methods"]][:3], jac["columns"]
-    (['METHOD_RK2', 'METHOD_RK4', 'METHOD_RK2_PROJ'], '12')
+    (['METHOD_RK2', 'METHOD_RK2_PROJ', 'METHOD_RK4'], '12')
 """
 
 from __future__ import annotations
@@ -43,7 +43,6 @@ _KEYS = (
     "vi_count",
     "max_sub",
     "ny",
-    "vi_sections",
     "vi_substep",
     "other",
 )
@@ -119,8 +118,9 @@ def print_jacobian(module: Module) -> dict[str, Any]:
 
 def _vi(module: Module) -> dict[str, Any]:
     """The VI family's entries of ``m.jac``: each method's substeps (step fractions), the
-    size of the unknowns of one step's equations (``ny``), the section that differentiates
-    them (none without the ``vi_jacobian`` kernel: structured M) and the C lines of one
+    size of the unknowns of one step's equations (``ny``; the section ``jacobian_vi``
+    differentiates them, absent without the ``vi_jacobian`` kernel: structured M) and the C
+    lines of one
     substep from (qs, ws) at ts into (qd, wd), the Cayley parameters into f."""
     name, upper, n = module.name, module.name.upper(), module.n
     if "vi_jacobian" not in {k.name for k in module.kernels}:
@@ -129,7 +129,6 @@ def _vi(module: Module) -> dict[str, Any]:
             "vi_count": "0",
             "max_sub": "1",
             "ny": "0",
-            "vi_sections": (),
             "vi_substep": (),
             "other": (f"return {upper}_ERR_ARGUMENT;",),
         }
@@ -169,7 +168,6 @@ def _vi(module: Module) -> dict[str, Any]:
         "vi_count": str(len(methods)),
         "max_sub": str(max(int(m["count"]) for m in methods)),
         "ny": str((9 if coupled else 6) * n),
-        "vi_sections": ("c/sections/_jacobian_vi.jinja",),
         "vi_substep": substep,
         "other": (
             f"return {name}_jac_vi_step(p, opt, method, t, h, u, q, w, qn, wn, A, B, work);",

@@ -72,7 +72,7 @@ def frame(q: np.ndarray) -> np.ndarray:
 
     Example:
         >>> frame(np.array([[0.0, 0.0, -1.0]]))[0].T.tolist()
-        [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+        [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]
     """
     q = np.asarray(q, dtype=float)
     if np.any(q[:, 0] <= -1.0 + 1e-12):
