@@ -3,7 +3,8 @@
 Input: command-line options (``--systems``, ``--methods``, ``--h``, ``--calls``,
 ``--repeats``). Output: a table on stdout: per system and method, the time per call of the
 emitted step (``NAME_vi_step`` / ``NAME_rk_step``, or a driven module's ``NAME_step``) and of
-``NAME_step_jacobian`` (the same step and A, B in the embedding coordinates), both called
+``NAME_step_jacobian`` (the same step and A, B in the embedding coordinates; the module built
+with ``System.with_jacobians``), both called
 through ctypes from the system's initial state (so both include the ctypes call, about a
 microsecond), and their ratio; the best of `repeats` batches of `calls` calls. The header
 names the CPU (from /proc/cpuinfo). Numbers only: no test times them.
@@ -33,7 +34,11 @@ from s2gen.runtime.options import Options
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """The options of the module docstring."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--systems", nargs="+", default=["double_pendulum", "four_pendula", "rope:n=8"])
+    ap.add_argument(
+        "--systems",
+        nargs="+",
+        default=["double_pendulum", "four_pendula", "tests/specs/driven_double.toml"],
+    )
     ap.add_argument("--methods", nargs="+", default=["vi", "vi4", "rk4"])
     ap.add_argument("--h", type=float, default=0.001)
     ap.add_argument("--calls", type=int, default=2000)
@@ -94,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"# step_jacobian against the step; CPU: {cpu_model()}; h = {args.h}")
     print(f"{'system':24} {'n':>3} {'method':7} {'step µs':>9} {'jacobian µs':>12} {'ratio':>7}")
     for spec in args.systems:
-        model = Model(s2gen.load(spec))
+        model = Model(s2gen.load(spec).with_jacobians())
         for name in args.methods:
             if name != "vi" and method(name).composition is not None and not model.system.driven:
                 continue  # a closed module steps a composition only through step()
