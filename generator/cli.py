@@ -69,6 +69,11 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument("spec", metavar="SPEC")
     g.add_argument("--lang", choices=LANGUAGES, default="c", help="language (default c)")
     g.add_argument("--out", required=True, help="output folder (created if needed)")
+    g.add_argument(
+        "--jacobians",
+        action="store_true",
+        help="C: also emit step_jacobian(), one step's exact derivatives (up to 8 bodies)",
+    )
 
     s = sub.add_parser("simulate", help="integrate a system and save the trajectory (.npz)")
     s.add_argument("spec", metavar="SPEC")
@@ -178,6 +183,13 @@ def _generate(args: argparse.Namespace) -> int:
     from s2gen.systems import resolve
 
     system = resolve(args.spec)
+    if args.jacobians:
+        from s2gen.equations.jacobian import jacobian_refusal
+
+        why = jacobian_refusal(system)
+        if why is not None:
+            raise ValueError(f"--jacobians: {system.name}: {why}")
+        system = system.with_jacobians()
     start = time.perf_counter()
     try:
         paths = write_files(emit(system, args.lang), args.out)

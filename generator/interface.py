@@ -446,16 +446,22 @@ _DRIVEN = Interface(
 )
 
 
-def interface(kind: ModuleKind, driven: bool = False) -> Interface:
+def interface(kind: ModuleKind, driven: bool = False, jacobian: bool = False) -> Interface:
     """The interface of one kind of module (the angle form's in `s2gen.interface_angles`);
-    `driven`: a sphere module with forces, inputs or time.
+    `driven`: a sphere module with forces, inputs or time; `jacobian`: one with
+    step_jacobian() (`s2gen.interface_jacobian`).
 
     Example:
         >>> [p.name for p in interface(ModuleKind.SPHERE, driven=True).function("step").params][:6]
         ['p', 'opt', 'method', 't', 'h', 'u']
     """
     if kind is ModuleKind.SPHERE:
-        return _DRIVEN if driven else _SPHERE
+        api = _DRIVEN if driven else _SPHERE
+        if not jacobian:
+            return api
+        from s2gen.interface_jacobian import STEP_JACOBIAN
+
+        return Interface((*api.functions, STEP_JACOBIAN), api.options, api.stats, api.stepper)
     from s2gen.interface_angles import ANGLES
 
     return ANGLES

@@ -22,6 +22,7 @@ Example:
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -103,6 +104,9 @@ class System:
     #: The driven part: the caller's inputs and the generalized forces (empty: closed system).
     inputs: Inputs = field(default_factory=Inputs)
     forces: tuple[Force, ...] = ()
+    #: Whether the emitted C carries step_jacobian() (`with_jacobians`; off by default: its
+    #: derivation takes longer than the rest of the module's)
+    jacobians: bool = False
     #: What `s2gen.load` rebuilds this system from: a built-in name with its options
     #: (``elastic_rod:n=12``) or the TOML text; empty for a system defined in Python.
     source: str = field(default="", compare=False)
@@ -316,6 +320,18 @@ class System:
             )
         return total
 
+    def with_jacobians(self) -> System:
+        """The same system, its emitted C with the step Jacobians (step_jacobian(): systems
+        of at most 8 bodies without cutoff terms; see `s2gen.equations.jacobian`).
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> s = builtin("double_pendulum")
+            >>> s.with_jacobians().jacobians, s.with_jacobians().spec_hash() != s.spec_hash()
+            (True, True)
+        """
+        return dataclasses.replace(self, jacobians=True)
+
     def spec_hash(self) -> str:
         """A short content hash of the specification (goes into emitted preambles)."""
         return self.spec_digest()[:16]
@@ -351,6 +367,8 @@ class System:
             for d in t.body_data:  # none: the digest is unchanged
                 h.update(f"body {d.name};{d.width};".encode())
                 h.update(np.asarray(d.values, dtype=float).tobytes())
+        if self.jacobians:  # absent by default: the digest is unchanged
+            h.update(b"jacobians;")
         for u, v in zip(self.inputs.names, self.inputs.values):  # none: the digest is unchanged
             h.update(f"input {u}={v!r};".encode())
         for f in self.forces:

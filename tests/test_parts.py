@@ -180,6 +180,8 @@ SYSTEMS = {
     "driven_double": lambda: resolve(str(SPECS / "driven_double.toml")),
     "driven_ring": lambda: resolve(str(SPECS / "driven_ring.toml")),
     "driven_timed": lambda: resolve(str(SPECS / "driven_timed.toml")),
+    # the step Jacobians: Runge-Kutta and the VI (dense M, Newton), forces and an input
+    "driven_double_jacobians": lambda: resolve(str(SPECS / "driven_double.toml")).with_jacobians(),
 }
 
 

@@ -214,6 +214,36 @@ def c_api_driven_rst() -> str:
     return "\n".join(lines) + "\n"
 
 
+def c_api_jacobian_rst() -> str:
+    """step_jacobian() and its sizes (modules of systems of a few bodies).
+
+    Example:
+        >>> "JACOBIAN_WORK_SIZE" in c_api_jacobian_rst()
+        True
+    """
+    from s2gen.interface_jacobian import STEP_JACOBIAN
+
+    upper = PREFIX.upper()
+    sizes = {
+        **_SIZES,
+        "u": f"{upper}_NINPUTS doubles (a driven module's)",
+        "A": f"(2 {upper}_NSTATE)^2 doubles",
+        "B": f"2 {upper}_NSTATE * {upper}_NINPUTS doubles",
+        "work": f"{upper}_JACOBIAN_WORK_SIZE doubles",
+    }
+    lines = [
+        f".. c:macro:: {upper}_JACOBIAN_WORK_SIZE",
+        "",
+        "   The doubles ``work`` must hold for step_jacobian (more than WORK_SIZE).",
+        "",
+        f".. c:macro:: {upper}_JACOBIAN_VI",
+        "",
+        "   1 when step_jacobian differentiates the VI family too (M diagonal or dense), else 0.",
+        "",
+    ]
+    return "\n".join(lines + _function(STEP_JACOBIAN, PREFIX, sizes)) + "\n"
+
+
 def setup(app: Any) -> dict[str, Any]:
     """Register ``.. s2gen-c-api:: sphere|angles`` (Sphinx is imported here only, so that the
     tests can call `c_api_rst` without it)."""
@@ -227,6 +257,8 @@ def setup(app: Any) -> dict[str, Any]:
         def run(self) -> list[Any]:
             if self.arguments[0] == "driven":
                 return self.parse_text_to_nodes(c_api_driven_rst())
+            if self.arguments[0] == "jacobian":
+                return self.parse_text_to_nodes(c_api_jacobian_rst())
             kinds = {"sphere": ModuleKind.SPHERE, "angles": ModuleKind.ANGLES}
             kind = kinds.get(self.arguments[0])
             if kind is None:

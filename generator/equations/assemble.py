@@ -25,6 +25,7 @@ from s2gen.equations.angles import MIN_PIVOT_RATIO, POLE_TOL, AngleEquations, an
 from s2gen.equations.continuous import continuous_kernels
 from s2gen.equations.discrete import explicit_kernels, newton_kernels
 from s2gen.equations.driven import drive_of, driven_kernels
+from s2gen.equations.jacobian import has_jacobian, jacobian_kernels
 from s2gen.equations.operators import operator_kernels
 from s2gen.equations.rattle import rattle_kernels
 from s2gen.equations.structure import (
@@ -35,6 +36,7 @@ from s2gen.equations.structure import (
     system_kernels,
     term_kernels,
 )
+from s2gen.equations.vi_jacobian import vi_jacobian_kernels
 from s2gen.inertia import InertiaKind
 from s2gen.interface import INITIAL_STATE_MAX_BODIES
 from s2gen.ir import Drive, KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
@@ -174,6 +176,8 @@ def sphere_module(system: System) -> Module:
         kernels += term_kernels(system, k, t)
     kernels += generic_kernel_defs(coupled, solver)
     kernels += driven_kernels(system) if drive is not None else []
+    kernels += jacobian_kernels(system)
+    kernels += vi_jacobian_kernels(system, solver)
     loops = tuple(_term_loop(k, t, system.n) for k, t in terms)
     cutoff = any(not t.loop.kind.fixed for t in loops)
     per_body = per_body_inertia(system, solver) is not None
@@ -190,6 +194,7 @@ def sphere_module(system: System) -> Module:
         field.append(("rhs_diag", system.n))
     chain_data = system.chain.data if per_body and system.chain is not None else ()
     parts = _parts(solver, bool(pairs) or bool(loops) or bool(chain_data), cutoff, drive)
+    parts += ("jacobian",) if has_jacobian(system) else ()
     return Module(
         kind=ModuleKind.SPHERE,
         name=system.name,
@@ -200,7 +205,8 @@ def sphere_module(system: System) -> Module:
         parameter_values=system.parameter_values,
         kernels=tuple(kernels),
         parts=parts,
-        c_only=("cholesky", "lu", "band"),  # NumPy: numpy.linalg, scipy.linalg
+        # NumPy: numpy.linalg, scipy.linalg (the step Jacobians are C only)
+        c_only=("cholesky", "lu", "band", "jacobian"),
         variants=_variants(solver),
         pairs=pairs,
         terms=loops,

@@ -114,6 +114,29 @@ _DRIVEN = Part(
     ),
 )
 
+
+#: The step Jacobians (systems of a few bodies): the field's derivatives at each stage
+def _vi_jacobian_sites(module: Module) -> tuple[Site, ...]:
+    """The VI step's equations' derivatives, where the module differentiates the VI."""
+    if not any(k.name == "vi_jacobian" for k in module.kernels):
+        return ()
+    return (Site("vi_jacobian", "vi_jacobian", _S, CC),)
+
+
+def _vi_jacobian_buffers() -> tuple[str, ...]:
+    return ("qs", "ws", "qd", "wd", "g", "gn", "f", "ey", "ex", "sd")
+
+
+_JACOBIAN = Part(
+    "jacobian",
+    sites=(Site("field_jacobian", "field_jacobian", _S, CC),),
+    buffers=(
+        ("jacobian", ("ys", "k", "dy", "kd", "d", "jx", "jq", "jr", "am", "ju")),
+        ("jacobian", _vi_jacobian_buffers()),
+    ),
+    module_sites=_vi_jacobian_sites,
+)
+
 #: The parts of the sphere module (each laid out by `c/_<name>.jinja`, `numpy/_<name>.jinja`)
 SPHERE_PARTS = (
     Part("tables"),
@@ -273,6 +296,7 @@ SPHERE_PARTS = (
         ),
     ),
     _DRIVEN,
+    _JACOBIAN,
 )
 
 #: The sphere module's parts by name

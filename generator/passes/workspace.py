@@ -26,6 +26,7 @@ from s2gen.inertia import InertiaKind
 from s2gen.ir import Band, Buffer, Layout, LoopKind, Module, ModuleKind, TermLoop
 from s2gen.methods import METHODS, explicit_tableaus
 from s2gen.parts import selected
+from s2gen.passes.jacobian_layout import jacobian_layout
 from s2gen.tableaus import DOP853, DOPRI5
 
 __all__ = ["CONTEXT", "band", "bands", "layout", "padded", "workspace_pass"]
@@ -356,6 +357,7 @@ _SPHERE: dict[str, _Builder] = {
     "step": _one_step,
     "carry": _carry,
     "driven": _driven,
+    "jacobian": lambda module, _: jacobian_layout(module),
 }
 
 
@@ -376,6 +378,8 @@ _ANGLES: dict[str, _Builder] = {
 
 #: Layouts that are not workspace (kept by the caller between calls)
 _NOT_WORKSPACE = ("carry",)
+#: Layouts placed after the per-call context (their offsets count from the workspace's start)
+_TAIL = ("jacobian",)
 
 
 #: Name of the layout of the per-call context kept at the tail of the workspace.
@@ -435,8 +439,15 @@ def workspace_pass(module: Module) -> Module:
     lays = _Layouts(module, _SPHERE if module.kind is ModuleKind.SPHERE else _ANGLES)
     names = dict.fromkeys(lay for part in selected(module) for lay, _ in part.buffers)
     layouts = [lay for lay in map(lays.get, names) if lay is not None]
-    base = max((lay.size for lay in layouts if lay.name not in _NOT_WORKSPACE), default=0)
+    base = max((lay.size for lay in layouts if lay.name not in _NOT_WORKSPACE + _TAIL), default=0)
     context = _context(module)
+    tail = base + context.size
+    layouts = [
+        Layout(lay.name, tuple(replace(b, offset=b.offset + tail) for b in lay.buffers))
+        if lay.name in _TAIL
+        else lay
+        for lay in layouts
+    ]
     return replace(
         module,
         layouts=(*layouts, context),

@@ -36,6 +36,7 @@ from s2gen.printing.c_module import (
     c_tables,
 )
 from s2gen.printing.driven import print_drive
+from s2gen.printing.jacobian import print_jacobian
 from s2gen.printing.numpy import (
     py_call,
     py_data_setup,
@@ -134,6 +135,7 @@ class PrintedModule:
     py_inertia_setup: tuple[str, ...]  # NumPy: the body index and per-body data of M
     py_data_setup: tuple[str, ...]  # NumPy: the per-body arrays of [data] the terms read
     drive: dict[str, Any]  # a driven module's inputs, methods and tables (empty: closed)
+    jac: dict[str, Any]  # the step Jacobians' methods and lines (empty: no step_jacobian)
 
 
 def print_module(module: Module) -> PrintedModule:
@@ -249,4 +251,5 @@ def print_module(module: Module) -> PrintedModule:
         py_inertia_setup=py_inertia_setup(module),
         py_data_setup=py_data_setup(module),
         drive=print_drive(module),
+        jac=print_jacobian(module),
     )

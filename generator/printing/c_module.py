@@ -27,6 +27,7 @@ from s2gen.printing.c import (
     rows,
 )
 from s2gen.printing.c_calls import c_binding
+from s2gen.printing.jacobian import JACOBIAN_PART
 
 __all__ = [
     "CTable",
@@ -86,9 +87,23 @@ def c_macros(module: Module) -> tuple[tuple[Macro, ...], tuple[Macro, ...]]:
 def _step_macros(module: Module) -> tuple[Macro, ...]:
     """step()'s carry (closed modules), or the number of inputs (driven modules, whose step()
     carries nothing)."""
+    jac: tuple[Macro, ...] = ()
+    if JACOBIAN_PART in module.parts:
+        jac = (
+            (
+                "JACOBIAN_WORK_SIZE",
+                str(module.layout("jacobian").size),
+                "workspace doubles step_jacobian() needs (more than WORK_SIZE)",
+            ),
+            (
+                "JACOBIAN_VI",
+                "1" if any(k.name == "vi_jacobian" for k in module.kernels) else "0",
+                "1: step_jacobian() differentiates the VI family too (M diagonal or dense)",
+            ),
+        )
     if module.drive is not None:
-        return (("NINPUTS", str(len(module.drive.inputs)), "inputs in u (see input_names)"),)
-    return (("STEP_CARRY", str(module.layout("carry").size), "doubles of step()'s carry"),)
+        return (("NINPUTS", str(len(module.drive.inputs)), "inputs in u (see input_names)"), *jac)
+    return (("STEP_CARRY", str(module.layout("carry").size), "doubles of step()'s carry"), *jac)
 
 
 def c_tables(module: Module) -> tuple[CTable, ...]:
@@ -140,7 +155,9 @@ def c_functions(module: Module) -> tuple[dict[str, str | tuple[str, ...]], ...]:
         'void double_pendulum_default_params(double *p)'
     """
     out: list[dict[str, str | tuple[str, ...]]] = []
-    for f in interface(module.kind, module.drive is not None).functions:
+    for f in interface(
+        module.kind, module.drive is not None, JACOBIAN_PART in module.parts
+    ).functions:
         note = nullable_note(f.params)
         doc = f.doc + (" " + note if note and "NULL" not in f.doc else "")
         out.append({"c_decl": c_decl(module.name, f), "doc_lines": _wrap(doc)})
@@ -158,7 +175,7 @@ def c_fields(module: Module, which: str) -> tuple[dict[str, str], ...]:
         >>> c_fields(m, "options")[0]["c_decl"], c_fields(m, "options")[0]["c_default"]
         ('double rtol', '1e-3')
     """
-    api = interface(module.kind, module.drive is not None)
+    api = interface(module.kind, module.drive is not None, JACOBIAN_PART in module.parts)
     upper = module.name.upper()
     return tuple(
         {

@@ -284,6 +284,7 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "drive_end": ("driven",),
         "drive_stage": ("driven",),
         "drive_operator": ("drive_force_fns",),
+        "jacobian_vi": ("jacobian",),
     },
     {
         "masses_fill": ("masses", "masses_coupled", "masses_generators"),
@@ -388,6 +389,10 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "drive_start": pick("c", (forces, "drive_start_force")),
         "drive_end": pick("c", (forces, "drive_end_force")),
         "drive_stage": pick("c", (forces, "drive_stage_force")),
+        # the step Jacobians of the VI family (M diagonal or dense)
+        "jacobian_vi": pick(
+            "c", (any(k.name == "vi_jacobian" for k in module.kernels), "jacobian_vi")
+        ),
     }
     py = {
         "masses_fill": pick("numpy", (uniform, "uniform_fill")),

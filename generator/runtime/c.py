@@ -78,9 +78,16 @@ class CLibrary:
         opt: str | None = None,
         driven: bool = False,
     ) -> None:
-        self.api: Interface = interface(kind, driven)
+        header = files[f"{prefix}.h"]
+        #: Whether the module has step_jacobian() (systems of a few bodies)
+        self.jacobian = f"#define {prefix.upper()}_JACOBIAN_WORK_SIZE " in header
+        self.api: Interface = interface(kind, driven, self.jacobian)
         self.lib, self.build = load_library(files, build_flags(opt))
         self.work = np.zeros(max(1, header_macro(files[f"{prefix}.h"], "WORK_SIZE")))
+        #: Doubles of step_jacobian()'s workspace (0 without it)
+        self.jacobian_work = header_macro(header, "JACOBIAN_WORK_SIZE") if self.jacobian else 0
+        #: Whether step_jacobian() differentiates the VI family too
+        self.jacobian_vi = self.jacobian and header_macro(header, "JACOBIAN_VI") == 1
         names = {f.name for f in self.api.functions}
         #: Doubles of step()'s carry (0 for a module without step()).
         carry = "step" in names and not driven

@@ -27,6 +27,7 @@ from s2gen.runtime.trajectory import Trajectory
 from s2gen.system import System
 
 if TYPE_CHECKING:
+    from s2gen.runtime.linearize import Linearization
     from s2gen.runtime.stepper import Stepper
 
 __all__ = ["Model"]
@@ -60,6 +61,7 @@ class Model:
 
             self._backend = CBackend(system, files, opt)
         self._steps: Any = None
+        self._jacobians: Any = None  # the C backend with step_jacobian(), once linearize asks
         if backend in ("c", "numpy") and not system.driven:
             from s2gen.runtime.step_cache import StepCache
 
@@ -200,6 +202,50 @@ class Model:
             method, h, qa, wa, p, options or _DEFAULT_OPTIONS, float(t), u
         )
         return (qn, wn) if status == 0 else None
+
+    def linearize(
+        self,
+        q: np.ndarray,
+        omega: np.ndarray,
+        h: float,
+        method: str = "rk4",
+        t: float = 0.0,
+        u: Sequence[float] | np.ndarray | None = None,
+        basis: str = "tangent",
+        params: Mapping[str, float] | None = None,
+        options: Options | None = None,
+    ) -> Linearization:
+        """The exact derivatives of one step of an explicit Runge-Kutta method from (q, omega)
+        at time t with the inputs u held (None: the spec's): A = dx+/dx and B = dx+/du in the
+        tangent basis of T(S^2)^n (4n coordinates) or the embedding coordinates (6n), with the
+        state after the step and the bases (`s2gen.runtime.linearize`); the VI family (M
+        diagonal or dense) and the fixed-step Runge-Kutta methods, C backend only (the first
+        call builds the module with step_jacobian(), `System.with_jacobians`). `options`: the
+        step's (Newton's tolerance for a coupled M).
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> s = builtin("double_pendulum")
+            >>> lin = Model(s).linearize(s.q0, s.omega0, 0.01, "rk4", basis="embedding")
+            >>> lin.A.shape, bool((lin.q == Model(s).step(s.q0, s.omega0, 0.01, "rk4")[0]).all())
+            ((12, 12), True)
+        """
+        from s2gen.equations.jacobian import jacobian_refusal
+        from s2gen.runtime.c import CBackend
+        from s2gen.runtime.linearize import linearize
+
+        p = parameter_vector(self.system, params)
+        uu = None if u is None else np.asarray(u, dtype=float)
+        backend = self._backend
+        if isinstance(backend, CBackend) and not backend.library.jacobian:
+            # the module with step_jacobian(), built once when first asked for
+            why = jacobian_refusal(self.system)
+            if why is not None:
+                raise ValueError(f"{self.system.name}: {why}")
+            if self._jacobians is None:
+                self._jacobians = CBackend(self.system.with_jacobians())
+            backend = self._jacobians
+        return linearize(backend, q, omega, h, method, p, t, uu, basis, options)
 
     def stepper(
         self,

@@ -1,0 +1,259 @@
+"""The exact Jacobian of one variational-integrator step, by the implicit function theorem.
+
+Input: a `System` of at most `JACOBIAN_MAX_BODIES` bodies whose M is diagonal or solved densely.
+Output: the whole-system kernel ``vi_jacobian``: for one VI step of size h from (q, w) at time
+t to (q+, w+) at t + h, the derivatives of the equations the emitted step solves,
+E(y; x, u) = 0, in its unknowns y and in x = (q, w) and the inputs u. The step Jacobian is then
+dy/d(x, u) = -E_y^-1 E_(x,u), whose last 6n rows are d(q+, w+)/d(x, u); the ``jacobian`` part
+solves it in C and multiplies the substeps' of a composition (vi4, vi6, vi8).
+
+The equations are the emitted step's own, assembled for the whole system from the kernels of
+`s2gen.equations.discrete` (and, driven, the forces of `s2gen.equations.driven`), with
+G = g(q, t) - F(q, w, t, u) at the start and g+ = g(q+, t + h), F+ = F(q+, w+, t + h, u):
+
+- coupled M (Newton on the Cayley parameters), y = (f, q+, w+):
+  R(f; q, w, G) = 0 (``d_body``, ``d_pair``, ``res_body``, ``res_pair``: the residual Newton
+  solves, so E_f is its matrix), q+ - cayley(f, q) = 0, and
+  A(q+) w+ - c(q, f, q+, g+) - h/2 q+ x F+ = 0 (``c_body``, ``c_pair``, ``a_body``, the blocks
+  -M_ij hat(q_i+) hat(q_j+));
+- diagonal M (the explicit update), y = (q+, w+): q+ - a x q - sqrt(1 - a.a) q = 0 with
+  a = h w - h^2/(2 M_ii) q x G (``vi_pos``), and M_ii (w+ - a/h) + h/2 q+ x (g+ - F+) = 0
+  (``vi_vel`` with the forced end velocity).
+
+SymPy takes every derivative (the Hessian of V at both ends, dF/dq and dF/dw).
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> k = vi_jacobian_kernels(builtin("double_pendulum").with_jacobians())[0]
+    >>> k.name, [o.size for o in k.outputs]
+    ('vi_jacobian', [324, 216])
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import sympy as sp
+
+from s2gen.equations.continuous import continuous_kernels
+from s2gen.equations.discrete import explicit_kernels, newton_kernels
+from s2gen.equations.driven import _force_total, tu_argument, tu_symbols
+from s2gen.equations.jacobian import has_jacobian
+from s2gen.inertia import InertiaKind
+from s2gen.ir import Argument, KernelDef, Output
+from s2gen.symbols import q_symbols, w_symbol
+from s2gen.system import System
+
+__all__ = ["has_vi_jacobian", "vi_jacobian_kernels", "vi_step_equations"]
+
+#: The symbol of the time at the end of a step
+T_END = sp.Symbol("tn", real=True)
+
+
+def has_vi_jacobian(system: System, solver: InertiaKind) -> bool:
+    """Whether the emitted C differentiates the VI family's steps (M diagonal or dense).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> has_vi_jacobian(builtin("double_pendulum").with_jacobians(), InertiaKind.DENSE)
+        True
+    """
+    return has_jacobian(system) and solver in (InertiaKind.DIAGONAL, InertiaKind.DENSE)
+
+
+def _vec(name: str, n: int) -> list[sp.Symbol]:
+    return list(sp.symbols(f"{name}_0:{3 * n}", real=True))
+
+
+def _apply(kernels: dict[str, KernelDef], name: str, output: str, **args: Any) -> sp.Matrix:
+    """Output `output` of kernel `name` with its inputs replaced by `args` (vectors or
+    scalars, by argument name)."""
+    k = kernels[name]
+    subs: dict[sp.Symbol, sp.Expr] = {}
+    for a in k.inputs:
+        value = args[a.name]
+        values = [value] if a.scalar else list(value)
+        subs.update(zip(a.symbols, values))
+    out = next(o for o in k.outputs if o.name == output)
+    return sp.Matrix([e.xreplace(subs) for e in out.exprs])
+
+
+@dataclass(frozen=True)
+class _Step:
+    """The symbols of one step: per body i, its 3-vectors (`at`), M, h and the symbols that
+    stand for G = g - F at the start, g+ and F+."""
+
+    n: int
+    M: sp.Matrix
+    h: sp.Symbol
+    vectors: dict[str, list[sp.Symbol]]
+
+    def at(self, name: str, i: int) -> sp.Matrix:
+        return sp.Matrix(self.vectors[name][3 * i : 3 * i + 3])
+
+
+def vi_step_equations(system: System, coupled: bool) -> dict[str, Any]:
+    """E (a column), the unknowns y, the variables x = (q, w) and u, the symbol h and the
+    inner quantities (symbols standing for G, g+, F+ in E, and their values) of one VI step of
+    `system`, as in the module docstring.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> eq = vi_step_equations(builtin("four_pendula"), coupled=False)
+        >>> eq["E"].shape, len(eq["y"]), sorted(eq["inner"])
+        ((24, 1), 24, ['Fn', 'G', 'gn'])
+    """
+    n = system.n
+    qs = q_symbols(n)
+    ws = [w_symbol(i, c) for i in range(1, n + 1) for c in range(3)]
+    names = ("f", "qn", "wn", "G", "gn", "Fn")
+    st = _Step(n, system.inertia, sp.Symbol("h", positive=True), {"q": qs, "w": ws})
+    st.vectors.update({name: _vec(name, n) for name in names})
+    time = tu_symbols(system)[0]
+    inputs = list(tu_symbols(system)[1:]) if system.driven else []
+    V = system.full_potential()
+    g = sp.Matrix([sp.diff(V, s) for s in qs])
+    to_end = {**dict(zip(qs, st.vectors["qn"])), **dict(zip(ws, st.vectors["wn"])), time: T_END}
+    F = _force_total(system) if system.forces else sp.zeros(3 * n, 1)
+    # E is written in symbols standing for G, g+ and F+ (its derivatives in them are taken
+    # alone, then multiplied by theirs: the chain rule keeps the expressions small)
+    if coupled:
+        eqs = _coupled(st)
+        unknowns = st.vectors["f"] + st.vectors["qn"] + st.vectors["wn"]
+    else:
+        eqs = _diagonal(st)
+        unknowns = st.vectors["qn"] + st.vectors["wn"]
+    inner = {
+        "G": (st.vectors["G"], g - F),
+        "gn": (st.vectors["gn"], g.xreplace(to_end)),
+        "Fn": (st.vectors["Fn"], F.xreplace(to_end)),
+    }
+    return {"E": eqs, "y": unknowns, "x": qs + ws, "u": inputs, "h": st.h, "inner": inner}
+
+
+def _total(
+    E: sp.Matrix, by: list[sp.Symbol], inner: dict[str, tuple[list[sp.Symbol], sp.Matrix]]
+) -> sp.Matrix:
+    """dE/d`by` through the inner quantities (each its symbols and their values)."""
+    out = E.jacobian(by)
+    values: dict[sp.Symbol, sp.Expr] = {}
+    for syms, expr in inner.values():
+        values.update(zip(syms, expr))
+        de = E.jacobian(syms)
+        if de.is_zero_matrix:
+            continue
+        out += de * expr.jacobian(by)
+    return out.xreplace(values)
+
+
+def _coupled(st: _Step) -> sp.Matrix:
+    """E of the Newton step: residual, Cayley update, velocity equations."""
+    k = {kd.name: kd for kd in newton_kernels()}
+    k["a_pair"] = next(kd for kd in continuous_kernels(coupled=True) if kd.name == "a_pair")
+    n, M, h, at = st.n, st.M, st.h, st.at
+    pairs = [(i, j) for i in range(n) for j in range(i + 1, n) if M[i, j] != 0]
+    d = [
+        _apply(k, "d_body", "d", h=h, m=M[i, i], q=at("q", i), w=at("w", i), g=at("G", i))
+        for i in range(n)
+    ]
+    for i, j in pairs:
+        args = {"h": h, "mij": M[i, j], "qi": at("q", i), "wi": at("w", i)}
+        args.update({"qj": at("q", j), "wj": at("w", j)})
+        d[i] += _apply(k, "d_pair", "di", **args)
+        d[j] += _apply(k, "d_pair", "dj", **args)
+    r = [
+        _apply(k, "res_body", "r", m=M[i, i], q=at("q", i), f=at("f", i), d=d[i]) for i in range(n)
+    ]
+    c = [
+        _apply(
+            k,
+            "c_body",
+            "c",
+            h=h,
+            m=M[i, i],
+            q=at("q", i),
+            f=at("f", i),
+            qn=at("qn", i),
+            gn=at("gn", i),
+        )
+        for i in range(n)
+    ]
+    aw = [
+        _apply(k, "a_body", "a", m=M[i, i], q=at("qn", i))[0] * at("wn", i)
+        - h / 2 * at("qn", i).cross(at("Fn", i))
+        for i in range(n)
+    ]
+    for i, j in pairs:
+        args = {"mij": M[i, j], "qi": at("q", i), "fi": at("f", i), "qj": at("q", j)}
+        args["fj"] = at("f", j)
+        r[i] += _apply(k, "res_pair", "ri", **args)
+        r[j] += _apply(k, "res_pair", "rj", **args)
+        args.update({"h": h, "qni": at("qn", i), "qnj": at("qn", j)})
+        c[i] += _apply(k, "c_pair", "ci", **args)
+        c[j] += _apply(k, "c_pair", "cj", **args)
+        blk = _apply(k, "a_pair", "a", mij=M[i, j], qi=at("qn", i), qj=at("qn", j)).reshape(3, 3)
+        aw[i] += blk * at("wn", j)
+        aw[j] += blk.T * at("wn", i)
+    cay = [at("qn", i) - _apply(k, "cayley", "qn", q=at("q", i), f=at("f", i)) for i in range(n)]
+    rows = [*r, *cay, *(aw[i] - c[i] for i in range(n))]
+    return sp.Matrix([e for v in rows for e in v])
+
+
+def _diagonal(st: _Step) -> sp.Matrix:
+    """E of the explicit update: positions, then the (forced) end velocities."""
+    k = {kd.name: kd for kd in explicit_kernels()}
+    pos, vel = [], []
+    for i in range(st.n):
+        m = st.M[i, i]
+        args = {"h": st.h, "m": m, "q": st.at("q", i), "w": st.at("w", i), "g": st.at("G", i)}
+        qn, wn = st.at("qn", i), st.at("wn", i)
+        pos.append(qn - _apply(k, "vi_pos", "qn", **args))
+        wh = _apply(k, "vi_pos", "wh", **args)
+        vel.append(m * (wn - wh) + st.h / 2 * qn.cross(st.at("gn", i) - st.at("Fn", i)))
+    return sp.Matrix([e for v in (*pos, *vel) for e in v])
+
+
+def _flat(mat: sp.Matrix) -> tuple[sp.Expr, ...]:
+    return tuple(mat[r, c] for r in range(mat.rows) for c in range(mat.cols))
+
+
+def vi_jacobian_kernels(system: System, solver: InertiaKind | None = None) -> list[KernelDef]:
+    """The ``vi_jacobian`` kernel: ey = dE/dy (ny x ny) and ex = dE/d(x, u) (ny x (6n +
+    inputs)), row-major; none when `has_vi_jacobian` is false."""
+    from s2gen.equations.structure import choose_solver
+
+    solver = choose_solver(system) if solver is None else solver
+    if not has_vi_jacobian(system, solver):
+        return []
+    n = system.n
+    coupled = solver is not InertiaKind.DIAGONAL
+    eq = vi_step_equations(system, coupled)
+    E, y, x, u, h, inner = eq["E"], eq["y"], eq["x"], eq["u"], eq["h"], eq["inner"]
+    ey = _total(E, y, inner)
+    ex = _total(E, [*x, *u], inner)
+    outputs = (Output("ey", _flat(ey)), Output("ex", _flat(ex)))
+    exprs = [*outputs[0].exprs, *outputs[1].exprs]
+    free = set().union(*(e.free_symbols for e in exprs))
+    qns, wns = _vec("qn", n), _vec("wn", n)
+    args = [
+        Argument("p", system.parameter_symbols),
+        Argument("h", (h,), scalar=True),
+        Argument("q", tuple(q_symbols(n))),
+        Argument("w", tuple(w_symbol(i, c) for i in range(1, n + 1) for c in range(3))),
+        *((Argument("f", tuple(_vec("f", n))),) if coupled else ()),
+        Argument("qn", tuple(qns)),
+        Argument("wn", tuple(wns)),
+        *tu_argument(system, *exprs),
+        *((Argument("tn", (T_END,), scalar=True),) if T_END in free else ()),
+    ]
+    return [
+        KernelDef(
+            "vi_jacobian",
+            "one VI step's equations E(y; x, u) = 0: ey = dE/dy, ex = dE/d(q, w, u) (row-major)",
+            tuple(args),
+            outputs,
+            system=True,
+            stages=(("p", 0),),
+        )
+    ]

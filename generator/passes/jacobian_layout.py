@@ -1,0 +1,56 @@
+"""The workspace of step_jacobian() (part of the `workspace` pass).
+
+Input: a sphere `Module` with the ``jacobian`` part. Output: its ``jacobian`` `Layout`, with
+offsets from 0; the `workspace` pass places it after the per-call context, so that WORK_SIZE,
+which every other function reads, stays as it is, and the header's JACOBIAN_WORK_SIZE is its
+end.
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> from s2gen.passes import lower_system
+    >>> lay = lower_system(builtin("double_pendulum").with_jacobians()).layout("jacobian")
+    >>> [b.name for b in lay.buffers][:4]
+    ['ys', 'k', 'dy', 'kd']
+"""
+
+from __future__ import annotations
+
+from s2gen.inertia import InertiaKind
+from s2gen.ir import Buffer, Layout, Module
+from s2gen.methods import explicit_tableaus
+
+__all__ = ["jacobian_layout"]
+
+
+def jacobian_layout(module: Module) -> Layout:
+    """The stage state ys and fields k, the derivatives of the stage state (dy), of each stage
+    (kd) and of the step (d), all with the state's 6n columns and then the inputs', the field's
+    Jacobian jx and the field_jacobian kernel's outputs (jq, jr, am, ju); with the VI's
+    Jacobian, its substeps' states (qs, ws) -> (qd, wd), gradients and Cayley parameters, the
+    derivatives of their equations (ey, ex: ny = 9n unknowns (f, q+, w+) for a coupled M, 6n
+    for a diagonal one) and the product of the substeps' so far (sd)."""
+    n = module.n
+    m3, ns = 3 * n, 6 * n
+    cols = ns + (len(module.drive.inputs) if module.drive is not None else 0)
+    stages = max(t.stages for t in explicit_tableaus(module.kind.value))
+    sizes = [
+        ("ys", ns),
+        ("k", stages * ns),
+        ("dy", ns * cols),
+        ("kd", stages * ns * cols),
+        ("d", ns * cols),
+        ("jx", ns * cols),
+        ("jq", m3 * ns),
+        ("jr", m3 * ns),
+        ("am", m3 * m3),
+        ("ju", m3 * (cols - ns)),
+    ]
+    if any(k.name == "vi_jacobian" for k in module.kernels):
+        ny = (6 if module.solver is InertiaKind.DIAGONAL else 9) * n
+        sizes += [(b, m3) for b in ("qs", "ws", "qd", "wd", "g", "gn", "f")]
+        sizes += [("ey", ny * ny), ("ex", ny * cols), ("sd", ns * cols)]
+    buffers, offset = [], 0
+    for name, size in sizes:
+        buffers.append(Buffer(name, size, offset))
+        offset += size
+    return Layout("jacobian", tuple(buffers))

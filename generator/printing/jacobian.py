@@ -1,0 +1,175 @@
+"""Print the records of the step Jacobians (``m.jac``, read by ``c/_jacobian.jinja``).
+
+Input: a lowered sphere `Module` whose parts include ``jacobian``. Output: the fixed-step
+explicit methods it differentiates, each with its tableau as arrays of round-trip literals
+(a zero-padded to stages x stages, b, c) and whether q_i is normalized after the step; the
+C lines that differ between a closed module and a driven one (the step that computes
+(q+, w+), the inputs held in the context, the time of a stage); and the sizes of the
+derivative's columns (the state's 6n, then the inputs). Empty for a module without it.
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> from s2gen.passes import lower_system
+    >>> jac = print_jacobian(lower_system(builtin("double_pendulum").with_jacobians()))
+    >>> [x["c_name"] for x in jac["methods"]][:3], jac["columns"]
+    (['METHOD_RK2', 'METHOD_RK2_PROJ', 'METHOD_RK4'], '12')
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Any
+
+from s2gen.inertia import InertiaKind
+from s2gen.ir import Module
+from s2gen.methods import METHODS, Family, driven_methods, fixed_methods
+
+__all__ = ["JACOBIAN_PART", "print_jacobian"]
+
+#: The name of the part that emits step_jacobian()
+JACOBIAN_PART = "jacobian"
+
+_KEYS = (
+    "methods",
+    "count",
+    "max_stages",
+    "columns",
+    "ninputs",
+    "step",
+    "setup",
+    "stage_time",
+    "stage_force",
+    "vi_methods",
+    "vi_count",
+    "max_sub",
+    "ny",
+    "vi_substep",
+    "other",
+)
+
+
+def _lits(values: list[Fraction]) -> str:
+    return ", ".join(repr(float(v)) for v in values)
+
+
+def print_jacobian(module: Module) -> dict[str, Any]:
+    """The ``m.jac`` record of a module (every key empty without the ``jacobian`` part)."""
+    if JACOBIAN_PART not in module.parts:
+        return dict.fromkeys(_KEYS, ())
+    name, upper = module.name, module.name.upper()
+    driven = module.drive is not None
+    if driven:
+        rows = [m for m in METHODS if m.name in driven_methods() and m.tableau is not None]
+    else:
+        rows = list(fixed_methods(module.kind.value))
+    methods = []
+    for m in rows:
+        t = m.tableau
+        assert t is not None, "fixed-step methods have a tableau"
+        s = t.stages
+        a = [row[j] if j < len(row) else Fraction(0) for row in t.a for j in range(s)]
+        methods.append(
+            {
+                "c_name": m.c_name,
+                "name": m.name,
+                "stages": str(s),
+                "a": _lits(a),
+                "b": _lits(list(t.b)),
+                "c": _lits(list(t.c)),
+                "project": "1" if m.project else "0",
+            }
+        )
+    drive = module.drive
+    ninputs = len(drive.inputs) if drive is not None else 0
+    step: tuple[str, ...]
+    setup: tuple[str, ...] = (f"status = {upper}_OK;",)
+    stage_time: tuple[str, ...] = ()
+    stage_force: tuple[str, ...] = ()
+    if drive is None:
+        step = ("(void)opt;", "(void)t;", "(void)u;")
+        step += (f"status = {name}_rk_step(p, method, h, q, w, qn, wn, work);",)
+    else:
+        step = (f"status = {name}_step(p, opt, method, t, h, u, q, w, qn, wn, NULL, work, NULL);",)
+        setup = (f"status = {name}_hold(cx, u);",)
+        stage_time = ("cx->tu[0] = t + jm->c[i] * h;",)
+    if drive is not None and drive.forces:
+        # the forces' terms of the field, added as the driven Runge-Kutta step adds them
+        lay = module.layout("driven")
+        forces = f"work + {lay.offset('F')}, work + {lay.offset('Fw')}"
+        stage_force = (
+            f"status = {name}_stage_force(cx, ys, ys + n3, ki + n3, {forces}, work);",
+            f"if (status != {upper}_OK) {{",
+            "    return status;",
+            "}",
+        )
+    return {
+        **_vi(module),
+        "methods": tuple(methods),
+        "count": str(len(methods)),
+        "max_stages": str(max(int(m["stages"]) for m in methods)),
+        "columns": str(6 * module.n + ninputs),
+        "ninputs": str(ninputs),
+        "step": step,
+        "setup": setup,
+        "stage_time": stage_time,
+        "stage_force": stage_force,
+    }
+
+
+def _vi(module: Module) -> dict[str, Any]:
+    """The VI family's entries of ``m.jac``: each method's substeps (step fractions), the
+    size of the unknowns of one step's equations (``ny``; the section ``jacobian_vi``
+    differentiates them, absent without the ``vi_jacobian`` kernel: structured M) and the C
+    lines of one
+    substep from (qs, ws) at ts into (qd, wd), the Cayley parameters into f."""
+    name, upper, n = module.name, module.name.upper(), module.n
+    if "vi_jacobian" not in {k.name for k in module.kernels}:
+        return {
+            "vi_methods": (),
+            "vi_count": "0",
+            "max_sub": "1",
+            "ny": "0",
+            "vi_substep": (),
+            "other": (f"return {upper}_ERR_ARGUMENT;",),
+        }
+    drive = module.drive
+    rows = [
+        m
+        for m in METHODS
+        if m.family is Family.VI
+        and m.composition is not None
+        and (drive is None or m.name in driven_methods())
+    ]
+    methods = tuple(
+        {
+            "c_name": m.c_name,
+            "name": m.name,
+            "count": str(len(m.composition.fractions)),
+            "fractions": ", ".join(repr(float(x)) for x in m.composition.fractions),
+        }
+        for m in rows
+        if m.composition is not None
+    )
+    coupled = module.solver is not InertiaKind.DIAGONAL
+    if drive is None:
+        substep: tuple[str, ...] = (
+            f"{name}_gradient_cx(cx, qs, g);",
+            f"status = {name}_vi_advance(cx, opt, hs, qs, ws, g, qd, wd, gn, f, 0, work, &its);",
+        )
+    else:
+        f_at = f"work + {module.layout('driven').offset('f')}"
+        substep = (
+            f"status = {name}_driven_vi(cx, opt, ts, hs, qs, ws, qd, wd, &part, work, &its);",
+            *((f"{name}_copy(f, {f_at}, {upper}_N3);",) if coupled else ()),
+            "cx->tu[0] = ts;",
+        )
+    return {
+        "vi_methods": methods,
+        "vi_count": str(len(methods)),
+        "max_sub": str(max(int(m["count"]) for m in methods)),
+        "ny": str((9 if coupled else 6) * n),
+        "vi_substep": substep,
+        "other": (
+            f"return {name}_jac_vi_step(p, opt, method, t, h, u, q, w, qn, wn, A, B, work);",
+        ),
+    }
