@@ -211,7 +211,8 @@ def c_api_driven_rst() -> str:
     for f in api.functions:
         if f.name in ("step", "integrate", "field_at", "energy_at"):
             lines += _function(f, PREFIX, sizes)
-    return "\n".join(lines) + "\n"
+    # in a C namespace of their own: the closed module's step and integrate have these names
+    return "\n".join([".. c:namespace:: driven", "", *lines, ".. c:namespace:: NULL", ""]) + "\n"
 
 
 def c_api_jacobian_rst() -> str:
