@@ -201,11 +201,15 @@ def c_api_driven_rst() -> str:
         "",
         "   The input names in the order of ``u``, NULL-terminated.",
         "",
-        f".. c:type:: void (*{PREFIX}_feedback)(void *ctx, double t, const double *q, "
-        "const double *w, double *u)",
+        (
+            f".. c:type:: void (*{PREFIX}_feedback)(void *ctx, double t, const double *q, "
+            "const double *w, double *u)"
+        ),
         "",
-        "   State feedback for ``integrate``: writes the inputs held over the step that starts "
-        "at time t from the state (q, w) there.",
+        (
+            "   State feedback for ``integrate``: writes the inputs held over the step that starts "
+            "at time t from the state (q, w) there."
+        ),
         "",
     ]
     for f in api.functions:
