@@ -20,13 +20,17 @@ G = g(q, t) - F(q, w, t, u) at the start and g+ = g(q+, t + h), F+ = F(q+, w+, t
   a = h w - h^2/(2 M_ii) q x G (``vi_pos``), and M_ii (w+ - a/h) + h/2 q+ x (g+ - F+) = 0
   (``vi_vel`` with the forced end velocity).
 
-SymPy takes every derivative (the Hessian of V at both ends, dF/dq and dF/dw).
+E is written in symbols standing for G, g+ and F+; the kernel returns its derivatives with
+them held and in them, and the C multiplies the latter into dG/d(q, w, u) (the Hessian of V at
+the start less dF), dg+/dq+ (the Hessian at the end) and dF+/d(q+, w+, u), assembled per term
+member at run time (`s2gen.equations.hessian`). SymPy takes every derivative, each row only in
+the symbols it reads.
 
 Example:
     >>> from s2gen.systems import builtin
     >>> k = vi_jacobian_kernels(builtin("double_pendulum").with_jacobians())[0]
     >>> k.name, [o.size for o in k.outputs]
-    ('vi_jacobian', [324, 216])
+    ('vi_jacobian', [324, 216, 108, 108])
 """
 
 from __future__ import annotations
@@ -38,7 +42,7 @@ import sympy as sp
 
 from s2gen.equations.continuous import continuous_kernels
 from s2gen.equations.discrete import explicit_kernels, newton_kernels
-from s2gen.equations.driven import _force_total, tu_argument, tu_symbols
+from s2gen.equations.hessian import sparse_jacobian
 from s2gen.equations.jacobian import has_jacobian
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Argument, KernelDef, Output
@@ -46,9 +50,6 @@ from s2gen.symbols import q_symbols, w_symbol
 from s2gen.system import System
 
 __all__ = ["has_vi_jacobian", "vi_jacobian_kernels", "vi_step_equations"]
-
-#: The symbol of the time at the end of a step
-T_END = sp.Symbol("tn", real=True)
 
 
 def has_vi_jacobian(system: System, solver: InertiaKind) -> bool:
@@ -94,8 +95,8 @@ class _Step:
 
 
 def vi_step_equations(system: System, coupled: bool) -> dict[str, Any]:
-    """E (a column), the unknowns y, the variables x = (q, w) and u, the symbol h and the
-    inner quantities (symbols standing for G, g+, F+ in E, and their values) of one VI step of
+    """E (a column), the unknowns y, the variables x = (q, w), the symbol h and the symbols
+    standing for G = g - F at the start, g+ and F+ in E (`inner`), of one VI step of
     `system`, as in the module docstring.
 
     Example:
@@ -110,41 +111,16 @@ def vi_step_equations(system: System, coupled: bool) -> dict[str, Any]:
     names = ("f", "qn", "wn", "G", "gn", "Fn")
     st = _Step(n, system.inertia, sp.Symbol("h", positive=True), {"q": qs, "w": ws})
     st.vectors.update({name: _vec(name, n) for name in names})
-    time = tu_symbols(system)[0]
-    inputs = list(tu_symbols(system)[1:]) if system.driven else []
-    V = system.full_potential()
-    g = sp.Matrix([sp.diff(V, s) for s in qs])
-    to_end = {**dict(zip(qs, st.vectors["qn"])), **dict(zip(ws, st.vectors["wn"])), time: T_END}
-    F = _force_total(system) if system.forces else sp.zeros(3 * n, 1)
-    # E is written in symbols standing for G, g+ and F+ (its derivatives in them are taken
-    # alone, then multiplied by theirs: the chain rule keeps the expressions small)
+    # E is written in symbols standing for G, g+ and F+: their derivatives (the Hessian of V,
+    # the forces') are assembled per term member at run time and multiplied in by the C
     if coupled:
         eqs = _coupled(st)
         unknowns = st.vectors["f"] + st.vectors["qn"] + st.vectors["wn"]
     else:
         eqs = _diagonal(st)
         unknowns = st.vectors["qn"] + st.vectors["wn"]
-    inner = {
-        "G": (st.vectors["G"], g - F),
-        "gn": (st.vectors["gn"], g.xreplace(to_end)),
-        "Fn": (st.vectors["Fn"], F.xreplace(to_end)),
-    }
-    return {"E": eqs, "y": unknowns, "x": qs + ws, "u": inputs, "h": st.h, "inner": inner}
-
-
-def _total(
-    E: sp.Matrix, by: list[sp.Symbol], inner: dict[str, tuple[list[sp.Symbol], sp.Matrix]]
-) -> sp.Matrix:
-    """dE/d`by` through the inner quantities (each its symbols and their values)."""
-    out = E.jacobian(by)
-    values: dict[sp.Symbol, sp.Expr] = {}
-    for syms, expr in inner.values():
-        values.update(zip(syms, expr))
-        de = E.jacobian(syms)
-        if de.is_zero_matrix:
-            continue
-        out += de * expr.jacobian(by)
-    return out.xreplace(values)
+    inner = {name: st.vectors[name] for name in ("G", "gn", "Fn")}
+    return {"E": eqs, "y": unknowns, "x": qs + ws, "h": st.h, "inner": inner}
 
 
 def _coupled(st: _Step) -> sp.Matrix:
@@ -219,8 +195,11 @@ def _flat(mat: sp.Matrix) -> tuple[sp.Expr, ...]:
 
 
 def vi_jacobian_kernels(system: System, solver: InertiaKind | None = None) -> list[KernelDef]:
-    """The ``vi_jacobian`` kernel: ey = dE/dy (ny x ny) and ex = dE/d(x, u) (ny x (6n +
-    inputs)), row-major; none when `has_vi_jacobian` is false."""
+    """The ``vi_jacobian`` kernel: ey = dE/dy (ny x ny), ex = dE/dx (ny x 6n) with G, g+ and
+    F+ held, and eg, egn, efn = dE/dG, dE/dg+, dE/dF+ (ny x 3n; efn with forces only),
+    row-major; none when `has_vi_jacobian` is false. The C multiplies the last three into the
+    derivatives of G, g+ and F+ (the Hessian of V and the forces' derivatives, assembled per
+    term member, `s2gen.equations.hessian`)."""
     from s2gen.equations.structure import choose_solver
 
     solver = choose_solver(system) if solver is None else solver
@@ -229,30 +208,37 @@ def vi_jacobian_kernels(system: System, solver: InertiaKind | None = None) -> li
     n = system.n
     coupled = solver is not InertiaKind.DIAGONAL
     eq = vi_step_equations(system, coupled)
-    E, y, x, u, h, inner = eq["E"], eq["y"], eq["x"], eq["u"], eq["h"], eq["inner"]
-    ey = _total(E, y, inner)
-    ex = _total(E, [*x, *u], inner)
-    outputs = (Output("ey", _flat(ey)), Output("ex", _flat(ex)))
-    exprs = [*outputs[0].exprs, *outputs[1].exprs]
-    free = set().union(*(e.free_symbols for e in exprs))
+    E, y, x, h, inner = eq["E"], eq["y"], eq["x"], eq["h"], eq["inner"]
+    if not system.forces:  # F+ = 0
+        E = E.xreplace(dict.fromkeys(inner["Fn"], sp.Integer(0)))
+    rows = list(E)
+    outputs = [
+        Output("ey", _flat(sparse_jacobian(rows, y))),
+        Output("ex", _flat(sparse_jacobian(rows, x))),
+        Output("eg", _flat(sparse_jacobian(rows, inner["G"]))),
+        Output("egn", _flat(sparse_jacobian(rows, inner["gn"]))),
+    ]
+    if system.forces:
+        outputs.append(Output("efn", _flat(sparse_jacobian(rows, inner["Fn"]))))
     qns, wns = _vec("qn", n), _vec("wn", n)
     args = [
-        Argument("p", system.parameter_symbols),
         Argument("h", (h,), scalar=True),
         Argument("q", tuple(q_symbols(n))),
         Argument("w", tuple(w_symbol(i, c) for i in range(1, n + 1) for c in range(3))),
         *((Argument("f", tuple(_vec("f", n))),) if coupled else ()),
         Argument("qn", tuple(qns)),
         Argument("wn", tuple(wns)),
-        *tu_argument(system, *exprs),
-        *((Argument("tn", (T_END,), scalar=True),) if T_END in free else ()),
+        Argument("G", tuple(inner["G"])),
+        Argument("gn", tuple(inner["gn"])),
+        *((Argument("Fn", tuple(inner["Fn"])),) if system.forces else ()),
     ]
     return [
         KernelDef(
             "vi_jacobian",
-            "one VI step's equations E(y; x, u) = 0: ey = dE/dy, ex = dE/d(q, w, u) (row-major)",
-            tuple(args),
-            outputs,
+            "one VI step's equations E(y; x, u) = 0 in G = g - F, g+ and F+: ey = dE/dy, "
+            "ex = dE/d(q, w), eg = dE/dG, egn = dE/dg+, efn = dE/dF+ (row-major)",
+            (Argument("p", system.parameter_symbols), *args),
+            tuple(outputs),
             system=True,
             stages=(("p", 0),),
         )

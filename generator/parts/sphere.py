@@ -115,16 +115,35 @@ _DRIVEN = Part(
 )
 
 
-#: The step Jacobians (systems of a few bodies): the field's derivatives at each stage
+#: The step Jacobians: the field's derivatives at each stage, the VI's equations', and the
+#: second derivatives of V (per term member) and of the forces
 def _vi_jacobian_sites(module: Module) -> tuple[Site, ...]:
-    """The VI step's equations' derivatives, where the module differentiates the VI."""
-    if not any(k.name == "vi_jacobian" for k in module.kernels):
-        return ()
-    return (Site("vi_jacobian", "vi_jacobian", _S, CC),)
+    """The VI step's equations' derivatives, where the module differentiates the VI, the
+    terms' Hessian blocks (each at member m of its loop, into the local hb), V's general
+    Hessian (into H) and the forces' derivatives."""
+    from s2gen.parts import term_sites
+
+    sites = [
+        Site(f"t{t.index}_hessian", f"t{t.index}_hessian", _S, {**term_sites(t)[1].bind, **HB})
+        for t in module.terms
+    ]
+    sites.append(Site("hessian", "hessian", _S, {**CC, "hv": Local("H")}))
+    sites.append(Site("force_jacobian", "force_jacobian", _S, CC))
+    if any(k.name == "vi_jacobian" for k in module.kernels):
+        sites.append(Site("vi_jacobian", "vi_jacobian", _S, CC))
+    return tuple(sites)
+
+
+#: The Hessian block of a term member, into the local array hb
+HB: dict[str, Binding] = {"hb": Local("hb")}
 
 
 def _vi_jacobian_buffers() -> tuple[str, ...]:
-    return ("qs", "ws", "qd", "wd", "g", "gn", "f", "ey", "ex", "sd")
+    return ("qs", "ws", "qd", "wd", "g", "gn", "f", "ey", "ex", "sd", *_VI_MORE)
+
+
+#: The buffers of the second derivatives (start and end of a step) and the VI's products
+_VI_MORE = ("ex0", "eg", "egn", "efn", "hn", "gxn", "Gn", "Fn")
 
 
 _JACOBIAN = Part(
@@ -132,6 +151,7 @@ _JACOBIAN = Part(
     sites=(Site("field_jacobian", "field_jacobian", _S, CC),),
     buffers=(
         ("jacobian", ("ys", "k", "dy", "kd", "d", "jx", "jq", "jr", "am", "ju")),
+        ("jacobian", ("H", "gx", "G", "F", "fq", "fw", "fu")),
         ("jacobian", _vi_jacobian_buffers()),
     ),
     module_sites=_vi_jacobian_sites,

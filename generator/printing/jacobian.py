@@ -21,8 +21,10 @@ from fractions import Fraction
 from typing import Any
 
 from s2gen.inertia import InertiaKind
-from s2gen.ir import Module
+from s2gen.ir import Call, Module
 from s2gen.methods import METHODS, Family, driven_methods, fixed_methods
+from s2gen.printing.c import c_loop
+from s2gen.printing.c_calls import c_call
 
 __all__ = ["JACOBIAN_PART", "print_jacobian"]
 
@@ -45,6 +47,13 @@ _KEYS = (
     "ny",
     "vi_substep",
     "other",
+    "hessian",
+    "force",
+    "vi_force",
+    "vi_end_time",
+    "vi_start_time",
+    "yq",
+    "yw",
 )
 
 
@@ -104,6 +113,8 @@ def print_jacobian(module: Module) -> dict[str, Any]:
         )
     return {
         **_vi(module),
+        "hessian": _hessian(module),
+        "force": _force(module),
         "methods": tuple(methods),
         "count": str(len(methods)),
         "max_stages": str(max(int(m["stages"]) for m in methods)),
@@ -125,6 +136,11 @@ def _vi(module: Module) -> dict[str, Any]:
     name, upper, n = module.name, module.name.upper(), module.n
     if "vi_jacobian" not in {k.name for k in module.kernels}:
         return {
+            "vi_force": (),
+            "vi_end_time": (),
+            "vi_start_time": (),
+            "yq": "0",
+            "yw": "0",
             "vi_methods": (),
             "vi_count": "0",
             "max_sub": "1",
@@ -163,13 +179,93 @@ def _vi(module: Module) -> dict[str, Any]:
             *((f"{name}_copy(f, {f_at}, {upper}_N3);",) if coupled else ()),
             "cx->tu[0] = ts;",
         )
+    n3, ny = 3 * n, (9 if coupled else 6) * n
+    yq = n3 if coupled else 0
+    ns = 6 * n
+    force: tuple[str, ...] = ()
+    if _call(module, "force_jacobian") is not None:
+        ni = len(drive.inputs) if drive is not None else 0
+        force = (
+            f"{name}_jac_mul_add(ny, {n3}, {n3}, 1.0, efn, {n3}, fq, {n3}, ey + {yq}, ny);",
+            f"{name}_jac_mul_add(ny, {n3}, {n3}, 1.0, efn, {n3}, fw, {n3}, ey + {yq + n3}, ny);",
+            f"{name}_jac_mul_add(ny, {n3}, {ni}, 1.0, efn, {n3}, fu, {ni}, ex + {ns}, nc);",
+        )
+    timed = drive is not None
     return {
+        "vi_force": force,
+        "vi_end_time": ("cx->tu[0] = ts + hs;",) if timed else (),
+        "vi_start_time": ("cx->tu[0] = ts;",) if timed else (),
+        "yq": str(yq),
+        "yw": str(yq + n3),
         "vi_methods": methods,
         "vi_count": str(len(methods)),
         "max_sub": str(max(int(m["count"]) for m in methods)),
-        "ny": str((9 if coupled else 6) * n),
+        "ny": str(ny),
         "vi_substep": substep,
         "other": (
             f"return {name}_jac_vi_step(p, opt, method, t, h, u, q, w, qn, wn, A, B, work);",
         ),
     }
+
+
+def _call(module: Module, site: str) -> Call | None:
+    return next((c for c in module.calls if c.site == site), None)
+
+
+def _hessian(module: Module) -> tuple[str, ...]:
+    """The C lines that set H (N3 x N3) to the Hessian of V at q: V's general part (the
+    ``hessian`` kernel, which writes every entry) or zeros, then each term's member loop,
+    which calls the term's ``t<k>_hessian`` and adds its block at the member's bodies."""
+    name, upper = module.name, module.name.upper()
+    general = _call(module, "hessian")
+    if general is not None:
+        lines = [f"{c_call(name, general)};"]
+    else:
+        lines = [f"for (r = 0; r < {upper}_N3 * {upper}_N3; ++r) {{", "    H[r] = 0.0;", "}"]
+    for t in module.terms:
+        call = _call(module, f"t{t.index}_hessian")
+        assert call is not None, "every term of a module with step Jacobians has its Hessian"
+        indices = t.loop.kind.kind.indices
+        size = 3 * len(indices)
+        head, tail = c_loop(name, t, module.n)
+        inner = [
+            f"double hb[{size * size}];",
+            f"const long at[{len(indices)}] = {{{', '.join(indices)}}};",
+            f"{c_call(name, call)};",
+            f"for (r = 0; r < {size}; ++r) {{",
+            f"    for (c = 0; c < {size}; ++c) {{",
+            (
+                f"        H[(3 * at[r / 3] + r % 3) * {upper}_N3 + 3 * at[c / 3] + c % 3] += "
+                f"hb[{size} * r + c];"
+            ),
+            "    }",
+            "}",
+        ]
+        lines += [line[4:] for line in head]
+        lines += [f"        {line}" for line in inner]
+        lines += [line[4:] for line in tail]
+    return tuple(lines)
+
+
+def _force(module: Module) -> tuple[str, ...]:
+    """The C lines that take the forces out of G and gx = dG/d(q, w, u) (``force_jacobian``:
+    F, fq, fw, fu at q, w and the context's time and inputs); none without forces."""
+    call = _call(module, "force_jacobian")
+    if call is None:
+        return ()
+    upper = module.name.upper()
+    ni = len(module.drive.inputs) if module.drive is not None else 0
+    ns = 6 * module.n
+    return (
+        f"{c_call(module.name, call)};",
+        f"for (r = 0; r < {upper}_N3; ++r) {{",
+        "    G[r] -= F[r];",
+        f"    for (c = 0; c < {upper}_N3; ++c) {{",
+        f"        gx[r * nc + c] -= fq[r * {upper}_N3 + c];",
+        f"        gx[r * nc + {upper}_N3 + c] = -fw[r * {upper}_N3 + c];",
+        "    }",
+        f"    for (c = 0; c < {ni}; ++c) {{",
+        f"        gx[r * nc + {ns} + c] = -fu[r * {ni} + c];",
+        "    }",
+        "}",
+    )
