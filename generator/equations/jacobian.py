@@ -13,16 +13,16 @@ diagonal block, `s2gen.equations.continuous`), A_ij = -M_ij hat(q_i) hat(q_j), a
 g = dV/dq, F the forces (`s2gen.equations.driven`). Differentiating A a = b at the field's own
 a gives
     da/dx = A^-1 d(b - A a)/dx |_a   (x = q, w or u).
-The kernel returns A, jq = d(w x q)/d(q, w) and jr = d(b - A a)/d(q, w) with G held fixed (its
-rows touch only M's coupled pairs, each differentiated alone); the C adds
+A, jq = d(w x q)/d(q, w) and jr = d(b - A a)/d(q, w) with G held fixed are assembled at run
+time from one generic body's and one generic pair's blocks (`field_blocks`, derived once,
+called for each body and each pair with M_ij != 0, M's entries from ``jac_mass``); the C adds
 -hat(q_i) dG_i/d(q, w, u), dG/dq = H - dF/dq assembled from the terms' Hessian blocks. SymPy
 takes every derivative, nothing is differenced.
 
 Example:
     >>> from s2gen.systems import builtin
-    >>> k = jacobian_kernels(builtin("double_pendulum").with_jacobians())[0]
-    >>> k.name, [o.name for o in k.outputs], [o.size for o in k.outputs]
-    ('field_jacobian', ['jq', 'jr', 'am'], [72, 72, 36])
+    >>> [k.name for k in jacobian_kernels(builtin("double_pendulum").with_jacobians())]
+    ['jac_body', 'jac_pair', 'jac_mass', 'hessian']
 """
 
 from __future__ import annotations
@@ -32,13 +32,11 @@ import sympy as sp
 from s2gen.equations.geometry import hat
 from s2gen.equations.hessian import force_jacobian_kernel, hessian_kernels
 from s2gen.ir import Argument, KernelDef, Output
-from s2gen.symbols import q_symbols, w_symbol
 from s2gen.system import System
 
 __all__ = [
     "JACOBIAN_MAX_BODIES",
-    "field_jacobian",
-    "g_symbols",
+    "field_blocks",
     "has_jacobian",
     "jacobian_kernels",
     "jacobian_refusal",
@@ -84,130 +82,79 @@ def jacobian_refusal(system: System) -> str | None:
     return None
 
 
-def _blocks(vec: list[sp.Symbol], n: int) -> list[sp.Matrix]:
-    return [sp.Matrix(vec[3 * i : 3 * i + 3]) for i in range(n)]
-
-
-def _generic_blocks() -> tuple[dict[str, sp.Matrix], dict[str, tuple[sp.Symbol, ...]]]:
-    """The blocks of jr and jq derived once for a generic body and pair, and their symbols:
-    the body's -q x G in q (``body_q``), a pair's c_ij = M_ij (|w_j|^2 q_i x q_j +
-    hat(q_i) hat(q_j) a_j) in q_i, q_j and w_j (``pair_qi``, ``pair_qj``, ``pair_wj``), and
-    d(w x q)/dq, d(w x q)/dw (``jq_q``, ``jq_w``)."""
-    sym = {
-        name: tuple(sp.symbols(f"{name}_0:3", real=True)) for name in ("qi", "qj", "wi", "wj", "aj")
-    }
-    sym["G"] = tuple(sp.symbols("Gb_0:3", real=True))
-    sym["mij"] = (sp.Symbol("mij", real=True),)
-    qi, qj, wi, wj, aj, G = (sp.Matrix(sym[k]) for k in ("qi", "qj", "wi", "wj", "aj", "G"))
-    c = sym["mij"][0] * (wj.dot(wj) * qi.cross(qj) + hat(qi) * (hat(qj) * aj))
-    body = -qi.cross(G)
-    qdot = wi.cross(qi)
-    blocks = {
-        "body_q": body.jacobian(qi),
-        "pair_qi": c.jacobian(qi),
-        "pair_qj": c.jacobian(qj),
-        "pair_wj": c.jacobian(wj),
-        "jq_q": qdot.jacobian(qi),
-        "jq_w": qdot.jacobian(wi),
-    }
-    return blocks, sym
-
-
-def field_jacobian(system: System) -> dict[str, sp.Matrix]:
-    """The field's pieces for the whole system, in the symbols q (3n), w (3n), a (3n), G (3n:
-    g - F, held fixed) and the parameters: ``A`` (3n x 3n), ``jq``, ``jr`` (3n x 6n), as in
-    the module docstring; each block is a generic body's or pair's (`_generic_blocks`) at the
-    body or coupled pair of M.
-
-    Example:
-        >>> from s2gen.systems import builtin
-        >>> parts = field_jacobian(builtin("double_pendulum"))
-        >>> parts["A"].shape, parts["jr"].shape
-        ((6, 6), (6, 12))
-    """
-    n = system.n
-    qs = q_symbols(n)
-    ws = [w_symbol(i, c) for i in range(1, n + 1) for c in range(3)]
-    a_s = list(sp.symbols(f"a_0:{3 * n}", real=True))
-    q, w, a = _blocks(qs, n), _blocks(ws, n), _blocks(a_s, n)
-    G = _blocks(list(g_symbols(n)), n)
-    blocks, sym = _generic_blocks()
-    M = system.inertia
-    A = sp.zeros(3 * n, 3 * n)
-    jq = sp.zeros(3 * n, 6 * n)
-    jr = sp.zeros(3 * n, 6 * n)
-
-    def at(name: str, subs: dict[sp.Symbol, sp.Expr]) -> sp.Matrix:
-        return blocks[name].xreplace(subs)
-
-    for i in range(n):
-        r, qc, wc = (
-            slice(3 * i, 3 * i + 3),
-            slice(3 * i, 3 * i + 3),
-            slice(3 * n + 3 * i, 3 * n + 3 * i + 3),
-        )
-        own = {**dict(zip(sym["qi"], q[i])), **dict(zip(sym["wi"], w[i]))}
-        own.update(zip(sym["G"], G[i]))
-        A[r, qc] = M[i, i] * sp.eye(3)
-        jq[r, qc] = at("jq_q", own)
-        jq[r, wc] = at("jq_w", own)
-        jr[r, qc] = at("body_q", own)
-        for j in range(n):
-            if j == i or M[i, j] == 0:
-                continue
-            qj, wj = slice(3 * j, 3 * j + 3), slice(3 * n + 3 * j, 3 * n + 3 * j + 3)
-            pair = {**own, **dict(zip(sym["qj"], q[j])), **dict(zip(sym["wj"], w[j]))}
-            pair.update({**dict(zip(sym["aj"], a[j])), sym["mij"][0]: M[i, j]})
-            A[r, qj] = -M[i, j] * hat(q[i]) * hat(q[j])
-            jr[r, qc] += at("pair_qi", pair)
-            jr[r, qj] += at("pair_qj", pair)
-            jr[r, wj] += at("pair_wj", pair)
-    return {"A": A, "jq": jq, "jr": jr}
-
-
-def g_symbols(n: int) -> tuple[sp.Symbol, ...]:
-    """The symbols of G = g - F (3n, body-major) in the field's and the VI's kernels.
-
-    Example:
-        >>> g_symbols(1)
-        (G_0, G_1, G_2)
-    """
-    return tuple(sp.symbols(f"G_0:{3 * n}", real=True))
+def _vector(name: str) -> sp.Matrix:
+    return sp.Matrix(sp.symbols(f"{name}_0:3", real=True))
 
 
 def _flat(mat: sp.Matrix) -> tuple[sp.Expr, ...]:
     return tuple(mat[r, c] for r in range(mat.rows) for c in range(mat.cols))
 
 
+def field_blocks() -> tuple[KernelDef, KernelDef]:
+    """The field's derivative blocks, derived once for a generic body and a generic pair:
+    ``jac_body`` (q, w, G -> jqq = d(w x q)/dq, jqw = d(w x q)/dw, jrq = d(-q x G)/dq) and
+    ``jac_pair`` (mij, qi, qj, wj, aj -> aij = A_ij, and the derivatives of the pair's part
+    of row i of b - A a, c_ij = M_ij (|w_j|^2 q_i x q_j + hat(q_i) hat(q_j) a_j), in q_i, q_j
+    and w_j: dqi, dqj, dwj), all 3 x 3 row-major.
+
+    Example:
+        >>> body, pair = field_blocks()
+        >>> [o.name for o in pair.outputs], pair.inputs[0].name
+        (['aij', 'dqi', 'dqj', 'dwj'], 'mij')
+    """
+    q, w, G = _vector("q"), _vector("w"), _vector("G")
+    qi, qj, wj, aj = _vector("qi"), _vector("qj"), _vector("wj"), _vector("aj")
+    mij = sp.Symbol("mij", real=True)
+    qdot = w.cross(q)
+    c = mij * (wj.dot(wj) * qi.cross(qj) + hat(qi) * (hat(qj) * aj))
+
+    def arg(name: str, v: sp.Matrix) -> Argument:
+        return Argument(name, tuple(v))
+
+    body = KernelDef(
+        "jac_body",
+        "a body's blocks of the field's derivatives: d(w x q)/dq, d(w x q)/dw, d(-q x G)/dq",
+        (arg("q", q), arg("w", w), arg("G", G)),
+        (
+            Output("jqq", _flat(qdot.jacobian(q))),
+            Output("jqw", _flat(qdot.jacobian(w))),
+            Output("jrq", _flat((-q.cross(G)).jacobian(q))),
+        ),
+    )
+    pair = KernelDef(
+        "jac_pair",
+        "a coupled pair's blocks: A_ij and d(c_ij)/d(q_i, q_j, w_j) of row i of b - A a",
+        (Argument("mij", (mij,), scalar=True), arg("qi", qi), arg("qj", qj), arg("wj", wj)),
+        (
+            Output("aij", _flat(-mij * hat(qi) * hat(qj))),
+            Output("dqi", _flat(c.jacobian(qi))),
+            Output("dqj", _flat(c.jacobian(qj))),
+            Output("dwj", _flat(c.jacobian(wj))),
+        ),
+    )
+    pair = KernelDef(pair.name, pair.doc, (*pair.inputs, arg("aj", aj)), pair.outputs)
+    return body, pair
+
+
 def jacobian_kernels(system: System) -> list[KernelDef]:
-    """The ``field_jacobian`` kernel (row-major outputs jq, jr, am = A) and the second
-    derivatives of V and the forces (`s2gen.equations.hessian`), or none when the system has
-    no step Jacobians (`has_jacobian`)."""
+    """The field's blocks (`field_blocks`), ``jac_mass`` (M's n x n entries, row-major, from
+    the parameters) and the second derivatives of V and the forces
+    (`s2gen.equations.hessian`), or none when the system has no step Jacobians
+    (`has_jacobian`)."""
     if not has_jacobian(system):
         return []
-    n = system.n
-    parts = field_jacobian(system)
-    outputs = (
-        Output("jq", _flat(parts["jq"])),
-        Output("jr", _flat(parts["jr"])),
-        Output("am", _flat(parts["A"])),
+    M = system.inertia
+    mass = KernelDef(
+        "jac_mass",
+        "M's entries (n x n, row-major)",
+        (Argument("p", system.parameter_symbols),),
+        (Output("mm", _flat(M)),),
+        system=True,
+        stages=(("p", 0),),
     )
     return [
-        KernelDef(
-            "field_jacobian",
-            "the field's derivatives with G = g - F held: jq = d(w x q)/d(q, w), "
-            "jr = d(b - A a)/d(q, w) at a, am = A(q) (row-major)",
-            (
-                Argument("p", system.parameter_symbols),
-                Argument("q", tuple(q_symbols(n))),
-                Argument("w", tuple(w_symbol(i, c) for i in range(1, n + 1) for c in range(3))),
-                Argument("a", tuple(sp.symbols(f"a_0:{3 * n}", real=True))),
-                Argument("G", g_symbols(n)),
-            ),
-            outputs,
-            system=True,
-            stages=(("p", 0),),
-        ),
+        *field_blocks(),
+        mass,
         *hessian_kernels(system),
         *force_jacobian_kernel(system),
     ]

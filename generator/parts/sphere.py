@@ -146,12 +146,34 @@ def _vi_jacobian_buffers() -> tuple[str, ...]:
 _VI_MORE = ("ex0", "eg", "egn", "efn", "hn", "gxn", "Gn", "Fn")
 
 
+#: The field's blocks: body i, and the pair (i0, j0) for row i0 (a the field's wdot)
+_FIELD_SITES = (
+    Site(
+        "jac_body",
+        "jac_body",
+        _S,
+        {n: Slot(n, 3, Index.BODY) for n in ("q", "w", "G")},
+    ),
+    Site(
+        "jac_pair",
+        "jac_pair",
+        _S,
+        {
+            "qi": Slot("q", 3, Index.FIRST),
+            "qj": Slot("q", 3, Index.SECOND),
+            "wj": Slot("w", 3, Index.SECOND),
+            "aj": Slot("a", 3, Index.SECOND),
+        },
+    ),
+    Site("jac_mass", "jac_mass", _S, CC),
+)
+
 _JACOBIAN = Part(
     "jacobian",
-    sites=(Site("field_jacobian", "field_jacobian", _S, CC),),
+    sites=_FIELD_SITES,
     buffers=(
         ("jacobian", ("ys", "k", "dy", "kd", "d", "jx", "jq", "jr", "am", "ju")),
-        ("jacobian", ("H", "gx", "G", "F", "fq", "fw", "fu")),
+        ("jacobian", ("H", "gx", "G", "F", "fq", "fw", "fu", "mm")),
         ("jacobian", _vi_jacobian_buffers()),
     ),
     module_sites=_vi_jacobian_sites,

@@ -27,7 +27,7 @@ def jacobian_layout(module: Module) -> Layout:
     (kd) and of the step (d), all with the state's 6n columns and then the inputs', the field's
     Jacobian jx and the field_jacobian kernel's outputs (jq, jr, am, ju), the Hessian of V
     (H), the derivative of G = g - F in (q, w, u) (gx), G, F and the forces' derivatives (fq,
-    fw, fu); with the VI's
+    fw, fu) and M's entries (mm); with the VI's
     Jacobian, its substeps' states (qs, ws) -> (qd, wd), gradients and Cayley parameters, the
     derivatives of their equations (ey, ex: ny = 9n unknowns (f, q+, w+) for a coupled M, 6n
     for a diagonal one) and the product of the substeps' so far (sd), the kernel's parts
@@ -55,6 +55,7 @@ def jacobian_layout(module: Module) -> Layout:
         ("fq", m3 * m3),
         ("fw", m3 * m3),
         ("fu", m3 * (cols - ns)),
+        ("mm", n * n),
     ]
     if any(k.name == "vi_jacobian" for k in module.kernels):
         ny = (6 if module.solver is InertiaKind.DIAGONAL else 9) * n
