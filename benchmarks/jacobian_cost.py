@@ -87,7 +87,7 @@ def _calls(model: Model, name: str, h: float) -> tuple[Callable[[], int], Callab
 
     def jacobian() -> int:
         b = pointer(B) if ni else None
-        return int(fn["step_jacobian"](p, opt, code, 0.0, h, None, q, w, qn, wn, A, b, jwork))
+        return int(fn["step_jacobian"](p, opt, code, 0.0, h, None, q, w, qn, wn, A, b, None, jwork))
 
     assert step() == 0 and jacobian() == 0, (s.name, name)
     return step, jacobian

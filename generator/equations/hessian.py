@@ -5,13 +5,16 @@ kernels that the ``jacobian`` part calls to assemble, at run time, the Hessian o
 derivatives of the forces (3n x 3n each, dense):
 
 - ``t<k>_hessian`` for structured term k: the Hessian of the term's expression in its local
-  positions (3 x 3 for a body term, 6 x 6 for a pair term, rows and columns (qi, qj)), derived
-  once for the term and called for each member in the term's own loop, in its local positions,
-  data and parameters (like ``t<k>_gradient``), its blocks added into H at the member's bodies;
+  positions (3 x 3 for a body term, 6 x 6 for a pair term, rows and columns (qi, qj)) and the
+  derivative of its gradient in the parameters (``gpb``), derived once for the term and called
+  for each member in the term's own loop, in its local positions, data and parameters (like
+  ``t<k>_gradient``), its blocks added into H (and dg/dp) at the member's bodies;
 - ``hessian``: the Hessian of V's general part (the part written as one expression of all
-  positions, `s2gen.equations.structure.has_general_potential`), whole-system;
-- ``force_jacobian`` (driven systems with forces): F and its derivatives in q, w and the
-  inputs, whole-system (the forces of a spec are written per body, with few bodies).
+  positions, `s2gen.equations.structure.has_general_potential`) and the derivative of its
+  gradient in the parameters, whole-system;
+- ``force_jacobian`` (driven systems with forces): F and its derivatives in q, w, the inputs
+  and the parameters, whole-system (the forces of a spec are written per body, with few
+  bodies).
 
 So the derivation grows with the number of term kinds, not with the number of members, and no
 whole-system expression of a structured V is differentiated twice.
@@ -62,39 +65,51 @@ def _flat(mat: sp.Matrix) -> tuple[sp.Expr, ...]:
 
 
 def hessian_kernels(system: System) -> list[KernelDef]:
-    """The ``t<k>_hessian`` kernels of the structured terms with members (output ``hb``, the
-    (3 a) x (3 a) Hessian row-major, a the term's arity) and, when V has a general part that
-    depends on the positions, ``hessian`` (output ``hv``, 3n x 3n)."""
+    """The ``t<k>_hessian`` kernels of the structured terms with members (outputs ``hb``, the
+    (3 a) x (3 a) Hessian row-major, a the term's arity, and ``gpb``, (3 a) x parameters) and,
+    when V has a general part that depends on the positions, ``hessian`` (outputs ``hv``,
+    3n x 3n, and ``gpv``, 3n x parameters); the parameters' outputs only when there are
+    parameters."""
     kernels = []
+    params = list(system.parameter_symbols)
     for k, term in enumerate(system.terms):
         if term.count(system.n) == 0:
             continue
         value = term_kernels(system, k, term)[0]
         positions = term.position_symbols()
-        hb = sparse_jacobian([sp.diff(term.expr, s) for s in positions], positions)
+        grad = [sp.diff(term.expr, s) for s in positions]
+        outputs = [Output("hb", _flat(sparse_jacobian(grad, positions)))]
+        if params:
+            outputs.append(Output("gpb", _flat(sparse_jacobian(grad, params))))
         kernels.append(
             KernelDef(
                 f"t{k}_hessian",
-                f"{term.label}: the Hessian of one member's term in its positions (row-major)",
+                f"{term.label}: one member's term's Hessian in its positions (hb) and its "
+                "gradient's derivative in the parameters (gpb), row-major",
                 value.inputs,
-                (Output("hb", _flat(hb)),),
+                tuple(outputs),
                 stages=value.stages,
             )
         )
     qs = q_symbols(system.n)
     if has_general_potential(system) and system.potential.free_symbols & set(qs):
         V = system.potential
-        hv = sparse_jacobian([sp.diff(V, s) for s in qs], qs)
+        grad = [sp.diff(V, s) for s in qs]
+        hv = sparse_jacobian(grad, qs)
+        outputs = [Output("hv", _flat(hv))]
+        if params:
+            outputs.append(Output("gpv", _flat(sparse_jacobian(grad, params))))
         kernels.append(
             KernelDef(
                 "hessian",
-                "the Hessian of V's general part (row-major)",
+                "V's general part: its Hessian (hv) and its gradient's derivative in the "
+                "parameters (gpv), row-major",
                 (
                     Argument("p", system.parameter_symbols),
                     Argument("q", tuple(qs)),
-                    *tu_argument(system, *hv),
+                    *tu_argument(system, *[e for o in outputs for e in o.exprs]),
                 ),
-                (Output("hv", _flat(hv)),),
+                tuple(outputs),
                 system=True,
                 stages=(("p", 0),),
             )
@@ -104,7 +119,8 @@ def hessian_kernels(system: System) -> list[KernelDef]:
 
 def force_jacobian_kernel(system: System) -> list[KernelDef]:
     """``force_jacobian`` for a driven system with forces: outputs F (3n), fq = dF/dq,
-    fw = dF/dw (3n x 3n) and fu = dF/du (3n x inputs), row-major; else none."""
+    fw = dF/dw (3n x 3n), fu = dF/du (3n x inputs) and fp = dF/dp (3n x parameters),
+    row-major (fu, fp only when there are inputs, parameters); else none."""
     if not system.forces:
         return []
     n = system.n
@@ -119,6 +135,8 @@ def force_jacobian_kernel(system: System) -> list[KernelDef]:
     ]
     if inputs:
         outputs.append(Output("fu", _flat(sparse_jacobian(F, inputs))))
+    if system.parameter_symbols:
+        outputs.append(Output("fp", _flat(sparse_jacobian(F, list(system.parameter_symbols)))))
     return [
         KernelDef(
             "force_jacobian",

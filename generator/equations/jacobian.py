@@ -30,7 +30,7 @@ from __future__ import annotations
 import sympy as sp
 
 from s2gen.equations.geometry import hat
-from s2gen.equations.hessian import force_jacobian_kernel, hessian_kernels
+from s2gen.equations.hessian import force_jacobian_kernel, hessian_kernels, sparse_jacobian
 from s2gen.ir import Argument, KernelDef, Output
 from s2gen.system import System
 
@@ -95,12 +95,13 @@ def field_blocks() -> tuple[KernelDef, KernelDef]:
     ``jac_body`` (q, w, G -> jqq = d(w x q)/dq, jqw = d(w x q)/dw, jrq = d(-q x G)/dq) and
     ``jac_pair`` (mij, qi, qj, wj, aj -> aij = A_ij, and the derivatives of the pair's part
     of row i of b - A a, c_ij = M_ij (|w_j|^2 q_i x q_j + hat(q_i) hat(q_j) a_j), in q_i, q_j
-    and w_j: dqi, dqj, dwj), all 3 x 3 row-major.
+    and w_j: dqi, dqj, dwj, all 3 x 3 row-major; and ct = c_ij / M_ij, its derivative in
+    M_ij).
 
     Example:
         >>> body, pair = field_blocks()
         >>> [o.name for o in pair.outputs], pair.inputs[0].name
-        (['aij', 'dqi', 'dqj', 'dwj'], 'mij')
+        (['aij', 'dqi', 'dqj', 'dwj', 'ct'], 'mij')
     """
     q, w, G = _vector("q"), _vector("w"), _vector("G")
     qi, qj, wj, aj = _vector("qi"), _vector("qj"), _vector("wj"), _vector("aj")
@@ -130,6 +131,7 @@ def field_blocks() -> tuple[KernelDef, KernelDef]:
             Output("dqi", _flat(c.jacobian(qi))),
             Output("dqj", _flat(c.jacobian(qj))),
             Output("dwj", _flat(c.jacobian(wj))),
+            Output("ct", tuple(c / mij)),
         ),
     )
     pair = KernelDef(pair.name, pair.doc, (*pair.inputs, arg("aj", aj)), pair.outputs)
@@ -138,17 +140,22 @@ def field_blocks() -> tuple[KernelDef, KernelDef]:
 
 def jacobian_kernels(system: System) -> list[KernelDef]:
     """The field's blocks (`field_blocks`), ``jac_mass`` (M's n x n entries, row-major, from
-    the parameters) and the second derivatives of V and the forces
+    the parameters, and their derivatives in the parameters, mp, (i n + j) x parameters) and
+    the second derivatives of V and the forces
     (`s2gen.equations.hessian`), or none when the system has no step Jacobians
     (`has_jacobian`)."""
     if not has_jacobian(system):
         return []
     M = system.inertia
+    params = list(system.parameter_symbols)
+    outputs = [Output("mm", _flat(M))]
+    if params:
+        outputs.append(Output("mp", _flat(sparse_jacobian(list(M), params))))
     mass = KernelDef(
         "jac_mass",
-        "M's entries (n x n, row-major)",
+        "M's entries (mm: n x n, row-major) and their derivatives in the parameters (mp)",
         (Argument("p", system.parameter_symbols),),
-        (Output("mm", _flat(M)),),
+        tuple(outputs),
         system=True,
         stages=(("p", 0),),
     )

@@ -30,7 +30,7 @@ Example:
     >>> from s2gen.systems import builtin
     >>> k = vi_jacobian_kernels(builtin("double_pendulum").with_jacobians())[0]
     >>> k.name, [o.size for o in k.outputs]
-    ('vi_jacobian', [324, 216, 108, 108])
+    ('vi_jacobian', [324, 216, 108, 108, 72])
 """
 
 from __future__ import annotations
@@ -196,8 +196,8 @@ def _flat(mat: sp.Matrix) -> tuple[sp.Expr, ...]:
 
 def vi_jacobian_kernels(system: System, solver: InertiaKind | None = None) -> list[KernelDef]:
     """The ``vi_jacobian`` kernel: ey = dE/dy (ny x ny), ex = dE/dx (ny x 6n) with G, g+ and
-    F+ held, and eg, egn, efn = dE/dG, dE/dg+, dE/dF+ (ny x 3n; efn with forces only),
-    row-major; none when `has_vi_jacobian` is false. The C multiplies the last three into the
+    F+ held, eg, egn, efn = dE/dG, dE/dg+, dE/dF+ (ny x 3n; efn with forces only) and
+    ep = dE/dp with G, g+, F+ held (ny x parameters: M's dependence), row-major; none when `has_vi_jacobian` is false. The C multiplies the last three into the
     derivatives of G, g+ and F+ (the Hessian of V and the forces' derivatives, assembled per
     term member, `s2gen.equations.hessian`)."""
     from s2gen.equations.structure import choose_solver
@@ -220,6 +220,8 @@ def vi_jacobian_kernels(system: System, solver: InertiaKind | None = None) -> li
     ]
     if system.forces:
         outputs.append(Output("efn", _flat(sparse_jacobian(rows, inner["Fn"]))))
+    if system.parameter_symbols:  # through M (G, g+ and F+ held)
+        outputs.append(Output("ep", _flat(sparse_jacobian(rows, list(system.parameter_symbols)))))
     qns, wns = _vec("qn", n), _vec("wn", n)
     args = [
         Argument("h", (h,), scalar=True),
@@ -236,7 +238,7 @@ def vi_jacobian_kernels(system: System, solver: InertiaKind | None = None) -> li
         KernelDef(
             "vi_jacobian",
             "one VI step's equations E(y; x, u) = 0 in G = g - F, g+ and F+: ey = dE/dy, "
-            "ex = dE/d(q, w), eg = dE/dG, egn = dE/dg+, efn = dE/dF+ (row-major)",
+            "ex = dE/d(q, w), eg = dE/dG, egn = dE/dg+, efn = dE/dF+, ep = dE/dp (row-major)",
             (Argument("p", system.parameter_symbols), *args),
             tuple(outputs),
             system=True,

@@ -127,15 +127,16 @@ def _vi_jacobian_sites(module: Module) -> tuple[Site, ...]:
         Site(f"t{t.index}_hessian", f"t{t.index}_hessian", _S, {**term_sites(t)[1].bind, **HB})
         for t in module.terms
     ]
-    sites.append(Site("hessian", "hessian", _S, {**CC, "hv": Local("H")}))
+    sites.append(Site("hessian", "hessian", _S, {**CC, "hv": Local("H"), "gpv": Local("gp")}))
     sites.append(Site("force_jacobian", "force_jacobian", _S, CC))
     if any(k.name == "vi_jacobian" for k in module.kernels):
         sites.append(Site("vi_jacobian", "vi_jacobian", _S, CC))
     return tuple(sites)
 
 
-#: The Hessian block of a term member, into the local array hb
-HB: dict[str, Binding] = {"hb": Local("hb")}
+#: The Hessian block of a term member and its gradient's derivative in the parameters, into
+#: the local arrays hb and gpb
+HB: dict[str, Binding] = {"hb": Local("hb"), "gpb": Local("gpb")}
 
 
 def _vi_jacobian_buffers() -> tuple[str, ...]:
@@ -143,7 +144,7 @@ def _vi_jacobian_buffers() -> tuple[str, ...]:
 
 
 #: The buffers of the second derivatives (start and end of a step) and the VI's products
-_VI_MORE = ("ex0", "eg", "egn", "efn", "hn", "gxn", "Gn", "Fn")
+_VI_MORE = ("ex0", "eg", "egn", "efn", "ep", "hn", "gxn", "Gn", "Fn")
 
 
 #: The field's blocks: body i, and the pair (i0, j0) for row i0 (a the field's wdot)
@@ -173,7 +174,7 @@ _JACOBIAN = Part(
     sites=_FIELD_SITES,
     buffers=(
         ("jacobian", ("ys", "k", "dy", "kd", "d", "jx", "jq", "jr", "am", "ju")),
-        ("jacobian", ("H", "gx", "G", "F", "fq", "fw", "fu", "mm")),
+        ("jacobian", ("H", "gx", "G", "F", "fq", "fw", "fu", "mm", "mp", "gp", "fp")),
         ("jacobian", _vi_jacobian_buffers()),
     ),
     module_sites=_vi_jacobian_sites,

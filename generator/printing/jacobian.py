@@ -54,6 +54,7 @@ _KEYS = (
     "vi_start_time",
     "yq",
     "yw",
+    "nparams",
 )
 
 
@@ -118,8 +119,9 @@ def print_jacobian(module: Module) -> dict[str, Any]:
         "methods": tuple(methods),
         "count": str(len(methods)),
         "max_stages": str(max(int(m["stages"]) for m in methods)),
-        "columns": str(6 * module.n + ninputs),
+        "columns": str(6 * module.n + ninputs + len(module.parameter_names)),
         "ninputs": str(ninputs),
+        "nparams": str(len(module.parameter_names)),
         "step": step,
         "setup": setup,
         "stage_time": stage_time,
@@ -183,12 +185,14 @@ def _vi(module: Module) -> dict[str, Any]:
     yq = n3 if coupled else 0
     ns = 6 * n
     force: tuple[str, ...] = ()
+    ni = len(drive.inputs) if drive is not None else 0
+    npar = len(module.parameter_names)
     if _call(module, "force_jacobian") is not None:
-        ni = len(drive.inputs) if drive is not None else 0
         force = (
             f"{name}_jac_mul_add(ny, {n3}, {n3}, 1.0, efn, {n3}, fq, {n3}, ey + {yq}, ny);",
             f"{name}_jac_mul_add(ny, {n3}, {n3}, 1.0, efn, {n3}, fw, {n3}, ey + {yq + n3}, ny);",
             f"{name}_jac_mul_add(ny, {n3}, {ni}, 1.0, efn, {n3}, fu, {ni}, ex + {ns}, nc);",
+            f"{name}_jac_mul_add(ny, {n3}, {npar}, 1.0, efn, {n3}, fp, {npar}, ex + {ns + ni}, nc);",
         )
     timed = drive is not None
     return {
@@ -203,7 +207,7 @@ def _vi(module: Module) -> dict[str, Any]:
         "ny": str(ny),
         "vi_substep": substep,
         "other": (
-            f"return {name}_jac_vi_step(p, opt, method, t, h, u, q, w, qn, wn, A, B, work);",
+            f"return {name}_jac_vi_step(p, opt, method, t, h, u, q, w, qn, wn, A, B, P, work);",
         ),
     }
 
@@ -213,32 +217,43 @@ def _call(module: Module, site: str) -> Call | None:
 
 
 def _hessian(module: Module) -> tuple[str, ...]:
-    """The C lines that set H (N3 x N3) to the Hessian of V at q: V's general part (the
-    ``hessian`` kernel, which writes every entry) or zeros, then each term's member loop,
-    which calls the term's ``t<k>_hessian`` and adds its block at the member's bodies."""
+    """The C lines that set H (N3 x N3) to the Hessian of V at q and gp (N3 x parameters) to
+    dg/dp: V's general part (the ``hessian`` kernel, which writes every entry) or zeros, then
+    each term's member loop, which calls the term's ``t<k>_hessian`` and adds its blocks at the
+    member's bodies."""
     name, upper = module.name, module.name.upper()
+    npar = len(module.parameter_names)
     general = _call(module, "hessian")
     if general is not None:
         lines = [f"{c_call(name, general)};"]
     else:
         lines = [f"for (r = 0; r < {upper}_N3 * {upper}_N3; ++r) {{", "    H[r] = 0.0;", "}"]
+        lines += [f"for (r = 0; r < {upper}_N3 * {npar}; ++r) {{", "    gp[r] = 0.0;", "}"]
     for t in module.terms:
         call = _call(module, f"t{t.index}_hessian")
         assert call is not None, "every term of a module with step Jacobians has its Hessian"
         indices = t.loop.kind.kind.indices
         size = 3 * len(indices)
         head, tail = c_loop(name, t, module.n)
+        at = f"3 * at[r / 3] + r % 3"
         inner = [
             f"double hb[{size * size}];",
+            *((f"double gpb[{size * npar}];",) if npar else ()),
             f"const long at[{len(indices)}] = {{{', '.join(indices)}}};",
             f"{c_call(name, call)};",
             f"for (r = 0; r < {size}; ++r) {{",
             f"    for (c = 0; c < {size}; ++c) {{",
-            (
-                f"        H[(3 * at[r / 3] + r % 3) * {upper}_N3 + 3 * at[c / 3] + c % 3] += "
-                f"hb[{size} * r + c];"
-            ),
+            f"        H[({at}) * {upper}_N3 + 3 * at[c / 3] + c % 3] += hb[{size} * r + c];",
             "    }",
+            *(
+                (
+                    f"    for (c = 0; c < {npar}; ++c) {{",
+                    f"        gp[({at}) * {npar} + c] += gpb[{npar} * r + c];",
+                    "    }",
+                )
+                if npar
+                else ()
+            ),
             "}",
         ]
         lines += [line[4:] for line in head]
@@ -248,14 +263,15 @@ def _hessian(module: Module) -> tuple[str, ...]:
 
 
 def _force(module: Module) -> tuple[str, ...]:
-    """The C lines that take the forces out of G and gx = dG/d(q, w, u) (``force_jacobian``:
-    F, fq, fw, fu at q, w and the context's time and inputs); none without forces."""
+    """The C lines that take the forces out of G and gx = dG/d(q, w, u, p)
+    (``force_jacobian``: F, fq, fw, fu, fp at q, w and the context's time and inputs); none
+    without forces."""
     call = _call(module, "force_jacobian")
     if call is None:
         return ()
     upper = module.name.upper()
     ni = len(module.drive.inputs) if module.drive is not None else 0
-    ns = 6 * module.n
+    ns, npar = 6 * module.n, len(module.parameter_names)
     return (
         f"{c_call(module.name, call)};",
         f"for (r = 0; r < {upper}_N3; ++r) {{",
@@ -266,6 +282,9 @@ def _force(module: Module) -> tuple[str, ...]:
         "    }",
         f"    for (c = 0; c < {ni}; ++c) {{",
         f"        gx[r * nc + {ns} + c] = -fu[r * {ni} + c];",
+        "    }",
+        f"    for (c = 0; c < {npar}; ++c) {{",
+        f"        gx[r * nc + {ns + ni} + c] -= fp[r * {npar} + c];",
         "    }",
         "}",
     )

@@ -1,0 +1,99 @@
+"""The step Jacobians of larger and structured systems (the Hessian of V assembled per term
+member, the field's blocks per coupled pair of M) against independent answers: central finite
+differences of the emitted step along the tangent basis and the embedding coordinates, and the
+symplecticity of the closed VI's derivative in the canonical form written from M (the form of
+`test_jacobian`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_jacobian import EXACT, _central, _symplectic_form
+
+from s2gen import load
+from s2gen.methods import Family, method
+from s2gen.runtime.model import Model
+
+H = 0.01
+
+#: The systems, each built once per module (spec as `load` reads it)
+SPECS = {
+    "chain": "pendulum_chain",  # max-index M (Runge-Kutta only), chain and body terms
+    "dipoles": "dipoles",  # 16 bodies, a pair term over a list of pairs, diagonal M
+    "rod": "elastic_rod:solver=dense",  # 10 bodies, M dense (all pairs coupled), chain terms
+}
+_MODELS: dict[str, Model] = {}
+
+
+def _model(key: str) -> Model:
+    if key not in _MODELS:
+        _MODELS[key] = Model(load(SPECS[key]))
+    return _MODELS[key]
+
+
+def _start(model: Model) -> tuple[np.ndarray, np.ndarray]:
+    """The initial state with every velocity turned by a body-dependent amount (a state
+    where the derivatives in w are not degenerate) and kept tangent."""
+    s = model.system
+    q = np.asarray(s.q0, float)
+    rng = np.random.default_rng(7)
+    w = np.asarray(s.omega0, float) + np.cross(q, rng.normal(scale=0.5, size=q.shape))
+    return q, w
+
+
+def _state_step(model: Model, x: np.ndarray, name: str) -> np.ndarray:
+    n = model.system.n
+    q, w = model.step(x[: 3 * n].reshape(n, 3), x[3 * n :].reshape(n, 3), H, name, EXACT)
+    return np.concatenate([np.ravel(q), np.ravel(w)])
+
+
+def _check_differences(model: Model, name: str) -> None:
+    """A (tangent and embedding) against central differences of the emitted step, relative
+    agreement 1e-6 (as `test_jacobian` states it)."""
+    q0, w0 = _start(model)
+    x0 = np.concatenate([np.ravel(q0), np.ravel(w0)])
+    tan = model.linearize(q0, w0, H, name, options=EXACT)
+    emb = model.linearize(q0, w0, H, name, basis="embedding", options=EXACT)
+    stepped = _state_step(model, x0, name)
+    assert np.allclose(np.concatenate([np.ravel(emb.q), np.ravel(emb.omega)]), stepped, 0, 1e-14)
+
+    def f(x: np.ndarray) -> np.ndarray:
+        return _state_step(model, x, name)
+
+    scale = np.abs(emb.A).max()
+    along = _central(f, x0, tan.basis_in)
+    assert np.abs(tan.A - tan.basis_out.T @ along).max() <= 1e-6 * scale
+    if method(name).family is Family.VI:
+        assert np.abs(tan.basis_out @ tan.A - along).max() <= 1e-6 * scale
+    n = model.system.n
+    assert np.abs(emb.A - _central(f, x0, np.eye(6 * n))).max() <= 1e-6 * scale
+
+
+def test_chain_rk4_matches_central_differences() -> None:
+    """pendulum_chain (6 bodies, max-index M, a chain term and a body term): rk4."""
+    _check_differences(_model("chain"), "rk4")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("key", "name"), [("dipoles", "vi"), ("dipoles", "rk4"), ("rod", "vi"), ("rod", "rk4")]
+)
+def test_large_systems_match_central_differences(key: str, name: str) -> None:
+    """The 16 dipoles (all pair blocks from one 6 x 6 kernel) and the 10-body rod with a dense
+    M (every pair of M coupled): vi and rk4."""
+    _check_differences(_model(key), name)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("key", ["dipoles", "rod"])
+def test_large_vi_jacobian_is_symplectic(key: str) -> None:
+    """A^T J(x+) A = J(x) to 1e-12 for the closed VI on the dipoles and the rod, J the
+    canonical form in the tangent bases; rk4's A does not preserve it (the test can fail)."""
+    model = _model(key)
+    q0, w0 = _start(model)
+    for meth, exact in (("vi", True), ("rk4", False)):
+        lin = model.linearize(q0, w0, 0.05, meth, options=EXACT)
+        j_in = _symplectic_form(model, q0, w0, lin.basis_in)
+        j_out = _symplectic_form(model, lin.q, lin.omega, lin.basis_out)
+        err = np.abs(lin.A.T @ j_out @ lin.A - j_in).max() / np.abs(j_in).max()
+        assert bool(err < 1e-12) == exact, (meth, err)
