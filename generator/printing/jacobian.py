@@ -235,7 +235,7 @@ def _hessian(module: Module) -> tuple[str, ...]:
         indices = t.loop.kind.kind.indices
         size = 3 * len(indices)
         head, tail = c_loop(name, t, module.n)
-        at = f"3 * at[r / 3] + r % 3"
+        at = "3 * at[r / 3] + r % 3"
         inner = [
             f"double hb[{size * size}];",
             *((f"double gpb[{size * npar}];",) if npar else ()),
