@@ -195,7 +195,8 @@ def _flat(mat: sp.Matrix) -> tuple[sp.Expr, ...]:
 
 
 def vi_jacobian_kernels(system: System, solver: InertiaKind | None = None) -> list[KernelDef]:
-    """The ``vi_jacobian`` kernel: ey = dE/dy (ny x ny), ex = dE/dx (ny x 6n) with G, g+ and
+    """The ``vi_jacobian`` kernel: for a diagonal M the generic body's (`body_kernel`), else
+    the whole system's: ey = dE/dy (ny x ny), ex = dE/dx (ny x 6n) with G, g+ and
     F+ held, eg, egn, efn = dE/dG, dE/dg+, dE/dF+ (ny x 3n; efn with forces only) and
     ep = dE/dp with G, g+, F+ held (ny x parameters: M's dependence), row-major; none when `has_vi_jacobian` is false. The C multiplies the last three into the
     derivatives of G, g+ and F+ (the Hessian of V and the forces' derivatives, assembled per
@@ -207,6 +208,8 @@ def vi_jacobian_kernels(system: System, solver: InertiaKind | None = None) -> li
         return []
     n = system.n
     coupled = solver is not InertiaKind.DIAGONAL
+    if not coupled:
+        return [body_kernel()]
     eq = vi_step_equations(system, coupled)
     E, y, x, h, inner = eq["E"], eq["y"], eq["x"], eq["h"], eq["inner"]
     if not system.forces:  # F+ = 0
@@ -245,3 +248,41 @@ def vi_jacobian_kernels(system: System, solver: InertiaKind | None = None) -> li
             stages=(("p", 0),),
         )
     ]
+
+
+def body_kernel() -> KernelDef:
+    """The diagonal M's ``vi_jacobian`` kernel, derived once for a generic body (its
+    equations involve no other body): with the body's 6 rows of E (position, then velocity)
+    and its mass m, ey = dE/d(q+, w+), ex = dE/d(q, w) (6 x 6), eg, egn, efn = dE/d(G, g+, F+)
+    (6 x 3) and em = dE/dm (6), row-major; the C places them at the body's rows and columns
+    (and multiplies em into dM_ii/dp).
+
+    Example:
+        >>> [(o.name, o.size) for o in body_kernel().outputs]
+        [('bey', 36), ('bex', 36), ('beg', 18), ('begn', 18), ('befn', 18), ('bem', 6)]
+    """
+    m = sp.Symbol("m", positive=True)
+    st = _Step(1, sp.Matrix([[m]]), sp.Symbol("h", positive=True), {})
+    names = ("q", "w", "qn", "wn", "G", "gn", "Fn")
+    st.vectors.update({name: _vec(name, 1) for name in names})
+    rows = list(_diagonal(st))
+    v = st.vectors
+    outputs = (
+        Output("bey", _flat(sparse_jacobian(rows, v["qn"] + v["wn"]))),
+        Output("bex", _flat(sparse_jacobian(rows, v["q"] + v["w"]))),
+        Output("beg", _flat(sparse_jacobian(rows, v["G"]))),
+        Output("begn", _flat(sparse_jacobian(rows, v["gn"]))),
+        Output("befn", _flat(sparse_jacobian(rows, v["Fn"]))),
+        Output("bem", tuple(sp.diff(e, m) for e in rows)),
+    )
+    return KernelDef(
+        "vi_jacobian",
+        "one body's rows of the VI step's equations (diagonal M): bey = dE/d(q+, w+), "
+        "bex = dE/d(q, w), beg, begn, befn = dE/d(G, g+, F+), bem = dE/dm (row-major)",
+        (
+            Argument("h", (st.h,), scalar=True),
+            Argument("m", (m,), scalar=True),
+            *(Argument(name, tuple(v[name])) for name in names),
+        ),
+        outputs,
+    )

@@ -55,6 +55,7 @@ _KEYS = (
     "yq",
     "yw",
     "nparams",
+    "vi_equations",
 )
 
 
@@ -138,6 +139,7 @@ def _vi(module: Module) -> dict[str, Any]:
     name, upper, n = module.name, module.name.upper(), module.n
     if "vi_jacobian" not in {k.name for k in module.kernels}:
         return {
+            "vi_equations": (),
             "vi_force": (),
             "vi_end_time": (),
             "vi_start_time": (),
@@ -196,6 +198,7 @@ def _vi(module: Module) -> dict[str, Any]:
         )
     timed = drive is not None
     return {
+        "vi_equations": _vi_equations(module) if not coupled else (_vi_call(module),),
         "vi_force": force,
         "vi_end_time": ("cx->tu[0] = ts + hs;",) if timed else (),
         "vi_start_time": ("cx->tu[0] = ts;",) if timed else (),
@@ -288,3 +291,54 @@ def _force(module: Module) -> tuple[str, ...]:
         "    }",
         "}",
     )
+
+
+def _vi_call(module: Module) -> str:
+    call = _call(module, "vi_jacobian")
+    assert call is not None, "a module that differentiates the VI calls vi_jacobian"
+    return f"{c_call(module.name, call)};"
+
+
+def _vi_equations(module: Module) -> tuple[str, ...]:
+    """The C lines of the diagonal M's VI equations' derivatives: every matrix zeroed, then
+    each body's blocks from the generic body's kernel (its mass from ``jac_mass``) placed at
+    its rows (position 3i, velocity 3n + 3i) and columns, dE/dp = dE/dm dM_ii/dp."""
+    n, npar = module.n, len(module.parameter_names)
+    n3, ns = 3 * n, 6 * n
+    lay = module.layout("jacobian")
+    mass = _call(module, "jac_mass")
+    assert mass is not None, "the step Jacobians read M's entries"
+    zero = [("ey", ns * ns), ("ex", ns * ns), ("eg", ns * n3), ("egn", ns * n3)]
+    zero += [("efn", ns * n3), ("ep", ns * npar)]
+    return (
+        f"double *mm = work + {lay.offset('mm')}, *mp = work + {lay.offset('mp')};",
+        "double bey[36], bex[36], beg[18], begn[18], befn[18], bem[6];",
+        "long i, r, c;",
+        "(void)mp;",
+        *(line for b, size in zero for line in _zero(b, size)),
+        f"{c_call(module.name, mass)};",
+        f"for (i = 0; i < {n}; ++i) {{",
+        f"    const double mii = mm[i * {n} + i];",
+        f"    {_vi_call(module)}",
+        "    for (r = 0; r < 6; ++r) {",
+        f"        const long row = r < 3 ? 3 * i + r : {n3} + 3 * i + r - 3;",
+        "        for (c = 0; c < 6; ++c) {",
+        f"            const long col = c < 3 ? 3 * i + c : {n3} + 3 * i + c - 3;",
+        f"            ey[row * {ns} + col] = bey[6 * r + c];",
+        f"            ex[row * {ns} + col] = bex[6 * r + c];",
+        "        }",
+        "        for (c = 0; c < 3; ++c) {",
+        f"            eg[row * {n3} + 3 * i + c] = beg[3 * r + c];",
+        f"            egn[row * {n3} + 3 * i + c] = begn[3 * r + c];",
+        f"            efn[row * {n3} + 3 * i + c] = befn[3 * r + c];",
+        "        }",
+        f"        for (c = 0; c < {npar}; ++c) {{",
+        f"            ep[row * {npar} + c] = bem[r] * mp[(i * {n} + i) * {npar} + c];",
+        "        }",
+        "    }",
+        "}",
+    )
+
+
+def _zero(buffer: str, size: int) -> tuple[str, ...]:
+    return (f"for (r = 0; r < {size}; ++r) {{", f"    {buffer}[r] = 0.0;", "}")
