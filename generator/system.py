@@ -322,7 +322,7 @@ class System:
 
     def with_jacobians(self) -> System:
         """The same system, its emitted C with the step Jacobians (step_jacobian(): systems
-        of at most 8 bodies without cutoff terms; see `s2gen.equations.jacobian`).
+        of at most 32 bodies without cutoff terms; see `s2gen.equations.jacobian`).
 
         Example:
             >>> from s2gen.systems import builtin
