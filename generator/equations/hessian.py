@@ -46,10 +46,8 @@ def sparse_jacobian(exprs: Sequence[sp.Expr], by: Sequence[sp.Symbol]) -> sp.Mat
 
     Example:
         >>> x, y = sp.symbols("x y")
-        >>> sparse_jacobian([x * y, x**2], [x, y])
-        Matrix([
-        [y, x],
-        [2*x, 0]])
+        >>> sparse_jacobian([x * y, x**2], [x, y]).tolist()
+        [[y, x], [2*x, 0]]
     """
     column = {s: c for c, s in enumerate(by)}
     out = sp.zeros(len(exprs), len(by))

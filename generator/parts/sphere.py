@@ -22,7 +22,6 @@ from s2gen.bindings import (
     Shifted,
     Slot,
 )
-from s2gen.inertia import InertiaKind
 from s2gen.ir import Module
 from s2gen.parts.records import CC, Context, Part, Site
 
@@ -131,16 +130,17 @@ def _vi_jacobian_sites(module: Module) -> tuple[Site, ...]:
     sites.append(Site("hessian", "hessian", _S, {**CC, "hv": Local("H"), "gpv": Local("gp")}))
     sites.append(Site("force_jacobian", "force_jacobian", _S, CC))
     if any(k.name == "vi_jacobian" for k in module.kernels):
-        if module.solver is InertiaKind.DIAGONAL:  # the generic body's kernel, at body i
-            body = {name: Slot(name, 3, Index.BODY) for name in _VI_BODY}
-            sites.append(Site("vi_jacobian", "vi_jacobian", _S, {**body, "m": Local("mii")}))
-        else:
-            sites.append(Site("vi_jacobian", "vi_jacobian", _S, CC))
+        # the generic body's kernel at body i, the generic pair's at the pair (i0, j0)
+        body = {name: Slot(name, 3, Index.BODY) for name in _VI_BODY}
+        sites.append(Site("vi_jacobian", "vi_jacobian", _S, {**body, "m": Local("mii")}))
+        pair: dict[str, Binding] = {f"{x}i": Slot(x, 3, Index.FIRST) for x in _VI_BODY}
+        pair.update({f"{x}j": Slot(x, 3, Index.SECOND) for x in _VI_BODY})
+        sites.append(Site("vi_jacobian_pair", "vi_jacobian_pair", _S, pair))
     return tuple(sites)
 
 
-#: The vectors of the diagonal M's generic body kernel of the VI's equations
-_VI_BODY = ("q", "w", "qn", "wn", "G", "gn", "Fn")
+#: The vectors of the generic body and pair kernels of the VI's equations
+_VI_BODY = ("q", "w", "f", "qn", "wn", "G", "gn", "Fn")
 
 
 #: The Hessian block of a term member and its gradient's derivative in the parameters, into

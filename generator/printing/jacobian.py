@@ -5,14 +5,14 @@ explicit methods it differentiates, each with its tableau as arrays of round-tri
 (a zero-padded to stages x stages, b, c) and whether q_i is normalized after the step; the
 C lines that differ between a closed module and a driven one (the step that computes
 (q+, w+), the inputs held in the context, the time of a stage); and the sizes of the
-derivative's columns (the state's 6n, then the inputs). Empty for a module without it.
+derivative's columns (the state's 6n, then the inputs', then the parameters'). Empty for a module without it.
 
 Example:
     >>> from s2gen.systems import builtin
     >>> from s2gen.passes import lower_system
     >>> jac = print_jacobian(lower_system(builtin("double_pendulum").with_jacobians()))
     >>> [x["c_name"] for x in jac["methods"]][:3], jac["columns"]
-    (['METHOD_RK2', 'METHOD_RK2_PROJ', 'METHOD_RK4'], '12')
+    (['METHOD_RK2', 'METHOD_RK2_PROJ', 'METHOD_RK4'], '17')
 """
 
 from __future__ import annotations
@@ -198,7 +198,7 @@ def _vi(module: Module) -> dict[str, Any]:
         )
     timed = drive is not None
     return {
-        "vi_equations": _vi_equations(module) if not coupled else (_vi_call(module),),
+        "vi_equations": _vi_coupled(module) if coupled else _vi_equations(module),
         "vi_force": force,
         "vi_end_time": ("cx->tu[0] = ts + hs;",) if timed else (),
         "vi_start_time": ("cx->tu[0] = ts;",) if timed else (),
@@ -342,3 +342,78 @@ def _vi_equations(module: Module) -> tuple[str, ...]:
 
 def _zero(buffer: str, size: int) -> tuple[str, ...]:
     return (f"for (r = 0; r < {size}; ++r) {{", f"    {buffer}[r] = 0.0;", "}")
+
+
+def _vi_coupled(module: Module) -> tuple[str, ...]:
+    """The C lines of a coupled M's VI equations' derivatives: every matrix zeroed, then each
+    body's blocks (``vi_jacobian``) and each coupled pair's (``vi_jacobian_pair``, pairs
+    i0 < j0 with M_ij != 0) added at their rows (residual 0, Cayley update 3n, velocity 6n,
+    plus 3 times the body) and columns (y = (f, q+, w+), x = (q, w), G, g+, F+), and
+    dE/dp = dE/dM_ij dM_ij/dp."""
+    n, npar = module.n, len(module.parameter_names)
+    n3, ns, ny = 3 * n, 6 * n, 9 * n
+    lay = module.layout("jacobian")
+    mass = _call(module, "jac_mass")
+    pair = _call(module, "vi_jacobian_pair")
+    assert mass is not None and pair is not None, "the coupled VI's blocks read M's entries"
+    zero = [("ey", ny * ny), ("ex", ny * ns), ("eg", ny * n3), ("egn", ny * n3)]
+    zero += [("efn", ny * n3), ("ep", ny * npar)]
+    body_out = ["b_f", "b_qn", "b_wn", "b_q", "b_w", "b_G", "b_gn", "b_Fn"]
+    pair_out = [f"p_{x}{b}" for x in ("f", "qn", "wn", "q", "w") for b in "ij"]
+    # (matrix, its row length, the column of the vector's first component at body b)
+    target = {
+        "f": ("ey", ny, 0),
+        "qn": ("ey", ny, n3),
+        "wn": ("ey", ny, 2 * n3),
+        "q": ("ex", ns, 0),
+        "w": ("ex", ns, n3),
+        "G": ("eg", n3, 0),
+        "gn": ("egn", n3, 0),
+        "Fn": ("efn", n3, 0),
+    }
+
+    def add(out: str, var: str, body: str) -> str:
+        mat, width, col = target[var]
+        return f"{mat}[row * {width} + {col} + 3 * {body} + c] += {out}[3 * r + c];"
+
+    lines = [
+        f"double *mm = work + {lay.offset('mm')}, *mp = work + {lay.offset('mp')};",
+        f"double {', '.join(f'{b}[27]' for b in body_out)}, b_m[9];",
+        f"double {', '.join(f'{b}[54]' for b in pair_out)}, p_m[18];",
+        "long i, i0, j0, r, c;",
+        "(void)mp;",
+        *(line for b, size in zero for line in _zero(b, size)),
+        f"{c_call(module.name, mass)};",
+        f"for (i = 0; i < {n}; ++i) {{",
+        f"    const double mii = mm[i * {n} + i];",
+        f"    {_vi_call(module)}",
+        "    for (r = 0; r < 9; ++r) {",
+        f"        const long row = (r / 3) * {n3} + 3 * i + r % 3;",
+        "        for (c = 0; c < 3; ++c) {",
+        *(f"            {add(out, out[2:], 'i')}" for out in body_out),
+        "        }",
+        f"        for (c = 0; c < {npar}; ++c) {{",
+        f"            ep[row * {npar} + c] += b_m[r] * mp[(i * {n} + i) * {npar} + c];",
+        "        }",
+        "    }",
+        "}",
+        f"for (i0 = 0; i0 < {n}; ++i0) {{",
+        f"    for (j0 = i0 + 1; j0 < {n}; ++j0) {{",
+        f"        const double mij = mm[i0 * {n} + j0];",
+        "        if (mij == 0.0) {",
+        "            continue;",
+        "        }",
+        f"        {c_call(module.name, pair)};",
+        "        for (r = 0; r < 18; ++r) {",
+        f"            const long row = (r % 9 / 3) * {n3} + 3 * (r < 9 ? i0 : j0) + r % 3;",
+        "            for (c = 0; c < 3; ++c) {",
+        *(f"                {add(out, out[2:-1], out[-1] + '0')}" for out in pair_out),
+        "            }",
+        f"            for (c = 0; c < {npar}; ++c) {{",
+        f"                ep[row * {npar} + c] += p_m[r] * mp[(i0 * {n} + j0) * {npar} + c];",
+        "            }",
+        "        }",
+        "    }",
+        "}",
+    ]
+    return tuple(lines)
