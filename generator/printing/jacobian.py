@@ -4,8 +4,10 @@ Input: a lowered sphere `Module` whose parts include ``jacobian``. Output: the f
 explicit methods it differentiates, each with its tableau as arrays of round-trip literals
 (a zero-padded to stages x stages, b, c) and whether q_i is normalized after the step; the
 C lines that differ between a closed module and a driven one (the step that computes
-(q+, w+), the inputs held in the context, the time of a stage); and the sizes of the
-derivative's columns (the state's 6n, then the inputs', then the parameters'). Empty for a module without it.
+(q+, w+), the inputs held in the context, the time of a stage); the lines that assemble
+the second derivatives (the terms' member loops) and the VI's equations' blocks; and the sizes
+of the derivative's columns (the state's 6n, then the inputs', then the parameters'). Empty
+for a module without it.
 
 Example:
     >>> from s2gen.systems import builtin
@@ -194,7 +196,8 @@ def _vi(module: Module) -> dict[str, Any]:
             f"{name}_jac_mul_add(ny, {n3}, {n3}, 1.0, efn, {n3}, fq, {n3}, ey + {yq}, ny);",
             f"{name}_jac_mul_add(ny, {n3}, {n3}, 1.0, efn, {n3}, fw, {n3}, ey + {yq + n3}, ny);",
             f"{name}_jac_mul_add(ny, {n3}, {ni}, 1.0, efn, {n3}, fu, {ni}, ex + {ns}, nc);",
-            f"{name}_jac_mul_add(ny, {n3}, {npar}, 1.0, efn, {n3}, fp, {npar}, ex + {ns + ni}, nc);",
+            f"{name}_jac_mul_add(ny, {n3}, {npar}, 1.0, efn, {n3}, fp, {npar}, "
+            f"ex + {ns + ni}, nc);",
         )
     timed = drive is not None
     return {
