@@ -196,8 +196,10 @@ def _vi(module: Module) -> dict[str, Any]:
             f"{name}_jac_mul_add(ny, {n3}, {n3}, 1.0, efn, {n3}, fq, {n3}, ey + {yq}, ny);",
             f"{name}_jac_mul_add(ny, {n3}, {n3}, 1.0, efn, {n3}, fw, {n3}, ey + {yq + n3}, ny);",
             f"{name}_jac_mul_add(ny, {n3}, {ni}, 1.0, efn, {n3}, fu, {ni}, ex + {ns}, nc);",
-            f"{name}_jac_mul_add(ny, {n3}, {npar}, 1.0, efn, {n3}, fp, {npar}, "
-            f"ex + {ns + ni}, nc);",
+            (
+                f"{name}_jac_mul_add(ny, {n3}, {npar}, 1.0, efn, {n3}, fp, {npar}, "
+                f"ex + {ns + ni}, nc);"
+            ),
         )
     timed = drive is not None
     return {
