@@ -28,10 +28,13 @@ from s2gen.methods import METHODS, Family, driven_methods, fixed_methods
 from s2gen.printing.c import c_loop
 from s2gen.printing.c_calls import c_call
 
-__all__ = ["JACOBIAN_PART", "print_jacobian"]
+__all__ = ["JACOBIAN_PART", "JACOBIAN_SITES", "print_jacobian"]
 
 #: The name of the part that emits step_jacobian()
 JACOBIAN_PART = "jacobian"
+
+#: The call sites whose C this record writes into its lines (with the terms' t<k>_hessian)
+JACOBIAN_SITES = frozenset({"hessian", "force_jacobian", "vi_jacobian", "vi_jacobian_pair"})
 
 _KEYS = (
     "methods",
