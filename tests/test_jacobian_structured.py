@@ -47,9 +47,16 @@ def _state_step(model: Model, x: np.ndarray, name: str) -> np.ndarray:
     return np.concatenate([np.ravel(q), np.ravel(w)])
 
 
+def _richardson(f, x: np.ndarray, directions: np.ndarray, eps: float = 1e-5) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """Central differences extrapolated (4 D(eps/2) - D(eps)) / 3: error O(eps^4), for the
+    stiff directions off T(S^2)^n (the rod's springs curve V strongly along q_i)."""
+    return (4 * _central(f, x, directions, eps / 2) - _central(f, x, directions, eps)) / 3
+
+
 def _check_differences(model: Model, name: str) -> None:
     """A (tangent and embedding) against central differences of the emitted step, relative
-    agreement 1e-6 (as `test_jacobian` states it)."""
+    agreement 1e-6 (as `test_jacobian` states it; extrapolated differences in the embedding
+    coordinates)."""
     q0, w0 = _start(model)
     x0 = np.concatenate([np.ravel(q0), np.ravel(w0)])
     tan = model.linearize(q0, w0, H, name, options=EXACT)
@@ -66,7 +73,7 @@ def _check_differences(model: Model, name: str) -> None:
     if method(name).family is Family.VI:
         assert np.abs(tan.basis_out @ tan.A - along).max() <= 1e-6 * scale
     n = model.system.n
-    assert np.abs(emb.A - _central(f, x0, np.eye(6 * n))).max() <= 1e-6 * scale
+    assert np.abs(emb.A - _richardson(f, x0, np.eye(6 * n))).max() <= 1e-6 * scale
 
 
 def test_chain_rk4_matches_central_differences() -> None:
@@ -88,11 +95,13 @@ def test_large_systems_match_central_differences(key: str, name: str) -> None:
 @pytest.mark.parametrize("key", ["dipoles", "rod"])
 def test_large_vi_jacobian_is_symplectic(key: str) -> None:
     """A^T J(x+) A = J(x) to 1e-12 for the closed VI on the dipoles and the rod, J the
-    canonical form in the tangent bases; rk4's A does not preserve it (the test can fail)."""
+    canonical form in the tangent bases; rk4's A does not preserve it (the test can fail).
+    h = 0.01: at 0.05 the rod's VI step is beyond its stability (|A| about 1e5), where the
+    products lose the digits the check needs."""
     model = _model(key)
     q0, w0 = _start(model)
     for meth, exact in (("vi", True), ("rk4", False)):
-        lin = model.linearize(q0, w0, 0.05, meth, options=EXACT)
+        lin = model.linearize(q0, w0, H, meth, options=EXACT)
         j_in = _symplectic_form(model, q0, w0, lin.basis_in)
         j_out = _symplectic_form(model, lin.q, lin.omega, lin.basis_out)
         err = np.abs(lin.A.T @ j_out @ lin.A - j_in).max() / np.abs(j_in).max()
