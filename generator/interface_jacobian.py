@@ -39,7 +39,7 @@ STEP_JACOBIAN = Function(
         Param("work", _A),
     ),
     "One step of size h of a fixed-step method (the fixed-step Runge-Kutta methods; the VI "
-    "family, vi, vi4, vi6, vi8, when JACOBIAN_VI is 1: M diagonal or solved densely) from "
+    "family, vi, vi4, vi6, vi8, when JACOBIAN_VI is 1: any M) from "
     "(q, w) at time t into (qn, wn), as step() takes it (Newton from its cold start), and its "
     "exact derivatives in the embedding coordinates: with x = (q, w) (NS = 2 NSTATE doubles, "
     "q body-major then w), A (NS x NS, row-major) receives dx+/dx and B (NS x NINPUTS, "

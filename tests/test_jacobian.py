@@ -39,6 +39,12 @@ def driven() -> Model:
     return Model(load("tests/specs/driven_double.toml"))
 
 
+@pytest.fixture(scope="module")
+def forced() -> Model:
+    """Driven, its M max-index (the structured solver's VI)."""
+    return Model(load("forced_double_pendulum"))
+
+
 def _state(model: Model) -> np.ndarray:
     s = model.system
     return np.concatenate([np.ravel(s.q0), np.ravel(s.omega0)])
@@ -64,6 +70,8 @@ CASES = [
     ("driven", "rk4"),
     ("driven", "vi"),
     ("driven", "vi6"),
+    ("forced", "vi"),
+    ("forced", "rk4"),
 ]
 
 
@@ -246,6 +254,7 @@ P_CASES = [
     ("driven", "vi"),
     ("four", "vi"),
     ("four", "rk2-proj"),
+    ("forced", "vi"),
 ]
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_chains import banded_chain
 from test_jacobian import EXACT, _central, _symplectic_form
 
 from s2gen import load
@@ -18,7 +19,7 @@ H = 0.01
 
 #: The systems, each built once per module (spec as `load` reads it)
 SPECS = {
-    "chain": "pendulum_chain",  # max-index M (Runge-Kutta only), chain and body terms
+    "chain": "pendulum_chain",  # max-index M, chain and body terms
     "dipoles": "dipoles",  # 16 bodies, a pair term over a list of pairs, diagonal M
     "rod": "elastic_rod:solver=dense",  # 10 bodies, M dense (all pairs coupled), chain terms
 }
@@ -76,9 +77,21 @@ def _check_differences(model: Model, name: str) -> None:
     assert np.abs(emb.A - _richardson(f, x0, np.eye(6 * n))).max() <= 1e-6 * scale
 
 
-def test_chain_rk4_matches_central_differences() -> None:
-    """pendulum_chain (6 bodies, max-index M, a chain term and a body term): rk4."""
-    _check_differences(_model("chain"), "rk4")
+@pytest.mark.parametrize("name", ["rk4", "vi"])
+def test_chain_matches_central_differences(name: str) -> None:
+    """pendulum_chain (6 bodies, max-index M solved by the structured solver, a chain term
+    and a body term): rk4 and the VI."""
+    _check_differences(_model("chain"), name)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["vi", "vi4", "rk4"])
+def test_banded_chain_matches_central_differences(name: str) -> None:
+    """A chain whose M couples neighbours only (banded, `test_chains.banded_chain`: the band
+    solver's Newton): the VI, a composition and rk4."""
+    if "banded" not in _MODELS:
+        _MODELS["banded"] = Model(banded_chain(9, 1))
+    _check_differences(_MODELS["banded"], name)
 
 
 @pytest.mark.slow

@@ -1,6 +1,7 @@
 """The exact Jacobian of one variational-integrator step, by the implicit function theorem.
 
-Input: a `System` of at most `JACOBIAN_MAX_BODIES` bodies whose M is diagonal or solved densely.
+Input: a `System` with step Jacobians (at most `JACOBIAN_MAX_BODIES` bodies), M diagonal,
+dense, banded or max-index (the same equations whichever solver solves them).
 Output: the kernels of the derivatives of the equations one VI step of size h from (q, w) at
 time t to (q+, w+) at t + h solves, E(y; x, u, p) = 0, in its unknowns y, in x = (q, w) and
 in the parameters, with G = g(q, t) - F(q, w, t, u) at the start, g+ = g(q+, t + h) and
@@ -52,14 +53,16 @@ __all__ = ["body_kernel", "coupled_kernels", "has_vi_jacobian", "vi_jacobian_ker
 
 
 def has_vi_jacobian(system: System, solver: InertiaKind) -> bool:
-    """Whether the emitted C differentiates the VI family's steps (M diagonal or dense).
+    """Whether the emitted C differentiates the VI family's steps: whenever it has step
+    Jacobians, for every solver of M (the equations are the same; a structured solver only
+    solves them differently, and its Cayley parameters are the dense path's).
 
     Example:
         >>> from s2gen.systems import builtin
         >>> has_vi_jacobian(builtin("double_pendulum").with_jacobians(), InertiaKind.DENSE)
         True
     """
-    return has_jacobian(system) and solver in (InertiaKind.DIAGONAL, InertiaKind.DENSE)
+    return has_jacobian(system)
 
 
 def _vec(name: str, n: int) -> list[sp.Symbol]:

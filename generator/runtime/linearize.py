@@ -127,7 +127,7 @@ def _refuse(backend: Any, method_name: str, basis: str) -> None:
         names += [m.name for m in METHODS if m.family is Family.VI]
     allowed = [m for m in names if not system.driven or m in driven_methods()]
     if method_name not in allowed:
-        more = "" if backend.library.jacobian_vi else " (the VI family's: M diagonal or dense)"
+        more = "" if backend.library.jacobian_vi else " (built without the VI family's)"
         raise ValueError(
             f"{system.name}: method {method_name!r} has no step Jacobian{more}; choose one of "
             f"{', '.join(allowed)}"

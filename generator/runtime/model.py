@@ -220,7 +220,7 @@ class Model:
         P = dx+/dp (one column per parameter, in the order of `System.parameter_names`, at
         `params`) in the tangent basis of T(S^2)^n (4n coordinates) or the embedding
         coordinates (6n), with the state after the step and the bases (`s2gen.runtime.linearize`); the VI family (M
-        diagonal or dense) and the fixed-step Runge-Kutta methods, C backend only (the first
+        any M) and the fixed-step Runge-Kutta methods, C backend only (the first
         call builds the module with step_jacobian(), `System.with_jacobians`). `options`: the
         step's (Newton's tolerance for a coupled M).
 
