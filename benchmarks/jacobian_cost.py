@@ -121,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
         for spec in args.systems:
             plain, full = _generation(spec)
             print(f"{spec:32} {plain:8.1f} {full:17.1f}")
-    print(f"{'system':24} {'n':>3} {'method':7} {'step µs':>9} {'jacobian µs':>12} {'ratio':>7}")
+    print(f"{'system':32} {'n':>3} {'method':7} {'step µs':>9} {'jacobian µs':>12} {'ratio':>7}")
     for spec in args.systems:
         model = Model(s2gen.load(spec).with_jacobians())
         jacobian_vi = model._backend.library.jacobian_vi
@@ -134,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
             ts = _best(step, args.calls, args.repeats)
             tj = _best(jacobian, args.calls, args.repeats)
             print(
-                f"{model.system.name:24} {model.system.n:3} {name:7} {ts * 1e6:9.2f} "
+                f"{spec:32} {model.system.n:3} {name:7} {ts * 1e6:9.2f} "
                 f"{tj * 1e6:12.2f} {tj / ts:7.1f}"
             )
     return 0
