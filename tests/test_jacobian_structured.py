@@ -8,12 +8,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import sympy as sp
 from test_chains import banded_chain
 from test_jacobian import EXACT, _central, _symplectic_form
 
 from s2gen import load
 from s2gen.methods import Family, method
 from s2gen.runtime.model import Model
+from s2gen.symbols import q_symbol
+from s2gen.system import System
 
 H = 0.01
 
@@ -119,3 +122,52 @@ def test_large_vi_jacobian_is_symplectic(key: str) -> None:
         j_out = _symplectic_form(model, lin.q, lin.omega, lin.basis_out)
         err = np.abs(lin.A.T @ j_out @ lin.A - j_in).max() / np.abs(j_in).max()
         assert bool(err < 1e-12) == exact, (meth, err)
+
+
+def _corner_system() -> Model:
+    """Three bodies whose M_13 = eps m is zero at the spec (eps = 0) but moves with eps: the
+    pair the step skips must still enter dx+/d(eps)."""
+    m, eps, g = (sp.Symbol(s, real=True) for s in ("m", "eps", "g"))
+    M = sp.Matrix([[3 * m, m, eps * m], [m, 2 * m, m / 2], [eps * m, m / 2, m]])
+    V = g * sum(q_symbol(i, 2) for i in (1, 2, 3))
+    q0 = np.array([[0.6, 0.0, -0.8], [0.0, 0.6, -0.8], [0.48, 0.36, -0.8]])
+    w0 = np.cross(q0, [[0.3, -0.2, 0.1], [0.1, 0.4, 0.0], [-0.2, 0.1, 0.3]])
+    s = System.create(
+        name="corner",
+        n=3,
+        parameters={"m": 1.0, "eps": 0.0, "g": 9.81},
+        inertia=M,
+        potential=V,
+        q0=q0,
+        omega0=w0,
+    )
+    return Model(s)
+
+
+@pytest.mark.parametrize("name", ["vi", "rk4"])
+def test_parameter_jacobian_of_an_entry_zero_at_the_spec(name: str) -> None:
+    """P against central differences in each parameter (relative 1e-6) where an entry of M
+    vanishes at the spec values but not its derivative in a parameter."""
+    if "corner" not in _MODELS:
+        _MODELS["corner"] = _corner_system()
+    model = _MODELS["corner"]
+    s = model.system
+    q0, w0 = np.asarray(s.q0, float), np.asarray(s.omega0, float)
+    P = model.linearize(q0, w0, H, name, basis="embedding", options=EXACT).P
+    base = dict(zip(s.parameter_names, s.parameter_values))
+    for k, pname in enumerate(s.parameter_names):
+        eps = 1e-6
+        ends = [
+            np.concatenate(
+                [
+                    np.ravel(x)
+                    for x in model.step(
+                        q0, w0, H, name, EXACT, params={**base, pname: base[pname] + sign * eps}
+                    )
+                ]
+            )
+            for sign in (1, -1)
+        ]
+        fd = (ends[0] - ends[1]) / (2 * eps)
+        assert np.abs(fd).max() > 0
+        assert np.abs(P[:, k] - fd).max() <= 1e-6 * np.abs(fd).max(), (pname, k)

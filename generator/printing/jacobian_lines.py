@@ -163,7 +163,7 @@ def _zero(buffer: str, size: int) -> tuple[str, ...]:
 def vi_coupled_lines(module: Module) -> tuple[str, ...]:
     """The C lines of a coupled M's VI equations' derivatives: every matrix zeroed, then each
     body's blocks (``vi_jacobian``) and each coupled pair's (``vi_jacobian_pair``, pairs
-    i0 < j0 with M_ij != 0) added at their rows (residual 0, Cayley update 3n, velocity 6n,
+    i0 < j0 with M_ij != 0 or dM_ij/dp != 0) added at their rows (residual 0, Cayley update 3n, velocity 6n,
     plus 3 times the body) and columns (y = (f, q+, w+), x = (q, w), G, g+, F+), and
     dE/dp = dE/dM_ij dM_ij/dp."""
     n, npar = module.n, len(module.parameter_names)
@@ -216,7 +216,11 @@ def vi_coupled_lines(module: Module) -> tuple[str, ...]:
         f"for (i0 = 0; i0 < {n}; ++i0) {{",
         f"    for (j0 = i0 + 1; j0 < {n}; ++j0) {{",
         f"        const double mij = mm[i0 * {n} + j0];",
-        "        if (mij == 0.0) {",
+        "        int idle = mij == 0.0;",
+        f"        for (c = 0; c < {npar} && idle; ++c) {{",
+        f"            idle = mp[(i0 * {n} + j0) * {npar} + c] == 0.0;",
+        "        }",
+        "        if (idle) {",
         "            continue;",
         "        }",
         f"        {c_call(module.name, pair)};",
