@@ -104,8 +104,8 @@ class System:
     #: The driven part: the caller's inputs and the generalized forces (empty: closed system).
     inputs: Inputs = field(default_factory=Inputs)
     forces: tuple[Force, ...] = ()
-    #: Whether the emitted C carries step_jacobian() (`with_jacobians`; off by default: its
-    #: derivation takes longer than the rest of the module's)
+    #: Whether the emitted C carries step_jacobian() (`with_jacobians`; off by default: it adds
+    #: derivation and compile time)
     jacobians: bool = False
     #: What `s2gen.load` rebuilds this system from: a built-in name with its options
     #: (``elastic_rod:n=12``) or the TOML text; empty for a system defined in Python.
