@@ -17,8 +17,8 @@ import subprocess
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
 
 def run(program: str, steps: int = 2000) -> tuple[str, np.ndarray, np.ndarray]:
