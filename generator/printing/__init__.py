@@ -36,6 +36,7 @@ from s2gen.printing.c_module import (
     c_tables,
 )
 from s2gen.printing.driven import print_drive
+from s2gen.printing.c_batch import print_batch
 from s2gen.printing.jacobian import print_jacobian
 from s2gen.printing.numpy import (
     py_call,
@@ -136,6 +137,7 @@ class PrintedModule:
     py_data_setup: tuple[str, ...]  # NumPy: the per-body arrays of [data] the terms read
     drive: dict[str, Any]  # a driven module's inputs, methods and tables (empty: closed)
     jac: dict[str, Any]  # the step Jacobians' methods and lines (empty: no step_jacobian)
+    batch: dict[str, Any]  # integrate_batch()'s lanes, workspace and lines (empty: none)
 
 
 def print_module(module: Module) -> PrintedModule:
@@ -252,4 +254,5 @@ def print_module(module: Module) -> PrintedModule:
         py_data_setup=py_data_setup(module),
         drive=print_drive(module),
         jac=print_jacobian(module),
+        batch=print_batch(module),
     )

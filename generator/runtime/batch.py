@@ -1,0 +1,111 @@
+"""Batches on the C backend: K members of one system per call of integrate_batch().
+
+Input: a `CBackend` whose module carries integrate_batch() (`System.with_batch`), the members'
+initial states (K, n, 3) and parameter vectors (K, NPARAMS). Output: a `Batch` record of
+per-member arrays. The members' arrays cross the boundary member-innermost (the header's
+layout, `s2gen.interface_batch`) and come back member-first.
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> from s2gen.runtime.c import CBackend
+    >>> s = builtin("four_pendula")
+    >>> be = CBackend(s.with_batch())
+    >>> q0 = np.repeat(s.q0[None], 3, axis=0)
+    >>> w0 = np.repeat(s.omega0[None], 3, axis=0)
+    >>> p = np.repeat(be.default_params()[None], 3, axis=0)
+    >>> b = integrate_batch(be, "vi", 0.01, 10, q0, w0, p, Options(), every=5)
+    >>> b.q.shape, b.status.tolist(), b.stats["steps"].tolist()
+    ((3, 3, 4, 3), [0, 0, 0], [10, 10, 10])
+"""
+
+from __future__ import annotations
+
+import ctypes
+from dataclasses import dataclass
+
+import numpy as np
+
+from s2gen.methods import method
+from s2gen.parts.batch import BATCH_METHODS
+from s2gen.runtime.c import CBackend, contiguous, pointer
+from s2gen.runtime.options import Options
+
+__all__ = ["Batch", "integrate_batch"]
+
+
+@dataclass(frozen=True)
+class Batch:
+    """The members of one batch, member first: times t (samples), q and omega (K, samples,
+    n, 3), energy (K, samples; None when not asked for), status (K; 0 = OK, else the
+    integrate() status of the member, `s2gen.methods.Status`) and stats (field -> array of
+    K: steps, gradient_evals, fail_step, ...). A failed member's samples from
+    stats["fail_step"][k] on are NaN."""
+
+    t: np.ndarray
+    q: np.ndarray
+    omega: np.ndarray
+    energy: np.ndarray | None
+    status: np.ndarray
+    stats: dict[str, np.ndarray]
+
+
+def integrate_batch(
+    be: CBackend,
+    method_name: str,
+    h: float,
+    nsteps: int,
+    q0: np.ndarray,
+    w0: np.ndarray,
+    params: np.ndarray,
+    options: Options,
+    every: int = 1,
+    with_energy: bool = True,
+) -> Batch:
+    """One call of integrate_batch() for the K members (q0[k], w0[k], params[k])."""
+    lib = be.library
+    if not lib.batch:
+        raise ValueError(f"{be.system.name}: the module has no integrate_batch()")
+    if method_name not in BATCH_METHODS:
+        raise ValueError(
+            f"integrate_batch: method {method_name!r} is not batched; batched methods: "
+            f"{', '.join(BATCH_METHODS)}"
+        )
+    K, n = q0.shape[0], be.system.n
+    samples = nsteps // every + 1
+    # member-innermost: element e of member k at [e * K + k]
+    qi = contiguous(q0.reshape(K, 3 * n).T)
+    wi = contiguous(w0.reshape(K, 3 * n).T)
+    pi = contiguous(params.reshape(K, -1).T)
+    q = np.full((samples, 3 * n, K), np.nan)
+    w = np.full((samples, 3 * n, K), np.nan)
+    en = np.full((samples, K), np.nan) if with_energy else None
+    stats = (lib.Stats * K)()
+    status = (ctypes.c_int * K)()
+    work = np.zeros(max(1, lib.batch_work))
+    code = be._fn["integrate_batch"](
+        K,
+        pi,
+        ctypes.byref(lib.options(options, every)),
+        method(method_name).code,
+        h,
+        nsteps,
+        qi,
+        wi,
+        q,
+        w,
+        pointer(en),
+        work,
+        stats,
+        status,
+    )
+    if code and not any(status):
+        raise ValueError(f"integrate_batch: arguments refused (status {code})")
+    per = [lib.stats(st) for st in stats]
+    return Batch(
+        t=h * every * np.arange(samples),
+        q=np.ascontiguousarray(q.transpose(2, 0, 1)).reshape(K, samples, n, 3),
+        omega=np.ascontiguousarray(w.transpose(2, 0, 1)).reshape(K, samples, n, 3),
+        energy=None if en is None else np.ascontiguousarray(en.T),
+        status=np.array(list(status), dtype=int),
+        stats={f: np.array([s[f] for s in per]) for f in (per[0] if per else {})},
+    )
