@@ -1,17 +1,16 @@
-"""The batch part's record for c/_batch.jinja: lanes, workspace offsets, the field inline.
+"""The batch part's record for c/_batch.jinja: lanes, lane-array sizes, workspace offsets.
 
-Input: a lowered sphere module with the ``batch`` part (`s2gen.parts.batch`). Output: a
-`PrintedBatch` (empty `{}` without the part), read by the template as `m.batch`. The VI's
-position and velocity updates are the module's own inline lines (`m.inline`); the
-uncoupled vector field's kernel (rhs_diag) is written inline here by the same printer
-(`c_inline`), so that a lane performs the very operations of the one-member kernel.
+Input: a lowered sphere module with the ``batch`` part (`s2gen.parts.batch`). Output: a dict
+(empty without the part), read by the template as `m.batch`. The VI's position and velocity
+updates in the lane loops are the module's own inline lines (`m.inline`, the C printer's), so
+that a lane performs the very operations of the one-member loop over bodies.
 
 Example:
     >>> from s2gen.systems import builtin
     >>> from s2gen.passes import lower_system
     >>> b = print_batch(lower_system(builtin("four_pendula").with_batch()))
-    >>> b["lanes"], b["work"]["lane_work"], b["rhs"][0]
-    (8, 0, 'const double dq0 = -q1*w2 + q2*w1;')
+    >>> b["lanes"], b["nsl"], b["work"]["lane_work"]
+    (8, 192, 0)
     >>> print_batch(lower_system(builtin("four_pendula")))
     {}
 """
@@ -20,15 +19,14 @@ from __future__ import annotations
 
 from typing import Any
 
-from s2gen.ir import Kernel, Module
+from s2gen.ir import Module
 from s2gen.methods import explicit_tableaus
 from s2gen.parts.batch import BATCH_LANES, BATCH_PART
-from s2gen.printing.c import c_inline
 
 __all__ = ["batch_work", "print_batch"]
 
-#: The buffers of the lane region, VI then Runge-Kutta (they share the region), with their
-#: sizes in (N3, n, NS, stages) units per lane.
+#: The explicit VI's lane arrays of N3 doubles per lane (then sv, mi and chk); the
+#: Runge-Kutta arrays share the region with them.
 _VI = ("x", "v", "gx", "xn", "vn", "gn")
 
 
@@ -42,9 +40,10 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
     Example:
         >>> from s2gen.systems import builtin
         >>> from s2gen.passes import lower_system
-        >>> w = batch_work(lower_system(builtin("three_bodies").with_batch()), lanes=2)
-        >>> w["params"], w["scratch"], w["lanes"]
-        (2 * WORK_SIZE, ...)
+        >>> m = lower_system(builtin("three_bodies").with_batch())
+        >>> w = batch_work(m, lanes=2)
+        >>> w["params"] == 2 * m.work_size, w["scratch"] - w["params"], w["x"], w["v"]
+        (True, 4, 0, 18)
     """
     n3, n = 3 * module.n, module.n
     ns = 2 * n3
@@ -62,35 +61,25 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
         rel += n3 * lanes
     off["sv"], off["mi"], off["chk"] = rel, rel + n * lanes, rel + 2 * n * lanes
     vi_end = rel + 2 * n * lanes + lanes
-    # Runge-Kutta: y0, yn, the stages k, g, then the same mi and chk after them
-    rk = {"y0": 0, "yn": ns * lanes, "k": 2 * ns * lanes, "g": (2 + stages) * ns * lanes}
-    rk_end = rk["g"] + n3 * lanes
+    # Runge-Kutta: y0, yn, the stages k and chk
+    rk = {"y0": 0, "yn": ns * lanes, "k": 2 * ns * lanes, "chk": (2 + stages) * ns * lanes}
+    rk_end = rk["chk"] + lanes
     off.update({f"rk_{k}": v for k, v in rk.items()})
-    off["rk_mi"], off["rk_chk"] = rk_end, rk_end + n * lanes
-    rk_end += n * lanes + lanes
     off["slack"] = 7
     off["size"] = at + max(vi_end, rk_end) + off["slack"]
     return off
 
 
 def print_batch(module: Module) -> dict[str, Any]:
-    """The batch part's record: lane count, lane-array sizes, workspace offsets, the rhs_diag
-    kernel inline (outputs dq0.., dw0..) and the stage arrays' names; `{}` without the part."""
+    """The batch part's record: lane count, the flat size of an NS-per-lane array and the
+    workspace offsets (`batch_work`); `{}` without the part."""
     if BATCH_PART not in module.parts:
         return {}
-    lanes, n3 = BATCH_LANES, 3 * module.n
-    kernel = module.kernel("rhs_diag")
-    assert isinstance(kernel, Kernel), "the passes lowered every kernel"
-    shared, rhs = c_inline(kernel, scalars=("q", "w", "g"))
-    assert not shared and [a.name for a in kernel.inputs] == ["mi", "q", "w", "g"]
     for name in ("vi_pos", "vi_vel"):
-        k = module.kernel(name)
-        scalars = [a.name for a in k.inputs if a.scalar]
+        scalars = [a.name for a in module.kernel(name).inputs if a.scalar]
         assert scalars == ["h", "mi"], f"{name}: the batch loads h and mi only, not {scalars}"
     return {
-        "lanes": lanes,
-        "nl3": n3 * lanes,
-        "nsl": 2 * n3 * lanes,
-        "work": batch_work(module, lanes),
-        "rhs": rhs,
+        "lanes": BATCH_LANES,
+        "nsl": 6 * module.n * BATCH_LANES,
+        "work": batch_work(module, BATCH_LANES),
     }

@@ -21,7 +21,9 @@ Example:
 from __future__ import annotations
 
 import ctypes
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -29,8 +31,9 @@ from s2gen.methods import method
 from s2gen.parts.batch import BATCH_METHODS
 from s2gen.runtime.c import CBackend, contiguous, pointer
 from s2gen.runtime.options import Options
+from s2gen.system import System
 
-__all__ = ["Batch", "integrate_batch"]
+__all__ = ["Batch", "integrate_batch", "member_arrays"]
 
 
 @dataclass(frozen=True)
@@ -109,3 +112,51 @@ def integrate_batch(
         status=np.array(list(status), dtype=int),
         stats={f: np.array([s[f] for s in per]) for f in (per[0] if per else {})},
     )
+
+
+def member_arrays(
+    system: System,
+    q0: np.ndarray | None,
+    omega0: np.ndarray | None,
+    params: Mapping[str, Any] | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The members' (q0, omega0, parameter vectors), shapes (K, n, 3), (K, n, 3), (K,
+    NPARAMS): K from q0, omega0 or the parameter arrays (which must agree); the spec's
+    initial state and parameter values where not given; a one-line ValueError otherwise.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> q, w, p = member_arrays(builtin("four_pendula"), None, None, {"g": [9.0, 9.5]})
+        >>> q.shape, p[:, 2].tolist()
+        ((2, 4, 3), [9.0, 9.5])
+    """
+    n, names = system.n, system.parameter_names
+    sizes = {len(np.atleast_1d(v)) for v in (params or {}).values() if np.ndim(v) == 1}
+    for a in (q0, omega0):
+        if a is not None:
+            sizes.add(np.shape(a)[0] if np.ndim(a) == 3 else -1)
+    if len(sizes) != 1 or min(sizes) < 1:
+        raise ValueError(
+            "integrate_batch: give q0 and omega0 of shape (K, n, 3) and/or parameter arrays of "
+            f"K values, one K for all (got {sorted(sizes) or 'none'})"
+        )
+    K = sizes.pop()
+    unknown = sorted(set(params or {}) - set(names))
+    if unknown:
+        raise ValueError(f"integrate_batch: unknown parameter(s) {', '.join(unknown)}")
+    p = np.repeat(np.array(system.parameter_values, dtype=float)[None], K, axis=0)
+    for j, name in enumerate(names):
+        if params and name in params:
+            p[:, j] = np.broadcast_to(np.asarray(params[name], dtype=float), (K,))
+
+    def state(a: np.ndarray | None, spec: np.ndarray | None, what: str) -> np.ndarray:
+        if a is None:
+            if spec is None:
+                raise ValueError(f"integrate_batch: {system.name} has no initial state: give {what}")
+            return np.repeat(np.asarray(spec, dtype=float)[None], K, axis=0)
+        out = np.asarray(a, dtype=float)
+        if out.shape != (K, n, 3):
+            raise ValueError(f"integrate_batch: {what} of shape {out.shape}, expected ({K}, {n}, 3)")
+        return out
+
+    return state(q0, system.q0, "q0"), state(omega0, system.omega0, "omega0"), p
