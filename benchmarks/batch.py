@@ -6,13 +6,12 @@ both timed by one C program built from the emitted module with the flag set's fl
 (`s2gen.build.FLAG_SETS`, "portable" = -O2 and "native" = -O3 -march=native, without -shared),
 best of `--repeats`; the program first checks that the two give the same final states bit for
 bit (exit status 1 otherwise). Prints member-steps per second per core for both, their ratio,
-and the fraction of the core's peak the batch reaches, with the CPU model: peak = the clock
-(the largest "cpu MHz" of /proc/cpuinfo) x the double-precision flops a core retires per cycle
-(2 FMA units x the vector width: 8 with AVX2, 16 with AVX-512 F, 4 with SSE2 alone; the emitted
-code has no FMA (-std=c99 keeps gcc from contracting), so half of it is reachable), the flops
-of a member-step counted from the emitted kernels' operation counts (`s2gen.inspect`-free: the
-C counts the additions, multiplications, divisions and square roots of its kernels once by
-hand through the `--flops` table below).
+and the fraction of the core's peak the batch reaches, with the CPU model. Peak = the clock
+(the largest "cpu MHz" of /proc/cpuinfo) x the double-precision flops a core can retire per
+cycle (2 FMA pipes x 2 flops x the vector width: 8 doubles with AVX-512 F, 4 with AVX2, 2
+otherwise); the emitted code has no fused multiply-adds (-std=c99 keeps gcc from contracting),
+so at most half of it is reachable. The flops of a member-step are a rough figure: the sum of
+the operation counts the emitted kernels print ("after the passes N ops"), each kernel once.
 
     python benchmarks/batch.py [--systems four_pendula dipoles] [--members 1024] [--repeats 3]
 """
@@ -26,8 +25,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from s2gen.emit import emit
 from s2gen.build import FLAG_SETS
+from s2gen.emit import emit
 from s2gen.systems import builtin
 
 DRIVER = r"""
@@ -132,18 +131,26 @@ def run(system: str, method: str, flags: str, members: int, steps: int, repeats:
         d = Path(tmp)
         for fname, text in files.items():
             (d / fname).write_text(text)
-        (d / "main.c").write_text(
-            DRIVER.replace("@NAME@", s.name).replace("@P@", s.name.upper())
-        )
+        (d / "main.c").write_text(DRIVER.replace("@NAME@", s.name).replace("@P@", s.name.upper()))
         cflags = [f for f in FLAG_SETS[flags] if f not in ("-shared", "-fPIC")]
         subprocess.run(
-            ["gcc", *cflags, "-D_POSIX_C_SOURCE=199309L", "-o", str(d / "bench"),
-             str(d / "main.c"), str(d / f"{s.name}.c"), "-lm"],
+            [
+                "gcc",
+                *cflags,
+                "-D_POSIX_C_SOURCE=199309L",
+                "-o",
+                str(d / "bench"),
+                str(d / "main.c"),
+                str(d / f"{s.name}.c"),
+                "-lm",
+            ],
             check=True,
         )
         out = subprocess.run(
             [str(d / "bench"), str(members), str(steps), str(codes[method]), str(repeats)],
-            capture_output=True, text=True,
+            check=False,
+            capture_output=True,
+            text=True,
         )
     one, batch, same = out.stdout.split()
     if same != "1":

@@ -54,12 +54,16 @@ def check(name: str, methods: tuple[str, ...], opt: str | None) -> None:
         b = integrate_batch(batched, m, H, NSTEPS, q0, w0, p, Options(), EVERY)
         assert b.energy is not None
         for k in range(K):
-            status, q, w, e, stats = one.integrate(m, H, NSTEPS, q0[k], w0[k], p[k], Options(), EVERY)
+            status, q, w, e, stats = one.integrate(
+                m, H, NSTEPS, q0[k], w0[k], p[k], Options(), EVERY
+            )
             assert e is not None
             done = int(stats["fail_step"]) if status else q.shape[0]
             where = f"{name} {m} member {k}"
             assert int(b.status[k]) == status, where
-            assert {f: int(v[k]) if f != "fail_time" else float(v[k]) for f, v in b.stats.items()} == stats, where
+            assert {
+                f: int(v[k]) if f != "fail_time" else float(v[k]) for f, v in b.stats.items()
+            } == stats, where
             assert np.array_equal(bits(b.q[k, :done]), bits(q[:done])), where
             assert np.array_equal(bits(b.omega[k, :done]), bits(w[:done])), where
             assert np.array_equal(bits(b.energy[k, :done]), bits(e[:done])), where

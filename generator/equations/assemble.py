@@ -38,9 +38,9 @@ from s2gen.equations.structure import (
 )
 from s2gen.equations.vi_jacobian import vi_jacobian_kernels
 from s2gen.inertia import InertiaKind
-from s2gen.parts.batch import BATCH_PART, has_batch
 from s2gen.interface import INITIAL_STATE_MAX_BODIES
 from s2gen.ir import Drive, KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
+from s2gen.parts.batch import BATCH_PART, has_batch
 from s2gen.system import SpecError, System, Term
 
 __all__ = [

@@ -26,7 +26,6 @@ from s2gen.ir import Module
 from s2gen.parts.batch import PART as BATCH
 from s2gen.parts.records import CC, Context, Part, Site
 
-
 __all__ = ["PARTS_BY_NAME", "SPHERE_PARTS"]
 
 _B, _P, _S = Context.BODY, Context.PAIR, Context.SYSTEM

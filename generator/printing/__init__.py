@@ -24,6 +24,7 @@ from s2gen.inertia import InertiaKind
 from s2gen.ir import Kernel, Module, ModuleKind, PassRecord
 from s2gen.methods import explicit_tableaus
 from s2gen.printing import records
+from s2gen.printing.c_batch import print_batch
 from s2gen.printing.c_calls import c_call
 from s2gen.printing.c_module import (
     CTable,
@@ -36,7 +37,6 @@ from s2gen.printing.c_module import (
     c_tables,
 )
 from s2gen.printing.driven import print_drive
-from s2gen.printing.c_batch import print_batch
 from s2gen.printing.jacobian import print_jacobian
 from s2gen.printing.numpy import (
     py_call,

@@ -17,6 +17,7 @@ from __future__ import annotations
 from s2gen.inertia import InertiaKind
 from s2gen.interface import interface
 from s2gen.ir import Kernel, Module, ModuleKind
+from s2gen.parts.batch import BATCH_LANES, BATCH_PART
 from s2gen.passes.workspace import padded
 from s2gen.printing.c import (
     c_decl,
@@ -26,9 +27,8 @@ from s2gen.printing.c import (
     nullable_note,
     rows,
 )
-from s2gen.printing.c_calls import c_binding
-from s2gen.parts.batch import BATCH_LANES, BATCH_PART
 from s2gen.printing.c_batch import batch_work
+from s2gen.printing.c_calls import c_binding
 from s2gen.printing.jacobian import JACOBIAN_PART
 
 __all__ = [

@@ -152,11 +152,15 @@ def member_arrays(
     def state(a: np.ndarray | None, spec: np.ndarray | None, what: str) -> np.ndarray:
         if a is None:
             if spec is None:
-                raise ValueError(f"integrate_batch: {system.name} has no initial state: give {what}")
+                raise ValueError(
+                    f"integrate_batch: {system.name} has no initial state: give {what}"
+                )
             return np.repeat(np.asarray(spec, dtype=float)[None], K, axis=0)
         out = np.asarray(a, dtype=float)
         if out.shape != (K, n, 3):
-            raise ValueError(f"integrate_batch: {what} of shape {out.shape}, expected ({K}, {n}, 3)")
+            raise ValueError(
+                f"integrate_batch: {what} of shape {out.shape}, expected ({K}, {n}, 3)"
+            )
         return out
 
     return state(q0, system.q0, "q0"), state(omega0, system.omega0, "omega0"), p
