@@ -12,6 +12,8 @@ finite for Runge-Kutta): their neighbours in the same block must not notice.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -20,15 +22,22 @@ from s2gen.runtime.batch import integrate_batch
 from s2gen.runtime.c import CBackend
 from s2gen.runtime.model import Model
 from s2gen.runtime.options import Options
-from s2gen.systems import builtin
+from s2gen.system import System
+from s2gen.systems import builtin, resolve
 
 K, H, NSTEPS, EVERY = 11, 0.01, 60, 6
+SPECS = Path(__file__).parent / "specs"
 NAN_MEMBER, FAST_MEMBER = 3, 9
+
+
+def system(name: str) -> System:
+    """A built-in, or a spec of tests/specs (``springs4``: a general potential alone)."""
+    return resolve(str(SPECS / "springs4.toml")) if name == "springs4" else builtin(name)
 
 
 def members(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """K perturbed copies of the spec's state and parameters, two of them made to fail."""
-    s = builtin(name)
+    s = system(name)
     rng = np.random.default_rng(7)
     q0 = s.q0[None] + 1e-2 * rng.standard_normal((K, s.n, 3))
     q0 /= np.linalg.norm(q0, axis=2, keepdims=True)
@@ -45,7 +54,7 @@ def bits(a: np.ndarray) -> np.ndarray:
 
 
 def check(name: str, methods: tuple[str, ...], opt: str | None) -> None:
-    s = builtin(name)
+    s = system(name)
     one, batched = CBackend(s, opt=opt), CBackend(s.with_batch(), opt=opt)
     assert not one.library.batch and batched.library.batch
     q0, w0, p = members(name)
@@ -86,10 +95,11 @@ def test_dipoles_vi() -> None:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("opt", ["portable", "native"])
-@pytest.mark.parametrize("name", ["four_pendula", "three_bodies", "dipoles"])
+@pytest.mark.parametrize("name", ["four_pendula", "three_bodies", "dipoles", "springs4"])
 def test_every_method_both_flag_sets(name: str, opt: str) -> None:
-    """Every batched method, three systems (listed terms with tables, pair rows, quadratic
-    terms), -O2 and -O3 -march=native."""
+    """Every batched method, four systems (listed and body terms with member tables: dV/dq in
+    loops over the lanes; pair rows and quadratic terms: dV/dq lane by lane; a general
+    potential: its kernel in a loop over the lanes), -O2 and -O3 -march=native."""
     check(name, BATCH_METHODS, opt)
 
 

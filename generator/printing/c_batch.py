@@ -25,7 +25,7 @@ from s2gen.bindings import BodyDatum, ContextArray, Local, MemberSlot, TermDatum
 from s2gen.ir import Call, Kernel, Module
 from s2gen.methods import explicit_tableaus
 from s2gen.parts.batch import BATCH_LANES, BATCH_PART
-from s2gen.printing.c import CPrinter, c_loop
+from s2gen.printing.c import CPrinter, c_inline, c_loop
 from s2gen.printing.c_calls import c_binding
 
 __all__ = ["batch_work", "print_batch"]
@@ -42,7 +42,7 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
     of one member's q, w and g (`scratch`, 4 N3 each), then the lane arrays (lane
     innermost; their offsets from `lanes`, which is aligned to 64 bytes inside `size`
     doubles, `slack` to spare): the VI's x, v, gx, xn, vn, gn, sv, mi, chk or Runge-Kutta's
-    rk_y0, rk_yn, rk_k, rk_chk (the same region), then the lanes' constants `cc`,
+    rk_y0, rk_yn, rk_k, rk_chk, rk_mi, rk_xc, rk_gs (the same region), then the lanes' constants `cc`,
     parameters `pl`, member tables `t<k>` and gradient `g`.
 
     Example:
@@ -71,7 +71,10 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
     vi_end = rel + 2 * n * lanes + lanes
     # Runge-Kutta: y0, yn, the stages k and chk
     rk = {"y0": 0, "yn": ns * lanes, "k": 2 * ns * lanes, "chk": (2 + stages) * ns * lanes}
-    rk_end = rk["chk"] + lanes
+    rk["mi"] = rk["chk"] + lanes
+    rk["xc"] = rk["mi"] + n * lanes  # the lanes' positions component-major, for dV/dq
+    rk["gs"] = rk["xc"] + n3 * lanes  # (the component-major gradient, unread)
+    rk_end = rk["gs"] + n3 * lanes
     off.update({f"rk_{k}": v for k, v in rk.items()})
     # the lanes' constants, parameters and member tables (lane innermost), the lane gradient
     off["cc"] = max(vi_end, rk_end)
@@ -101,10 +104,22 @@ def print_batch(module: Module) -> dict[str, Any]:
         "nl3": 3 * module.n * BATCH_LANES,
         "work": batch_work(module, BATCH_LANES),
         "gradient": lane_gradient(module) or {},
+        "rhs": _rhs(module),
         "tables": tuple(
             {"index": t.index, "size": t.table * t.loop.count} for t in module.terms if t.table
         ),
     }
+
+
+def _rhs(module: Module) -> tuple[str, ...]:
+    """The uncoupled field's kernel (rhs_diag) inline: scalars q0.., w0.., g0.. and mi in,
+    dq0.., dw0.. out (the same printer as the one-member kernel's body)."""
+    kernel = module.kernel("rhs_diag")
+    assert isinstance(kernel, Kernel), "the passes lowered every kernel"
+    assert [a.name for a in kernel.inputs] == ["mi", "q", "w", "g"]
+    shared, lines = c_inline(kernel, scalars=("q", "w", "g"))
+    assert not shared
+    return lines
 
 
 def _lane_names(
