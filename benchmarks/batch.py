@@ -10,8 +10,8 @@ and the fraction of the core's peak the batch reaches, with the CPU model. Peak 
 (the largest "cpu MHz" of /proc/cpuinfo) x the double-precision flops a core can retire per
 cycle (2 FMA pipes x 2 flops x the vector width: 8 doubles with AVX-512 F, 4 with AVX2, 2
 otherwise); the emitted code has no fused multiply-adds (-std=c99 keeps gcc from contracting),
-so at most half of it is reachable. The flops of a member-step are a rough figure: the sum of
-the operation counts the emitted kernels print ("after the passes N ops"), each kernel once.
+so at most half of it is reachable. The flops of a member-step are counted from the lowered
+kernels (`flops_per_member_step`).
 
     python benchmarks/batch.py [--systems four_pendula dipoles] [--members 1024] [--repeats 3]
 """
@@ -27,6 +27,8 @@ from pathlib import Path
 
 from s2gen.build import FLAG_SETS
 from s2gen.emit import emit
+from s2gen.inspect import kernel_profile, lowered
+from s2gen.system import System
 from s2gen.systems import builtin
 
 DRIVER = r"""
@@ -115,12 +117,26 @@ def cpu() -> tuple[str, float, int]:
     return (model.group(1) if model else "unknown"), mhz, 2 * width * 2
 
 
-def flops_per_member_step(files: dict[str, str], name: str) -> int:
-    """Operations of one member-step, approximated by the emitted kernels' printed counts
-    ("after the passes N ops") of the VI's gradient terms: a lower bound, used only for the
-    fraction of peak."""
-    text = files[f"{name}.c"]
-    return sum(int(m) for m in re.findall(r"after the passes (\d+) ops", text))
+def flops_per_member_step(system: System, method: str) -> int:
+    """Floating-point operations of one member-step, from the lowered kernels' op counts
+    (`s2gen.inspect.kernel_profile`; a square root or a division counts as one): dV/dq (the
+    general kernel, each term's gradient kernel times its members, a quadratic form's
+    2 N3^2) plus, for the VI, each body's position and velocity updates, for RK4 four
+    evaluations of the field (dV/dq and each body's rhs_diag) and the stage sums."""
+    module = lowered(system)
+
+    def ops(name: str) -> int:
+        return int(kernel_profile(module.kernel(name)).total)  # type: ignore[arg-type]
+
+    n3 = 3 * module.n
+    gradient = ops("gradient") if dict(module.facts).get("general") else 0
+    for t in module.terms:
+        gradient += (
+            2 * n3 * n3 // len(module.terms) if t.quadratic else t.loop.count * ops(t.gradient)
+        )
+    if method == "vi":
+        return gradient + module.n * (ops("vi_pos") + ops("vi_vel"))
+    return 4 * (gradient + module.n * ops("rhs_diag")) + 2 * n3 * (2 + 2 + 2 + 8)
 
 
 def run(system: str, method: str, flags: str, members: int, steps: int, repeats: int) -> None:
@@ -159,7 +175,7 @@ def run(system: str, method: str, flags: str, members: int, steps: int, repeats:
     rate_one = members * steps / float(one)
     rate_batch = members * steps / float(batch)
     _, mhz, per_cycle = cpu()
-    ops = flops_per_member_step(files, s.name)
+    ops = flops_per_member_step(s, method)
     peak = mhz * 1e6 * per_cycle
     print(
         f"{system:14s} {method:4s} {flags:8s} one/call {rate_one:11.4g}  batch {rate_batch:11.4g}"

@@ -11,8 +11,8 @@ Example:
     >>> b = print_batch(lower_system(builtin("four_pendula").with_batch()))
     >>> b["lanes"], b["nsl"], b["work"]["lane_work"]
     (8, 192, 0)
-    >>> print_batch(lower_system(builtin("four_pendula")))
-    {}
+    >>> print_batch(lower_system(builtin("four_pendula")))["lanes"]
+    0
 """
 
 from __future__ import annotations
@@ -90,11 +90,25 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
     return off
 
 
+#: The gradient record where dV/dq runs lane by lane (no loops over the lanes).
+_NO_LANES: dict[str, Any] = {"general": False, "parts": ()}
+
+
 def print_batch(module: Module) -> dict[str, Any]:
     """The batch part's record: lane count, the flat size of an NS-per-lane array and the
-    workspace offsets (`batch_work`); `{}` without the part."""
+    workspace offsets (`batch_work`), dV/dq in loops over the lanes (`lane_gradient`; no
+    parts where it runs lane by lane), the field's kernel inline and the member tables the
+    lanes copy; every key empty (or 0) without the part."""
     if BATCH_PART not in module.parts:
-        return {}
+        return {
+            "lanes": 0,
+            "nsl": 0,
+            "nl3": 0,
+            "work": {},
+            "gradient": _NO_LANES,
+            "rhs": (),
+            "tables": (),
+        }
     for name in ("vi_pos", "vi_vel"):
         scalars = [a.name for a in module.kernel(name).inputs if a.scalar]
         assert scalars == ["h", "mi"], f"{name}: the batch loads h and mi only, not {scalars}"
@@ -103,7 +117,7 @@ def print_batch(module: Module) -> dict[str, Any]:
         "nsl": 6 * module.n * BATCH_LANES,
         "nl3": 3 * module.n * BATCH_LANES,
         "work": batch_work(module, BATCH_LANES),
-        "gradient": lane_gradient(module) or {},
+        "gradient": lane_gradient(module) or _NO_LANES,
         "rhs": _rhs(module),
         "tables": tuple(
             {"index": t.index, "size": t.table * t.loop.count} for t in module.terms if t.table
