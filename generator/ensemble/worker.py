@@ -52,6 +52,7 @@ __all__ = [
     "failed_task",
     "make_payload",
     "run_member",
+    "run_members",
     "sources_digest",
     "thin",
 ]
@@ -233,6 +234,29 @@ def run_member(payload: Payload, task: Task) -> MemberResult:
         setup_time=setup,
         worker=_worker_name(),
     )
+
+
+def run_members(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult, ...]:
+    """A batch of members, one after another with this worker's loaded model: each one's
+    result as `run_member` gives it, a member whose task raises recorded as `failed_task`
+    (the others go on). One Dask task per batch carries its members' inputs and results.
+
+    Example:
+        >>> import s2gen
+        >>> s = s2gen.load("double_pendulum")
+        >>> payload = make_payload(s, s2gen.generate(s, "c"), "vi", T=0.1, every=5)
+        >>> rs = run_members(payload, (Task(0, 0.01, s.q0, s.omega0, ()),
+        ...                            Task(1, 0.01, s.q0, s.omega0, (("g", 1.0),))))
+        >>> [r.index for r in rs], [r.status for r in rs]
+        ([0, 1], [0, 0])
+    """
+    out = []
+    for task in tasks:
+        try:
+            out.append(run_member(payload, task))
+        except Exception as exc:  # noqa: BLE001 (the member's outcome; the batch goes on)
+            out.append(failed_task(task, payload.system.n, f"{type(exc).__name__}: {exc}"))
+    return tuple(out)
 
 
 def failed_task(task: Task, n: int, message: str) -> MemberResult:
