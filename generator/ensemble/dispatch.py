@@ -262,7 +262,14 @@ def ensemble(
     samples = check_sizes(system, table, method, every, options)
     if client is None:  # local workers compile with this machine's C compiler: one is needed
         compiler()  # BuildError (one line) before anything is written
-    payload = make_payload(system, generate(system, "c"), method, table.T, every, options)
+    batched = None  # the module with integrate_batch(), where the members can run through it
+    if client is not None or workers != 0:
+        from s2gen.parts.batch import BATCH_METHODS, batch_refusal
+
+        if method in BATCH_METHODS and batch_refusal(system) is None:
+            batched = generate(system.with_batch(), "c")
+    files = generate(system, "c")
+    payload = make_payload(system, files, method, table.T, every, options, batched)
     folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="s2gen-ensemble-"))
     attrs = _attrs(system, table, payload, samples, command)
     address = client if isinstance(client, str) else None

@@ -79,6 +79,9 @@ class Payload:
     every: int
     options: Options
     identity: Identity
+    #: The sources of the module with integrate_batch() (`System.with_batch`), when the
+    #: members can run through it (`ensemble.batched`); None otherwise.
+    batch_files: dict[str, str] | None = None
 
 
 @dataclass(frozen=True)
@@ -141,10 +144,12 @@ def make_payload(
     T: float,
     every: int = 1,
     options: Options | None = None,
+    batch_files: dict[str, str] | None = None,
 ) -> Payload:
     """The payload of an ensemble (computes the sources' digest)."""
     opts = options or Options()
-    return Payload(system, files, sources_digest(files), method, T, every, opts, identity())
+    digest = sources_digest({**files, **{f"batch/{k}": v for k, v in (batch_files or {}).items()}})
+    return Payload(system, files, digest, method, T, every, opts, identity(), batch_files)
 
 
 def _model(payload: Payload) -> tuple[Model, float]:
@@ -237,9 +242,11 @@ def run_member(payload: Payload, task: Task) -> MemberResult:
 
 
 def run_members(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult, ...]:
-    """A batch of members, one after another with this worker's loaded model: each one's
-    result as `run_member` gives it, a member whose task raises recorded as `failed_task`
-    (the others go on). One Dask task per batch carries its members' inputs and results.
+    """A batch of members: through one integrate_batch() call when the payload carries
+    that module and the members share their step (`batched.run_batched`), else one after
+    another with this worker's loaded model; each one's result as `run_member` gives it
+    (timings aside), a member whose task raises recorded as `failed_task` (the others go
+    on). One Dask task per batch carries its members' inputs and results.
 
     Example:
         >>> import s2gen
@@ -250,6 +257,12 @@ def run_members(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
         >>> [r.index for r in rs], [r.status for r in rs]
         ([0, 1], [0, 0])
     """
+    if len(tasks) > 1 and payload.batch_files is not None:
+        from .batched import run_batched
+
+        batched = run_batched(payload, tasks)
+        if batched is not None:
+            return batched
     out = []
     for task in tasks:
         try:
