@@ -67,7 +67,7 @@ _WHERE = {
     "require": "requirements",
     "run": "driver",
     "run_member": "worker",
-    "run_members": "worker",
+    "run_members": "batched",
     "summarize": "summary",
     "tls_security": "admission",
 }

@@ -31,9 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from .worker import MemberResult, Payload, Task, _worker_name, failed_task, thin
+from .worker import MemberResult, Payload, Task, _worker_name, failed_task, run_member, thin
 
-__all__ = ["run_batched"]
+__all__ = ["run_batched", "run_members"]
 
 _local = threading.local()
 
@@ -151,3 +151,33 @@ def _result(
         setup_time=setup,
         worker=_worker_name(),
     )
+
+
+def run_members(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult, ...]:
+    """A batch of members: through one integrate_batch() call when the payload carries
+    that module and the members share their step (`batched.run_batched`), else one after
+    another with this worker's loaded model; each one's result as `run_member` gives it
+    (timings aside), a member whose task raises recorded as `failed_task` (the others go
+    on). One Dask task per batch carries its members' inputs and results.
+
+    Example:
+        >>> import s2gen
+        >>> from s2gen.ensemble.worker import Task, make_payload
+        >>> s = s2gen.load("double_pendulum")
+        >>> payload = make_payload(s, s2gen.generate(s, "c"), "vi", T=0.1, every=5)
+        >>> rs = run_members(payload, (Task(0, 0.01, s.q0, s.omega0, ()),
+        ...                            Task(1, 0.01, s.q0, s.omega0, (("g", 1.0),))))
+        >>> [r.index for r in rs], [r.status for r in rs]
+        ([0, 1], [0, 0])
+    """
+    if len(tasks) > 1 and payload.batch_files is not None:
+        batched = run_batched(payload, tasks)
+        if batched is not None:
+            return batched
+    out = []
+    for task in tasks:
+        try:
+            out.append(run_member(payload, task))
+        except Exception as exc:  # noqa: BLE001 (the member's outcome; the batch goes on)
+            out.append(failed_task(task, payload.system.n, f"{type(exc).__name__}: {exc}"))
+    return tuple(out)

@@ -52,19 +52,12 @@ from typing import TYPE_CHECKING, Any
 from s2gen.runtime.options import Options
 
 from .admission import check_workers
+from .batched import run_members
 from .cluster import CONNECT_TIMEOUT, connect, needs_cluster, worker_count
 from .members import MemberTable, initial_state, member_table
 from .requirements import require
 from .store import EnsembleStore, check_store_size
-from .worker import (
-    MemberResult,
-    Payload,
-    Task,
-    failed_task,
-    make_payload,
-    run_member,
-    run_members,
-)
+from .worker import MemberResult, Payload, Task, failed_task, make_payload, run_member
 
 if TYPE_CHECKING:
     from s2gen.system import System

@@ -52,7 +52,6 @@ __all__ = [
     "failed_task",
     "make_payload",
     "run_member",
-    "run_members",
     "sources_digest",
     "thin",
 ]
@@ -239,37 +238,6 @@ def run_member(payload: Payload, task: Task) -> MemberResult:
         setup_time=setup,
         worker=_worker_name(),
     )
-
-
-def run_members(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult, ...]:
-    """A batch of members: through one integrate_batch() call when the payload carries
-    that module and the members share their step (`batched.run_batched`), else one after
-    another with this worker's loaded model; each one's result as `run_member` gives it
-    (timings aside), a member whose task raises recorded as `failed_task` (the others go
-    on). One Dask task per batch carries its members' inputs and results.
-
-    Example:
-        >>> import s2gen
-        >>> s = s2gen.load("double_pendulum")
-        >>> payload = make_payload(s, s2gen.generate(s, "c"), "vi", T=0.1, every=5)
-        >>> rs = run_members(payload, (Task(0, 0.01, s.q0, s.omega0, ()),
-        ...                            Task(1, 0.01, s.q0, s.omega0, (("g", 1.0),))))
-        >>> [r.index for r in rs], [r.status for r in rs]
-        ([0, 1], [0, 0])
-    """
-    if len(tasks) > 1 and payload.batch_files is not None:
-        from .batched import run_batched
-
-        batched = run_batched(payload, tasks)
-        if batched is not None:
-            return batched
-    out = []
-    for task in tasks:
-        try:
-            out.append(run_member(payload, task))
-        except Exception as exc:  # noqa: BLE001 (the member's outcome; the batch goes on)
-            out.append(failed_task(task, payload.system.n, f"{type(exc).__name__}: {exc}"))
-    return tuple(out)
 
 
 def failed_task(task: Task, n: int, message: str) -> MemberResult:
