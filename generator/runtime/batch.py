@@ -42,7 +42,9 @@ class Batch:
     n, 3), energy (K, samples; None when not asked for), status (K; 0 = OK, else the
     integrate() status of the member, `s2gen.methods.Status`) and stats (field -> array of
     K: steps, gradient_evals, fail_step, ...). A failed member's samples from
-    stats["fail_step"][k] on are NaN."""
+    stats["fail_step"][k] on are NaN. q, omega and energy are views of the member-innermost
+    arrays the C wrote (no transposed copy: it would cost more than the integration when
+    every sample is kept); copy what you keep of them."""
 
     t: np.ndarray
     q: np.ndarray
@@ -79,9 +81,9 @@ def integrate_batch(
     qi = contiguous(q0.reshape(K, 3 * n).T)
     wi = contiguous(w0.reshape(K, 3 * n).T)
     pi = contiguous(params.reshape(K, -1).T)
-    q = np.full((samples, 3 * n, K), np.nan)
-    w = np.full((samples, 3 * n, K), np.nan)
-    en = np.full((samples, K), np.nan) if with_energy else None
+    q = np.empty((samples, 3 * n, K))
+    w = np.empty((samples, 3 * n, K))
+    en = np.empty((samples, K)) if with_energy else None
     stats = (lib.Stats * K)()
     status = (ctypes.c_int * K)()
     work = np.zeros(max(1, lib.batch_work))
@@ -104,11 +106,16 @@ def integrate_batch(
     if code and not any(status):
         raise ValueError(f"integrate_batch: arguments refused (status {code})")
     per = [lib.stats(st) for st in stats]
+    for k, st in enumerate(status):  # nothing written past a failure (or at all): NaN
+        if st:
+            for a in (q, w, en):
+                if a is not None:
+                    a[per[k]["fail_step"] :, ..., k] = np.nan
     return Batch(
         t=h * every * np.arange(samples),
-        q=np.ascontiguousarray(q.transpose(2, 0, 1)).reshape(K, samples, n, 3),
-        omega=np.ascontiguousarray(w.transpose(2, 0, 1)).reshape(K, samples, n, 3),
-        energy=None if en is None else np.ascontiguousarray(en.T),
+        q=q.reshape(samples, n, 3, K).transpose(3, 0, 1, 2),
+        omega=w.reshape(samples, n, 3, K).transpose(3, 0, 1, 2),
+        energy=None if en is None else en.T,
         status=np.array(list(status), dtype=int),
         stats={f: np.array([s[f] for s in per]) for f in (per[0] if per else {})},
     )
