@@ -11,8 +11,9 @@ Before anything is built or written, every size is checked against its stated li
 `simulate` checks it, the store's bytes in `store`); after connecting, every worker must run
 the client's s2gen version, generator and build flags (`admission.check_workers`).
 
-How it runs on Dask: the system, its emitted C sources and the run's settings go to every
-worker once (`client.scatter(..., broadcast=True)`); each task carries a batch of consecutive
+How it runs on Dask: the system, its emitted C sources (and those of its module with
+integrate_batch() where the members can run through it, `batched.run_batched`) and the run's
+settings go to every worker once (`client.scatter(..., broadcast=True)`); each task carries a batch of consecutive
 members (their indices, steps, initial states and parameters; `batch_size` of them, by default
 chosen by measurement, `batch_size_for`: the first member runs alone and its integration time
 sets how many make a task of about `TARGET_TASK_SECONDS`). At most `WINDOW_PER_WORKER` tasks
