@@ -13,8 +13,8 @@ the client's s2gen version, generator and build flags (`admission.check_workers`
 
 How it runs on Dask: the system, its emitted C sources (and those of its module with
 integrate_batch() where the members can run through it, `batched.run_batched`) and the run's
-settings go to every worker once (`client.scatter(..., broadcast=True)`); each task carries a batch of consecutive
-members (their indices, steps, initial states and parameters; `batch_size` of them, by default
+settings go to every worker once (`client.scatter(..., broadcast=True)`); each task carries a
+batch of consecutive members (their indices, steps, initial states and parameters; `batch_size` of them, by default
 chosen by measurement, `batch_size_for`: the first member runs alone and its integration time
 sets how many make a task of about `TARGET_TASK_SECONDS`). At most `WINDOW_PER_WORKER` tasks
 per worker are in flight; as each completes (`distributed.as_completed`) the client fetches
@@ -98,8 +98,10 @@ def batch_size_for(member_seconds: float, remaining: int, slots: int) -> int:
     task slots (workers x window) a task of the `remaining` members.
 
     Example:
-        >>> batch_size_for(0.001, 4096, 8), batch_size_for(0.001, 100, 8), batch_size_for(1.0, 99, 8)
-        (200, 13, 1)
+        >>> batch_size_for(0.001, 4096, 8), batch_size_for(0.001, 100, 8)
+        (200, 13)
+        >>> batch_size_for(1.0, 99, 8)
+        1
     """
     want = math.ceil(TARGET_TASK_SECONDS / max(member_seconds, 1e-6))
     fair = math.ceil(remaining / max(1, slots))
@@ -234,7 +236,8 @@ def ensemble(
     dashboard address (default none). When the run starts, every worker must run the client's
     s2gen version, generator and build flags (`admission.check_workers`). `batch_size`:
     members per task (default: by measurement, `batch_size_for`; serially, members per
-    write to the store, default 1); the results do not depend on it. Bad input raises `EnsembleError` (a ValueError).
+    write to the store, default 1); the results do not depend on it. Bad input raises
+    `EnsembleError` (a ValueError).
 
     Example:
         >>> r = ensemble("double_pendulum", sweep={"g": [1.0, 9.81]}, T=0.1, workers=0)

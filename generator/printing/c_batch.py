@@ -42,8 +42,8 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
     of one member's q, w and g (`scratch`, 4 N3 each), then the lane arrays (lane
     innermost; their offsets from `lanes`, which is aligned to 64 bytes inside `size`
     doubles, `slack` to spare): the VI's x, v, gx, xn, vn, gn, sv, mi, chk or Runge-Kutta's
-    rk_y0, rk_yn, rk_k, rk_chk, rk_mi, rk_xc, rk_gs (the same region), then the lanes' constants `cc`,
-    parameters `pl`, member tables `t<k>` and gradient `g`.
+    rk_y0, rk_yn, rk_k, rk_chk, rk_mi, rk_xc, rk_gs (the same region), then the lanes'
+    constants `cc`, parameters `pl`, member tables `t<k>` and gradient `g`.
 
     Example:
         >>> from s2gen.systems import builtin
@@ -209,7 +209,8 @@ def lane_gradient(module: Module) -> dict[str, Any] | None:
         pr = CPrinter(names)
         lines = []
         for a in kernel.assignments:
-            target = a.temp if a.temp is not None else f"{a.output[0]}{a.output[1]}"  # type: ignore[index]
+            out = a.output or ("", 0)
+            target = a.temp if a.temp is not None else f"{out[0]}{out[1]}"
             lines.append(f"const double {target} = {pr.doprint(a.expr)};")
         if general:
             (out,) = kernel.outputs
