@@ -24,6 +24,7 @@ from s2gen.inertia import InertiaKind
 from s2gen.ir import Kernel, Module, ModuleKind, PassRecord
 from s2gen.methods import explicit_tableaus
 from s2gen.printing import records
+from s2gen.printing.c_batch import print_batch
 from s2gen.printing.c_calls import c_call
 from s2gen.printing.c_module import (
     CTable,
@@ -93,7 +94,7 @@ class PrintedModule:
     table_inits: tuple[dict[str, Any], ...]  # per term with a table: index, count, table, call
     py_tables: tuple[str, ...]  # calls computing the terms' member tables (NumPy)
     quadratic: int  # order of the quadratic terms' matrix K (0: none)
-    c_stdint: bool  # the C aligns a buffer to 64 bytes (K, the explicit VI's): uintptr_t
+    c_includes: tuple[str, ...]  # more headers: stdint.h (uintptr_t) for 64-byte aligned buffers
     quad_inits: tuple[dict[str, Any], ...]  # per quadratic term: loop, coefficient call, scatter
     py_quad_lines: tuple[str, ...]  # NumPy lines building K and b
     py_table_names: tuple[str, ...]
@@ -136,6 +137,7 @@ class PrintedModule:
     py_data_setup: tuple[str, ...]  # NumPy: the per-body arrays of [data] the terms read
     drive: dict[str, Any]  # a driven module's inputs, methods and tables (empty: closed)
     jac: dict[str, Any]  # the step Jacobians' methods and lines (empty: no step_jacobian)
+    batch: dict[str, Any]  # integrate_batch()'s lanes, workspace and lines (empty: none)
 
 
 def print_module(module: Module) -> PrintedModule:
@@ -207,7 +209,11 @@ def print_module(module: Module) -> PrintedModule:
         py_tables=tuple(calls[f"t{t.index}_table"]["py"] for t in module.terms if t.table),
         py_table_names=py_table_names(module),
         quadratic=module.quadratic,
-        c_stdint=module.quadratic > 0 or any(lay.name == "explicit" for lay in module.layouts),
+        c_includes=(
+            ("stdint.h",)
+            if module.quadratic > 0 or any(lay.name == "explicit" for lay in module.layouts)
+            else ()
+        ),
         quad_inits=tuple(quad_init(module, t, calls) for t in module.terms if t.quadratic),
         py_quad_lines=tuple(
             line for t in module.terms if t.quadratic for line in py_quad_lines(t, calls, module.n)
@@ -255,4 +261,5 @@ def print_module(module: Module) -> PrintedModule:
         py_data_setup=py_data_setup(module),
         drive=print_drive(module),
         jac=print_jacobian(module),
+        batch=print_batch(module),
     )

@@ -27,6 +27,7 @@ from s2gen.runtime.trajectory import Trajectory
 from s2gen.system import System
 
 if TYPE_CHECKING:
+    from s2gen.runtime.batch import Batch
     from s2gen.runtime.linearize import Linearization
     from s2gen.runtime.stepper import Stepper
 
@@ -62,6 +63,8 @@ class Model:
             self._backend = CBackend(system, files, opt)
         self._steps: Any = None
         self._jacobians: Any = None  # the C backend with step_jacobian(), once linearize asks
+        self._batch: Any = None  # the C backend with integrate_batch(), once asked for
+        self._opt = opt
         if backend in ("c", "numpy") and not system.driven:
             from s2gen.runtime.step_cache import StepCache
 
@@ -117,6 +120,57 @@ class Model:
             t0=t0,
             inputs=inputs,
         )
+
+    def integrate_batch(
+        self,
+        method: str = "vi",
+        h: float | None = None,
+        T: float | None = None,
+        q0: np.ndarray | None = None,
+        omega0: np.ndarray | None = None,
+        params: Mapping[str, Any] | None = None,
+        every: int = 1,
+        energy: bool = True,
+        options: Options | None = None,
+    ) -> Batch:
+        """K members at once, each with its own initial state (q0, omega0 of shape (K, n, 3);
+        default: the spec's) and parameters (`params`: name -> K values, or one for all),
+        through integrate_batch() (`s2gen.runtime.batch`): each member's samples, energy and
+        statistics equal `integrate`'s for it bit for bit; a failing member stops alone (its
+        status and stats say why and where). C backend, closed systems with a diagonal M,
+        the methods of `s2gen.parts.batch.BATCH_METHODS`; the first call builds the module
+        with integrate_batch() (`System.with_batch`).
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> b = Model(builtin("four_pendula")).integrate_batch(
+            ...     "rk4", h=0.01, T=0.1, params={"g": [9.0, 9.5, 10.0]}, every=5)
+            >>> b.q.shape, b.status.tolist()
+            ((3, 3, 4, 3), [0, 0, 0])
+        """
+        from s2gen.parts.batch import batch_refusal
+        from s2gen.runtime import check_run
+        from s2gen.runtime.batch import integrate_batch, member_arrays
+        from s2gen.runtime.c import CBackend
+
+        if self.backend_name != "c":
+            raise ValueError(
+                f"integrate_batch: the C backend only (not {self.backend_name!r}); the NumPy "
+                "backend runs one member per call of integrate"
+            )
+        why = batch_refusal(self.system)
+        if why is not None:
+            raise ValueError(why)
+        h = h if h is not None else self.system.run.h
+        T = T if T is not None else self.system.run.T
+        if h is None or T is None:
+            raise ValueError(f"{self.system.origin}: no step size h or final time T given")
+        opts = options or Options()
+        nsteps = check_run(self.system, method, h, T, opts, every)
+        qs, ws, p = member_arrays(self.system, q0, omega0, params)
+        if self._batch is None:
+            self._batch = CBackend(self.system.with_batch(), opt=self._opt)
+        return integrate_batch(self._batch, method, h, nsteps, qs, ws, p, opts, every, energy)
 
     def step(
         self,
