@@ -45,7 +45,7 @@ __all__ = [
 #: The step Jacobians are emitted for systems of at most this many bodies: their derivation no
 #: longer grows with n (blocks derived once, placed at run time), but the derivatives are
 #: dense ((6n)^2 for A, (9n)^2 for a coupled VI's equations), as are the products and solves
-#: of the chain rule (O(n^3) per step: about 20 ms at n = 32, `benchmarks/jacobian_cost.py`).
+#: of the chain rule (O(n^3) per step: 12 to 26 ms at n = 32, `benchmarks/jacobian_cost.py`).
 JACOBIAN_MAX_BODIES = 32
 
 
