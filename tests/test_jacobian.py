@@ -40,6 +40,12 @@ def driven() -> Model:
 
 
 @pytest.fixture(scope="module")
+def ring() -> Model:
+    """Driven, an input in V as well as in the forces (dV/dq depends on u)."""
+    return Model(load("tests/specs/driven_ring.toml"))
+
+
+@pytest.fixture(scope="module")
 def forced() -> Model:
     """Driven, its M max-index (the structured solver's VI)."""
     return Model(load("forced_double_pendulum"))
@@ -72,6 +78,8 @@ CASES = [
     ("driven", "vi6"),
     ("forced", "vi"),
     ("forced", "rk4"),
+    ("ring", "vi"),
+    ("ring", "rk4"),
 ]
 
 
@@ -255,6 +263,7 @@ P_CASES = [
     ("four", "vi"),
     ("four", "rk2-proj"),
     ("forced", "vi"),
+    ("ring", "vi"),
 ]
 
 

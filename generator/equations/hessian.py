@@ -6,12 +6,12 @@ derivatives of the forces (3n x 3n each, dense):
 
 - ``t<k>_hessian`` for structured term k: the Hessian of the term's expression in its local
   positions (3 x 3 for a body term, 6 x 6 for a pair term, rows and columns (qi, qj)) and the
-  derivative of its gradient in the parameters (``gpb``), derived once for the term and called
+  derivative of its gradient in the inputs and the parameters (``gpb``), derived once for the term and called
   for each member in the term's own loop, in its local positions, data and parameters (like
   ``t<k>_gradient``), its blocks added into H (and dg/dp) at the member's bodies;
 - ``hessian``: the Hessian of V's general part (the part written as one expression of all
   positions, `s2gen.equations.structure.has_general_potential`) and the derivative of its
-  gradient in the parameters, whole-system;
+  gradient in the inputs and the parameters, whole-system;
 - ``force_jacobian`` (driven systems with forces): F and its derivatives in q, w, the inputs
   and the parameters, whole-system (the forces of a spec are written per body, with few
   bodies).
@@ -64,12 +64,13 @@ def _flat(mat: sp.Matrix) -> tuple[sp.Expr, ...]:
 
 def hessian_kernels(system: System) -> list[KernelDef]:
     """The ``t<k>_hessian`` kernels of the structured terms with members (outputs ``hb``, the
-    (3 a) x (3 a) Hessian row-major, a the term's arity, and ``gpb``, (3 a) x parameters) and,
-    when V has a general part that depends on the positions, ``hessian`` (outputs ``hv``,
-    3n x 3n, and ``gpv``, 3n x parameters); the parameters' outputs only when there are
-    parameters."""
+    (3 a) x (3 a) Hessian row-major, a the term's arity, and ``gpb``, (3 a) x (inputs +
+    parameters)) and, when V has a general part that depends on the positions, ``hessian``
+    (outputs ``hv``, 3n x 3n, and ``gpv``, 3n x (inputs + parameters)); ``gpb`` and ``gpv``
+    only when there are inputs or parameters."""
     kernels = []
-    params = list(system.parameter_symbols)
+    # the columns of dg/d(u, p): the inputs (V may read them), then the parameters
+    params = [*(tu_symbols(system)[1:] if system.driven else ()), *system.parameter_symbols]
     for k, term in enumerate(system.terms):
         if term.count(system.n) == 0:
             continue
@@ -83,7 +84,7 @@ def hessian_kernels(system: System) -> list[KernelDef]:
             KernelDef(
                 f"t{k}_hessian",
                 f"{term.label}: one member's term's Hessian in its positions (hb) and its "
-                "gradient's derivative in the parameters (gpb), row-major",
+                "gradient's derivative in the inputs and parameters (gpb), row-major",
                 value.inputs,
                 tuple(outputs),
                 stages=value.stages,
@@ -101,7 +102,7 @@ def hessian_kernels(system: System) -> list[KernelDef]:
             KernelDef(
                 "hessian",
                 "V's general part: its Hessian (hv) and its gradient's derivative in the "
-                "parameters (gpv), row-major",
+                "inputs and parameters (gpv), row-major",
                 (
                     Argument("p", system.parameter_symbols),
                     Argument("q", tuple(qs)),

@@ -28,7 +28,7 @@ def jacobian_layout(module: Module) -> Layout:
     parameters', the field's Jacobian jx and its parts (jq, jr, am, ju), the Hessian of V (H),
     the derivative of G = g - F in (q, w, u, p) (gx), G, F and the forces' derivatives (fq,
     fw, fu), M's entries (mm) and the derivatives in the parameters (mp of M, gp of
-    g = dV/dq, fp of F); with the VI's Jacobian, its substeps' states (qs, ws) -> (qd, wd),
+    g = dV/dq in the inputs and the parameters, fp of F); with the VI's Jacobian, its substeps' states (qs, ws) -> (qd, wd),
     gradients and Cayley parameters, the derivatives of their equations (ey, ex: ny = 9n
     unknowns (f, q+, w+) for a coupled M, 6n for a diagonal one), the product of the
     substeps' so far (sd), the kernel's parts (ex0 = dE/dx, eg, egn, efn = dE/d(G, g+, F+),
@@ -60,7 +60,7 @@ def jacobian_layout(module: Module) -> Layout:
         ("fu", m3 * (cols - ns)),
         ("mm", n * n),
         ("mp", n * n * npar),
-        ("gp", m3 * npar),
+        ("gp", m3 * (ni + npar)),
         ("fp", m3 * npar),
     ]
     if any(k.name == "vi_jacobian" for k in module.kernels):

@@ -36,12 +36,13 @@ def call_of(module: Module, site: str) -> Call | None:
 
 
 def hessian_lines(module: Module) -> tuple[str, ...]:
-    """The C lines that set H (N3 x N3) to the Hessian of V at q and gp (N3 x parameters) to
-    dg/dp: V's general part (the ``hessian`` kernel, which writes every entry) or zeros, then
+    """The C lines that set H (N3 x N3) to the Hessian of V at q and gp (N3 x (inputs +
+    parameters)) to dg/d(u, p): V's general part (the ``hessian`` kernel, which writes every entry) or zeros, then
     each term's member loop, which calls the term's ``t<k>_hessian`` and adds its blocks at the
     member's bodies."""
     name, upper = module.name, module.name.upper()
-    npar = len(module.parameter_names)
+    # the columns of dg/d(u, p)
+    npar = len(module.parameter_names) + (len(module.drive.inputs) if module.drive else 0)
     general = call_of(module, "hessian")
     if general is not None:
         lines = [f"{c_call(name, general)};"]
@@ -100,7 +101,7 @@ def force_lines(module: Module) -> tuple[str, ...]:
         f"        gx[r * nc + {upper}_N3 + c] = -fw[r * {upper}_N3 + c];",
         "    }",
         f"    for (c = 0; c < {ni}; ++c) {{",
-        f"        gx[r * nc + {ns} + c] = -fu[r * {ni} + c];",
+        f"        gx[r * nc + {ns} + c] -= fu[r * {ni} + c];",
         "    }",
         f"    for (c = 0; c < {npar}; ++c) {{",
         f"        gx[r * nc + {ns + ni} + c] -= fp[r * {npar} + c];",
