@@ -72,7 +72,7 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument(
         "--jacobians",
         action="store_true",
-        help="C: also emit step_jacobian(), one step's exact derivatives (up to 8 bodies)",
+        help="C: also emit step_jacobian(), one step's exact derivatives (up to 32 bodies)",
     )
     g.add_argument(
         "--batch",

@@ -1,12 +1,14 @@
 """The C interface of the step Jacobians: ``step_jacobian()``, as an `interface.Function`.
 
 A sphere module emitted from `System.with_jacobians` has it (systems of at most
-`s2gen.equations.jacobian.JACOBIAN_MAX_BODIES` bodies; closed or driven: one signature); its header also defines JACOBIAN_WORK_SIZE and
-JACOBIAN_VI.
+`s2gen.equations.jacobian.JACOBIAN_MAX_BODIES` bodies; closed or driven: one signature); its
+header also defines JACOBIAN_WORK_SIZE and JACOBIAN_VI. The derivative in the parameters, P,
+is an optional output of the same function (NULL: not written), so that one pass of the chain
+rule gives A, B and P together.
 
 Example:
-    >>> [p.name for p in STEP_JACOBIAN.params][-3:]
-    ['A', 'B', 'work']
+    >>> [p.name for p in STEP_JACOBIAN.params][-4:]
+    ['A', 'B', 'P', 'work']
 """
 
 from __future__ import annotations
@@ -33,19 +35,22 @@ STEP_JACOBIAN = Function(
         Param("wn", _A),
         Param("A", _A),
         Param("B", _A, True),
+        Param("P", _A, True),
         Param("work", _A),
     ),
     "One step of size h of a fixed-step method (the fixed-step Runge-Kutta methods; the VI "
-    "family, vi, vi4, vi6, vi8, when JACOBIAN_VI is 1: M diagonal or solved densely) from "
+    "family, vi, vi4, vi6, vi8, when JACOBIAN_VI is 1: any M) from "
     "(q, w) at time t into (qn, wn), as step() takes it (Newton from its cold start), and its "
     "exact derivatives in the embedding coordinates: with x = (q, w) (NS = 2 NSTATE doubles, "
     "q body-major then w), A (NS x NS, row-major) receives dx+/dx and B (NS x NINPUTS, "
-    "row-major; may be NULL) dx+/du. Runge-Kutta: the chain rule of the tableau through its "
-    "stages (and the normalization of q_i for the -proj methods) on the field's Jacobian; VI: "
+    "row-major; may be NULL) dx+/du and P (NS x NPARAMS, row-major, the parameters in the "
+    "order of p; may be NULL) dx+/dp (through M, V and the forces). Runge-Kutta: the chain "
+    "rule of the tableau through its stages (and the normalization of q_i for the -proj methods) on the field's Jacobian; VI: "
     "the implicit function theorem on each substep's equations (Newton's residual in the "
     "Cayley parameters, the Cayley update and the velocity equations; diagonal M: the "
     "explicit update), the substeps' derivatives multiplied. SymPy derives every derivative "
-    "(the Hessian of V, those of the forces); no differences are taken. t and u (NINPUTS "
+    "(the Hessian of V, assembled per term member, those of the forces and of M in the "
+    "parameters); no differences are taken. t and u (NINPUTS "
     "doubles; NULL: the defaults) are read by a driven module only; opt (NULL: the defaults) "
     "by the VI. work: JACOBIAN_WORK_SIZE doubles. Returns OK or the step's own status "
     "(ERR_ARGUMENT for h <= 0 or a method without a Jacobian, ERR_NONFINITE, ERR_NEWTON)",

@@ -104,8 +104,8 @@ class System:
     #: The driven part: the caller's inputs and the generalized forces (empty: closed system).
     inputs: Inputs = field(default_factory=Inputs)
     forces: tuple[Force, ...] = ()
-    #: Whether the emitted C carries step_jacobian() (`with_jacobians`; off by default: its
-    #: derivation takes longer than the rest of the module's)
+    #: Whether the emitted C carries step_jacobian() (`with_jacobians`; off by default: it adds
+    #: derivation and compile time)
     jacobians: bool = False
     #: Whether the emitted C carries integrate_batch() (`with_batch`; off by default: the
     #: modules of everyone else stay as they were)
@@ -325,7 +325,7 @@ class System:
 
     def with_jacobians(self) -> System:
         """The same system, its emitted C with the step Jacobians (step_jacobian(): systems
-        of at most 8 bodies without cutoff terms; see `s2gen.equations.jacobian`).
+        of at most 32 bodies without cutoff terms; see `s2gen.equations.jacobian`).
 
         Example:
             >>> from s2gen.systems import builtin

@@ -39,6 +39,18 @@ def driven() -> Model:
     return Model(load("tests/specs/driven_double.toml"))
 
 
+@pytest.fixture(scope="module")
+def ring() -> Model:
+    """Driven, an input in V as well as in the forces (dV/dq depends on u)."""
+    return Model(load("tests/specs/driven_ring.toml"))
+
+
+@pytest.fixture(scope="module")
+def forced() -> Model:
+    """Driven, its M max-index (the structured solver's VI)."""
+    return Model(load("forced_double_pendulum"))
+
+
 def _state(model: Model) -> np.ndarray:
     s = model.system
     return np.concatenate([np.ravel(s.q0), np.ravel(s.omega0)])
@@ -64,6 +76,10 @@ CASES = [
     ("driven", "rk4"),
     ("driven", "vi"),
     ("driven", "vi6"),
+    ("forced", "vi"),
+    ("forced", "rk4"),
+    ("ring", "vi"),
+    ("ring", "rk4"),
 ]
 
 
@@ -236,3 +252,49 @@ def test_docs_linearization_block(double: Model) -> None:
         - _step(double, x0 - 100 * dx, "vi", 0.0, None)
     ) / 200  # type: ignore[operator]
     assert np.abs(after - fd).max() < 1e-6 * np.abs(fd).max()  # type: ignore[operator]
+
+
+P_CASES = [
+    ("double", "rk4"),
+    ("double", "vi"),
+    ("double", "vi4"),
+    ("driven", "rk4"),
+    ("driven", "vi"),
+    ("four", "vi"),
+    ("four", "rk2-proj"),
+    ("forced", "vi"),
+    ("ring", "vi"),
+]
+
+
+@pytest.mark.parametrize(("fixture", "name"), P_CASES)
+def test_parameter_jacobian_matches_central_differences(
+    fixture: str, name: str, request: pytest.FixtureRequest
+) -> None:
+    """P = dx+/dp (embedding and tangent) against central differences of the emitted step in
+    each parameter (relative step 1e-6), relative agreement 1e-6: the masses and lengths enter
+    M (m l^2) and V, g enters V, the driven pendulum's parameters its forces too."""
+    model: Model = request.getfixturevalue(fixture)
+    s = model.system
+    n, ni = s.n, len(s.inputs.names)
+    x0, t = _state(model), 0.3
+    u = np.array(s.inputs.values, dtype=float) + 0.1 if ni else None
+    q0, w0 = x0[: 3 * n].reshape(n, 3), x0[3 * n :].reshape(n, 3)
+    emb = model.linearize(q0, w0, H, name, t=t, u=u, basis="embedding", options=EXACT)
+    tan = model.linearize(q0, w0, H, name, t=t, u=u, options=EXACT)
+    assert emb.P.shape == (6 * n, len(s.parameter_names))
+    base = dict(zip(s.parameter_names, s.parameter_values))
+    fd = np.zeros_like(emb.P)
+    for k, pname in enumerate(s.parameter_names):
+        eps = 1e-6 * max(abs(base[pname]), 1.0)
+        ends = []
+        for sign in (1, -1):
+            q, w = model.step(
+                q0, w0, H, name, EXACT, params={**base, pname: base[pname] + sign * eps}, t=t, u=u
+            )
+            ends.append(np.concatenate([np.ravel(q), np.ravel(w)]))
+        fd[:, k] = (ends[0] - ends[1]) / (2 * eps)
+    scale = np.abs(fd).max()
+    assert scale > 0
+    assert np.abs(emb.P - fd).max() <= 1e-6 * scale, np.abs(emb.P - fd).max() / scale
+    assert np.allclose(tan.P, tan.basis_out.T @ emb.P, 0, 1e-15)

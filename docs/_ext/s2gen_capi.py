@@ -243,7 +243,7 @@ def c_api_jacobian_rst() -> str:
         "",
         f".. c:macro:: {upper}_JACOBIAN_VI",
         "",
-        "   1 when step_jacobian differentiates the VI family too (M diagonal or dense), else 0.",
+        "   1 when step_jacobian differentiates the VI family too, else 0.",
         "",
     ]
     return "\n".join(lines + _function(STEP_JACOBIAN, PREFIX, sizes)) + "\n"

@@ -1,36 +1,41 @@
 """The exact Jacobian of one variational-integrator step, by the implicit function theorem.
 
-Input: a `System` of at most `JACOBIAN_MAX_BODIES` bodies whose M is diagonal or solved densely.
-Output: the whole-system kernel ``vi_jacobian``: for one VI step of size h from (q, w) at time
-t to (q+, w+) at t + h, the derivatives of the equations the emitted step solves,
-E(y; x, u) = 0, in its unknowns y and in x = (q, w) and the inputs u. The step Jacobian is then
-dy/d(x, u) = -E_y^-1 E_(x,u), whose last 6n rows are d(q+, w+)/d(x, u); the ``jacobian`` part
-solves it in C and multiplies the substeps' of a composition (vi4, vi6, vi8).
+Input: a `System` with step Jacobians (at most `JACOBIAN_MAX_BODIES` bodies), M diagonal,
+dense, banded or max-index (the same equations whichever solver solves them).
+Output: the kernels of the derivatives of the equations one VI step of size h from (q, w) at
+time t to (q+, w+) at t + h solves, E(y; x, u, p) = 0, in its unknowns y, in x = (q, w) and
+in the parameters, with G = g(q, t) - F(q, w, t, u) at the start, g+ = g(q+, t + h) and
+F+ = F(q+, w+, t + h, u) held, and in G, g+ and F+. The ``jacobian`` part assembles them at
+run time, multiplies the last three into the derivatives of G, g+ and F+ (the Hessian of V
+and dg/dp assembled per term member, the forces', `s2gen.equations.hessian`), solves
+dy/d(x, u, p) = -E_y^-1 E_(x,u,p), whose last 6n rows are d(q+, w+)/d(x, u, p), and multiplies
+the substeps' of a composition (vi4, vi6, vi8).
 
-The equations are the emitted step's own, assembled for the whole system from the kernels of
-`s2gen.equations.discrete` (and, driven, the forces of `s2gen.equations.driven`), with
-G = g(q, t) - F(q, w, t, u) at the start and g+ = g(q+, t + h), F+ = F(q+, w+, t + h, u):
+The equations are the emitted step's own, from the kernels of `s2gen.equations.discrete`:
 
-- coupled M (Newton on the Cayley parameters), y = (f, q+, w+):
-  R(f; q, w, G) = 0 (``d_body``, ``d_pair``, ``res_body``, ``res_pair``: the residual Newton
-  solves, so E_f is its matrix), q+ - cayley(f, q) = 0, and
-  A(q+) w+ - c(q, f, q+, g+) - h/2 q+ x F+ = 0 (``c_body``, ``c_pair``, ``a_body``, the blocks
-  -M_ij hat(q_i+) hat(q_j+));
+- coupled M (Newton on the Cayley parameters), y = (f, q+, w+): R(f; q, w, G) = 0
+  (``d_body``, ``d_pair``, ``res_body``, ``res_pair``: the residual Newton solves),
+  q+ - cayley(f, q) = 0, and A(q+) w+ - c(q, f, q+, g+) - h/2 q+ x F+ = 0 (``c_body``,
+  ``c_pair``, ``a_body``, the blocks -M_ij hat(q_i+) hat(q_j+)); E is a sum of one-body and
+  pair parts, each differentiated once for a generic body and pair (`coupled_kernels`) and
+  placed at run time at each body and each pair M couples;
 - diagonal M (the explicit update), y = (q+, w+): q+ - a x q - sqrt(1 - a.a) q = 0 with
   a = h w - h^2/(2 M_ii) q x G (``vi_pos``), and M_ii (w+ - a/h) + h/2 q+ x (g+ - F+) = 0
-  (``vi_vel`` with the forced end velocity).
+  (``vi_vel`` with the forced end velocity); each body's rows involve it alone
+  (`body_kernel`).
 
-SymPy takes every derivative (the Hessian of V at both ends, dF/dq and dF/dw).
+The parameters enter E through M (dE/dM_ii, dE/dM_ij, times dM/dp) and through G, g+, F+.
+SymPy takes every derivative, nothing is differenced; the derivation does not grow with n.
 
 Example:
     >>> from s2gen.systems import builtin
-    >>> k = vi_jacobian_kernels(builtin("double_pendulum").with_jacobians())[0]
-    >>> k.name, [o.size for o in k.outputs]
-    ('vi_jacobian', [324, 216])
+    >>> [k.name for k in vi_jacobian_kernels(builtin("double_pendulum").with_jacobians())]
+    ['vi_jacobian', 'vi_jacobian_pair']
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -38,28 +43,26 @@ import sympy as sp
 
 from s2gen.equations.continuous import continuous_kernels
 from s2gen.equations.discrete import explicit_kernels, newton_kernels
-from s2gen.equations.driven import _force_total, tu_argument, tu_symbols
+from s2gen.equations.hessian import sparse_jacobian
 from s2gen.equations.jacobian import has_jacobian
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Argument, KernelDef, Output
-from s2gen.symbols import q_symbols, w_symbol
 from s2gen.system import System
 
-__all__ = ["has_vi_jacobian", "vi_jacobian_kernels", "vi_step_equations"]
-
-#: The symbol of the time at the end of a step
-T_END = sp.Symbol("tn", real=True)
+__all__ = ["body_kernel", "coupled_kernels", "has_vi_jacobian", "vi_jacobian_kernels"]
 
 
 def has_vi_jacobian(system: System, solver: InertiaKind) -> bool:
-    """Whether the emitted C differentiates the VI family's steps (M diagonal or dense).
+    """Whether the emitted C differentiates the VI family's steps: whenever it has step
+    Jacobians, for every solver of M (the equations are the same; a structured solver only
+    solves them differently, and its Cayley parameters are the dense path's).
 
     Example:
         >>> from s2gen.systems import builtin
         >>> has_vi_jacobian(builtin("double_pendulum").with_jacobians(), InertiaKind.DENSE)
         True
     """
-    return has_jacobian(system) and solver in (InertiaKind.DIAGONAL, InertiaKind.DENSE)
+    return has_jacobian(system)
 
 
 def _vec(name: str, n: int) -> list[sp.Symbol]:
@@ -93,113 +96,6 @@ class _Step:
         return sp.Matrix(self.vectors[name][3 * i : 3 * i + 3])
 
 
-def vi_step_equations(system: System, coupled: bool) -> dict[str, Any]:
-    """E (a column), the unknowns y, the variables x = (q, w) and u, the symbol h and the
-    inner quantities (symbols standing for G, g+, F+ in E, and their values) of one VI step of
-    `system`, as in the module docstring.
-
-    Example:
-        >>> from s2gen.systems import builtin
-        >>> eq = vi_step_equations(builtin("four_pendula"), coupled=False)
-        >>> eq["E"].shape, len(eq["y"]), sorted(eq["inner"])
-        ((24, 1), 24, ['Fn', 'G', 'gn'])
-    """
-    n = system.n
-    qs = q_symbols(n)
-    ws = [w_symbol(i, c) for i in range(1, n + 1) for c in range(3)]
-    names = ("f", "qn", "wn", "G", "gn", "Fn")
-    st = _Step(n, system.inertia, sp.Symbol("h", positive=True), {"q": qs, "w": ws})
-    st.vectors.update({name: _vec(name, n) for name in names})
-    time = tu_symbols(system)[0]
-    inputs = list(tu_symbols(system)[1:]) if system.driven else []
-    V = system.full_potential()
-    g = sp.Matrix([sp.diff(V, s) for s in qs])
-    to_end = {**dict(zip(qs, st.vectors["qn"])), **dict(zip(ws, st.vectors["wn"])), time: T_END}
-    F = _force_total(system) if system.forces else sp.zeros(3 * n, 1)
-    # E is written in symbols standing for G, g+ and F+ (its derivatives in them are taken
-    # alone, then multiplied by theirs: the chain rule keeps the expressions small)
-    if coupled:
-        eqs = _coupled(st)
-        unknowns = st.vectors["f"] + st.vectors["qn"] + st.vectors["wn"]
-    else:
-        eqs = _diagonal(st)
-        unknowns = st.vectors["qn"] + st.vectors["wn"]
-    inner = {
-        "G": (st.vectors["G"], g - F),
-        "gn": (st.vectors["gn"], g.xreplace(to_end)),
-        "Fn": (st.vectors["Fn"], F.xreplace(to_end)),
-    }
-    return {"E": eqs, "y": unknowns, "x": qs + ws, "u": inputs, "h": st.h, "inner": inner}
-
-
-def _total(
-    E: sp.Matrix, by: list[sp.Symbol], inner: dict[str, tuple[list[sp.Symbol], sp.Matrix]]
-) -> sp.Matrix:
-    """dE/d`by` through the inner quantities (each its symbols and their values)."""
-    out = E.jacobian(by)
-    values: dict[sp.Symbol, sp.Expr] = {}
-    for syms, expr in inner.values():
-        values.update(zip(syms, expr))
-        de = E.jacobian(syms)
-        if de.is_zero_matrix:
-            continue
-        out += de * expr.jacobian(by)
-    return out.xreplace(values)
-
-
-def _coupled(st: _Step) -> sp.Matrix:
-    """E of the Newton step: residual, Cayley update, velocity equations."""
-    k = {kd.name: kd for kd in newton_kernels()}
-    k["a_pair"] = next(kd for kd in continuous_kernels(coupled=True) if kd.name == "a_pair")
-    n, M, h, at = st.n, st.M, st.h, st.at
-    pairs = [(i, j) for i in range(n) for j in range(i + 1, n) if M[i, j] != 0]
-    d = [
-        _apply(k, "d_body", "d", h=h, m=M[i, i], q=at("q", i), w=at("w", i), g=at("G", i))
-        for i in range(n)
-    ]
-    for i, j in pairs:
-        args = {"h": h, "mij": M[i, j], "qi": at("q", i), "wi": at("w", i)}
-        args.update({"qj": at("q", j), "wj": at("w", j)})
-        d[i] += _apply(k, "d_pair", "di", **args)
-        d[j] += _apply(k, "d_pair", "dj", **args)
-    r = [
-        _apply(k, "res_body", "r", m=M[i, i], q=at("q", i), f=at("f", i), d=d[i]) for i in range(n)
-    ]
-    c = [
-        _apply(
-            k,
-            "c_body",
-            "c",
-            h=h,
-            m=M[i, i],
-            q=at("q", i),
-            f=at("f", i),
-            qn=at("qn", i),
-            gn=at("gn", i),
-        )
-        for i in range(n)
-    ]
-    aw = [
-        _apply(k, "a_body", "a", m=M[i, i], q=at("qn", i))[0] * at("wn", i)
-        - h / 2 * at("qn", i).cross(at("Fn", i))
-        for i in range(n)
-    ]
-    for i, j in pairs:
-        args = {"mij": M[i, j], "qi": at("q", i), "fi": at("f", i), "qj": at("q", j)}
-        args["fj"] = at("f", j)
-        r[i] += _apply(k, "res_pair", "ri", **args)
-        r[j] += _apply(k, "res_pair", "rj", **args)
-        args.update({"h": h, "qni": at("qn", i), "qnj": at("qn", j)})
-        c[i] += _apply(k, "c_pair", "ci", **args)
-        c[j] += _apply(k, "c_pair", "cj", **args)
-        blk = _apply(k, "a_pair", "a", mij=M[i, j], qi=at("qn", i), qj=at("qn", j)).reshape(3, 3)
-        aw[i] += blk * at("wn", j)
-        aw[j] += blk.T * at("wn", i)
-    cay = [at("qn", i) - _apply(k, "cayley", "qn", q=at("q", i), f=at("f", i)) for i in range(n)]
-    rows = [*r, *cay, *(aw[i] - c[i] for i in range(n))]
-    return sp.Matrix([e for v in rows for e in v])
-
-
 def _diagonal(st: _Step) -> sp.Matrix:
     """E of the explicit update: positions, then the (forced) end velocities."""
     k = {kd.name: kd for kd in explicit_kernels()}
@@ -219,41 +115,143 @@ def _flat(mat: sp.Matrix) -> tuple[sp.Expr, ...]:
 
 
 def vi_jacobian_kernels(system: System, solver: InertiaKind | None = None) -> list[KernelDef]:
-    """The ``vi_jacobian`` kernel: ey = dE/dy (ny x ny) and ex = dE/d(x, u) (ny x (6n +
-    inputs)), row-major; none when `has_vi_jacobian` is false."""
+    """The kernels of the VI's equations' derivatives: a diagonal M's generic body
+    (`body_kernel`), a coupled M's generic body and pair (`coupled_kernels`); none when
+    `has_vi_jacobian` is false."""
     from s2gen.equations.structure import choose_solver
 
     solver = choose_solver(system) if solver is None else solver
     if not has_vi_jacobian(system, solver):
         return []
-    n = system.n
-    coupled = solver is not InertiaKind.DIAGONAL
-    eq = vi_step_equations(system, coupled)
-    E, y, x, u, h, inner = eq["E"], eq["y"], eq["x"], eq["u"], eq["h"], eq["inner"]
-    ey = _total(E, y, inner)
-    ex = _total(E, [*x, *u], inner)
-    outputs = (Output("ey", _flat(ey)), Output("ex", _flat(ex)))
-    exprs = [*outputs[0].exprs, *outputs[1].exprs]
-    free = set().union(*(e.free_symbols for e in exprs))
-    qns, wns = _vec("qn", n), _vec("wn", n)
-    args = [
-        Argument("p", system.parameter_symbols),
-        Argument("h", (h,), scalar=True),
-        Argument("q", tuple(q_symbols(n))),
-        Argument("w", tuple(w_symbol(i, c) for i in range(1, n + 1) for c in range(3))),
-        *((Argument("f", tuple(_vec("f", n))),) if coupled else ()),
-        Argument("qn", tuple(qns)),
-        Argument("wn", tuple(wns)),
-        *tu_argument(system, *exprs),
-        *((Argument("tn", (T_END,), scalar=True),) if T_END in free else ()),
+    if solver is InertiaKind.DIAGONAL:
+        return [body_kernel()]
+    return list(coupled_kernels())
+
+
+def body_kernel() -> KernelDef:
+    """The diagonal M's ``vi_jacobian`` kernel, derived once for a generic body (its
+    equations involve no other body): with the body's 6 rows of E (position, then velocity)
+    and its mass m, ey = dE/d(q+, w+), ex = dE/d(q, w) (6 x 6), eg, egn, efn = dE/d(G, g+, F+)
+    (6 x 3) and em = dE/dm (6), row-major; the C places them at the body's rows and columns
+    (and multiplies em into dM_ii/dp).
+
+    Example:
+        >>> [(o.name, o.size) for o in body_kernel().outputs]
+        [('bey', 36), ('bex', 36), ('beg', 18), ('begn', 18), ('befn', 18), ('bem', 6)]
+    """
+    m = sp.Symbol("m", positive=True)
+    st = _Step(1, sp.Matrix([[m]]), sp.Symbol("h", positive=True), {})
+    names = ("q", "w", "qn", "wn", "G", "gn", "Fn")
+    st.vectors.update({name: _vec(name, 1) for name in names})
+    rows = list(_diagonal(st))
+    v = st.vectors
+    outputs = (
+        Output("bey", _flat(sparse_jacobian(rows, v["qn"] + v["wn"]))),
+        Output("bex", _flat(sparse_jacobian(rows, v["q"] + v["w"]))),
+        Output("beg", _flat(sparse_jacobian(rows, v["G"]))),
+        Output("begn", _flat(sparse_jacobian(rows, v["gn"]))),
+        Output("befn", _flat(sparse_jacobian(rows, v["Fn"]))),
+        Output("bem", tuple(sp.diff(e, m) for e in rows)),
+    )
+    return KernelDef(
+        "vi_jacobian",
+        "one body's rows of the VI step's equations (diagonal M): bey = dE/d(q+, w+), "
+        "bex = dE/d(q, w), beg, begn, befn = dE/d(G, g+, F+), bem = dE/dm (row-major)",
+        (
+            Argument("h", (st.h,), scalar=True),
+            Argument("m", (m,), scalar=True),
+            *(Argument(name, tuple(v[name])) for name in names),
+        ),
+        outputs,
+    )
+
+
+def coupled_kernels() -> tuple[KernelDef, KernelDef]:
+    """The coupled M's VI equations' blocks, derived once for a generic body and a generic
+    pair: E is a sum of one-body parts (rows r_i, cay_i, vel_i of body i: the residual with
+    the one-body known side d_body, the Cayley update, a_body w+ - h/2 q+ x F+ - c_body) and
+    pair parts (rows r_i, vel_i and r_j, vel_j: -d_pair + res_pair, the blocks -M_ij
+    hat(q_i+) hat(q_j+) times w_j+ (and transposed) - c_pair; r is linear in d with
+    coefficient -1). ``vi_jacobian`` (the body: 9 rows) has the derivatives in f, q+, w+
+    (b_f, b_qn, b_wn), q, w (b_q, b_w), G, g+, F+ (b_G, b_gn, b_Fn), each 9 x 3, and in M_ii
+    (b_m); ``vi_jacobian_pair`` (18 rows, body i's 9 then j's) those in each body's f, q+,
+    w+, q, w (p_<name><i or j>, 18 x 3) and in M_ij (p_m), row-major.
+
+    Example:
+        >>> body, pair = coupled_kernels()
+        >>> [o.name for o in body.outputs][:3], len(pair.outputs)
+        (['b_f', 'b_qn', 'b_wn'], 11)
+    """
+    return _coupled_blocks()
+
+
+@functools.lru_cache(maxsize=1)
+def _coupled_blocks() -> tuple[KernelDef, KernelDef]:
+    k = {kd.name: kd for kd in newton_kernels()}
+    k["a_pair"] = next(kd for kd in continuous_kernels(coupled=True) if kd.name == "a_pair")
+    h, m, mij = sp.Symbol("h", positive=True), sp.Symbol("m", positive=True), sp.Symbol("mij")
+    v = {name: sp.Matrix(_vec(name, 1)) for name in _BODY_VARS + ("G", "gn", "Fn")}
+    d_sym = sp.Matrix(_vec("d", 1))
+    res = _apply(k, "res_body", "r", m=m, q=v["q"], f=v["f"], d=d_sym)
+    assert res.jacobian(d_sym) == -sp.eye(3), "the residual is linear in d, coefficient -1"
+    d = _apply(k, "d_body", "d", h=h, m=m, q=v["q"], w=v["w"], g=v["G"])
+    r = res.xreplace(dict(zip(d_sym, d)))
+    cay = v["qn"] - _apply(k, "cayley", "qn", q=v["q"], f=v["f"])
+    c = _apply(k, "c_body", "c", h=h, m=m, q=v["q"], f=v["f"], qn=v["qn"], gn=v["gn"])
+    aw = _apply(k, "a_body", "a", m=m, q=v["qn"])[0] * v["wn"] - h / 2 * v["qn"].cross(v["Fn"])
+    rows = [*r, *cay, *(aw - c)]
+    body_cols = [*_BODY_VARS, "G", "gn", "Fn"]
+    body = KernelDef(
+        "vi_jacobian",
+        "one body's part of the VI step's equations (9 rows: residual, Cayley update, "
+        "velocity) differentiated in its variables and in M_ii (row-major)",
+        (
+            Argument("h", (h,), scalar=True),
+            Argument("m", (m,), scalar=True),
+            *(Argument(name, tuple(v[name])) for name in body_cols),
+        ),
+        (
+            *(
+                Output(f"b_{name}", _flat(sparse_jacobian(rows, list(v[name]))))
+                for name in body_cols
+            ),
+            Output("b_m", tuple(sp.diff(e, m) for e in rows)),
+        ),
+    )
+    pv = {f"{name}{b}": sp.Matrix(_vec(f"{name}{b}", 1)) for name in _BODY_VARS for b in "ij"}
+    dp = {"h": h, "mij": mij, "qi": pv["qi"], "wi": pv["wi"], "qj": pv["qj"], "wj": pv["wj"]}
+    rp = {"mij": mij, "qi": pv["qi"], "fi": pv["fi"], "qj": pv["qj"], "fj": pv["fj"]}
+    cp = {**rp, "h": h, "qni": pv["qni"], "qnj": pv["qnj"]}
+    blk = _apply(k, "a_pair", "a", mij=mij, qi=pv["qni"], qj=pv["qnj"]).reshape(3, 3)
+    zero = sp.zeros(3, 1)
+    rows_i = [
+        -_apply(k, "d_pair", "di", **dp) + _apply(k, "res_pair", "ri", **rp),
+        zero,
+        blk * pv["wnj"] - _apply(k, "c_pair", "ci", **cp),
     ]
-    return [
-        KernelDef(
-            "vi_jacobian",
-            "one VI step's equations E(y; x, u) = 0: ey = dE/dy, ex = dE/d(q, w, u) (row-major)",
-            tuple(args),
-            outputs,
-            system=True,
-            stages=(("p", 0),),
-        )
+    rows_j = [
+        -_apply(k, "d_pair", "dj", **dp) + _apply(k, "res_pair", "rj", **rp),
+        zero,
+        blk.T * pv["wni"] - _apply(k, "c_pair", "cj", **cp),
     ]
+    prow = [e for block in (*rows_i, *rows_j) for e in block]
+    names = [f"{name}{b}" for name in _BODY_VARS for b in "ij"]
+    pair = KernelDef(
+        "vi_jacobian_pair",
+        "one coupled pair's part of the VI step's equations (18 rows: body i's, then j's) "
+        "differentiated in both bodies' variables and in M_ij (row-major)",
+        (
+            Argument("h", (h,), scalar=True),
+            Argument("mij", (mij,), scalar=True),
+            *(Argument(name, tuple(pv[name])) for name in names),
+        ),
+        (
+            *(Output(f"p_{name}", _flat(sparse_jacobian(prow, list(pv[name])))) for name in names),
+            Output("p_m", tuple(sp.diff(e, mij) for e in prow)),
+        ),
+    )
+    return body, pair
+
+
+#: A body's variables in the coupled VI's equations: the unknowns f, q+, w+, then q, w
+_BODY_VARS = ("f", "qn", "wn", "q", "w")

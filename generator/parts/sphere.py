@@ -116,23 +116,75 @@ _DRIVEN = Part(
 )
 
 
-#: The step Jacobians (systems of a few bodies): the field's derivatives at each stage
+#: The step Jacobians: the field's derivatives at each stage, the VI's equations', and the
+#: second derivatives of V (per term member) and of the forces
 def _vi_jacobian_sites(module: Module) -> tuple[Site, ...]:
-    """The VI step's equations' derivatives, where the module differentiates the VI."""
-    if not any(k.name == "vi_jacobian" for k in module.kernels):
-        return ()
-    return (Site("vi_jacobian", "vi_jacobian", _S, CC),)
+    """The VI step's equations' derivatives, where the module differentiates the VI, the
+    terms' Hessian blocks (each at member m of its loop, into the local hb), V's general
+    Hessian (into H) and the forces' derivatives."""
+    from s2gen.parts import term_sites
+
+    sites = [
+        Site(f"t{t.index}_hessian", f"t{t.index}_hessian", _S, {**term_sites(t)[1].bind, **HB})
+        for t in module.terms
+    ]
+    sites.append(Site("hessian", "hessian", _S, {**CC, "hv": Local("H"), "gpv": Local("gp")}))
+    sites.append(Site("force_jacobian", "force_jacobian", _S, CC))
+    if any(k.name == "vi_jacobian" for k in module.kernels):
+        # the generic body's kernel at body i, the generic pair's at the pair (i0, j0)
+        body = {name: Slot(name, 3, Index.BODY) for name in _VI_BODY}
+        sites.append(Site("vi_jacobian", "vi_jacobian", _S, {**body, "m": Local("mii")}))
+        pair: dict[str, Binding] = {f"{x}i": Slot(x, 3, Index.FIRST) for x in _VI_BODY}
+        pair.update({f"{x}j": Slot(x, 3, Index.SECOND) for x in _VI_BODY})
+        sites.append(Site("vi_jacobian_pair", "vi_jacobian_pair", _S, pair))
+    return tuple(sites)
+
+
+#: The vectors of the generic body and pair kernels of the VI's equations
+_VI_BODY = ("q", "w", "f", "qn", "wn", "G", "gn", "Fn")
+
+
+#: The Hessian block of a term member and its gradient's derivative in the parameters, into
+#: the local arrays hb and gpb
+HB: dict[str, Binding] = {"hb": Local("hb"), "gpb": Local("gpb")}
 
 
 def _vi_jacobian_buffers() -> tuple[str, ...]:
-    return ("qs", "ws", "qd", "wd", "g", "gn", "f", "ey", "ex", "sd")
+    return ("qs", "ws", "qd", "wd", "g", "gn", "f", "ey", "ex", "sd", *_VI_MORE)
 
+
+#: The buffers of the second derivatives (start and end of a step) and the VI's products
+_VI_MORE = ("ex0", "eg", "egn", "efn", "ep", "hn", "gxn", "Gn", "Fn")
+
+
+#: The field's blocks: body i, and the pair (i0, j0) for row i0 (a the field's wdot)
+_FIELD_SITES = (
+    Site(
+        "jac_body",
+        "jac_body",
+        _S,
+        {n: Slot(n, 3, Index.BODY) for n in ("q", "w", "G")},
+    ),
+    Site(
+        "jac_pair",
+        "jac_pair",
+        _S,
+        {
+            "qi": Slot("q", 3, Index.FIRST),
+            "qj": Slot("q", 3, Index.SECOND),
+            "wj": Slot("w", 3, Index.SECOND),
+            "aj": Slot("a", 3, Index.SECOND),
+        },
+    ),
+    Site("jac_mass", "jac_mass", _S, CC),
+)
 
 _JACOBIAN = Part(
     "jacobian",
-    sites=(Site("field_jacobian", "field_jacobian", _S, CC),),
+    sites=_FIELD_SITES,
     buffers=(
         ("jacobian", ("ys", "k", "dy", "kd", "d", "jx", "jq", "jr", "am", "ju")),
+        ("jacobian", ("H", "gx", "G", "F", "fq", "fw", "fu", "mm", "mp", "gp", "fp")),
         ("jacobian", _vi_jacobian_buffers()),
     ),
     module_sites=_vi_jacobian_sites,

@@ -37,7 +37,7 @@ from s2gen.printing.c_module import (
     c_tables,
 )
 from s2gen.printing.driven import print_drive
-from s2gen.printing.jacobian import print_jacobian
+from s2gen.printing.jacobian import JACOBIAN_SITES, print_jacobian
 from s2gen.printing.numpy import (
     py_call,
     py_data_setup,
@@ -152,8 +152,11 @@ def print_module(module: Module) -> PrintedModule:
     terms = tuple(print_term(module, t, calls) for t in module.terms)
     # the terms' sites are written into their records (terms, table_inits, quad_inits)
     consumed = {
-        f"t{t.index}_{s}" for t in module.terms for s in ("value", "gradient", "table", "quad")
+        f"t{t.index}_{s}"
+        for t in module.terms
+        for s in ("value", "gradient", "table", "quad", "hessian")
     }
+    consumed |= JACOBIAN_SITES  # and the step Jacobians' into m.jac
     c_masses, py_masses = records.masses_partials(module)
     facts = dict(module.facts)
     n, npairs = module.n, len(module.pairs)

@@ -100,7 +100,7 @@ def _step_macros(module: Module) -> tuple[Macro, ...]:
             (
                 "JACOBIAN_VI",
                 "1" if any(k.name == "vi_jacobian" for k in module.kernels) else "0",
-                "1: step_jacobian() differentiates the VI family too (M diagonal or dense)",
+                "1: step_jacobian() differentiates the VI family too",
             ),
         )
     if BATCH_PART in module.parts:

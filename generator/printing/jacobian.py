@@ -4,15 +4,17 @@ Input: a lowered sphere `Module` whose parts include ``jacobian``. Output: the f
 explicit methods it differentiates, each with its tableau as arrays of round-trip literals
 (a zero-padded to stages x stages, b, c) and whether q_i is normalized after the step; the
 C lines that differ between a closed module and a driven one (the step that computes
-(q+, w+), the inputs held in the context, the time of a stage); and the sizes of the
-derivative's columns (the state's 6n, then the inputs). Empty for a module without it.
+(q+, w+), the inputs held in the context, the time of a stage); the lines that assemble
+the second derivatives (the terms' member loops) and the VI's equations' blocks; and the sizes
+of the derivative's columns (the state's 6n, then the inputs', then the parameters'). Empty
+for a module without it.
 
 Example:
     >>> from s2gen.systems import builtin
     >>> from s2gen.passes import lower_system
     >>> jac = print_jacobian(lower_system(builtin("double_pendulum").with_jacobians()))
     >>> [x["c_name"] for x in jac["methods"]][:3], jac["columns"]
-    (['METHOD_RK2', 'METHOD_RK2_PROJ', 'METHOD_RK4'], '12')
+    (['METHOD_RK2', 'METHOD_RK2_PROJ', 'METHOD_RK4'], '17')
 """
 
 from __future__ import annotations
@@ -23,11 +25,21 @@ from typing import Any
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Module
 from s2gen.methods import METHODS, Family, driven_methods, fixed_methods
+from s2gen.printing.jacobian_lines import (
+    call_of,
+    force_lines,
+    hessian_lines,
+    vi_coupled_lines,
+    vi_diagonal_lines,
+)
 
-__all__ = ["JACOBIAN_PART", "print_jacobian"]
+__all__ = ["JACOBIAN_PART", "JACOBIAN_SITES", "print_jacobian"]
 
 #: The name of the part that emits step_jacobian()
 JACOBIAN_PART = "jacobian"
+
+#: The call sites whose C this record writes into its lines (with the terms' t<k>_hessian)
+JACOBIAN_SITES = frozenset({"hessian", "force_jacobian", "vi_jacobian", "vi_jacobian_pair"})
 
 _KEYS = (
     "methods",
@@ -45,6 +57,15 @@ _KEYS = (
     "ny",
     "vi_substep",
     "other",
+    "hessian",
+    "force",
+    "vi_force",
+    "vi_end_time",
+    "vi_start_time",
+    "yq",
+    "yw",
+    "nparams",
+    "vi_equations",
 )
 
 
@@ -104,11 +125,14 @@ def print_jacobian(module: Module) -> dict[str, Any]:
         )
     return {
         **_vi(module),
+        "hessian": hessian_lines(module),
+        "force": force_lines(module),
         "methods": tuple(methods),
         "count": str(len(methods)),
         "max_stages": str(max(int(m["stages"]) for m in methods)),
-        "columns": str(6 * module.n + ninputs),
+        "columns": str(6 * module.n + ninputs + len(module.parameter_names)),
         "ninputs": str(ninputs),
+        "nparams": str(len(module.parameter_names)),
         "step": step,
         "setup": setup,
         "stage_time": stage_time,
@@ -125,6 +149,12 @@ def _vi(module: Module) -> dict[str, Any]:
     name, upper, n = module.name, module.name.upper(), module.n
     if "vi_jacobian" not in {k.name for k in module.kernels}:
         return {
+            "vi_equations": (),
+            "vi_force": (),
+            "vi_end_time": (),
+            "vi_start_time": (),
+            "yq": "0",
+            "yw": "0",
             "vi_methods": (),
             "vi_count": "0",
             "max_sub": "1",
@@ -163,13 +193,36 @@ def _vi(module: Module) -> dict[str, Any]:
             *((f"{name}_copy(f, {f_at}, {upper}_N3);",) if coupled else ()),
             "cx->tu[0] = ts;",
         )
+    n3, ny = 3 * n, (9 if coupled else 6) * n
+    yq = n3 if coupled else 0
+    ns = 6 * n
+    force: tuple[str, ...] = ()
+    ni = len(drive.inputs) if drive is not None else 0
+    npar = len(module.parameter_names)
+    if call_of(module, "force_jacobian") is not None:
+        force = (
+            f"{name}_jac_mul_add(ny, {n3}, {n3}, 1.0, efn, {n3}, fq, {n3}, ey + {yq}, ny);",
+            f"{name}_jac_mul_add(ny, {n3}, {n3}, 1.0, efn, {n3}, fw, {n3}, ey + {yq + n3}, ny);",
+            f"{name}_jac_mul_add(ny, {n3}, {ni}, 1.0, efn, {n3}, fu, {ni}, ex + {ns}, nc);",
+            (
+                f"{name}_jac_mul_add(ny, {n3}, {npar}, 1.0, efn, {n3}, fp, {npar}, "
+                f"ex + {ns + ni}, nc);"
+            ),
+        )
+    timed = drive is not None
     return {
+        "vi_equations": vi_coupled_lines(module) if coupled else vi_diagonal_lines(module),
+        "vi_force": force,
+        "vi_end_time": ("cx->tu[0] = ts + hs;",) if timed else (),
+        "vi_start_time": ("cx->tu[0] = ts;",) if timed else (),
+        "yq": str(yq),
+        "yw": str(yq + n3),
         "vi_methods": methods,
         "vi_count": str(len(methods)),
         "max_sub": str(max(int(m["count"]) for m in methods)),
-        "ny": str((9 if coupled else 6) * n),
+        "ny": str(ny),
         "vi_substep": substep,
         "other": (
-            f"return {name}_jac_vi_step(p, opt, method, t, h, u, q, w, qn, wn, A, B, work);",
+            f"return {name}_jac_vi_step(p, opt, method, t, h, u, q, w, qn, wn, A, B, P, work);",
         ),
     }

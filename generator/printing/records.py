@@ -389,7 +389,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "drive_start": pick("c", (forces, "drive_start_force")),
         "drive_end": pick("c", (forces, "drive_end_force")),
         "drive_stage": pick("c", (forces, "drive_stage_force")),
-        # the step Jacobians of the VI family (M diagonal or dense)
+        # the step Jacobians of the VI family
         "jacobian_vi": pick(
             "c", (any(k.name == "vi_jacobian" for k in module.kernels), "jacobian_vi")
         ),

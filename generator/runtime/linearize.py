@@ -22,7 +22,7 @@ they are orthonormal, and with (0, E_i e_k) they make 4 orthonormal columns per 
 basis_in at the state before the step and basis_out at the state after it (q+_i normalized to
 build the frame), A_tangent = basis_out^T A basis_in and B_tangent = basis_out^T B, so that
 basis_out @ A_tangent @ basis_in.T maps a small tangent displacement of x to the displacement
-after the step.
+after the step. P (dx+/dp, one column per parameter) is B's kind: P_tangent = basis_out^T P.
 
 Example:
     >>> import numpy as np
@@ -53,13 +53,15 @@ BASES = ("tangent", "embedding")
 
 @dataclass(frozen=True)
 class Linearization:
-    """One step's derivatives: `A` = dx+/dx and `B` = dx+/du in `basis` ("tangent": 4n x 4n
-    and 4n x inputs; "embedding": 6n x 6n and 6n x inputs), the state after the step
+    """One step's derivatives: `A` = dx+/dx, `B` = dx+/du and `P` = dx+/dp in `basis`
+    ("tangent": 4n x 4n, 4n x inputs and 4n x parameters; "embedding": 6n rows; P's columns
+    in the order of the parameters, `System.parameter_names`), the state after the step
     (`q`, `omega`, shape (n, 3)) and the tangent bases at the state before and after it
     (`basis_in`, `basis_out`: 6n x 4n, orthonormal columns, see the module docstring)."""
 
     A: np.ndarray
     B: np.ndarray
+    P: np.ndarray
     q: np.ndarray
     omega: np.ndarray
     basis: str
@@ -125,7 +127,7 @@ def _refuse(backend: Any, method_name: str, basis: str) -> None:
         names += [m.name for m in METHODS if m.family is Family.VI]
     allowed = [m for m in names if not system.driven or m in driven_methods()]
     if method_name not in allowed:
-        more = "" if backend.library.jacobian_vi else " (the VI family's: M diagonal or dense)"
+        more = "" if backend.library.jacobian_vi else " (built without the VI family's)"
         raise ValueError(
             f"{system.name}: method {method_name!r} has no step Jacobian{more}; choose one of "
             f"{', '.join(allowed)}"
@@ -153,8 +155,8 @@ def linearize(
         >>> s = builtin("double_pendulum")
         >>> be = CBackend(s.with_jacobians())
         >>> lin = linearize(be, s.q0, s.omega0, 0.01, "rk4", be.default_params())
-        >>> lin.A.shape, lin.B.shape, lin.basis_in.shape
-        ((8, 8), (8, 0), (12, 8))
+        >>> lin.A.shape, lin.B.shape, lin.P.shape, lin.basis_in.shape
+        ((8, 8), (8, 0), (8, 5), (12, 8))
     """
     _refuse(backend, method_name, basis)
     system = backend.system
@@ -163,7 +165,8 @@ def linearize(
     w0 = contiguous(np.asarray(w, dtype=float).reshape(n, 3))
     uu = None if u is None else contiguous(np.asarray(u, dtype=float).reshape(ni))
     qn, wn = np.empty((n, 3)), np.empty((n, 3))
-    A, B = np.empty((6 * n, 6 * n)), np.empty((6 * n, ni))
+    npar = len(system.parameter_names)
+    A, B, P = np.empty((6 * n, 6 * n)), np.empty((6 * n, ni)), np.empty((6 * n, npar))
     work = np.zeros(backend.library.jacobian_work)
     opt = backend.library.options(Options() if options is None else options)
     status = backend.library.fn["step_jacobian"](
@@ -179,6 +182,7 @@ def linearize(
         wn,
         A,
         pointer(B) if ni else None,
+        pointer(P) if npar else None,
         work,
     )
     if status != 0:
@@ -186,5 +190,5 @@ def linearize(
         raise ValueError(f"{system.name}: step_jacobian: {st.c_name}: {st.message}")
     E_in, E_out = tangent_basis(q0, w0), tangent_basis(qn, wn)
     if basis == "tangent":
-        A, B = E_out.T @ A @ E_in, E_out.T @ B
-    return Linearization(A, B, qn, wn, basis, E_in, E_out)
+        A, B, P = E_out.T @ A @ E_in, E_out.T @ B, E_out.T @ P
+    return Linearization(A, B, P, qn, wn, basis, E_in, E_out)

@@ -270,10 +270,11 @@ class Model:
         options: Options | None = None,
     ) -> Linearization:
         """The exact derivatives of one step of an explicit Runge-Kutta method from (q, omega)
-        at time t with the inputs u held (None: the spec's): A = dx+/dx and B = dx+/du in the
-        tangent basis of T(S^2)^n (4n coordinates) or the embedding coordinates (6n), with the
-        state after the step and the bases (`s2gen.runtime.linearize`); the VI family (M
-        diagonal or dense) and the fixed-step Runge-Kutta methods, C backend only (the first
+        at time t with the inputs u held (None: the spec's): A = dx+/dx, B = dx+/du and
+        P = dx+/dp (one column per parameter, in the order of `System.parameter_names`, at
+        `params`) in the tangent basis of T(S^2)^n (4n coordinates) or the embedding
+        coordinates (6n), with the state after the step and the bases (`s2gen.runtime.linearize`); the VI family (M
+        any M) and the fixed-step Runge-Kutta methods, C backend only (the first
         call builds the module with step_jacobian(), `System.with_jacobians`). `options`: the
         step's (Newton's tolerance for a coupled M).
 
