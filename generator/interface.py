@@ -449,7 +449,7 @@ _DRIVEN = Interface(
 def interface(kind: ModuleKind, driven: bool = False, jacobian: bool = False) -> Interface:
     """The interface of one kind of module (the angle form's in `s2gen.interface_angles`);
     `driven`: a sphere module with forces, inputs or time; `jacobian`: one with
-    step_jacobian() (`s2gen.interface_jacobian`).
+    step_jacobian() and field_jacobian() (`s2gen.interface_jacobian`).
 
     Example:
         >>> [p.name for p in interface(ModuleKind.SPHERE, driven=True).function("step").params][:6]
@@ -459,9 +459,9 @@ def interface(kind: ModuleKind, driven: bool = False, jacobian: bool = False) ->
         api = _DRIVEN if driven else _SPHERE
         if not jacobian:
             return api
-        from s2gen.interface_jacobian import STEP_JACOBIAN
+        from s2gen.interface_jacobian import JACOBIAN_FUNCTIONS
 
-        return Interface((*api.functions, STEP_JACOBIAN), api.options, api.stats, api.stepper)
+        return Interface((*api.functions, *JACOBIAN_FUNCTIONS), api.options, api.stats, api.stepper)
     from s2gen.interface_angles import ANGLES
 
     return ANGLES

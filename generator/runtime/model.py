@@ -27,6 +27,7 @@ from s2gen.runtime.trajectory import Trajectory
 from s2gen.system import System
 
 if TYPE_CHECKING:
+    from s2gen.runtime.field_jacobian import FieldJacobian
     from s2gen.runtime.linearize import Linearization
     from s2gen.runtime.stepper import Stepper
 
@@ -230,22 +231,56 @@ class Model:
             >>> lin.A.shape, bool((lin.q == Model(s).step(s.q0, s.omega0, 0.01, "rk4")[0]).all())
             ((12, 12), True)
         """
-        from s2gen.equations.jacobian import jacobian_refusal
-        from s2gen.runtime.c import CBackend
         from s2gen.runtime.linearize import linearize
 
         p = parameter_vector(self.system, params)
         uu = None if u is None else np.asarray(u, dtype=float)
+        backend = self._jacobian_backend()
+        return linearize(backend, q, omega, h, method, p, t, uu, basis, options)
+
+    def _jacobian_backend(self) -> Any:
+        """The backend with step_jacobian() and field_jacobian(): this one when it has them,
+        else (C) the module built once from `System.with_jacobians` when first asked for."""
+        from s2gen.equations.jacobian import jacobian_refusal
+        from s2gen.runtime.c import CBackend
+
         backend = self._backend
         if isinstance(backend, CBackend) and not backend.library.jacobian:
-            # the module with step_jacobian(), built once when first asked for
             why = jacobian_refusal(self.system)
             if why is not None:
                 raise ValueError(f"{self.system.name}: {why}")
             if self._jacobians is None:
                 self._jacobians = CBackend(self.system.with_jacobians())
             backend = self._jacobians
-        return linearize(backend, q, omega, h, method, p, t, uu, basis, options)
+        return backend
+
+    def jacobian_field(
+        self,
+        q: np.ndarray,
+        omega: np.ndarray,
+        t: float = 0.0,
+        u: Sequence[float] | np.ndarray | None = None,
+        basis: str = "tangent",
+        params: Mapping[str, float] | None = None,
+    ) -> FieldJacobian:
+        """The exact derivatives of the continuous field (qdot, omegadot) at (q, omega) at
+        time t with the inputs u (None: the spec's): J = d/dx and Ju = d/du in the tangent
+        basis (4n: the generator of `linearize`'s tangent A, A = I + hJ + O(h^2) for a
+        Runge-Kutta step) or the embedding coordinates (6n), with the field and the basis
+        (`s2gen.runtime.field_jacobian`); C backend only, as `linearize`.
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> s = builtin("double_pendulum")
+            >>> fj = Model(s).jacobian_field(s.q0, s.omega0, basis="embedding")
+            >>> fj.J.shape, fj.qdot.shape
+            ((12, 12), (2, 3))
+        """
+        from s2gen.runtime.field_jacobian import jacobian_field
+
+        p = parameter_vector(self.system, params)
+        uu = None if u is None else np.asarray(u, dtype=float)
+        return jacobian_field(self._jacobian_backend(), q, omega, p, t, uu, basis)
 
     def stepper(
         self,
