@@ -29,6 +29,7 @@ from s2gen.system import System
 if TYPE_CHECKING:
     from s2gen.runtime.field_jacobian import FieldJacobian
     from s2gen.runtime.linearize import Linearization
+    from s2gen.runtime.lyapunov import LyapunovSpectrum
     from s2gen.runtime.stepper import Stepper
 
 __all__ = ["Model"]
@@ -281,6 +282,45 @@ class Model:
         p = parameter_vector(self.system, params)
         uu = None if u is None else np.asarray(u, dtype=float)
         return jacobian_field(self._jacobian_backend(), q, omega, p, t, uu, basis)
+
+    def lyapunov(
+        self,
+        q: np.ndarray,
+        omega: np.ndarray,
+        h: float,
+        T: float,
+        method: str = "vi",
+        transient: float = 0.0,
+        t0: float = 0.0,
+        u: Sequence[float] | np.ndarray | None = None,
+        blocks: int = 10,
+        samples: int = 400,
+        params: Mapping[str, float] | None = None,
+        options: Options | None = None,
+        progress: Any = None,
+    ) -> LyapunovSpectrum:
+        """The Lyapunov spectrum of the steps of `method` (those `linearize` takes) from
+        (q, omega) at t0 with the inputs u held: `transient` discarded, then T averaged, by QR
+        re-orthonormalization of the step Jacobians in the tangent basis
+        (`s2gen.runtime.lyapunov`): the exponents (4n, decreasing) and their errors from
+        `blocks` block means, the pair sums, the running estimates at `samples` times;
+        `progress(fraction)` is called as the run goes. C backend only, as `linearize`.
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> s = builtin("double_pendulum")
+            >>> ls = Model(s).lyapunov(s.q0, s.omega0, h=0.01, T=1.0)
+            >>> ls.exponents.shape, ls.pair_sums.shape
+            ((8,), (4,))
+        """
+        from s2gen.runtime.lyapunov import lyapunov
+
+        p = parameter_vector(self.system, params)
+        uu = None if u is None else np.asarray(u, dtype=float)
+        return lyapunov(
+            self._jacobian_backend(), q, omega, h, T, method, p, transient, t0, uu, blocks,
+            samples, options, progress,
+        )  # fmt: skip
 
     def stepper(
         self,
