@@ -209,3 +209,17 @@ def test_lyapunov_command_checks_out_before_the_run(
     assert main(["lyapunov", "double_pendulum", "--T", "1", "--out", str(blocker)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: --out") and err.count("\n") == 1, err
+
+
+@pytest.mark.slow
+def test_paper_state_spectrum_over_a_long_run(double: Model) -> None:
+    """The double pendulum from the paper's initial state over T = 1000 (10^5 VI steps, the
+    spectrum the docs report): pairs and total zero within three block errors, four
+    exponents within 0.01 of zero, and lambda_1 against two trajectories over the same time."""
+    s = double.system
+    ls = double.lyapunov(s.q0, s.omega0, H, 1000.0, "vi", transient=10.0)
+    assert np.all(np.abs(ls.pair_sums) <= 3 * ls.pair_error), (ls.pair_sums, ls.pair_error)
+    assert abs(ls.total) <= 3 * ls.total_error, (ls.total, ls.total_error)
+    assert np.all(np.abs(ls.exponents[2:6]) < 0.01), ls.exponents
+    two = _two_trajectories(double, s.q0, s.omega0, 1000.0, 10.0)
+    assert abs(ls.exponents[0] - two) <= 3 * ls.error[0], (ls.exponents[0], two)
