@@ -9,7 +9,9 @@ Theor. Phys. 61, 1979): with A_k the derivative of step k in the tangent coordin
 T(S^2)^n (`s2gen.runtime.linearize`), an orthonormal frame Q of 4n tangent vectors is carried
 by Q_(k+1) R_k = qr(A_k Q_k), and lambda_j = (1/T) sum_k log |(R_k)_jj| over the steps after
 the transient (during which the frame turns towards the Lyapunov vectors and nothing is
-summed). The exponents come out in decreasing order. The frame is kept in the embedding
+summed). The exponents come out in the order of the frame's columns, which the iteration makes
+decreasing as T grows (nearly equal ones, such as the zeros of conserved quantities, may stay
+in either order). The frame is kept in the embedding
 coordinates (6n x 4n, orthonormal columns spanning the tangent space): each step multiplies it
 by the embedding A and projects it on the tangent space after the step (the complement of
 (q_i, 0) and (w_i - (w_i . q_i) q_i, q_i), q_i normalized), which is the tangent A of
@@ -53,7 +55,8 @@ __all__ = ["LyapunovSpectrum", "check_lyapunov", "lyapunov", "tangent_normals"]
 
 @dataclass(frozen=True)
 class LyapunovSpectrum:
-    """A Lyapunov spectrum: `exponents` (4n, decreasing) with their standard errors
+    """A Lyapunov spectrum: `exponents` (4n, in the frame's order: decreasing, up to nearly
+    equal ones) with their standard errors
     (`error`), the pair sums lambda_k + lambda_(4n+1-k) (`pair_sums`, 2n) with theirs
     (`pair_error`), the sum of all (`total`, `total_error`), the running estimates
     (`running`, one row per time of `times`, the averaging time so far), and the run: method,

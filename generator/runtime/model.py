@@ -302,9 +302,10 @@ class Model:
         """The Lyapunov spectrum of the steps of `method` (those `linearize` takes) from
         (q, omega) at t0 with the inputs u held: `transient` discarded, then T averaged, by QR
         re-orthonormalization of the step Jacobians in the tangent basis
-        (`s2gen.runtime.lyapunov`): the exponents (4n, decreasing) and their errors from
-        `blocks` block means, the pair sums, the running estimates at `samples` times;
-        `progress(fraction)` is called as the run goes. C backend only, as `linearize`.
+        (`s2gen.runtime.lyapunov`): the exponents (4n, decreasing up to nearly equal ones)
+        and their errors from `blocks` block means, the pair sums, the running estimates at
+        `samples` times; `progress(fraction)` is called as the run goes. C backend only, as
+        `linearize`.
 
         Example:
             >>> from s2gen.systems import builtin
