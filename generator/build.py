@@ -52,12 +52,13 @@ __all__ = [
 log = logging.getLogger("s2gen.build")
 
 GENERATOR_VERSION = __version__
-#: Flags of the cached shared library, chosen by `python -m s2gen.experiments.flags` (README,
-#: "Build flags"): -O2 with the emitted loops' SIMD hints honoured (-fopenmp-simd) and sqrt as
-#: one instruction (-fno-math-errno: no errno on a negative argument, which the emitted code
-#: checks itself) ran the VI 0.6-0.8x as long as plain -O2 on three of the four built-ins; -O3
-#: compiled 1.7x as long for little more. -std=c99 (ISO mode) keeps gcc from contracting
-#: a*b+c into fused multiply-adds, so results match NumPy's operation order closely.
+#: Flags of the cached shared library, chosen by `python -m s2gen.experiments.flags`
+#: (docs/user_guide/c_code.rst, "Build flags"): -O2 with the emitted loops' SIMD hints
+#: honoured (-fopenmp-simd) and sqrt as one instruction (-fno-math-errno: no errno on a
+#: negative argument, which the emitted code checks itself) ran the VI 0.6-0.8x as long as
+#: plain -O2 on three of the four built-ins; -O3 compiled 1.7x as long for little more.
+#: -std=c99 (ISO mode) keeps gcc from contracting a*b+c into fused multiply-adds, so results
+#: match NumPy's operation order closely.
 DEFAULT_FLAGS: tuple[str, ...] = (
     "-std=c99",
     "-O2",

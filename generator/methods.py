@@ -5,7 +5,7 @@ gradient evaluations per step, whether it is implicit, its family, the backends 
 kinds that have it, the driver that runs it, its tableau (fixed-step Runge-Kutta) or
 composition (geometric methods) and its error controls) and `Status` (the codes every backend returns, with one message each). The spec validator, the
 command line's choices, the emitted C and NumPy enums and dispatch tables, the angle form's
-methods, the reference's method list, the runtime's messages and the README's method table all
+methods, the reference's method list, the runtime's messages and the documentation's method table all
 read these tables; nothing else lists methods or statuses. A fixed-step explicit method is one
 tableau in s2gen.tableaus and one `_fixed` row here.
 
@@ -401,7 +401,8 @@ def explicit_tableaus(kind: str) -> tuple[Explicit, ...]:
 
 
 def markdown_table() -> str:
-    """The README's method table (a test keeps the README equal to it).
+    """The method table of the documentation (docs/user_guide/methods.rst; a test keeps the page's
+    table equal to it).
 
     Example:
         >>> markdown_table().splitlines()[0]

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from docs_text import code_blocks, list_table_rows, page, section
 
 import s2gen
 from s2gen import methods
@@ -47,16 +49,15 @@ def _python(code: str) -> str:
 
 
 def test_notebook_example(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The README's Python API block, run as it stands, against independent checks: the VI
+    """The Python API block of docs/user_guide/python_api.rst (the README's "Python API" section
+    before it moved), run as it stands, against independent checks: the VI
     keeps the double pendulum's energy and unit length, the model's energy function agrees
     with the samples, the spring's RATTLE run keeps its energy and (the potential being
     invariant under rotations) its angular momentum, and the files written are the files returned."""
-    readme = (Path(__file__).parent.parent / "README.md").read_text()
-    section = readme.split("## Python API", 1)[1]
-    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    code = code_blocks(section(page("user_guide/python_api.rst"), "Python API"), "python")[0]
     monkeypatch.chdir(tmp_path)
     ns: dict[str, object] = {}
-    exec(compile(code, "README.md", "exec"), ns)  # noqa: S102 (the README's own example)
+    exec(compile(code, "python_api.rst", "exec"), ns)  # noqa: S102 (the page's own example)
     tr, model, run = ns["tr"], ns["model"], ns["run"]
     assert isinstance(tr, s2gen.Trajectory) and isinstance(run, s2gen.Trajectory)
     assert isinstance(model, s2gen.Model)
@@ -189,8 +190,26 @@ def test_native_flags_give_the_same_motion() -> None:
         s2gen.compile(system, "numpy", opt="native")
 
 
-def test_readme_method_table_is_the_methods_table() -> None:
+def test_docs_method_table_is_the_methods_table() -> None:
+    """docs/user_guide/methods.rst shows the method table through the ``s2gen-methods``
+    directive; the table it writes has the cells of `s2gen.methods.markdown_table()`, row by
+    row (two renderings of `s2gen.METHODS` that must agree)."""
+    import importlib.util
+
     from s2gen.methods import markdown_table
 
-    readme = (Path(__file__).parent.parent / "README.md").read_text()
-    assert markdown_table() in readme
+    assert ".. s2gen-methods::" in page("user_guide/methods.rst")
+    where = Path(__file__).parent.parent / "docs" / "_ext" / "s2gen_tables.py"
+    spec = importlib.util.spec_from_file_location("s2gen_tables", where)
+    assert spec is not None and spec.loader is not None
+    tables = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tables)
+    shown = [[cell.replace("``", "`").replace("\\|", "|") for cell in row]
+             for row in list_table_rows(tables.methods_rst())]  # fmt: skip
+    markdown = [
+        [cell.strip().replace("\\|", "|") for cell in re.split(r"(?<!\\)\|", line)[1:-1]]
+        for line in markdown_table().splitlines()
+        if not line.startswith("|---")
+    ]
+    assert len(shown) == len(markdown) == len(methods.METHODS) + 1
+    assert shown == markdown

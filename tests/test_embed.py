@@ -1,5 +1,5 @@
 """examples/embed: the C program built from the emitted files with make and with CMake (alone
-and as the README's parent project's subdirectory, from a C-only and a C++-only project) prints the same final state as `s2gen simulate`'s
+and as the C guide's parent project's subdirectory, from a C-only and a C++-only project) prints the same final state as `s2gen simulate`'s
 saved trajectory, to 1e-12, through the header's public API only."""
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from docs_text import code_blocks, page
 
 from s2gen.systems import builtin
 
@@ -115,16 +116,21 @@ def test_cmake_build_matches_simulate(folder: Path, expected) -> None:
 
 
 def _readme_cmake_snippets() -> list[str]:
-    """Every ```cmake block that calls add_subdirectory, in the README and the kit's README."""
-    found = []
-    for readme in (EMBED.parent.parent / "README.md", EMBED / "README.md"):
-        blocks = re.findall(r"^```cmake\n(.*?)^```", readme.read_text(), re.MULTILINE | re.DOTALL)
-        found += [b for b in blocks if "add_subdirectory(" in b]
-    return found
+    """Every cmake block that calls add_subdirectory, in the C guide of the documentation
+    (docs/user_guide/c_code.rst, which holds the README's former section) and in the kit's
+    README."""
+    found = [
+        b for b in code_blocks(page("user_guide/c_code.rst"), "cmake") if "add_subdirectory(" in b
+    ]
+    blocks = re.findall(
+        r"^```cmake\n(.*?)^```", (EMBED / "README.md").read_text(), re.MULTILINE | re.DOTALL
+    )
+    return found + [b for b in blocks if "add_subdirectory(" in b]
 
 
 def test_readmes_show_one_add_subdirectory_snippet() -> None:
-    """Both READMEs quote the parent project the next test builds, word for word."""
+    """The C guide and the kit's README quote the parent project the next test builds, word
+    for word."""
     snippets = _readme_cmake_snippets()
     assert len(snippets) == 2, snippets
     assert snippets[0] == snippets[1]
@@ -133,7 +139,7 @@ def test_readmes_show_one_add_subdirectory_snippet() -> None:
 @pytest.mark.skipif(shutil.which("cmake") is None, reason="cmake not installed")
 @pytest.mark.parametrize("language", ["CXX", "C"])
 def test_readme_parent_project_links_s2gen_system(folder: Path, language: str) -> None:
-    """The README's parent project, C++-only as quoted and C-only with its two C++ words
+    """The C guide's parent project, C++-only as quoted and C-only with its two C++ words
     replaced, laid out as it reads (the kit under third_party/, a spec under specs/): it
     configures, builds the emitted source into s2gen_system and links the example program
     (C99 that also compiles as C++) against it; the final state equals `s2gen simulate`'s of

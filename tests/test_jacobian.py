@@ -7,10 +7,10 @@ linearized normal modes (computed here from M and V with NumPy)."""
 from __future__ import annotations
 
 from fractions import Fraction
-from pathlib import Path
 
 import numpy as np
 import pytest
+from docs_text import code_blocks, page
 
 from s2gen import load
 from s2gen.methods import Family, method
@@ -221,13 +221,13 @@ def test_linearize_refuses_in_one_line(double: Model) -> None:
         Model(s, "numpy").linearize(s.q0, s.omega0, H, "rk4")
 
 
-def test_readme_linearization_block(double: Model) -> None:
-    """The README's Linearization block, run as it stands: the image it computes of a tangent
-    displacement agrees with central differences of the emitted VI step."""
-    readme = (Path(__file__).parent.parent / "README.md").read_text()
-    code = readme.split("## Linearization", 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
+def test_docs_linearization_block(double: Model) -> None:
+    """The block of docs/user_guide/linearization.rst (the README's "Linearization" section
+    before it moved), run as it stands: the image it computes of a tangent displacement agrees
+    with central differences of the emitted VI step."""
+    code = code_blocks(page("user_guide/linearization.rst"), "python")[0]
     ns: dict[str, object] = {}
-    exec(compile(code, "README.md", "exec"), ns)  # noqa: S102 (the README's own example)
+    exec(compile(code, "linearization.rst", "exec"), ns)  # noqa: S102 (the page's own example)
     lin, emb, dx, after = ns["lin"], ns["emb"], ns["dx"], ns["after"]
     assert lin.A.shape == (8, 8) and emb.A.shape == (12, 12)  # type: ignore[attr-defined]
     x0 = _state(double)

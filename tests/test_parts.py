@@ -152,6 +152,18 @@ def lopsided_cutoff() -> System:
     )
 
 
+def screened_rows() -> System:
+    """All pairs laid out as rows whose gradient calls exp: the partner loop split at the call
+    (`s2gen.passes.fission`)."""
+    return define_system(
+        name="screened",
+        bodies=4,
+        parameters={"k": 2.0},
+        diagonal="1",
+        pair_terms=[{"V": "exp(-k*norm(qi - qj))/norm(qi - qj)", "pairs": "all"}],
+    )
+
+
 def chain4_structured() -> System:
     """The chain of tests/specs with its max-index M solved by the structured solvers, M's
     generators from one system kernel (not per body)."""
@@ -172,6 +184,7 @@ SYSTEMS = {
     "springs4": lambda: resolve(str(SPECS / "springs4.toml")),  # diagonal M, general V only
     "springs4_terms": lambda: resolve(str(SPECS / "springs4_terms.toml")),  # listed terms
     "three_bodies": lambda: builtin("three_bodies"),  # pair terms laid out as rows
+    "screened": screened_rows,  # rows split at their calls
     "dipoles": lambda: builtin("dipoles"),  # quadratic terms (K)
     "lj_cutoff": lambda: builtin("lj_cutoff"),  # cutoff: sorted cell lists
     "lopsided": lopsided_cutoff,  # cutoff, not symmetric: linked cell lists
@@ -329,6 +342,7 @@ def test_every_template_is_rendered() -> None:
         pending += [*module.c_parts, *module.py_parts, module.c_masses, module.py_masses]
         for t in module.terms:
             pending += [t.c_value_part, t.c_gradient_part, t.py_value_part, t.py_gradient_part]
+            pending.append(t.c_rows_partners_part)
         for chosen in (*module.c_sections.values(), *module.py_sections.values()):
             pending += chosen
         while pending:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from docs_text import code_blocks, page
 
 import s2gen
 from s2gen.emit import emit
@@ -187,14 +188,14 @@ def test_systems_that_differ_only_in_their_initial_state_get_their_own_code() ->
         assert np.array_equal(q, system.q0.ravel()) and np.array_equal(w, system.omega0.ravel())
 
 
-def test_readme_step_block_runs_as_integrate(tmp_path: Path) -> None:
-    """The README's C block of the step API, for the double pendulum, compiled with the
-    emitted files and run: its state after 1000 RATTLE steps is integrate()'s, bit for bit."""
+def test_docs_step_block_runs_as_integrate(tmp_path: Path) -> None:
+    """The C block of the step API in docs/user_guide/c_code.rst (the README's before it moved),
+    for the double pendulum, compiled with the emitted files and run: its state after 1000
+    RATTLE steps is integrate()'s, bit for bit."""
     import re
     import subprocess
 
-    readme = (Path(__file__).parent.parent / "README.md").read_text()
-    block = next(b for b in re.findall(r"```c\n(.*?)```", readme, re.DOTALL) if "_step(" in b)
+    block = next(b for b in code_blocks(page("user_guide/c_code.rst"), "c") if "_step(" in b)
     system = builtin("double_pendulum")
     for fname, text in emit(system, "c").items():
         (tmp_path / fname).write_text(text)

@@ -10,6 +10,11 @@ A second hook, after napoleon, undoes napoleon's reading of a property's first l
 "M as a SymPy matrix (built from `chain` on first use: n^2 entries)" would become the type "M
 as a SymPy matrix (built ... use" and the text "n^2 entries)". Such a property keeps its own
 docstring, bars escaped.
+
+A third hook, before napoleon, drops the docstring autodoc gives a module constant that has
+none of its own: the docstring of its built-in type (``int([x]) -> integer``, a dict's
+constructor forms, which are not even valid reStructuredText). What such a constant is, is
+said in its ``autodata`` directive's body in api.rst.
 """
 
 from __future__ import annotations
@@ -51,6 +56,28 @@ def escape_bars(lines: list[str]) -> list[str]:
     return lines
 
 
+def is_type_docstring(lines: list[str], obj: Any) -> bool:
+    """Whether `lines` are only the docstring of `obj`'s type (what autodoc finds for a
+    constant without a docstring of its own).
+
+    Example:
+        >>> is_type_docstring(inspect.getdoc(int).splitlines(), 10**6)
+        True
+        >>> is_type_docstring(["Most members of one ensemble."], 10**6)
+        False
+    """
+    inherited = inspect.getdoc(type(obj)) or ""
+    text = "\n".join(lines).strip()
+    return bool(text) and " ".join(text.split()) == " ".join(inherited.split())
+
+
+def _type_docstring(
+    app: Any, what: str, name: str, obj: Any, options: Any, lines: list[str]
+) -> None:
+    if what == "data" and is_type_docstring(lines, obj):
+        lines[:] = []
+
+
 def _bars(app: Any, what: str, name: str, obj: Any, options: Any, lines: list[str]) -> None:
     escape_bars(lines)
 
@@ -62,6 +89,7 @@ def _property(app: Any, what: str, name: str, obj: Any, options: Any, lines: lis
 
 
 def setup(app: Any) -> dict[str, Any]:
+    app.connect("autodoc-process-docstring", _type_docstring, priority=300)
     app.connect("autodoc-process-docstring", _bars, priority=400)  # napoleon's is 500
     app.connect("autodoc-process-docstring", _property, priority=600)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

@@ -93,7 +93,7 @@ class PrintedModule:
     table_inits: tuple[dict[str, Any], ...]  # per term with a table: index, count, table, call
     py_tables: tuple[str, ...]  # calls computing the terms' member tables (NumPy)
     quadratic: int  # order of the quadratic terms' matrix K (0: none)
-    c_stdint: bool  # the C aligns a buffer to 64 bytes (K, the explicit VI's): uintptr_t
+    c_includes: tuple[str, ...]  # more headers: stdint.h (uintptr_t) for 64-byte aligned buffers
     quad_inits: tuple[dict[str, Any], ...]  # per quadratic term: loop, coefficient call, scatter
     py_quad_lines: tuple[str, ...]  # NumPy lines building K and b
     py_table_names: tuple[str, ...]
@@ -204,7 +204,11 @@ def print_module(module: Module) -> PrintedModule:
         py_tables=tuple(calls[f"t{t.index}_table"]["py"] for t in module.terms if t.table),
         py_table_names=py_table_names(module),
         quadratic=module.quadratic,
-        c_stdint=module.quadratic > 0 or any(lay.name == "explicit" for lay in module.layouts),
+        c_includes=(
+            ("stdint.h",)
+            if module.quadratic > 0 or any(lay.name == "explicit" for lay in module.layouts)
+            else ()
+        ),
         quad_inits=tuple(quad_init(module, t, calls) for t in module.terms if t.quadratic),
         py_quad_lines=tuple(
             line for t in module.terms if t.quadratic for line in py_quad_lines(t, calls, module.n)

@@ -31,12 +31,21 @@ __all__ = ["SplitRows", "c_split_rows"]
 
 @dataclass(frozen=True)
 class SplitRows:
-    """A split rows loop as lines: buffer declarations, then the partner loops' bodies."""
+    """A split rows loop as lines: buffer declarations, then the partner loops' bodies;
+    `prelude`: what precedes the row loop (a comment saying why, then the buffers)."""
 
     buffers: tuple[str, ...]
     first: tuple[str, ...]
     calls: tuple[str, ...]
     last: tuple[str, ...]
+
+    @property
+    def prelude(self) -> tuple[str, ...]:
+        return (
+            "/* the partner loop split at its calls, so that the rest vectorises: call-free work into",
+            " * the row buffers, the calls on them, then the forces */",
+            *self.buffers,
+        )
 
 
 def _reads(kernel: Kernel, data: tuple[str, ...], used: set[sp.Basic]) -> list[str]:

@@ -61,6 +61,8 @@ class PrintedTerm:
     c_rows_data_value: tuple[tuple[str, ...], ...]  # (row i, partner j) per-body data reads
     c_rows_data_gradient: tuple[tuple[str, ...], ...]
     c_rows_split: SplitRows | None  # the rows gradient split at its calls (`TermLoop.fission`)
+    c_rows_prelude: tuple[str, ...]  # lines before the row loop (the split's buffers)
+    c_rows_partners_part: str  # the partial of the partner loop(s): split or one pass
     c_gradient_locals: str
     c_gradient_accumulate: tuple[str, ...]
     py_setup: tuple[str, ...]
@@ -185,6 +187,10 @@ def print_term(module: Module, t: TermLoop, calls: dict[str, Any]) -> PrintedTer
         c_rows_data_value=data_value,
         c_rows_data_gradient=data_gradient,
         c_rows_split=split,
+        c_rows_prelude=split.prelude if split else (),
+        c_rows_partners_part=(
+            "c/sections/_rows_partners_split.jinja" if split else "c/sections/_rows_partners.jinja"
+        ),
         c_gradient_locals=locals_,
         c_gradient_accumulate=acc,
         py_setup=setup,
