@@ -75,6 +75,11 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="C: also emit step_jacobian(), one step's exact derivatives (up to 8 bodies)",
     )
+    g.add_argument(
+        "--batch",
+        action="store_true",
+        help="C: also emit integrate_batch(), K members per call in SIMD lanes (diagonal M)",
+    )
 
     s = sub.add_parser("simulate", help="integrate a system and save the trajectory (.npz)")
     s.add_argument("spec", metavar="SPEC")
@@ -192,6 +197,13 @@ def _generate(args: argparse.Namespace) -> int:
         if why is not None:
             raise ValueError(f"--jacobians: {system.name}: {why}")
         system = system.with_jacobians()
+    if args.batch:
+        from s2gen.parts.batch import batch_refusal
+
+        why = batch_refusal(system)
+        if why is not None:
+            raise ValueError(f"--batch: {why}")
+        system = system.with_batch()
     start = time.perf_counter()
     try:
         paths = write_files(emit(system, args.lang), args.out)

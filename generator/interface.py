@@ -446,10 +446,13 @@ _DRIVEN = Interface(
 )
 
 
-def interface(kind: ModuleKind, driven: bool = False, jacobian: bool = False) -> Interface:
+def interface(
+    kind: ModuleKind, driven: bool = False, jacobian: bool = False, batch: bool = False
+) -> Interface:
     """The interface of one kind of module (the angle form's in `s2gen.interface_angles`);
     `driven`: a sphere module with forces, inputs or time; `jacobian`: one with
-    step_jacobian() and field_jacobian() (`s2gen.interface_jacobian`).
+    step_jacobian() and field_jacobian() (`s2gen.interface_jacobian`); `batch`: one with
+    integrate_batch() (`s2gen.interface_batch`).
 
     Example:
         >>> [p.name for p in interface(ModuleKind.SPHERE, driven=True).function("step").params][:6]
@@ -457,11 +460,13 @@ def interface(kind: ModuleKind, driven: bool = False, jacobian: bool = False) ->
     """
     if kind is ModuleKind.SPHERE:
         api = _DRIVEN if driven else _SPHERE
-        if not jacobian:
+        if not (jacobian or batch):
             return api
+        from s2gen.interface_batch import INTEGRATE_BATCH
         from s2gen.interface_jacobian import JACOBIAN_FUNCTIONS
 
-        return Interface((*api.functions, *JACOBIAN_FUNCTIONS), api.options, api.stats, api.stepper)
+        extra = (*(JACOBIAN_FUNCTIONS if jacobian else ()), *((INTEGRATE_BATCH,) if batch else ()))
+        return Interface((*api.functions, *extra), api.options, api.stats, api.stepper)
     from s2gen.interface_angles import ANGLES
 
     return ANGLES

@@ -107,6 +107,9 @@ class System:
     #: Whether the emitted C carries step_jacobian() (`with_jacobians`; off by default: its
     #: derivation takes longer than the rest of the module's)
     jacobians: bool = False
+    #: Whether the emitted C carries integrate_batch() (`with_batch`; off by default: the
+    #: modules of everyone else stay as they were)
+    batch: bool = False
     #: What `s2gen.load` rebuilds this system from: a built-in name with its options
     #: (``elastic_rod:n=12``) or the TOML text; empty for a system defined in Python.
     source: str = field(default="", compare=False)
@@ -332,6 +335,18 @@ class System:
         """
         return dataclasses.replace(self, jacobians=True)
 
+    def with_batch(self) -> System:
+        """The same system, its emitted C with integrate_batch(): K members per call, SIMD
+        across members (closed systems with a diagonal M; see `s2gen.parts.batch`).
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> s = builtin("four_pendula")
+            >>> s.with_batch().batch, s.with_batch().spec_hash() != s.spec_hash()
+            (True, True)
+        """
+        return dataclasses.replace(self, batch=True)
+
     def spec_hash(self) -> str:
         """A short content hash of the specification (goes into emitted preambles)."""
         return self.spec_digest()[:16]
@@ -369,6 +384,8 @@ class System:
                 h.update(np.asarray(d.values, dtype=float).tobytes())
         if self.jacobians:  # absent by default: the digest is unchanged
             h.update(b"jacobians;")
+        if self.batch:  # absent by default: the digest is unchanged
+            h.update(b"batch;")
         for u, v in zip(self.inputs.names, self.inputs.values):  # none: the digest is unchanged
             h.update(f"input {u}={v!r};".encode())
         for f in self.forces:

@@ -312,6 +312,45 @@ def test_local_cluster_is_bit_identical_to_serial(local_client: Any, tmp_path: P
     assert (a.per_member()["setup_time"] > 0).sum() <= 2
 
 
+def _assert_same_stores(a: EnsembleStore, b: EnsembleStore) -> None:
+    """Every array of two stores equal (NaN where NaN), the timings aside."""
+    assert a.names() == b.names()
+    for name in a.names():
+        if name not in ("wall_time", "setup_time"):
+            x, y = np.asarray(a.array(name)[:]), np.asarray(b.array(name)[:])
+            assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), name
+
+
+def test_batches_of_members_per_task_change_nothing(local_client: Any, tmp_path: Path) -> None:
+    """Three members per Dask task (a sweep point's members split across tasks, one member
+    that fails inside its batch) and four per store write serially give the store of one
+    member at a time, and that of each member integrated on its own."""
+    s = s2gen.load("three_bodies")
+    kw: dict[str, Any] = {"perturb": {"omega": 1e-13}, "sweep": {"gamma": [1.0, 30.0]}}
+    kw.update(T=0.5, h=0.01, every=2)
+    par = ensemble(s, 4, **kw, client=local_client, out=tmp_path / "par", batch_size=3)
+    ser = ensemble(s, 4, **kw, workers=0, out=tmp_path / "ser", batch_size=4)
+    one = ensemble(s, 4, **kw, workers=0, out=tmp_path / "one")
+    assert par.written == ser.written == one.written == 8 and par.failed == one.failed != ()
+    for other in (par, ser):
+        _assert_same_stores(EnsembleStore.open(other.path), EnsembleStore.open(one.path))
+    table = member_table(s, 4, kw["perturb"], kw["sweep"], T=0.5, h=0.01)
+    _assert_store_equals(par.path, _direct(s, table, every=2))
+    with pytest.raises(ValueError, match="batch_size = 0"):
+        ensemble(s, 2, T=0.1, workers=0, out=tmp_path / "bad", batch_size=0)
+
+
+def test_batch_size_by_measurement() -> None:
+    """About TARGET_TASK_SECONDS of integration per task, at most MAX_BATCH members, and
+    never so many that some task slot stays empty."""
+    from s2gen.ensemble.dispatch import MAX_BATCH, TARGET_TASK_SECONDS, batch_size_for
+
+    assert batch_size_for(TARGET_TASK_SECONDS / 10, 10_000, 4) == 10
+    assert batch_size_for(1e-9, 10_000, 4) == MAX_BATCH
+    assert batch_size_for(1e-4, 40, 8) == 5
+    assert batch_size_for(10.0, 10_000, 4) == 1
+
+
 def test_failed_member_keeps_partial_samples_and_status(local_client: Any, tmp_path: Path) -> None:
     """gamma = 30 makes the explicit VI step of three bodies infeasible at step 18."""
     s = s2gen.load("three_bodies")

@@ -256,6 +256,41 @@ def c_api_jacobian_rst() -> str:
     return "\n".join(lines) + "\n"
 
 
+def c_api_batch_rst() -> str:
+    """integrate_batch() and its sizes (modules emitted with ``--batch``).
+
+    Example:
+        >>> "BATCH_WORK_SIZE" in c_api_batch_rst()
+        True
+    """
+    from s2gen.interface_batch import INTEGRATE_BATCH
+
+    upper = PREFIX.upper()
+    sizes = {
+        **_SIZES,
+        "p": f"{upper}_NPARAMS * K doubles, p[j * K + k]",
+        "q0": f"{upper}_NSTATE * K doubles, member-innermost",
+        "w0": f"{upper}_NSTATE * K doubles, member-innermost",
+        "q": f"(nsteps / every + 1) * {upper}_NSTATE * K doubles",
+        "w": f"(nsteps / every + 1) * {upper}_NSTATE * K doubles",
+        "energy": "(nsteps / every + 1) * K doubles",
+        "work": f"{upper}_BATCH_WORK_SIZE doubles",
+        "stats": "K structs",
+        "status": "K ints",
+    }
+    lines = [
+        f".. c:macro:: {upper}_BATCH_LANES",
+        "",
+        "   The members integrate_batch advances together (the SIMD lanes).",
+        "",
+        f".. c:macro:: {upper}_BATCH_WORK_SIZE",
+        "",
+        "   The doubles ``work`` must hold for integrate_batch, whatever K.",
+        "",
+    ]
+    return "\n".join(lines + _function(INTEGRATE_BATCH, PREFIX, sizes)) + "\n"
+
+
 def setup(app: Any) -> dict[str, Any]:
     """Register ``.. s2gen-c-api:: sphere|angles`` (Sphinx is imported here only, so that the
     tests can call `c_api_rst` without it)."""
@@ -271,6 +306,8 @@ def setup(app: Any) -> dict[str, Any]:
                 return self.parse_text_to_nodes(c_api_driven_rst())
             if self.arguments[0] == "jacobian":
                 return self.parse_text_to_nodes(c_api_jacobian_rst())
+            if self.arguments[0] == "batch":
+                return self.parse_text_to_nodes(c_api_batch_rst())
             kinds = {"sphere": ModuleKind.SPHERE, "angles": ModuleKind.ANGLES}
             kind = kinds.get(self.arguments[0])
             if kind is None:

@@ -54,6 +54,7 @@ _WHERE = {
     "ProgressBar": "driver",
     "Summary": "summary",
     "add_parser": "command",
+    "batch_size_for": "dispatch",
     "benchmark": "bench",
     "check_sizes": "dispatch",
     "check_workers": "admission",
@@ -66,6 +67,7 @@ _WHERE = {
     "require": "requirements",
     "run": "driver",
     "run_member": "worker",
+    "run_members": "batched",
     "summarize": "summary",
     "tls_security": "admission",
 }

@@ -104,6 +104,12 @@ def add_parser(subparsers: Any) -> None:
         "--timeout", type=float, default=10.0, help="seconds to reach the scheduler (10)"
     )
     e.add_argument(
+        "--batch-size",
+        type=int,
+        metavar="B",
+        help="members per task (default: by measurement, the first member's time)",
+    )
+    e.add_argument(
         "--tls-ca-file",
         metavar="PEM",
         help="TLS: the CA certificate that signs every participant's certificate; with "
@@ -150,7 +156,8 @@ def command_line(args: argparse.Namespace) -> str:
         parts += ["--sweep", s]
     for p in args.param:
         parts += ["--param", p]
-    for key in ("method", "h", "T", "scheduler", "workers", "tls_ca_file", "tls_cert", "tls_key"):
+    keys = ("method", "h", "T", "scheduler", "workers", "batch_size")
+    for key in (*keys, "tls_ca_file", "tls_cert", "tls_key"):
         if getattr(args, key) is not None:
             parts += [f"--{key.replace('_', '-')}", str(getattr(args, key))]
     if args.dashboard is not None:

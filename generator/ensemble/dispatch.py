@@ -11,15 +11,21 @@ Before anything is built or written, every size is checked against its stated li
 `simulate` checks it, the store's bytes in `store`); after connecting, every worker must run
 the client's s2gen version, generator and build flags (`admission.check_workers`).
 
-How it runs on Dask: the system, its emitted C sources and the run's settings go to every
-worker once (`client.scatter(..., broadcast=True)`); each task carries one member's index,
-step, initial state and parameters. At most `WINDOW_PER_WORKER` tasks per worker are in flight;
-as each completes (`distributed.as_completed`) the client fetches its result, writes it to the
-store, drops it and submits the next member, so the client holds a few members at a time
-whatever their number. A task lost with its worker (killed, disconnected) is resubmitted (up to
-`ATTEMPTS` times, re-sending the payload if every copy was lost); a task that raises is
-recorded with status -2 and its message; a failed integration is an ordinary result with its
-partial samples and status. Results are deterministic per member (the same library, the same
+How it runs on Dask: the system, its emitted C sources (and those of its module with
+integrate_batch() where the members can run through it, `batched.run_batched`) and the run's
+settings go to every worker once (`client.scatter(..., broadcast=True)`); each task carries a
+batch of consecutive members (their indices, steps, initial states and parameters; `batch_size` of them, by default
+chosen by measurement, `batch_size_for`: the first member runs alone and its integration time
+sets how many make a task of about `TARGET_TASK_SECONDS`). At most `WINDOW_PER_WORKER` tasks
+per worker are in flight; as each completes (`distributed.as_completed`) the client fetches
+its results, writes them to the store (one write per array for the batch), drops them and
+submits the next batch, so the client holds a few batches at a time whatever their number. A
+task lost with its worker (killed, disconnected) is resubmitted with its whole batch (up to
+`ATTEMPTS` times, re-sending the payload if every copy was lost); a member whose integration
+raises is recorded with status -2 and its message (the rest of its batch goes on); a failed
+integration is an ordinary result with its partial samples and status. Serially
+(``workers=0``) the members run one by one, written one by one unless `batch_size` groups
+them for the store's writes. Results are deterministic per member (the same library, the same
 inputs), so where a member ran does not change its numbers. With a `Security` (TLS) the
 connections made here are encrypted and admit only certificates signed by its CA.
 
@@ -47,6 +53,7 @@ from typing import TYPE_CHECKING, Any
 from s2gen.runtime.options import Options
 
 from .admission import check_workers
+from .batched import run_members
 from .cluster import CONNECT_TIMEOUT, connect, needs_cluster, worker_count
 from .members import MemberTable, initial_state, member_table
 from .requirements import require
@@ -58,9 +65,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ATTEMPTS",
+    "MAX_BATCH",
+    "TARGET_TASK_SECONDS",
     "WINDOW_CHECK_SECONDS",
     "WINDOW_PER_WORKER",
     "EnsembleResult",
+    "batch_size_for",
     "check_sizes",
     "ensemble",
 ]
@@ -71,8 +81,36 @@ WINDOW_PER_WORKER = 4
 WINDOW_CHECK_SECONDS = 2.0
 #: Submissions of a member whose task was lost with its worker before it is recorded as failed.
 ATTEMPTS = 3
+#: The integration time a task of several members aims at (seconds): long enough that a
+#: task's fixed costs (scheduling, transfers, the store's writes) are small beside it, short
+#: enough that a lost task costs little and the workers stay balanced.
+TARGET_TASK_SECONDS = 0.2
+#: The most members in one task.
+MAX_BATCH = 256
 
 Progress = Callable[[MemberResult], None]
+Batch = tuple[MemberResult, ...]
+
+
+def batch_size_for(member_seconds: float, remaining: int, slots: int) -> int:
+    """Members per task, from one member's measured integration time: enough for about
+    `TARGET_TASK_SECONDS`, at most `MAX_BATCH`, and no more than leaves each of `slots`
+    task slots (workers x window) a task of the `remaining` members.
+
+    Example:
+        >>> batch_size_for(0.001, 4096, 8), batch_size_for(0.001, 100, 8)
+        (200, 13)
+        >>> batch_size_for(1.0, 99, 8)
+        1
+    """
+    want = math.ceil(TARGET_TASK_SECONDS / max(member_seconds, 1e-6))
+    fair = math.ceil(remaining / max(1, slots))
+    return max(1, min(want, MAX_BATCH, fair))
+
+
+def _batches(tasks: Iterator[Task], size: int) -> Iterator[tuple[Task, ...]]:
+    while batch := tuple(itertools.islice(tasks, size)):
+        yield batch
 
 
 @dataclass(frozen=True)
@@ -183,6 +221,7 @@ def ensemble(
     command: str | None = None,
     security: Any = None,
     dashboard: str | None = None,
+    batch_size: int | None = None,
 ) -> EnsembleResult:
     """Integrate every member with the emitted C and write them to ``out/ensemble.zarr``.
 
@@ -195,7 +234,9 @@ def ensemble(
     to a new temporary folder. `security`: a `distributed.security.Security` (TLS, see
     `admission.tls_security`) for the connections made here; `dashboard`: the local cluster's
     dashboard address (default none). When the run starts, every worker must run the client's
-    s2gen version, generator and build flags (`admission.check_workers`). Bad input raises
+    s2gen version, generator and build flags (`admission.check_workers`). `batch_size`:
+    members per task (default: by measurement, `batch_size_for`; serially, members per
+    write to the store, default 1); the results do not depend on it. Bad input raises
     `EnsembleError` (a ValueError).
 
     Example:
@@ -207,6 +248,10 @@ def ensemble(
     from s2gen.build import compiler
 
     start = time.perf_counter()
+    if batch_size is not None and not (isinstance(batch_size, int) and batch_size >= 1):
+        from .members import EnsembleError
+
+        raise EnsembleError(f"batch_size = {batch_size!r}: must be a positive whole number")
     require("zarr", *needs_cluster(client, workers))
     system = _resolve(system)
     method = method or system.run.method or "vi"
@@ -214,7 +259,14 @@ def ensemble(
     samples = check_sizes(system, table, method, every, options)
     if client is None:  # local workers compile with this machine's C compiler: one is needed
         compiler()  # BuildError (one line) before anything is written
-    payload = make_payload(system, generate(system, "c"), method, table.T, every, options)
+    batched = None  # the module with integrate_batch(), where the members can run through it
+    if client is not None or workers != 0:
+        from s2gen.parts.batch import BATCH_METHODS, batch_refusal
+
+        if method in BATCH_METHODS and batch_refusal(system) is None:
+            batched = generate(system.with_batch(), "c")
+    files = generate(system, "c")
+    payload = make_payload(system, files, method, table.T, every, options, batched)
     folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="s2gen-ensemble-"))
     attrs = _attrs(system, table, payload, samples, command)
     address = client if isinstance(client, str) else None
@@ -224,20 +276,25 @@ def ensemble(
             check_workers(c)
         store = EnsembleStore.create(folder, table, system.n, samples, attrs, overwrite)
         if c is None:
-            results = _serial(payload, _tasks(system, table))
+            results = _serial(payload, _tasks(system, table), batch_size)
             return _collect(store, table, results, 0, start, progress)
         data = c.scatter(payload, broadcast=True, hash=False)
-        results = _on_dask(c, data, payload, _tasks(system, table), system.n)
+        tasks = _tasks(system, table)
+        results = _on_dask(c, data, payload, tasks, system.n, len(table), batch_size)
         return _collect(store, table, results, worker_count(c), start, progress)
 
 
-def _serial(payload: Payload, tasks: Iterator[Task]) -> Iterator[MemberResult]:
-    """Every member in this process, one after another."""
-    for task in tasks:
-        try:
-            yield run_member(payload, task)
-        except Exception as exc:  # noqa: BLE001 (record it as the member's outcome, go on)
-            yield failed_task(task, payload.system.n, f"{type(exc).__name__}: {exc}")
+def _serial(payload: Payload, tasks: Iterator[Task], size: int | None) -> Iterator[Batch]:
+    """Every member in this process, one after another, in batches of `size` for the
+    store's writes (default 1: each member written, and reported, before the next runs)."""
+    for batch in _batches(tasks, size or 1):
+        out = []
+        for task in batch:
+            try:
+                out.append(run_member(payload, task))
+            except Exception as exc:  # noqa: BLE001 (record it as the member's outcome, go on)
+                out.append(failed_task(task, payload.system.n, f"{type(exc).__name__}: {exc}"))
+        yield tuple(out)
 
 
 def _lost(exc: BaseException) -> bool:
@@ -251,75 +308,94 @@ def _lost(exc: BaseException) -> bool:
 
 
 def _on_dask(
-    client: Any, data: Any, payload: Payload, tasks: Iterator[Task], n: int
-) -> Iterator[MemberResult]:
-    """Results as they complete on the cluster (`data`: the scattered payload)."""
+    client: Any,
+    data: Any,
+    payload: Payload,
+    tasks: Iterator[Task],
+    n: int,
+    count: int,
+    size: int | None,
+) -> Iterator[Batch]:
+    """Results as their batches complete on the cluster (`data`: the scattered payload)."""
     from distributed import as_completed
 
     token = uuid.uuid4().hex[:12]
-    flying: dict[str, tuple[Task, int]] = {}
+    flying: dict[str, tuple[tuple[Task, ...], int]] = {}
     done = as_completed(loop=client.loop)
 
-    def submit(task: Task, attempt: int) -> None:
-        key = f"s2gen-member-{token}-{task.index}-{attempt}"
-        future = client.submit(run_member, data, task, key=key)
-        flying[future.key] = (task, attempt)
+    def submit(batch: tuple[Task, ...], attempt: int) -> None:
+        key = f"s2gen-members-{token}-{batch[0].index}-{len(batch)}-{attempt}"
+        future = client.submit(run_members, data, batch, key=key)
+        flying[future.key] = (batch, attempt)
         done.add(future)
 
     window, checked = 0, -math.inf
+    batches: Iterator[tuple[Task, ...]] | None = None if size is None else _batches(tasks, size)
 
     def top_up() -> None:  # keep WINDOW_PER_WORKER tasks per worker in flight, workers may join
         nonlocal window, checked
         if time.monotonic() - checked > WINDOW_CHECK_SECONDS:
             window = WINDOW_PER_WORKER * max(1, worker_count(client))
             checked = time.monotonic()
-        for task in itertools.islice(tasks, max(0, window - len(flying))):
-            submit(task, 0)
+        if batches is not None:
+            for batch in itertools.islice(batches, max(0, window - len(flying))):
+                submit(batch, 0)
 
-    top_up()
+    if batches is None:  # the first member alone: its time sets the batch size
+        first = tuple(itertools.islice(tasks, 1))
+        if first:
+            submit(first, 0)
+    else:
+        top_up()
     for future in done:
-        task, attempt = flying.pop(future.key)
+        batch, attempt = flying.pop(future.key)
         try:
-            result = future.result()
+            results: Batch = future.result()
         except Exception as exc:  # noqa: BLE001 (a lost worker is retried, anything else recorded)
             if _lost(exc) and attempt + 1 < ATTEMPTS:
                 if data.status != "finished":  # every copy of the payload went with its worker
                     data = client.scatter(payload, broadcast=True, hash=False)
-                submit(task, attempt + 1)
+                submit(batch, attempt + 1)
                 continue
-            result = failed_task(task, n, f"{type(exc).__name__}: {exc}")
+            results = tuple(failed_task(t, n, f"{type(exc).__name__}: {exc}") for t in batch)
         finally:
             future.release()
-        yield result
+        if batches is None:
+            slots = WINDOW_PER_WORKER * max(1, worker_count(client))
+            seconds = results[0].wall_time if results and results[0].status >= 0 else 0.0
+            batches = _batches(tasks, batch_size_for(seconds, count - 1, slots))
+        yield results
         top_up()
 
 
 def _collect(
     store: EnsembleStore,
     table: MemberTable,
-    results: Iterator[MemberResult],
+    results: Iterator[Batch],
     workers: int,
     start: float,
     progress: Progress | None,
 ) -> EnsembleResult:
-    """Write each result as it arrives; flush the statistics at the end, even on interrupt."""
+    """Write each batch of results as it arrives; flush the statistics at the end, even on
+    interrupt."""
     first = time.perf_counter()
     order: list[int] = []
     failed: list[int] = []
     errors: list[int] = []
     integration = setup = 0.0
     try:
-        for item in results:
-            store.write(item)
-            order.append(item.index)
-            integration += item.wall_time
-            setup += item.setup_time
-            if item.status > 0:
-                failed.append(item.index)
-            elif item.status < 0:
-                errors.append(item.index)
-            if progress is not None:
-                progress(item)
+        for batch in results:
+            store.write_many(batch)
+            for item in batch:
+                order.append(item.index)
+                integration += item.wall_time
+                setup += item.setup_time
+                if item.status > 0:
+                    failed.append(item.index)
+                elif item.status < 0:
+                    errors.append(item.index)
+                if progress is not None:
+                    progress(item)
     finally:
         store.consolidate()
     end = time.perf_counter()

@@ -205,6 +205,7 @@ def run(args: argparse.Namespace, chaos_band: BandRun | None = None) -> int:
             command=command_line(args),
             security=security,
             dashboard=args.dashboard,
+            batch_size=args.batch_size,
         )
     except KeyboardInterrupt:
         bar.close()

@@ -254,6 +254,31 @@ class EnsembleStore:
         if time.monotonic() - self._last_flush >= FLUSH_SECONDS:
             self.flush()
 
+    def write_many(self, results: tuple[MemberResult, ...]) -> None:
+        """Write a batch of members: each run of consecutive members whose samples are all
+        present in one assignment per array (one round trip instead of one per member),
+        the others as `write` does; the statistics buffered as `write` buffers them."""
+        full = [r for r in results if len(r.t) == self.array("t").shape[1]]
+        full.sort(key=lambda r: r.index)
+        runs: list[list[MemberResult]] = []
+        for r in full:
+            if runs and runs[-1][-1].index + 1 == r.index:
+                runs[-1].append(r)
+            else:
+                runs.append([r])
+        for run in runs:
+            lo = run[0].index
+            for name in TRAJECTORIES:
+                self.array(name)[lo : lo + len(run)] = np.stack([getattr(r, name) for r in run])
+        done = {r.index for r in full}
+        for r in results:
+            if r.index in done:
+                self._pending[r.index] = {name: getattr(r, name) for name in STATISTICS}
+            else:
+                self.write(r)
+        if time.monotonic() - self._last_flush >= FLUSH_SECONDS:
+            self.flush()
+
     def flush(self) -> None:
         """Write the buffered statistics (``status`` last)."""
         if not self._pending:

@@ -78,6 +78,9 @@ class Payload:
     every: int
     options: Options
     identity: Identity
+    #: The sources of the module with integrate_batch() (`System.with_batch`), when the
+    #: members can run through it (`ensemble.batched`); None otherwise.
+    batch_files: dict[str, str] | None = None
 
 
 @dataclass(frozen=True)
@@ -140,10 +143,12 @@ def make_payload(
     T: float,
     every: int = 1,
     options: Options | None = None,
+    batch_files: dict[str, str] | None = None,
 ) -> Payload:
     """The payload of an ensemble (computes the sources' digest)."""
     opts = options or Options()
-    return Payload(system, files, sources_digest(files), method, T, every, opts, identity())
+    digest = sources_digest({**files, **{f"batch/{k}": v for k, v in (batch_files or {}).items()}})
+    return Payload(system, files, digest, method, T, every, opts, identity(), batch_files)
 
 
 def _model(payload: Payload) -> tuple[Model, float]:

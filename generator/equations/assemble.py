@@ -40,6 +40,7 @@ from s2gen.equations.vi_jacobian import vi_jacobian_kernels
 from s2gen.inertia import InertiaKind
 from s2gen.interface import INITIAL_STATE_MAX_BODIES
 from s2gen.ir import Drive, KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
+from s2gen.parts.batch import BATCH_PART, has_batch
 from s2gen.system import SpecError, System, Term
 
 __all__ = [
@@ -195,6 +196,7 @@ def sphere_module(system: System) -> Module:
     chain_data = system.chain.data if per_body and system.chain is not None else ()
     parts = _parts(solver, bool(pairs) or bool(loops) or bool(chain_data), cutoff, drive)
     parts += ("jacobian",) if has_jacobian(system) else ()
+    parts += (BATCH_PART,) if has_batch(system) else ()
     return Module(
         kind=ModuleKind.SPHERE,
         name=system.name,
@@ -206,7 +208,7 @@ def sphere_module(system: System) -> Module:
         kernels=tuple(kernels),
         parts=parts,
         # NumPy: numpy.linalg, scipy.linalg (the step Jacobians are C only)
-        c_only=("cholesky", "lu", "band", "jacobian"),
+        c_only=("cholesky", "lu", "band", "jacobian", BATCH_PART),
         variants=_variants(solver),
         pairs=pairs,
         terms=loops,

@@ -23,6 +23,7 @@ from s2gen.bindings import (
     Slot,
 )
 from s2gen.ir import Module
+from s2gen.parts.batch import PART as BATCH
 from s2gen.parts.records import CC, Context, Part, Site
 
 __all__ = ["PARTS_BY_NAME", "SPHERE_PARTS"]
@@ -297,6 +298,7 @@ SPHERE_PARTS = (
     ),
     _DRIVEN,
     _JACOBIAN,
+    BATCH,
 )
 
 #: The sphere module's parts by name

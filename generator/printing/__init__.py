@@ -24,6 +24,7 @@ from s2gen.inertia import InertiaKind
 from s2gen.ir import Kernel, Module, ModuleKind, PassRecord
 from s2gen.methods import explicit_tableaus
 from s2gen.printing import records
+from s2gen.printing.c_batch import print_batch
 from s2gen.printing.c_calls import c_call
 from s2gen.printing.c_module import (
     CTable,
@@ -136,6 +137,7 @@ class PrintedModule:
     py_data_setup: tuple[str, ...]  # NumPy: the per-body arrays of [data] the terms read
     drive: dict[str, Any]  # a driven module's inputs, methods and tables (empty: closed)
     jac: dict[str, Any]  # the step Jacobians' methods and lines (empty: no step_jacobian)
+    batch: dict[str, Any]  # integrate_batch()'s lanes, workspace and lines (empty: none)
 
 
 def print_module(module: Module) -> PrintedModule:
@@ -256,4 +258,5 @@ def print_module(module: Module) -> PrintedModule:
         py_data_setup=py_data_setup(module),
         drive=print_drive(module),
         jac=print_jacobian(module),
+        batch=print_batch(module),
     )

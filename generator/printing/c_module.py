@@ -17,6 +17,7 @@ from __future__ import annotations
 from s2gen.inertia import InertiaKind
 from s2gen.interface import interface
 from s2gen.ir import Kernel, Module, ModuleKind
+from s2gen.parts.batch import BATCH_LANES, BATCH_PART
 from s2gen.passes.workspace import padded
 from s2gen.printing.c import (
     c_decl,
@@ -26,6 +27,7 @@ from s2gen.printing.c import (
     nullable_note,
     rows,
 )
+from s2gen.printing.c_batch import batch_work
 from s2gen.printing.c_calls import c_binding
 from s2gen.printing.jacobian import JACOBIAN_PART
 
@@ -101,6 +103,15 @@ def _step_macros(module: Module) -> tuple[Macro, ...]:
                 "1: step_jacobian() differentiates the VI family too (M diagonal or dense)",
             ),
         )
+    if BATCH_PART in module.parts:
+        jac += (
+            ("BATCH_LANES", str(BATCH_LANES), "members integrate_batch() advances together"),
+            (
+                "BATCH_WORK_SIZE",
+                str(batch_work(module)["size"]),
+                "workspace doubles integrate_batch() needs, whatever K",
+            ),
+        )
     if module.drive is not None:
         return (("NINPUTS", str(len(module.drive.inputs)), "inputs in u (see input_names)"), *jac)
     return (("STEP_CARRY", str(module.layout("carry").size), "doubles of step()'s carry"), *jac)
@@ -156,7 +167,10 @@ def c_functions(module: Module) -> tuple[dict[str, str | tuple[str, ...]], ...]:
     """
     out: list[dict[str, str | tuple[str, ...]]] = []
     for f in interface(
-        module.kind, module.drive is not None, JACOBIAN_PART in module.parts
+        module.kind,
+        module.drive is not None,
+        JACOBIAN_PART in module.parts,
+        BATCH_PART in module.parts,
     ).functions:
         note = nullable_note(f.params)
         doc = f.doc + (" " + note if note and "NULL" not in f.doc else "")
@@ -175,7 +189,12 @@ def c_fields(module: Module, which: str) -> tuple[dict[str, str], ...]:
         >>> c_fields(m, "options")[0]["c_decl"], c_fields(m, "options")[0]["c_default"]
         ('double rtol', '1e-3')
     """
-    api = interface(module.kind, module.drive is not None, JACOBIAN_PART in module.parts)
+    api = interface(
+        module.kind,
+        module.drive is not None,
+        JACOBIAN_PART in module.parts,
+        BATCH_PART in module.parts,
+    )
     upper = module.name.upper()
     return tuple(
         {

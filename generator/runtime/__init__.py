@@ -58,7 +58,9 @@ __all__ = [
     "Options",
     "Trajectory",
     "check_run",
+    "failure",
     "get_backend",
+    "nonfinite_energy",
     "run",
     "simulate",
 ]
@@ -255,11 +257,7 @@ def run(
     bad_energy = first_nonfinite(en, k)
     if bad_energy is not None:  # the state is finite there (else the backend had stopped)
         k, status = bad_energy, int(Status.NONFINITE)
-        why = (
-            f"the energy is not finite at t = {t[k]:.6g} while the state is (the potential or "
-            "the kinetic energy is undefined there or beyond the range of a double: check V "
-            "and the parameters)"
-        )
+        why = nonfinite_energy(t, k)
         stats = {**stats, "fail_step": k}
     if status != 0:
         kept = None if en is None else en[:k]
@@ -267,15 +265,29 @@ def run(
             meta.update(work=work[:k])
         partial = Trajectory(t[:k], q[:k], w[:k], kept, method, backend, h, stats, wall, **meta)
         partial = checked(partial, system, scale, opts.energy_warn, warn=False)
-        last = f"after t = {t[k - 1]:.6g}" if k else "at the initial state"
-        raise IntegrationError(
-            f"{method} ({backend}) failed {last}: {why}; the {k} valid samples are kept",
-            status,
-            k,
-            partial,
-        )
+        raise IntegrationError(failure(method, backend, t, k, why), status, k, partial)
     tr = Trajectory(t, q, w, en, method, backend, h, stats, wall, **meta)
     return checked(tr, system, scale, opts.energy_warn)
+
+
+def nonfinite_energy(t: np.ndarray, k: int) -> str:
+    """Why a run stops at sample k whose state is finite and whose energy is not."""
+    return (
+        f"the energy is not finite at t = {t[k]:.6g} while the state is (the potential or "
+        "the kinetic energy is undefined there or beyond the range of a double: check V "
+        "and the parameters)"
+    )
+
+
+def failure(method: str, backend: str, t: np.ndarray, k: int, why: str) -> str:
+    """The message of a run that failed after its k valid samples (times t).
+
+    Example:
+        >>> failure("vi", "c", np.array([0.0, 0.5]), 2, "a reason")
+        'vi (c) failed after t = 0.5: a reason; the 2 valid samples are kept'
+    """
+    last = f"after t = {t[k - 1]:.6g}" if k else "at the initial state"
+    return f"{method} ({backend}) failed {last}: {why}; the {k} valid samples are kept"
 
 
 def _driven_call(

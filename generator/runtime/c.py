@@ -81,7 +81,11 @@ class CLibrary:
         header = files[f"{prefix}.h"]
         #: Whether the module has step_jacobian() (systems of a few bodies)
         self.jacobian = f"#define {prefix.upper()}_JACOBIAN_WORK_SIZE " in header
-        self.api: Interface = interface(kind, driven, self.jacobian)
+        #: Whether the module has integrate_batch() (`System.with_batch`)
+        self.batch = f"#define {prefix.upper()}_BATCH_WORK_SIZE " in header
+        self.api: Interface = interface(kind, driven, self.jacobian, self.batch)
+        #: Doubles of integrate_batch()'s workspace (0 without it)
+        self.batch_work = header_macro(header, "BATCH_WORK_SIZE") if self.batch else 0
         self.lib, self.build = load_library(files, build_flags(opt))
         self.work = np.zeros(max(1, header_macro(files[f"{prefix}.h"], "WORK_SIZE")))
         #: Doubles of step_jacobian()'s workspace (0 without it)

@@ -22,14 +22,14 @@ import numpy as np
 
 from s2gen.runtime import get_backend, run
 from s2gen.runtime.inputs import parameter_vector
+from s2gen.runtime.model_jacobians import JacobianMethods
 from s2gen.runtime.options import Options
 from s2gen.runtime.trajectory import Trajectory
 from s2gen.system import System
 
 if TYPE_CHECKING:
-    from s2gen.runtime.field_jacobian import FieldJacobian
+    from s2gen.runtime.batch import Batch
     from s2gen.runtime.linearize import Linearization
-    from s2gen.runtime.lyapunov import LyapunovSpectrum
     from s2gen.runtime.stepper import Stepper
 
 __all__ = ["Model"]
@@ -38,7 +38,7 @@ __all__ = ["Model"]
 _DEFAULT_OPTIONS = Options()
 
 
-class Model:
+class Model(JacobianMethods):
     """`system` compiled for `backend` ("c", "numpy" or "reference")."""
 
     def __init__(
@@ -64,6 +64,8 @@ class Model:
             self._backend = CBackend(system, files, opt)
         self._steps: Any = None
         self._jacobians: Any = None  # the C backend with step_jacobian(), once linearize asks
+        self._batch: Any = None  # the C backend with integrate_batch(), once asked for
+        self._opt = opt
         if backend in ("c", "numpy") and not system.driven:
             from s2gen.runtime.step_cache import StepCache
 
@@ -119,6 +121,57 @@ class Model:
             t0=t0,
             inputs=inputs,
         )
+
+    def integrate_batch(
+        self,
+        method: str = "vi",
+        h: float | None = None,
+        T: float | None = None,
+        q0: np.ndarray | None = None,
+        omega0: np.ndarray | None = None,
+        params: Mapping[str, Any] | None = None,
+        every: int = 1,
+        energy: bool = True,
+        options: Options | None = None,
+    ) -> Batch:
+        """K members at once, each with its own initial state (q0, omega0 of shape (K, n, 3);
+        default: the spec's) and parameters (`params`: name -> K values, or one for all),
+        through integrate_batch() (`s2gen.runtime.batch`): each member's samples, energy and
+        statistics equal `integrate`'s for it bit for bit; a failing member stops alone (its
+        status and stats say why and where). C backend, closed systems with a diagonal M,
+        the methods of `s2gen.parts.batch.BATCH_METHODS`; the first call builds the module
+        with integrate_batch() (`System.with_batch`).
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> b = Model(builtin("four_pendula")).integrate_batch(
+            ...     "rk4", h=0.01, T=0.1, params={"g": [9.0, 9.5, 10.0]}, every=5)
+            >>> b.q.shape, b.status.tolist()
+            ((3, 3, 4, 3), [0, 0, 0])
+        """
+        from s2gen.parts.batch import batch_refusal
+        from s2gen.runtime import check_run
+        from s2gen.runtime.batch import integrate_batch, member_arrays
+        from s2gen.runtime.c import CBackend
+
+        if self.backend_name != "c":
+            raise ValueError(
+                f"integrate_batch: the C backend only (not {self.backend_name!r}); the NumPy "
+                "backend runs one member per call of integrate"
+            )
+        why = batch_refusal(self.system)
+        if why is not None:
+            raise ValueError(why)
+        h = h if h is not None else self.system.run.h
+        T = T if T is not None else self.system.run.T
+        if h is None or T is None:
+            raise ValueError(f"{self.system.origin}: no step size h or final time T given")
+        opts = options or Options()
+        nsteps = check_run(self.system, method, h, T, opts, every)
+        qs, ws, p = member_arrays(self.system, q0, omega0, params)
+        if self._batch is None:
+            self._batch = CBackend(self.system.with_batch(), opt=self._opt)
+        return integrate_batch(self._batch, method, h, nsteps, qs, ws, p, opts, every, energy)
 
     def step(
         self,
@@ -238,90 +291,6 @@ class Model:
         uu = None if u is None else np.asarray(u, dtype=float)
         backend = self._jacobian_backend()
         return linearize(backend, q, omega, h, method, p, t, uu, basis, options)
-
-    def _jacobian_backend(self) -> Any:
-        """The backend with step_jacobian() and field_jacobian(): this one when it has them,
-        else (C) the module built once from `System.with_jacobians` when first asked for."""
-        from s2gen.equations.jacobian import jacobian_refusal
-        from s2gen.runtime.c import CBackend
-
-        backend = self._backend
-        if isinstance(backend, CBackend) and not backend.library.jacobian:
-            why = jacobian_refusal(self.system)
-            if why is not None:
-                raise ValueError(f"{self.system.name}: {why}")
-            if self._jacobians is None:
-                self._jacobians = CBackend(self.system.with_jacobians())
-            backend = self._jacobians
-        return backend
-
-    def jacobian_field(
-        self,
-        q: np.ndarray,
-        omega: np.ndarray,
-        t: float = 0.0,
-        u: Sequence[float] | np.ndarray | None = None,
-        basis: str = "tangent",
-        params: Mapping[str, float] | None = None,
-    ) -> FieldJacobian:
-        """The exact derivatives of the continuous field (qdot, omegadot) at (q, omega) at
-        time t with the inputs u (None: the spec's): J = d/dx and Ju = d/du in the tangent
-        basis (4n: the generator of `linearize`'s tangent A, A = I + hJ + O(h^2) for a
-        Runge-Kutta step) or the embedding coordinates (6n), with the field and the basis
-        (`s2gen.runtime.field_jacobian`); C backend only, as `linearize`.
-
-        Example:
-            >>> from s2gen.systems import builtin
-            >>> s = builtin("double_pendulum")
-            >>> fj = Model(s).jacobian_field(s.q0, s.omega0, basis="embedding")
-            >>> fj.J.shape, fj.qdot.shape
-            ((12, 12), (2, 3))
-        """
-        from s2gen.runtime.field_jacobian import jacobian_field
-
-        p = parameter_vector(self.system, params)
-        uu = None if u is None else np.asarray(u, dtype=float)
-        return jacobian_field(self._jacobian_backend(), q, omega, p, t, uu, basis)
-
-    def lyapunov(
-        self,
-        q: np.ndarray,
-        omega: np.ndarray,
-        h: float,
-        T: float,
-        method: str = "vi",
-        transient: float = 0.0,
-        t0: float = 0.0,
-        u: Sequence[float] | np.ndarray | None = None,
-        blocks: int = 10,
-        samples: int = 400,
-        params: Mapping[str, float] | None = None,
-        options: Options | None = None,
-        progress: Any = None,
-    ) -> LyapunovSpectrum:
-        """The Lyapunov spectrum of the steps of `method` (those `linearize` takes) from
-        (q, omega) at t0 with the inputs u held: `transient` discarded, then T averaged, by QR
-        re-orthonormalization of the step Jacobians in the tangent basis
-        (`s2gen.runtime.lyapunov`): the exponents (4n, decreasing up to nearly equal ones)
-        and their errors from `blocks` block means, the pair sums, the running estimates at
-        `samples` times; `progress(fraction)` is called as the run goes. C backend only, as
-        `linearize`.
-
-        Example:
-            >>> from s2gen.systems import builtin
-            >>> s = builtin("double_pendulum")
-            >>> ls = Model(s).lyapunov(s.q0, s.omega0, h=0.01, T=1.0)
-            >>> ls.exponents.shape, ls.pair_sums.shape
-            ((8,), (4,))
-        """
-        from s2gen.runtime.lyapunov import lyapunov
-
-        p = parameter_vector(self.system, params)
-        uu = None if u is None else np.asarray(u, dtype=float)
-        return lyapunov(
-            self._jacobian_backend(), q, omega, h, T, method, p, transient, t0, uu, blocks,
-            samples, options, progress,
-        )  # fmt: skip
 
     def stepper(
         self,

@@ -1,0 +1,183 @@
+"""A batch of members through integrate_batch(): one C call, each member's result as
+`worker.run_member` would give it.
+
+Input: a `Payload` that carries the sources of the module with integrate_batch()
+(`Payload.batch_files`: closed systems with a diagonal M and a batched method, see
+`s2gen.parts.batch`) and a batch of `Task`s with one step size. Output: their
+`MemberResult`s, each equal to `run_member`'s for that member (its samples, energy and
+statistics bit for bit: integrate_batch() is integrate() lane by lane; its status and message
+by the same checks and texts as `s2gen.runtime.run`), except the timings: a member's wall time
+is its share of the batch's call. A member whose inputs `run` would refuse (a non-unit q0, a
+potential not finite at q0) is recorded as a task error with `run`'s message, as
+`run_members` records it.
+
+Example:
+    >>> import s2gen
+    >>> from s2gen.ensemble.worker import Task, make_payload
+    >>> s = s2gen.load("four_pendula")
+    >>> payload = make_payload(s, s2gen.generate(s, "c"), "vi", T=0.1, every=5,
+    ...                        batch_files=s2gen.generate(s.with_batch(), "c"))
+    >>> rs = run_batched(payload, (Task(0, 0.01, s.q0, s.omega0, ()),
+    ...                            Task(1, 0.01, s.q0, s.omega0, (("g", 1.0),))))
+    >>> [r.index for r in rs], [r.status for r in rs], rs[0].q.shape
+    ([0, 1], [0, 0], (3, 4, 3))
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import numpy as np
+
+from .worker import MemberResult, Payload, Task, _worker_name, failed_task, run_member, thin
+
+__all__ = ["run_batched", "run_members"]
+
+_local = threading.local()
+
+
+def _backend(payload: Payload) -> tuple[Any, float]:
+    """This thread's loaded module with integrate_batch(), and the seconds spent loading it
+    now (0 when reused): one per payload (keyed by its digest)."""
+    from s2gen.runtime.c import CBackend
+
+    cached = getattr(_local, "batch", None)
+    if cached is not None and cached[0] == payload.digest:
+        return cached[1], 0.0
+    start = time.perf_counter()
+    be = CBackend(payload.system.with_batch(), files=payload.batch_files)
+    _local.batch = (payload.digest, be)
+    return be, time.perf_counter() - start
+
+
+def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult, ...] | None:
+    """The batch's results through one integrate_batch() call, or None when the payload has
+    no batched module or the members' step sizes differ (then `run_members` runs them one by
+    one)."""
+    from s2gen.methods import Status
+    from s2gen.runtime import check_run, failure, nonfinite_energy
+    from s2gen.runtime.batch import integrate_batch
+    from s2gen.runtime.diagnostics import energy_scale, first_nonfinite
+    from s2gen.runtime.inputs import initial_state, parameter_vector
+
+    from .admission import identity
+
+    steps = {t.h for t in tasks}
+    if payload.batch_files is None or len(steps) != 1:
+        return None
+    different = payload.identity.differences(identity())
+    if different:
+        raise RuntimeError(f"worker {_worker_name()} runs {different}: refused")
+    be, setup = _backend(payload)
+    system, opts, method, h = payload.system, payload.options, payload.method, steps.pop()
+    n = system.n
+    out: dict[int, MemberResult] = {}
+    ready: list[tuple[Task, np.ndarray, np.ndarray, np.ndarray]] = []
+    for task in tasks:  # the checks of Model.integrate and run, in their order
+        try:
+            p = parameter_vector(system, parameter_vector(system, dict(task.params)))
+            check_run(system, method, h, payload.T, opts, 1)
+            q0, w0 = initial_state(system, task.q0, task.omega0, opts.unit_tol)
+            energy_scale(be, q0, w0, p, True)
+        except Exception as exc:  # noqa: BLE001 (the member's outcome, as run_members records it)
+            out[task.index] = failed_task(task, n, f"{type(exc).__name__}: {exc}")
+        else:
+            ready.append((task, q0, w0, p))
+    if ready:
+        nsteps = check_run(system, method, h, payload.T, opts, 1)
+        start = time.perf_counter()
+        b = integrate_batch(
+            be,
+            method,
+            h,
+            nsteps,
+            np.stack([r[1] for r in ready]),
+            np.stack([r[2] for r in ready]),
+            np.stack([r[3] for r in ready]),
+            opts,
+        )
+        wall = (time.perf_counter() - start) / len(ready)
+        assert b.energy is not None
+        for j, (task, *_) in enumerate(ready):
+            status = int(b.status[j])
+            k = int(b.stats["fail_step"][j]) if status else len(b.t)
+            why = Status(status).message if status in Status._value2member_map_ else str(status)
+            bad = first_nonfinite(b.energy[j], k)
+            if bad is not None:
+                k, status, why = bad, int(Status.NONFINITE), nonfinite_energy(b.t, k)
+            message = failure(method, "c", b.t, k, why) if status else "ok"
+            out[task.index] = _result(payload, task, status, message, b, j, k, wall, setup)
+            setup = 0.0
+    return tuple(out[t.index] for t in tasks)
+
+
+def _result(
+    payload: Payload,
+    task: Task,
+    status: int,
+    message: str,
+    b: Any,
+    j: int,
+    k: int,
+    wall: float,
+    setup: float,
+) -> MemberResult:
+    """Member j of batch b with its k valid samples, summarised as `run_member` does."""
+    t, q, w, e = b.t[:k], b.q[j, :k], b.omega[j, :k], b.energy[j, :k]
+    if k:
+        dev = np.abs(e - e[0])
+        mean_de, max_de = float(dev.mean()), float(dev.max())
+        max_unit = float(np.abs(np.sqrt(np.einsum("skc,skc->sk", q, q)) - 1.0).max())
+    else:
+        mean_de = max_de = max_unit = float("nan")
+    return MemberResult(
+        index=task.index,
+        status=status,
+        message=message,
+        t=thin(t, payload.every),
+        q=thin(q, payload.every),
+        omega=thin(w, payload.every),
+        energy=thin(e, payload.every),
+        samples=k,
+        mean_dE=mean_de,
+        max_dE=max_de,
+        max_unit=max_unit,
+        steps=int(b.stats["steps"][j]),
+        rejected=int(b.stats["rejected"][j]),
+        gradient_evals=int(b.stats["gradient_evals"][j]),
+        wall_time=wall,
+        setup_time=setup,
+        worker=_worker_name(),
+    )
+
+
+def run_members(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult, ...]:
+    """A batch of members: through one integrate_batch() call when the payload carries
+    that module and the members share their step (`batched.run_batched`), else one after
+    another with this worker's loaded model; each one's result as `run_member` gives it
+    (timings aside), a member whose task raises recorded as `failed_task` (the others go
+    on). One Dask task per batch carries its members' inputs and results.
+
+    Example:
+        >>> import s2gen
+        >>> from s2gen.ensemble.worker import Task, make_payload
+        >>> s = s2gen.load("double_pendulum")
+        >>> payload = make_payload(s, s2gen.generate(s, "c"), "vi", T=0.1, every=5)
+        >>> rs = run_members(payload, (Task(0, 0.01, s.q0, s.omega0, ()),
+        ...                            Task(1, 0.01, s.q0, s.omega0, (("g", 1.0),))))
+        >>> [r.index for r in rs], [r.status for r in rs]
+        ([0, 1], [0, 0])
+    """
+    if len(tasks) > 1 and payload.batch_files is not None:
+        batched = run_batched(payload, tasks)
+        if batched is not None:
+            return batched
+    out = []
+    for task in tasks:
+        try:
+            out.append(run_member(payload, task))
+        except Exception as exc:  # noqa: BLE001 (the member's outcome; the batch goes on)
+            out.append(failed_task(task, payload.system.n, f"{type(exc).__name__}: {exc}"))
+    return tuple(out)

@@ -1,0 +1,58 @@
+"""The C interface of batches: ``integrate_batch()``, as an `interface.Function`.
+
+A sphere module emitted from `System.with_batch` has it (closed systems with a diagonal M, see
+`s2gen.parts.batch`); its header also defines BATCH_LANES and BATCH_WORK_SIZE.
+
+Layout: every per-member array is member-innermost, element e of member k at [e * K + k] (the
+parameters: p[j * K + k]; the initial state: q0[(3 i + c) * K + k]; sample s of the
+trajectory: q[(s * NSTATE + 3 i + c) * K + k], energy[s * K + k]). Why not blocks of
+BATCH_LANES: the caller's layout then depends on K alone, not on a lane count the generator
+chose (and may choose otherwise for another machine), and one member is one strided column,
+as NumPy holds an array of shape (..., K); the members go through the lanes block by block
+inside, in a workspace of BATCH_WORK_SIZE doubles whatever K is.
+
+Example:
+    >>> [p.name for p in INTEGRATE_BATCH.params][:4]
+    ['K', 'p', 'opt', 'method']
+"""
+
+from __future__ import annotations
+
+from s2gen.interface import Function, Kind, Param
+
+__all__ = ["INTEGRATE_BATCH"]
+
+_D, _CA, _A = Kind.DOUBLE, Kind.CONST_ARRAY, Kind.ARRAY
+
+INTEGRATE_BATCH = Function(
+    "integrate_batch",
+    Kind.INT,
+    (
+        Param("K", Kind.LONG),
+        Param("p", _CA),
+        Param("opt", Kind.OPTIONS, True),
+        Param("method", Kind.INT),
+        Param("h", _D),
+        Param("nsteps", Kind.LONG),
+        Param("q0", _CA),
+        Param("w0", _CA),
+        Param("q", _A),
+        Param("w", _A),
+        Param("energy", _A, True),
+        Param("work", _A),
+        Param("stats", Kind.STATS),
+        Param("status", Kind.INT_OUT),
+    ),
+    "integrate() for K members of the system at once, each with its own parameters and "
+    "initial state, BATCH_LANES members at a time in SIMD lanes; each member's samples, energy, "
+    "stats[k] and status[k] equal integrate()'s for that member bit for bit (same build "
+    "flags). Arrays are member-innermost: p[j * K + k] (NPARAMS * K doubles), q0 and w0 "
+    "[(3 i + c) * K + k] (NSTATE * K), q and w [(s * NSTATE + 3 i + c) * K + k] ((nsteps / "
+    "every + 1) * NSTATE * K), energy [s * K + k] (not evaluated when NULL). Methods: VI, VI4, "
+    "VI6, VI8, RK2, RK2_PROJ, RK3, RK4. A member that fails (status[k] as integrate() would "
+    "return it: a non-finite or non-unit q0, an infeasible or non-finite step) stops alone, "
+    "its samples before stats[k].fail_step valid; the others go on. work: BATCH_WORK_SIZE "
+    "doubles, whatever K. Returns ERR_ARGUMENT (nothing written) for K < 1, h <= 0, nsteps < "
+    "0, an every that does not divide nsteps or a method it does not take; else OK when every "
+    "member's status is OK, otherwise the status of the first member that failed.",
+)

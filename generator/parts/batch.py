@@ -1,0 +1,78 @@
+"""Batches: integrate_batch(), K members of one system per call, SIMD across members.
+
+A sphere module emitted from `System.with_batch` carries ``NAME_integrate_batch``: K members,
+each with its own parameters and initial state, laid out member-innermost (see
+`s2gen.interface_batch` for the caller's layout). Inside, the members run `BATCH_LANES` at a
+time: every quantity of the one-member step becomes a lane array (lane innermost), and the
+arithmetic of the step (the explicit VI's position and velocity updates, the Runge-Kutta
+stages and the uncoupled vector field) runs in loops over the lanes that the compiler
+vectorises (OpenMP SIMD hints). Each lane performs the one-member code's operations in the
+same order on its own numbers, so that a member's trajectory, energy and statistics equal
+integrate()'s bit for bit; the gradient dV/dq and the energy are the one-member code's own
+functions, called lane by lane (their member loops, neighbour lists and member tables are
+kept as they are).
+
+What is covered: closed systems (no forces, inputs or time) with a diagonal M; the explicit VI
+and its compositions (vi, vi4, vi6, vi8) and the fixed-step Runge-Kutta methods (rk2, rk2-proj,
+rk3, rk4). What is not: a coupled M (the Newton VI with per-lane convergence masks), RATTLE,
+the adaptive methods (per-member step sizes) and driven systems; `batch_refusal` says which.
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> batch_refusal(builtin("four_pendula")) is None
+    True
+    >>> print(batch_refusal(builtin("double_pendulum")))
+    double_pendulum: integrate_batch() covers closed systems with a diagonal M (explicit VI); this one has a dense M
+"""
+
+from __future__ import annotations
+
+from s2gen.inertia import InertiaKind
+from s2gen.parts.records import Part
+from s2gen.system import System
+
+__all__ = ["BATCH_LANES", "BATCH_METHODS", "BATCH_PART", "batch_refusal", "has_batch"]
+
+#: The part's name (`Module.parts`) and its partial, c/_batch.jinja (C only).
+BATCH_PART = "batch"
+
+#: Members advanced together: 8 doubles fill one AVX-512 register, two AVX2 or four SSE2
+#: registers; fixed at generation time so that the emitted text (and the caller's workspace)
+#: does not depend on the build flags.
+BATCH_LANES = 8
+
+#: The methods integrate_batch() takes (others: ERR_ARGUMENT).
+BATCH_METHODS: tuple[str, ...] = ("vi", "vi4", "vi6", "vi8", "rk2", "rk2-proj", "rk3", "rk4")
+
+PART = Part(BATCH_PART)
+
+
+def batch_refusal(system: System) -> str | None:
+    """Why `system`'s C cannot carry integrate_batch(), in one line, or None."""
+    from s2gen.equations.structure import choose_solver
+
+    if system.driven:
+        return (
+            f"{system.name}: integrate_batch() covers closed systems; this one is driven "
+            "(forces, inputs or time)"
+        )
+    solver = choose_solver(system)
+    if solver is not InertiaKind.DIAGONAL:
+        return (
+            f"{system.name}: integrate_batch() covers closed systems with a diagonal M "
+            f"(explicit VI); this one has a {solver.value} M"
+        )
+    return None
+
+
+def has_batch(system: System) -> bool:
+    """Whether the emitted C of `system` carries integrate_batch(): asked for
+    (`System.with_batch`) and covered (`batch_refusal`).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> s = builtin("three_bodies")
+        >>> has_batch(s), has_batch(s.with_batch())
+        (False, True)
+    """
+    return system.batch and batch_refusal(system) is None

@@ -1,0 +1,240 @@
+"""The batch part's record for c/_batch.jinja: lanes, lane-array sizes, workspace offsets.
+
+Input: a lowered sphere module with the ``batch`` part (`s2gen.parts.batch`). Output: a dict
+(empty without the part), read by the template as `m.batch`. The VI's position and velocity
+updates in the lane loops are the module's own inline lines (`m.inline`, the C printer's), so
+that a lane performs the very operations of the one-member loop over bodies.
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> from s2gen.passes import lower_system
+    >>> b = print_batch(lower_system(builtin("four_pendula").with_batch()))
+    >>> b["lanes"], b["nsl"], b["work"]["lane_work"]
+    (8, 192, 0)
+    >>> print_batch(lower_system(builtin("four_pendula")))["lanes"]
+    0
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import sympy as sp
+
+from s2gen.bindings import BodyDatum, ContextArray, Local, MemberSlot, TermDatum, TermTable
+from s2gen.ir import Call, Kernel, Module
+from s2gen.methods import explicit_tableaus
+from s2gen.parts.batch import BATCH_LANES, BATCH_PART
+from s2gen.printing.c import CPrinter, c_inline, c_loop
+from s2gen.printing.c_calls import c_binding
+
+__all__ = ["batch_work", "print_batch"]
+
+#: The explicit VI's lane arrays of N3 doubles per lane (then sv, mi and chk); the
+#: Runge-Kutta arrays share the region with them.
+_VI = ("x", "v", "gx", "xn", "vn", "gn")
+
+
+def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
+    """Offsets (doubles) of integrate_batch()'s workspace: each lane's own workspace
+    (`lane_work`, WORK_SIZE each: its per-call context and the scratch of the one-member
+    gradient and energy), each lane's parameters (`params`), each lane's contiguous copies
+    of one member's q, w and g (`scratch`, 4 N3 each), then the lane arrays (lane
+    innermost; their offsets from `lanes`, which is aligned to 64 bytes inside `size`
+    doubles, `slack` to spare): the VI's x, v, gx, xn, vn, gn, sv, mi, chk or Runge-Kutta's
+    rk_y0, rk_yn, rk_k, rk_chk, rk_mi, rk_xc, rk_gs (the same region), then the lanes'
+    constants `cc`, parameters `pl`, member tables `t<k>` and gradient `g`.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> m = lower_system(builtin("three_bodies").with_batch())
+        >>> w = batch_work(m, lanes=2)
+        >>> w["params"] == 2 * m.work_size, w["scratch"] - w["params"], w["x"], w["v"]
+        (True, 4, 0, 18)
+    """
+    n3, n = 3 * module.n, module.n
+    ns = 2 * n3
+    stages = max(t.stages for t in explicit_tableaus(module.kind.value))
+    off: dict[str, int] = {"lane_work": 0}
+    at = lanes * module.work_size
+    off["params"] = at
+    at += lanes * max(1, len(module.parameter_names))
+    off["scratch"] = at
+    at += lanes * 4 * n3
+    off["lanes"] = at
+    rel = 0
+    for name in _VI:
+        off[name] = rel
+        rel += n3 * lanes
+    off["sv"], off["mi"], off["chk"] = rel, rel + n * lanes, rel + 2 * n * lanes
+    vi_end = rel + 2 * n * lanes + lanes
+    # Runge-Kutta: y0, yn, the stages k and chk
+    rk = {"y0": 0, "yn": ns * lanes, "k": 2 * ns * lanes, "chk": (2 + stages) * ns * lanes}
+    rk["mi"] = rk["chk"] + lanes
+    rk["xc"] = rk["mi"] + n * lanes  # the lanes' positions component-major, for dV/dq
+    rk["gs"] = rk["xc"] + n3 * lanes  # (the component-major gradient, unread)
+    rk_end = rk["gs"] + n3 * lanes
+    off.update({f"rk_{k}": v for k, v in rk.items()})
+    # the lanes' constants, parameters and member tables (lane innermost), the lane gradient
+    off["cc"] = max(vi_end, rk_end)
+    off["pl"] = off["cc"] + max(1, module.constants) * lanes
+    at2 = off["pl"] + max(1, len(module.parameter_names)) * lanes
+    for t in module.terms:
+        off[f"t{t.index}"] = at2
+        at2 += t.table * t.loop.count * lanes
+    off["g"] = at2
+    at2 += n3 * lanes
+    off["slack"] = 7
+    off["size"] = at + at2 + off["slack"]
+    return off
+
+
+#: The gradient record where dV/dq runs lane by lane (no loops over the lanes).
+_NO_LANES: dict[str, Any] = {"general": False, "parts": ()}
+
+
+def print_batch(module: Module) -> dict[str, Any]:
+    """The batch part's record: lane count, the flat size of an NS-per-lane array and the
+    workspace offsets (`batch_work`), dV/dq in loops over the lanes (`lane_gradient`; no
+    parts where it runs lane by lane), the field's kernel inline and the member tables the
+    lanes copy; every key empty (or 0) without the part."""
+    if BATCH_PART not in module.parts:
+        return {
+            "lanes": 0,
+            "nsl": 0,
+            "nl3": 0,
+            "work": {},
+            "gradient": _NO_LANES,
+            "rhs": (),
+            "tables": (),
+        }
+    for name in ("vi_pos", "vi_vel"):
+        scalars = [a.name for a in module.kernel(name).inputs if a.scalar]
+        assert scalars == ["h", "mi"], f"{name}: the batch loads h and mi only, not {scalars}"
+    return {
+        "lanes": BATCH_LANES,
+        "nsl": 6 * module.n * BATCH_LANES,
+        "nl3": 3 * module.n * BATCH_LANES,
+        "work": batch_work(module, BATCH_LANES),
+        "gradient": lane_gradient(module) or _NO_LANES,
+        "rhs": _rhs(module),
+        "tables": tuple(
+            {"index": t.index, "size": t.table * t.loop.count} for t in module.terms if t.table
+        ),
+    }
+
+
+def _rhs(module: Module) -> tuple[str, ...]:
+    """The uncoupled field's kernel (rhs_diag) inline: scalars q0.., w0.., g0.. and mi in,
+    dq0.., dw0.. out (the same printer as the one-member kernel's body)."""
+    kernel = module.kernel("rhs_diag")
+    assert isinstance(kernel, Kernel), "the passes lowered every kernel"
+    assert [a.name for a in kernel.inputs] == ["mi", "q", "w", "g"]
+    shared, lines = c_inline(kernel, scalars=("q", "w", "g"))
+    assert not shared
+    return lines
+
+
+def _lane_names(
+    module: Module, call: Call, kernel: Kernel
+) -> tuple[dict[sp.Symbol, str], list[str]] | None:
+    """C names, in a loop over lanes l inside a term's member loop (m, i, j), of a gradient
+    kernel's inputs, and the loads they need; None for a binding the lanes do not hold."""
+    n = module.n
+    names: dict[sp.Symbol, str] = {}
+    loads: list[str] = []
+    for arg, bound in zip(kernel.inputs, call.inputs):
+        if isinstance(bound, MemberSlot):
+            for c, s in enumerate(arg.symbols):
+                names[s] = f"{arg.name}{c}"
+                loads.append(f"const double {arg.name}{c} = xs[({c * n} + {bound.body}) * L + l];")
+        elif isinstance(bound, ContextArray) and bound.name == "cc":
+            names.update({s: f"cc[{k} * L + l]" for k, s in enumerate(arg.symbols)})
+        elif isinstance(bound, TermTable) and not bound.row:
+            width = module.terms[call_term(call)].table
+            names.update(
+                {s: f"tab[(m * {width} + {k}) * L + l]" for k, s in enumerate(arg.symbols)}
+            )
+        elif isinstance(bound, Local) and bound.name == "p" and not bound.address:
+            names.update({s: f"pl[{k} * L + l]" for k, s in enumerate(arg.symbols)})
+        elif isinstance(bound, Local) and bound.name == "q" and not bound.address:
+            names.update(
+                {s: f"xs[({(k % 3) * n + k // 3}) * L + l]" for k, s in enumerate(arg.symbols)}
+            )
+        elif isinstance(bound, (TermDatum, BodyDatum)):
+            at = c_binding(module.name, bound)
+            if arg.scalar:
+                names[arg.symbols[0]] = at
+            else:
+                names.update({s: f"({at})[{k}]" for k, s in enumerate(arg.symbols)})
+        else:
+            return None
+    return names, loads
+
+
+def call_term(call: Call) -> int:
+    """The term of a term's call site (``t<k>_gradient``)."""
+    return int(call.site[1:].split("_", 1)[0])
+
+
+def lane_gradient(module: Module) -> dict[str, Any] | None:
+    """dV/dq in loops over lanes, for the explicit VI: the general kernel or the terms' member
+    loops (their own loop heads, `c_open`), each member's kernel inline with its inputs read
+    from the lanes (positions, constants, member tables, parameters) and its outputs added
+    into the body-major lane gradient in the one-member code's order; None when some part of
+    the gradient is not a member loop over fixed members (rows, quadratic forms, cutoffs) or
+    reads what the lanes do not hold (the batch then calls gradient_soa lane by lane)."""
+    general = dict(module.facts).get("general", False)
+    if any(t.rows or t.quadratic or t.sorted_cells or not t.loop.kind.fixed for t in module.terms):
+        return None
+    if bool(general) == bool(module.terms):
+        return None  # a general kernel alone, or terms alone
+    pr_calls = {c.site: c for c in module.calls}
+    off = batch_work(module)
+    parts: list[dict[str, Any]] = []
+    sites = ["gradient"] if general else [f"t{t.index}_gradient" for t in module.terms]
+    for site in sites:
+        call = pr_calls[site]
+        kernel = module.kernel(call.kernel)
+        assert isinstance(kernel, Kernel), "the passes lowered every kernel"
+        named = _lane_names(module, call, kernel)
+        if named is None:
+            return None
+        names, loads = named
+        used: set[str] = set()
+        for a in kernel.assignments:
+            used |= {names.get(x, "") for x in a.expr.free_symbols}  # type: ignore[call-overload]
+        loads = [line for line in loads if line.split(" = ")[0].split()[-1] in used]
+        pr = CPrinter(names)
+        lines = []
+        for a in kernel.assignments:
+            out = a.output or ("", 0)
+            target = a.temp if a.temp is not None else f"{out[0]}{out[1]}"
+            lines.append(f"const double {target} = {pr.doprint(a.expr)};")
+        if general:
+            (out,) = kernel.outputs
+            stores = [f"g[{e} * L + l] = {out.name}{e};" for e in range(out.size)]
+        else:
+            bodies = ("i", "j")
+            stores = [
+                f"g[(3 * {bodies[o]} + {c}) * L + l] += {out.name}{c};"
+                for o, out in enumerate(kernel.outputs)
+                for c in range(out.size)
+            ]
+        head: tuple[str, ...] = ()
+        tail: tuple[str, ...] = ()
+        if not general:
+            head, tail = c_loop(module.name, module.terms[call_term(call)], module.n)
+        term = None if general else module.terms[call_term(call)]
+        parts.append(
+            {
+                "table": off[f"t{term.index}"] if term is not None and term.table else 0,
+                "open": head,
+                "close": tail,
+                "loads": tuple(loads),
+                "lines": tuple(lines),
+                "stores": tuple(stores),
+            }
+        )
+    return {"general": bool(general), "parts": tuple(parts)}

@@ -1,0 +1,129 @@
+"""integrate_batch(): each member bit for bit integrate()'s for that member, failures alone.
+
+The reference is the plain module's integrate() (the module without integrate_batch(), built
+with the same flags), called once per member: every member's samples q and omega, its energy,
+its status and every field of its statistics must be equal as raw doubles (compared as
+uint64, so that -0.0 and 0.0 or two NaN payloads would differ). The batch holds K = 11
+members (not a multiple of BATCH_LANES: the last block is padded), every member with its own
+parameters and initial state, one with a NaN in q0 (fails before its first sample) and one
+with an angular velocity so large that its first step fails (infeasible for the VI, not
+finite for Runge-Kutta): their neighbours in the same block must not notice.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from s2gen.parts.batch import BATCH_LANES, BATCH_METHODS
+from s2gen.runtime.batch import integrate_batch
+from s2gen.runtime.c import CBackend
+from s2gen.runtime.model import Model
+from s2gen.runtime.options import Options
+from s2gen.system import System
+from s2gen.systems import builtin, resolve
+
+K, H, NSTEPS, EVERY = 11, 0.01, 60, 6
+SPECS = Path(__file__).parent / "specs"
+NAN_MEMBER, FAST_MEMBER = 3, 9
+
+
+def system(name: str) -> System:
+    """A built-in, or a spec of tests/specs (``springs4``: a general potential alone)."""
+    return resolve(str(SPECS / "springs4.toml")) if name == "springs4" else builtin(name)
+
+
+def members(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """K perturbed copies of the spec's state and parameters, two of them made to fail."""
+    s = system(name)
+    rng = np.random.default_rng(7)
+    q0 = s.q0[None] + 1e-2 * rng.standard_normal((K, s.n, 3))
+    q0 /= np.linalg.norm(q0, axis=2, keepdims=True)
+    w0 = s.omega0[None] + 0.1 * rng.standard_normal((K, s.n, 3))
+    w0 -= np.sum(w0 * q0, axis=2, keepdims=True) * q0
+    p = np.array(s.parameter_values)[None] * (1 + 0.2 * rng.random((K, len(s.parameter_values))))
+    q0[NAN_MEMBER, 0, 1] = np.nan
+    w0[FAST_MEMBER] *= 1e170
+    return q0, w0, p
+
+
+def bits(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a).view(np.uint64)
+
+
+def check(name: str, methods: tuple[str, ...], opt: str | None) -> None:
+    s = system(name)
+    one, batched = CBackend(s, opt=opt), CBackend(s.with_batch(), opt=opt)
+    assert not one.library.batch and batched.library.batch
+    q0, w0, p = members(name)
+    assert K % BATCH_LANES != 0
+    for m in methods:
+        b = integrate_batch(batched, m, H, NSTEPS, q0, w0, p, Options(), EVERY)
+        assert b.energy is not None
+        for k in range(K):
+            status, q, w, e, stats = one.integrate(
+                m, H, NSTEPS, q0[k], w0[k], p[k], Options(), EVERY
+            )
+            assert e is not None
+            done = int(stats["fail_step"]) if status else q.shape[0]
+            where = f"{name} {m} member {k}"
+            assert int(b.status[k]) == status, where
+            assert {
+                f: int(v[k]) if f != "fail_time" else float(v[k]) for f, v in b.stats.items()
+            } == stats, where
+            assert np.array_equal(bits(b.q[k, :done]), bits(q[:done])), where
+            assert np.array_equal(bits(b.omega[k, :done]), bits(w[:done])), where
+            assert np.array_equal(bits(b.energy[k, :done]), bits(e[:done])), where
+            assert np.isnan(b.q[k, done:]).all(), where  # nothing written past a failure
+        ok = [k for k in range(K) if k not in (NAN_MEMBER, FAST_MEMBER)]
+        assert (b.status[ok] == 0).all() and b.status[NAN_MEMBER] == 3, m
+        assert b.status[FAST_MEMBER] != 0 and b.stats["fail_step"][FAST_MEMBER] == 1, m
+
+
+def test_four_pendula_every_method() -> None:
+    """Explicit VI, its compositions and the fixed-step Runge-Kutta methods (listed and body
+    terms with member tables), portable flags."""
+    check("four_pendula", BATCH_METHODS, "portable")
+
+
+def test_dipoles_vi() -> None:
+    """The VI of a system whose gradient runs through its quadratic form (K)."""
+    check("dipoles", ("vi", "rk4"), "portable")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("opt", ["portable", "native"])
+@pytest.mark.parametrize("name", ["four_pendula", "three_bodies", "dipoles", "springs4"])
+def test_every_method_both_flag_sets(name: str, opt: str) -> None:
+    """Every batched method, four systems (listed and body terms with member tables: dV/dq in
+    loops over the lanes; pair rows and quadratic terms: dV/dq lane by lane; a general
+    potential: its kernel in a loop over the lanes), -O2 and -O3 -march=native."""
+    check(name, BATCH_METHODS, opt)
+
+
+def test_model_integrate_batch() -> None:
+    """Model.integrate_batch: parameters by name, one K for all, the spec's state by default,
+    member-first arrays; a member's run equals Model.integrate's."""
+    model = Model(builtin("four_pendula"))
+    b = model.integrate_batch("vi", h=0.01, T=0.2, params={"g": [9.0, 9.5, 10.0]}, every=4)
+    assert b.q.shape == (3, 6, 4, 3) and b.omega.shape == b.q.shape
+    assert b.energy is not None and b.energy.shape == (3, 6)
+    tr = model.integrate("vi", h=0.01, T=0.2, params={"g": 9.5}, every=4)
+    assert np.array_equal(bits(b.q[1]), bits(tr.q)) and np.array_equal(b.t, tr.t)
+    assert np.array_equal(bits(b.energy[1]), bits(tr.energy))
+
+
+def test_refusals() -> None:
+    """What is not covered is refused in one line: a coupled M, a method that is not batched,
+    the NumPy backend, members that disagree on K."""
+    with pytest.raises(ValueError, match="diagonal M.*dense M"):
+        Model(builtin("double_pendulum")).integrate_batch("vi", h=0.01, T=0.1, params={"g": [1.0]})
+    model = Model(builtin("four_pendula"))
+    with pytest.raises(ValueError, match="'rk45' is not batched"):
+        model.integrate_batch("rk45", h=0.01, T=0.1, params={"g": [1.0, 2.0]})
+    with pytest.raises(ValueError, match="one K for all"):
+        model.integrate_batch("vi", h=0.01, T=0.1, params={"g": [1.0, 2.0], "m": [1.0]})
+    with pytest.raises(ValueError, match="C backend only"):
+        Model(builtin("four_pendula"), "numpy").integrate_batch("vi", h=0.01, T=0.1)
