@@ -55,6 +55,7 @@ def _parser() -> argparse.ArgumentParser:
     from s2gen.experiments.compare_angles.command import add_parser as add_compare
     from s2gen.experiments.reproduce.command import add_parser as add_reproduce
     from s2gen.fmi.command import add_parser as add_fmu
+    from s2gen.lyapunov_command import add_parser as add_lyapunov
 
     p = _Parser(
         prog="s2gen",
@@ -162,6 +163,7 @@ def _parser() -> argparse.ArgumentParser:
     add_bench(sub)
     add_ensemble(sub)
     add_fmu(sub)
+    add_lyapunov(sub)
     return p
 
 
@@ -293,6 +295,12 @@ def _fmu(args: argparse.Namespace) -> int:
     return run(args)
 
 
+def _lyapunov(args: argparse.Namespace) -> int:
+    from s2gen.lyapunov_command import lyapunov_command
+
+    return lyapunov_command(args)
+
+
 _COMMANDS = {
     "generate": _generate,
     "simulate": _simulate,
@@ -303,6 +311,7 @@ _COMMANDS = {
     "bench": _bench,
     "ensemble": _ensemble,
     "fmu": _fmu,
+    "lyapunov": _lyapunov,
 }
 
 

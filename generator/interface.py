@@ -451,8 +451,8 @@ def interface(
 ) -> Interface:
     """The interface of one kind of module (the angle form's in `s2gen.interface_angles`);
     `driven`: a sphere module with forces, inputs or time; `jacobian`: one with
-    step_jacobian() (`s2gen.interface_jacobian`); `batch`: one with integrate_batch()
-    (`s2gen.interface_batch`).
+    step_jacobian() and field_jacobian() (`s2gen.interface_jacobian`); `batch`: one with
+    integrate_batch() (`s2gen.interface_batch`).
 
     Example:
         >>> [p.name for p in interface(ModuleKind.SPHERE, driven=True).function("step").params][:6]
@@ -463,9 +463,9 @@ def interface(
         if not (jacobian or batch):
             return api
         from s2gen.interface_batch import INTEGRATE_BATCH
-        from s2gen.interface_jacobian import STEP_JACOBIAN
+        from s2gen.interface_jacobian import JACOBIAN_FUNCTIONS
 
-        extra = (*((STEP_JACOBIAN,) if jacobian else ()), *((INTEGRATE_BATCH,) if batch else ()))
+        extra = (*(JACOBIAN_FUNCTIONS if jacobian else ()), *((INTEGRATE_BATCH,) if batch else ()))
         return Interface((*api.functions, *extra), api.options, api.stats, api.stepper)
     from s2gen.interface_angles import ANGLES
 

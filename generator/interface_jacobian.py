@@ -1,4 +1,5 @@
-"""The C interface of the step Jacobians: ``step_jacobian()``, as an `interface.Function`.
+"""The C interface of the step Jacobians: ``step_jacobian()`` and ``field_jacobian()``, as
+`interface.Function` records (`JACOBIAN_FUNCTIONS`, in the header's order).
 
 A sphere module emitted from `System.with_jacobians` has it (systems of at most
 `s2gen.equations.jacobian.JACOBIAN_MAX_BODIES` bodies; closed or driven: one signature); its
@@ -15,7 +16,7 @@ from __future__ import annotations
 
 from s2gen.interface import Function, Kind, Param
 
-__all__ = ["STEP_JACOBIAN"]
+__all__ = ["FIELD_JACOBIAN", "JACOBIAN_FUNCTIONS", "STEP_JACOBIAN"]
 
 _D, _CA, _A = Kind.DOUBLE, Kind.CONST_ARRAY, Kind.ARRAY
 
@@ -55,3 +56,35 @@ STEP_JACOBIAN = Function(
     "by the VI. work: JACOBIAN_WORK_SIZE doubles. Returns OK or the step's own status "
     "(ERR_ARGUMENT for h <= 0 or a method without a Jacobian, ERR_NONFINITE, ERR_NEWTON)",
 )
+
+FIELD_JACOBIAN = Function(
+    "field_jacobian",
+    Kind.INT,
+    (
+        Param("p", _CA),
+        Param("t", _D),
+        Param("u", _CA, True),
+        Param("q", _CA),
+        Param("w", _CA),
+        Param("qd", _A, True),
+        Param("wd", _A, True),
+        Param("J", _A),
+        Param("Ju", _A, True),
+        Param("Jp", _A, True),
+        Param("work", _A),
+    ),
+    "The continuous field at (q, w) at time t with the inputs u (NINPUTS doubles, NULL: the "
+    "defaults; t and u are read by a driven module only), qdot_i = w_i x q_i and A(q) wdot = "
+    "b(q, w, t, u), the forces included, into qd and wd (NSTATE doubles each; may be NULL), "
+    "and its exact derivatives in the embedding coordinates x = (q, w) (NS = 2 NSTATE doubles, "
+    "q body-major then w): J (NS x NS, row-major) receives d(qdot, wdot)/dx and Ju (NS x "
+    "NINPUTS, row-major; may be NULL) d(qdot, wdot)/du and Jp (NS x NPARAMS, row-major, the "
+    "parameters in the order of p; may be NULL) d(qdot, wdot)/dp, the Jacobians step_jacobian() "
+    "propagates through a Runge-Kutta stage (for a solver of the caller's: J is defined on the "
+    "whole embedding, its restriction to the tangent space of T(S^2)^n is the field's). "
+    "work: JACOBIAN_WORK_SIZE doubles. Returns OK, ERR_NONFINITE for a non-finite input or "
+    "field, or ERR_SINGULAR",
+)
+
+#: The functions a module with step Jacobians adds to its interface, in the header's order
+JACOBIAN_FUNCTIONS = (STEP_JACOBIAN, FIELD_JACOBIAN)

@@ -220,13 +220,13 @@ def c_api_driven_rst() -> str:
 
 
 def c_api_jacobian_rst() -> str:
-    """step_jacobian() and its sizes (modules of systems of a few bodies).
+    """step_jacobian(), field_jacobian() and their sizes (modules of systems of a few bodies).
 
     Example:
         >>> "JACOBIAN_WORK_SIZE" in c_api_jacobian_rst()
         True
     """
-    from s2gen.interface_jacobian import STEP_JACOBIAN
+    from s2gen.interface_jacobian import JACOBIAN_FUNCTIONS
 
     upper = PREFIX.upper()
     sizes = {
@@ -234,19 +234,26 @@ def c_api_jacobian_rst() -> str:
         "u": f"{upper}_NINPUTS doubles (a driven module's)",
         "A": f"(2 {upper}_NSTATE)^2 doubles",
         "B": f"2 {upper}_NSTATE * {upper}_NINPUTS doubles",
+        "J": f"(2 {upper}_NSTATE)^2 doubles",
+        "Ju": f"2 {upper}_NSTATE * {upper}_NINPUTS doubles",
+        "qd": f"{upper}_NSTATE doubles",
+        "wd": f"{upper}_NSTATE doubles",
         "work": f"{upper}_JACOBIAN_WORK_SIZE doubles",
     }
     lines = [
         f".. c:macro:: {upper}_JACOBIAN_WORK_SIZE",
         "",
-        "   The doubles ``work`` must hold for step_jacobian (more than WORK_SIZE).",
+        "   The doubles ``work`` must hold for step_jacobian and field_jacobian (more than "
+        "WORK_SIZE).",
         "",
         f".. c:macro:: {upper}_JACOBIAN_VI",
         "",
         "   1 when step_jacobian differentiates the VI family too, else 0.",
         "",
     ]
-    return "\n".join(lines + _function(STEP_JACOBIAN, PREFIX, sizes)) + "\n"
+    for f in JACOBIAN_FUNCTIONS:
+        lines += _function(f, PREFIX, sizes)
+    return "\n".join(lines) + "\n"
 
 
 def c_api_batch_rst() -> str:

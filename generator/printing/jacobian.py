@@ -4,10 +4,10 @@ Input: a lowered sphere `Module` whose parts include ``jacobian``. Output: the f
 explicit methods it differentiates, each with its tableau as arrays of round-trip literals
 (a zero-padded to stages x stages, b, c) and whether q_i is normalized after the step; the
 C lines that differ between a closed module and a driven one (the step that computes
-(q+, w+), the inputs held in the context, the time of a stage); the lines that assemble
-the second derivatives (the terms' member loops) and the VI's equations' blocks; and the sizes
-of the derivative's columns (the state's 6n, then the inputs', then the parameters'). Empty
-for a module without it.
+(q+, w+), the inputs held in the context, the time of a stage and that of field_jacobian());
+the lines that assemble the second derivatives (the terms' member loops) and the VI's
+equations' blocks; and the sizes of the derivative's columns (the state's 6n, then the
+inputs', then the parameters'). Empty for a module without it.
 
 Example:
     >>> from s2gen.systems import builtin
@@ -51,6 +51,7 @@ _KEYS = (
     "setup",
     "stage_time",
     "stage_force",
+    "field_time",
     "vi_methods",
     "vi_count",
     "max_sub",
@@ -105,6 +106,7 @@ def print_jacobian(module: Module) -> dict[str, Any]:
     step: tuple[str, ...]
     setup: tuple[str, ...] = (f"status = {upper}_OK;",)
     stage_time: tuple[str, ...] = ()
+    field_time: tuple[str, ...] = ("(void)t;", "(void)u;")
     stage_force: tuple[str, ...] = ()
     if drive is None:
         step = ("(void)opt;", "(void)t;", "(void)u;")
@@ -113,6 +115,7 @@ def print_jacobian(module: Module) -> dict[str, Any]:
         step = (f"status = {name}_step(p, opt, method, t, h, u, q, w, qn, wn, NULL, work, NULL);",)
         setup = (f"status = {name}_hold(cx, u);",)
         stage_time = ("cx->tu[0] = t + jm->c[i] * h;",)
+        field_time = ("cx->tu[0] = t;",)
     if drive is not None and drive.forces:
         # the forces' terms of the field, added as the driven Runge-Kutta step adds them
         lay = module.layout("driven")
@@ -137,6 +140,7 @@ def print_jacobian(module: Module) -> dict[str, Any]:
         "setup": setup,
         "stage_time": stage_time,
         "stage_force": stage_force,
+        "field_time": field_time,
     }
 
 

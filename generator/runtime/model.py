@@ -22,6 +22,7 @@ import numpy as np
 
 from s2gen.runtime import get_backend, run
 from s2gen.runtime.inputs import parameter_vector
+from s2gen.runtime.model_jacobians import JacobianMethods
 from s2gen.runtime.options import Options
 from s2gen.runtime.trajectory import Trajectory
 from s2gen.system import System
@@ -37,7 +38,7 @@ __all__ = ["Model"]
 _DEFAULT_OPTIONS = Options()
 
 
-class Model:
+class Model(JacobianMethods):
     """`system` compiled for `backend` ("c", "numpy" or "reference")."""
 
     def __init__(
@@ -285,21 +286,11 @@ class Model:
             >>> lin.A.shape, bool((lin.q == Model(s).step(s.q0, s.omega0, 0.01, "rk4")[0]).all())
             ((12, 12), True)
         """
-        from s2gen.equations.jacobian import jacobian_refusal
-        from s2gen.runtime.c import CBackend
         from s2gen.runtime.linearize import linearize
 
         p = parameter_vector(self.system, params)
         uu = None if u is None else np.asarray(u, dtype=float)
-        backend = self._backend
-        if isinstance(backend, CBackend) and not backend.library.jacobian:
-            # the module with step_jacobian(), built once when first asked for
-            why = jacobian_refusal(self.system)
-            if why is not None:
-                raise ValueError(f"{self.system.name}: {why}")
-            if self._jacobians is None:
-                self._jacobians = CBackend(self.system.with_jacobians())
-            backend = self._jacobians
+        backend = self._jacobian_backend()
         return linearize(backend, q, omega, h, method, p, t, uu, basis, options)
 
     def stepper(
