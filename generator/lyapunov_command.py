@@ -37,8 +37,8 @@ def add_parser(subparsers: Any) -> None:
         description="The Lyapunov spectrum of METHOD's discrete flow from the spec's initial "
         "state: QR re-orthonormalization of the products of exact step Jacobians in the "
         "tangent coordinates of T(S^2)^n (4n exponents), a transient discarded, errors from "
-        "block means. Systems of up to 8 bodies without cutoff terms; the VI family (M "
-        "diagonal or dense) and the fixed-step Runge-Kutta methods.",
+        "block means. The systems `s2gen generate --jacobians` covers (a bounded number of "
+        "bodies, no cutoff terms); the VI family and the fixed-step Runge-Kutta methods.",
     )
     p.add_argument("spec", metavar="SPEC")
     p.add_argument("--method", choices=NAMES, default="vi", help="integrator (default vi)")
