@@ -137,7 +137,8 @@ def _literals(values: np.ndarray) -> str:
 
 def build(spec: str, folder: Path) -> tuple[Path, s2gen.System]:
     """The timing program of one system (emitted with its Jacobians) in `folder`."""
-    system = s2gen.load(spec).with_jacobians()
+    checkout = Path(__file__).resolve().parent.parent / spec  # the test specs, from any folder
+    system = s2gen.load(str(checkout) if checkout.is_file() else spec).with_jacobians()
     name, upper = system.name, system.name.upper()
     folder.mkdir(parents=True, exist_ok=True)
     for fname, text in emit(system, "c").items():
