@@ -197,6 +197,8 @@ SYSTEMS = {
     "driven_double_jacobians": lambda: resolve(str(SPECS / "driven_double.toml")).with_jacobians(),
     # integrate_batch(): diagonal M, listed and body terms with member tables
     "four_pendula_batch": lambda: builtin("four_pendula").with_batch(),
+    # integrate_batch() with dV/dq lane by lane (pair rows)
+    "three_bodies_batch": lambda: builtin("three_bodies").with_batch(),
 }
 
 

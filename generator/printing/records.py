@@ -285,6 +285,8 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "drive_stage": ("driven",),
         "drive_operator": ("drive_force_fns",),
         "jacobian_vi": ("jacobian",),
+        "batch_gradient": ("batch",),
+        "batch_field": ("batch",),
     },
     {
         "masses_fill": ("masses", "masses_coupled", "masses_generators"),
@@ -314,6 +316,12 @@ def _declared(chosen: Sections, owners: dict[str, tuple[str, ...]], laid: set[st
     return out
 
 
+def _lane_gradient(module: Module) -> Any:
+    from s2gen.printing.c_batch import lane_gradient  # the batch printer imports this module's
+
+    return lane_gradient(module)
+
+
 def sections(module: Module) -> tuple[Sections, Sections]:
     """(C, NumPy) partials of each optional section of the parts the module lays out, chosen
     by what it has: the general potential or zeros, the quadratic terms' K, the kernels'
@@ -337,6 +345,8 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     initial = bool(module.initial_state)  # the spec's initial state is carried
     driven = module.drive is not None  # time and inputs in the context, the driven driver
     forces = driven and module.drive is not None and module.drive.forces
+    batch = "batch" in module.parts  # integrate_batch(): dV/dq in lane loops where it can be
+    lanes = batch and _lane_gradient(module) is not None
 
     def pick(lang: str, *choices: tuple[bool, str]) -> tuple[str, ...]:
         return tuple(f"{lang}/sections/_{stem}.jinja" for chosen, stem in choices if chosen)
@@ -392,6 +402,13 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         # the step Jacobians of the VI family
         "jacobian_vi": pick(
             "c", (any(k.name == "vi_jacobian" for k in module.kernels), "jacobian_vi")
+        ),
+        # integrate_batch(): dV/dq and the field in loops over the lanes, or lane by lane
+        "batch_gradient": pick(
+            "c", (lanes, "batch_gradient_lanes"), (batch and not lanes, "batch_gradient_each")
+        ),
+        "batch_field": pick(
+            "c", (lanes, "batch_field_lanes"), (batch and not lanes, "batch_field_each")
         ),
     }
     py = {
