@@ -7,6 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from s2gen import load
+from s2gen.runtime.model import Model
 from s2gen.system import System
 from s2gen.systems import builtin, resolve
 
@@ -124,3 +126,20 @@ def reference_final(system: System, T: float, tol: float = 3e-14) -> np.ndarray:
 @pytest.fixture(scope="session", params=sorted(SYSTEMS))
 def system(request: pytest.FixtureRequest) -> System:
     return SYSTEMS[request.param]()
+
+
+# The Models the Jacobian and Lyapunov tests share (built once per run, their modules with the
+# step Jacobians on first use): a dense M, a diagonal M, a driven system with an input.
+@pytest.fixture(scope="session")
+def double() -> Model:
+    return Model(load("double_pendulum"))
+
+
+@pytest.fixture(scope="session")
+def four() -> Model:
+    return Model(load("four_pendula"))
+
+
+@pytest.fixture(scope="session")
+def driven() -> Model:
+    return Model(load(str(Path(__file__).parent / "specs" / "driven_double.toml")))

@@ -11,27 +11,11 @@ import itertools
 import numpy as np
 import pytest
 
-from s2gen import load
 from s2gen.equations.jacobian import JACOBIAN_MAX_BODIES
 from s2gen.runtime.field_jacobian import basis_rate
 from s2gen.runtime.linearize import tangent_basis
 from s2gen.runtime.model import Model
 from s2gen.systems import builtin
-
-
-@pytest.fixture(scope="module")
-def double() -> Model:
-    return Model(load("double_pendulum"))
-
-
-@pytest.fixture(scope="module")
-def four() -> Model:
-    return Model(load("four_pendula"))
-
-
-@pytest.fixture(scope="module")
-def driven() -> Model:
-    return Model(load("tests/specs/driven_double.toml"))
 
 
 def _field(model: Model, t: float, u: np.ndarray | None, p: np.ndarray | None = None):  # type: ignore[no-untyped-def]

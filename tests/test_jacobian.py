@@ -25,21 +25,6 @@ H = 0.01
 
 
 @pytest.fixture(scope="module")
-def double() -> Model:
-    return Model(load("double_pendulum"))
-
-
-@pytest.fixture(scope="module")
-def four() -> Model:
-    return Model(load("four_pendula"))
-
-
-@pytest.fixture(scope="module")
-def driven() -> Model:
-    return Model(load("tests/specs/driven_double.toml"))
-
-
-@pytest.fixture(scope="module")
 def ring() -> Model:
     """Driven, an input in V as well as in the forces (dV/dq depends on u)."""
     return Model(load("tests/specs/driven_ring.toml"))

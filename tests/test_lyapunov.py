@@ -60,11 +60,6 @@ CHAOTIC_W = _tangent(CHAOTIC_Q, np.array([[0.0, 1.5, 0.0], [1.0, 0.0, 0.0]]))
 
 
 @pytest.fixture(scope="module")
-def double() -> Model:
-    return Model(load("double_pendulum"))
-
-
-@pytest.fixture(scope="module")
 def chaotic(double: Model):  # type: ignore[no-untyped-def]
     return double.lyapunov(CHAOTIC_Q, CHAOTIC_W, H, 200.0, "vi", transient=10.0)
 
