@@ -8,13 +8,15 @@ A, B and P: the columns of B and P are computed only when they are asked for) an
 ``NAME_field_jacobian`` (the field and its J, Ju), and the ratios Jacobian / step, with the
 CPU model (from /proc/cpuinfo) and the load (/proc/loadavg) in the header. ``--against DIR``
 times, alternately with this checkout's programs, those a run with ``--keep DIR`` built
-earlier (from another checkout: its step and its step_jacobian with A and B) and prints the
-ratio old / new of the Jacobians' times. Unlike ``jacobian_cost.py`` (ctypes, about 10
+earlier (e.g. this script run by another checkout's Python: its step and its step_jacobian
+with A and B) and prints the ratio old / new of the Jacobians' times. Unlike ``jacobian_cost.py`` (ctypes, about 10
 µs of call overhead in both columns), a small C driver written here calls each function in a
 loop inside C: the module (emitted with ``System.with_jacobians``) and the driver are compiled
 separately with the library's flags (``s2gen.build.DEFAULT_FLAGS``, no link-time
 optimization, so no call is folded away) and linked into one program per system, which prints
-the best of `repeats` batches of `calls` calls from the spec's initial state. Numbers only: no
+the best of `repeats` batches of `calls` calls from the spec's initial state, in the
+process's CPU time (on a shared machine, the time other processes take counts less than in
+wall-clock time). Numbers only: no
 test times them. The issue's aim is a ratio of at most 3 for n <= 8.
 
 Example:
@@ -70,7 +72,7 @@ static double work[UPPER_WORK_SIZE + 1], jwork[UPPER_JACOBIAN_WORK_SIZE + 1];
 static double now(void)
 {
     struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
