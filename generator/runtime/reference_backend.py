@@ -29,6 +29,7 @@ class ReferenceBackend:
     def __init__(self, system: System) -> None:
         self.system = system
         self._problems: dict[tuple[float, ...], Any] = {}
+        self._monitors: dict[tuple[float, ...], Any] = {}
 
     def default_params(self) -> np.ndarray:
         return np.array(self.system.parameter_values, dtype=float)
@@ -40,6 +41,19 @@ class ReferenceBackend:
         if key not in self._problems:
             self._problems[key] = reference.problem_from_system(self.system, key)
         return self._problems[key]
+
+    def _monitor(self, method: str, params: np.ndarray) -> Any:
+        """The pair monitor of a time-transformed method (None for the others)."""
+        from s2gen.methods import Family
+        from s2gen.methods import method as method_row
+        from s2gen.reference.adaptive import monitor_from_system
+
+        if method_row(method).family is not Family.TIME_VI:
+            return None
+        key = tuple(float(v) for v in params)
+        if key not in self._monitors:
+            self._monitors[key] = monitor_from_system(self.system, key)
+        return self._monitors[key]
 
     def energy(self, q: np.ndarray, w: np.ndarray, params: np.ndarray) -> float:
         from s2gen import reference
@@ -89,6 +103,7 @@ class ReferenceBackend:
                 control=options.control,
                 newton_tol=options.newton_tol,
                 newton_maxiter=options.newton_maxiter,
+                monitor=self._monitor(method, params),
             )
             en = tr.energy[::every] if with_energy else None
             return 0, tr.q[::every], tr.omega[::every], en, dict(tr.stats)
