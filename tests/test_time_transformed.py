@@ -1,0 +1,195 @@
+"""The time-transformed VI methods (vi-adaptive, vi4-adaptive, vi6-adaptive, vi8-adaptive).
+
+- the pair monitor: its rate is the closed form derived by hand for the three bodies' cotangent
+  potential, it grows at both singular points of that potential, it stays positive through the
+  inflection point of the softened cluster's potential; systems and terms it does not cover
+  are refused in one line, and so are the backends that lack the methods;
+- the orders 2 and 4 in the fictitious step eps (error of the sampled state against scipy's
+  DOP853 on the reference field, samples reached by the extra partial step), on the grid;
+- time reversibility (n steps with eps, then n with -eps, back to 1e-12), which a
+  non-symmetric step-size update breaks; unit length on the encounter cluster; bounded energy
+  error through repeated close encounters of a softened pair (the fitted slope of the window
+  maxima of |dE| against time in log-log; 10^5 steps in the slow suite).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import sympy as sp
+from conftest import reference_path
+
+import s2gen
+from s2gen.monitor import C, monitor
+from s2gen.reference import adaptive
+from s2gen.reference.adaptive import (
+    integrate_time_transformed,
+    monitor_from_system,
+    transformed_steps,
+)
+from s2gen.reference.problem import problem_from_system
+from s2gen.spec import load_spec_text
+from s2gen.systems import builtin
+
+THREE = builtin("three_bodies")
+CLUSTER = builtin("encounter_cluster")
+
+
+def _setup(system):
+    return problem_from_system(system), monitor_from_system(system)
+
+
+def _start(system):
+    return np.array(system.q0, dtype=float), np.array(system.omega0, dtype=float)
+
+
+# ------------------------------------------------------------------------------ the monitor
+def test_the_three_bodies_rate_is_the_closed_form() -> None:
+    """V = -gamma c / sqrt(1 - c^2): f' = -gamma (1 - c^2)^(-3/2), V'' = -2 gamma c (1 - c^2)^(-3/2)
+    (by hand), so r^4 = gamma^2 (1 + 4 c^2) / (1 - c^2)^3."""
+    (rate,) = monitor(THREE).rates
+    gamma = sp.Symbol("gamma", real=True)
+    want = sp.sqrt(gamma) * (1 + 4 * C**2) ** sp.Rational(1, 4) * (1 - C**2) ** sp.Rational(-3, 4)
+    for c in (-0.9, -0.3, 0.0, 0.4, 0.99):
+        got, ref = (float(e.subs({C: c, gamma: 2.0})) for e in (rate.rate, want))
+        assert got == pytest.approx(ref, rel=1e-13)
+    near = [float(rate.rate.subs({C: c, gamma: 1.0})) for c in (-1 + 1e-6, 1 - 1e-6)]
+    assert min(near) > 1e4  # both singular points (antipodal and coincident) are covered
+
+
+def test_the_cluster_rate_stays_positive_through_the_inflection_point() -> None:
+    """Plummer's V = -k (d^2 + a^2)^(-1/2) has V'' = 0 at d = a / sqrt(2); the monitor's
+    curvature part keeps r > 0 there and everywhere on [-1, 1]."""
+    (rate,) = monitor(CLUSTER).rates
+    values = {sp.Symbol(p, real=True): v for p, v in CLUSTER.parameters.items()}
+    r = sp.lambdify([C], rate.rate.subs(values), "numpy")
+    cs = np.linspace(-1.0, 1.0, 20001)
+    assert np.all(r(cs) > 0.1)
+    assert r(1.0) > 10 * r(0.0)  # fast near an encounter
+
+
+def test_systems_the_monitor_does_not_cover_are_refused_in_one_line() -> None:
+    with pytest.raises(ValueError, match="closed systems with pair terms") as e:
+        monitor(builtin("double_pendulum"))
+    assert "\n" not in str(e.value)
+    odd = load_spec_text(
+        'name = "odd"\nbodies = 2\n[inertia]\ndiagonal = ["1", "1"]\n'
+        '[[potential.pair]]\nV = "qi[0]*qj[1]"\npairs = "all"\n'
+    )
+    with pytest.raises(ValueError, match="not a function of qi.qj alone"):
+        monitor(odd)
+
+
+def test_the_emitted_backends_refuse_the_methods_in_one_line() -> None:
+    with pytest.raises(ValueError, match="backends that have it: reference") as e:
+        s2gen.Model(THREE).integrate("vi4-adaptive", h=0.1, T=1.0)
+    assert "\n" not in str(e.value)
+
+
+# ------------------------------------------------------------------------ order and the grid
+@pytest.mark.parametrize(
+    ("name", "order", "eps"), [("vi-adaptive", 2, 0.02), ("vi4-adaptive", 4, 0.1)]
+)
+def test_observed_order_in_the_fictitious_step(name: str, order: int, eps: float) -> None:
+    """Samples at t = 0.5, 1.0, 1.5, 2.0 (the extra partial steps included) against DOP853."""
+    T, every = 2.0, None
+    times = np.linspace(0.5, T, 4)
+    want = reference_path(THREE, T, times)
+    p, mon = _setup(THREE)
+    errors = []
+    for e in (eps, eps / 2, eps / 4):
+        nsteps = round(T / e)
+        every = nsteps // 4
+        tr = integrate_time_transformed(p, mon, name, THREE.q0, THREE.omega0, e, nsteps, every)
+        np.testing.assert_allclose(tr.t[1:], times, rtol=1e-14)
+        got = np.concatenate([tr.q[1:].reshape(4, -1), tr.omega[1:].reshape(4, -1)], axis=1)
+        errors.append(np.abs(got - want).max())
+    observed = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(np.abs(observed - order) < 0.3), (errors, observed)
+
+
+def test_the_reference_backend_samples_on_the_grid() -> None:
+    """Model.integrate on the reference backend: t_k = k every h, the state at T of the direct
+    driver, and the energy of each sample."""
+    model = s2gen.Model(THREE, backend="reference")
+    tr = model.integrate("vi4-adaptive", h=0.05, T=1.0, every=5)
+    np.testing.assert_allclose(tr.t, np.arange(5) * 0.25, atol=1e-15)
+    p, mon = _setup(THREE)
+    direct = integrate_time_transformed(p, mon, "vi4-adaptive", THREE.q0, THREE.omega0, 0.05, 20)
+    np.testing.assert_array_equal(tr.q[-1], direct.q[-1])
+    assert tr.energy[-1] == pytest.approx(model.energy(tr.q[-1], tr.omega[-1]), rel=1e-14)
+
+
+# ------------------------------------------------------------- reversibility and structure
+def _round_trip(system, name: str, eps: float, n: int) -> float:
+    p, mon = _setup(system)
+    q0, w0 = _start(system)
+    xi0, _ = mon(q0, w0)
+    q, w, xi, t = transformed_steps(p, mon, name, q0, w0, xi0, eps, n)
+    assert t > 0.0
+    q, w, xi, back = transformed_steps(p, mon, name, q, w, xi, -eps, n)
+    return max(np.abs(q - q0).max(), np.abs(w - w0).max(), abs(xi - xi0) / xi0, abs(t + back))
+
+
+@pytest.mark.parametrize(
+    ("system", "name", "eps", "n"),
+    [(THREE, "vi4-adaptive", 0.05, 100), (CLUSTER, "vi-adaptive", 0.02, 300)],
+    ids=["three_bodies", "encounter_cluster"],
+)
+def test_time_reversibility(system, name: str, eps: float, n: int) -> None:
+    assert _round_trip(system, name, eps, n) < 1e-12
+
+
+def test_a_non_symmetric_step_size_update_breaks_reversibility(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The check is live: with xi_{n+1/2} = xi_n (the explicit, one-sided update) the round
+    trip misses by far more than round-off."""
+    monkeypatch.setattr(adaptive, "_half", lambda xi, rate, eps, step: xi)
+    assert _round_trip(THREE, "vi4-adaptive", 0.05, 100) > 1e-6
+
+
+def test_unit_length_is_kept() -> None:
+    p, mon = _setup(CLUSTER)
+    tr = integrate_time_transformed(p, mon, "vi-adaptive", CLUSTER.q0, CLUSTER.omega0, 0.05, 200)
+    assert tr.stats["steps"] > 500
+    assert np.abs(np.linalg.norm(tr.q, axis=2) - 1.0).max() < 1e-14
+
+
+#: Two unit masses with the cluster's softened attraction (a = 0.02) on an eccentric orbit: their
+#: relative motion is integrable, and they meet about every 6.7 time units, passing within 0.01.
+PAIR = load_spec_text(
+    'name = "pair"\nbodies = 2\n[parameters]\nk = 1.0\na = 0.02\n'
+    '[inertia]\ndiagonal = ["1", "1"]\n'
+    '[[potential.pair]]\nV = "-k/sqrt(dot(qi - qj, qi - qj) + a**2)"\npairs = "all"\n'
+    "[initial]\nq = [[1, 0, 0], [0, 1, 0]]\nomega = [[0, -0.03, 0], [-0.03, 0, 0]]\n"
+)
+
+
+def _energy_growth(system, name: str, eps: float, T: float, windows: int = 10):
+    """Fitted slope of log max|dE| per window against log of the window's end time, the
+    largest relative energy error, the number of steps and the closest approach."""
+    p, mon = _setup(system)
+    tr = integrate_time_transformed(p, mon, name, system.q0, system.omega0, eps, round(T / eps))
+    de = np.abs(tr.energy - tr.energy[0]) / abs(tr.energy[0])
+    parts = np.array_split(np.arange(1, len(de)), windows)
+    ends = np.array([tr.t[x[-1]] for x in parts])
+    peaks = np.array([de[x].max() for x in parts])
+    slope = np.polyfit(np.log(ends), np.log(peaks), 1)[0]
+    closest = np.linalg.norm(tr.q[:, 0] - tr.q[:, 1], axis=1).min()
+    return float(slope), float(de.max()), int(tr.stats["steps"]), float(closest)
+
+
+def test_energy_error_is_bounded_through_repeated_encounters() -> None:
+    """About 30 encounters in 1.1e4 steps: the energy error (O(eps^2) at each encounter)
+    does not grow from window to window."""
+    slope, worst, steps, closest = _energy_growth(PAIR, "vi-adaptive", 0.05, 200.0)
+    assert steps > 10_000 and closest < 0.02
+    assert slope <= 0.1 and worst < 0.2, (slope, worst)
+
+
+@pytest.mark.slow
+def test_energy_error_is_bounded_over_1e5_steps() -> None:
+    slope, worst, steps, closest = _energy_growth(PAIR, "vi-adaptive", 0.05, 1800.0)
+    assert steps >= 100_000 and closest < 0.02
+    assert slope <= 0.1 and worst < 0.2, (slope, worst)
