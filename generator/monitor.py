@@ -24,7 +24,8 @@ smooth wherever f is, positive wherever f' or V'' is nonzero, and grows like the
 rate at every singular point of f in [-1, 1]. The monitor is derived here, once, in the
 generic pair's symbols; a term that is not a function of qi.qj alone (checked at random unit
 pairs), that reads per-member or per-body data, or whose profile is constant is refused in
-one line.
+one line, and so is a system with other potentials; a spec may instead give its own monitor
+as [run] g, an expression in q1..qn and the parameters (then any closed system is taken).
 
 Example:
     >>> from s2gen.systems import builtin
@@ -42,6 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
+from s2gen.spec.parser import parse_expression
 from s2gen.symbols import local_vector
 from s2gen.system import System
 from s2gen.terms import TermKind
@@ -65,11 +67,13 @@ class PairRate:
 
 @dataclass(frozen=True)
 class Monitor:
-    """R(q) = sum over `rates` and their members (i, j) of rate(qi.qj), in the parameters
-    `parameters` (the system's, in declared order)."""
+    """R(q) = sum over `rates` and their members (i, j) of rate(qi.qj), or the spec's own
+    `given` R in the global symbols q1_0..qn_2, in the parameters `parameters` (the system's,
+    in declared order)."""
 
     rates: tuple[PairRate, ...]
     parameters: tuple[sp.Symbol, ...]
+    given: sp.Expr | None = None
 
 
 def _profile(expr: sp.Expr, label: str) -> sp.Expr:
@@ -99,8 +103,9 @@ def _check_invariant(
 
 
 def monitor(system: System) -> Monitor:
-    """The monitor of a closed system with pair terms (see the module docstring for the rule);
-    ValueError in one line for a driven system, one without pair terms, or a pair term the
+    """The monitor of a closed system: the spec's [run] g when it gives one (any closed
+    system), else the pair rule of the module docstring; ValueError in one line for a driven
+    system, or without g for one with other potentials than pair terms or a pair term the
     rule does not cover.
 
     Example:
@@ -111,13 +116,19 @@ def monitor(system: System) -> Monitor:
         True
     """
     why = "the time-transformed methods take closed systems with pair terms"
-    system.refuse_driven(why)
+    system.refuse_driven("the time-transformed methods")
+    names = tuple(sp.Symbol(p, real=True) for p in system.parameter_names)
+    if system.run.g is not None:
+        given = parse_expression(
+            system.run.g, n=system.n, parameters=system.parameter_names, where="[run] g"
+        )
+        return Monitor((), names, given)
     pairs = [t for t in system.terms if t.kind is TermKind.PAIR and t.count(system.n) > 0]
     others = system.potential != 0 or len(pairs) < len(system.terms)
     if not pairs or others:
         raise ValueError(
-            f"{system.name}: {why} and no other potential (this one has "
-            f"{'other potential terms' if pairs else 'no pair term'})"
+            f"{system.name}: {why} and no other potential, or a monitor [run] g (this one "
+            f"has {'other potential terms' if pairs else 'no pair term'})"
         )
     params = {sp.Symbol(p, real=True): v for p, v in system.parameters.items()}
     rates = []
@@ -133,4 +144,4 @@ def monitor(system: System) -> Monitor:
         rate = (d1**2 + (d2 * (1 - C**2) - C * d1) ** 2) ** sp.Rational(1, 4)
         members = tuple((int(m[0]), int(m[1])) for m in t.member_list(system.n))
         rates.append(PairRate(t.label, f, rate, sp.diff(rate, C), members))
-    return Monitor(tuple(rates), tuple(sp.Symbol(p, real=True) for p in system.parameter_names))
+    return Monitor(tuple(rates), names)

@@ -29,6 +29,7 @@ from s2gen.reference.adaptive import (
 )
 from s2gen.reference.problem import problem_from_system
 from s2gen.spec import load_spec_text
+from s2gen.system import SpecError
 from s2gen.systems import builtin
 
 THREE = builtin("three_bodies")
@@ -84,6 +85,55 @@ def test_the_emitted_backends_refuse_the_methods_in_one_line() -> None:
     with pytest.raises(ValueError, match="backends that have it: reference") as e:
         s2gen.Model(THREE).integrate("vi4-adaptive", h=0.1, T=1.0)
     assert "\n" not in str(e.value)
+
+
+def _with_monitor(name: str, g: object) -> str:
+    """The built-in `name`'s TOML text with [run] g set."""
+    from importlib.resources import files
+
+    text = (files("s2gen.systems.examples") / f"{name}.toml").read_text()
+    return text + f"g = {g!r}\n".replace("'", '"')
+
+
+def test_a_monitor_given_as_run_g_is_used() -> None:
+    """The three bodies' derived monitor typed by hand as [run] g gives the same run."""
+    pairs = ((1, 2), (1, 3), (2, 3))
+    rule = "(1 + 4*dot(q{0}, q{1})**2)**0.25*(1 - dot(q{0}, q{1})**2)**(-0.75)"
+    g = " + ".join(rule.format(i, j) for i, j in pairs)
+    spec = (
+        f'name = "three_bodies_g"\nbodies = 3\n[parameters]\ngamma = 1.0\n'
+        f'[inertia]\ndiagonal = ["1", "1", "1"]\n[[potential.pair]]\n'
+        f'V = "-gamma*dot(qi, qj)/sqrt(1 - dot(qi, qj)**2)"\npairs = "all"\n'
+        f"[initial]\nq = {THREE.q0.tolist()}\nomega = {THREE.omega0.tolist()}\n"
+        f'[run]\ng = "{g}"\n'
+    )
+    given = load_spec_text(spec)
+    assert monitor(given).given is not None
+    runs = []
+    for system in (THREE, given):
+        p, mon = _setup(system)
+        runs.append(
+            integrate_time_transformed(p, mon, "vi4-adaptive", THREE.q0, THREE.omega0, 0.05, 20)
+        )
+    assert runs[0].stats["steps"] == runs[1].stats["steps"]
+    np.testing.assert_allclose(runs[1].q, runs[0].q, rtol=0, atol=1e-12)
+
+
+def test_a_given_monitor_takes_any_closed_system() -> None:
+    """The double pendulum (no pair terms, coupled M: Newton) with g = 3 + q1.q2 steps
+    reversibly."""
+    system = load_spec_text(_with_monitor("double_pendulum", "3 + dot(q1, q2)"))
+    assert _round_trip(system, "vi4-adaptive", 0.02, 50) < 1e-12
+
+
+@pytest.mark.parametrize(
+    ("g", "message"),
+    [("1 + t", "not on time t"), ("1 + x", "x"), (2, "expected an expression")],
+)
+def test_bad_run_g_is_refused_in_one_line(g: object, message: str) -> None:
+    with pytest.raises(SpecError, match=message) as e:
+        load_spec_text(_with_monitor("double_pendulum", g))
+    assert "\n" not in str(e.value) and "[run] g" in str(e.value)
 
 
 # ------------------------------------------------------------------------ order and the grid

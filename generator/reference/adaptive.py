@@ -1,7 +1,7 @@
 """Time-transformed variational integrators: the VI and its compositions in a fictitious time.
 
-Input: a `ReferenceProblem`, a monitor R(q) (`monitor_from_system`, the pair rule of
-`s2gen.monitor`), a time-transformed method of `s2gen.methods` (its composition of the VI
+Input: a `ReferenceProblem`, a monitor R(q) (`monitor_from_system`: the pair rule of
+`s2gen.monitor`, or the spec's [run] g), a time-transformed method of `s2gen.methods` (its composition of the VI
 step), an initial state, the step eps in the fictitious time s (the user's h) and an output
 grid. Output: a `RefTrajectory` on the grid t_k = k every eps (`integrate_time_transformed`),
 or the raw chain of steps (`transformed_steps`, for reversibility checks).
@@ -47,6 +47,7 @@ from s2gen.reference.geometry import _cross
 from s2gen.reference.problem import Array, ReferenceProblem, _parameter_values
 from s2gen.reference.recorder import RefTrajectory, _Recorder, _state
 from s2gen.reference.vi import vi_step
+from s2gen.symbols import q_symbols
 from s2gen.system import System
 
 __all__ = ["MonitorFn", "integrate_time_transformed", "monitor_from_system", "transformed_steps"]
@@ -71,6 +72,8 @@ def monitor_from_system(
     mon = monitor(system)
     values = _parameter_values(system, parameter_values)
     at = dict(zip(mon.parameters, values))
+    if mon.given is not None:
+        return _given(mon.given.subs(at), system.n)
     parts = []
     for r in mon.rates:
         i, j = (np.array(x, dtype=np.intp) for x in zip(*r.members))
@@ -87,6 +90,20 @@ def monitor_from_system(
             R += float(np.sum(rate(c) * np.ones_like(c)))
             dR += float(np.sum(slope(c) * dc))
         return R, dR
+
+    return evaluate
+
+
+def _given(expr: sp.Expr, n: int) -> MonitorFn:
+    """R and dR/dt = sum_i dR/dq_i . qdot_i of a monitor written in q1_0..qn_2."""
+    qs = q_symbols(n)
+    value = sp.lambdify(qs, expr, "numpy")
+    grad = sp.lambdify(qs, [sp.diff(expr, s) for s in qs], "numpy")
+
+    def evaluate(q: Array, w: Array) -> tuple[float, float]:
+        flat = q.ravel()
+        g = np.array(grad(*flat), dtype=float).reshape(n, 3)
+        return float(value(*flat)), float(np.sum(g * _cross(w, q)))
 
     return evaluate
 
@@ -119,6 +136,8 @@ def _composed(
 def _half(xi: float, rate: float, eps: float, step: int) -> float:
     """xi_{n+1/2}: the root near xi of x^2 - xi x - (eps/2) rate = 0."""
     disc = xi * xi + 2.0 * eps * rate
+    if not xi > 0.0:
+        raise StepSizeUnderflow(step, f"the monitor must stay positive, got xi = {xi:.6g}")
     if not disc >= 0.0:
         raise StepSizeUnderflow(
             step,
