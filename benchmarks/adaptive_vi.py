@@ -94,7 +94,7 @@ def _best(run: Callable[..., Any], *args: Any, **kwargs: Any) -> tuple[Any, floa
 
 
 def _row(name: str, setting: str, evals: int, value: float, seconds: float, extra: str) -> None:
-    print(f"  {name:14s} {setting:>12s} {evals:>10,d} {value:10.2e} {seconds:9.2f} {extra}")
+    print(f"  {name:14s} {setting:>12s} {evals:>10,d} {value:10.2e} {seconds * 1e3:10.3f} {extra}")
 
 
 def three_bodies(quick: bool) -> None:
@@ -107,7 +107,7 @@ def three_bodies(quick: bool) -> None:
         return float(max(np.abs(q - truth.q[-1]).max(), np.abs(w - truth.omega[-1]).max()))
 
     print(f"three_bodies, T = {T:g}: state error at T against DOP853 at 3e-14")
-    print(f"  {'method':14s} {'setting':>12s} {'gradients':>10s} {'error':>10s} {'time s':>9s}")
+    print(f"  {'method':14s} {'setting':>12s} {'gradients':>10s} {'error':>10s} {'time ms':>10s}")
     rows: list[tuple[str, int, float, float]] = []
     per_grad: dict[str, float] = {}
     for name in ("vi4", "vi6", "vi8"):
@@ -136,7 +136,7 @@ def three_bodies(quick: bool) -> None:
             e = err(tr.q[-1], tr.omega[-1])
             est = evals * per_grad[base]
             rows.append((name, evals, e, est))
-            extra = f"monitor {tr.stats['monitor_evaluations']:,d}, C est. {est:.4f} s"
+            extra = f"monitor {tr.stats['monitor_evaluations']:,d}, C est. {est * 1e3:.3f} ms"
             _row(name, f"eps={eps:g}", evals, e, sec, extra)
     for target in (1e-6, 1e-8):
         print(f"  cheapest run reaching {target:g} (gradients; time, C est. for *-adaptive):")
@@ -144,7 +144,7 @@ def three_bodies(quick: bool) -> None:
             ok = [r for r in rows if r[0] == name and r[2] <= target]
             if ok:
                 best = min(ok, key=lambda r: r[1])
-                print(f"    {name:14s} {best[1]:>10,d} {best[3]:9.4f}")
+                print(f"    {name:14s} {best[1]:>10,d} {best[3] * 1e3:10.3f} ms")
             else:
                 print(f"    {name:14s}    (none)")
 
@@ -155,7 +155,9 @@ def cluster(T: float, quick: bool) -> None:
     model = s2gen.Model(s)
     a, k = s.parameters["a"], s.parameters["k"]
     print(f"encounter_cluster, T = {T:g} ({T / np.sqrt(a**3 / k):,.0f} encounter times):")
-    print(f"  {'method':14s} {'setting':>12s} {'gradients':>10s} {'max dE/E':>10s} {'time s':>9s}")
+    print(
+        f"  {'method':14s} {'setting':>12s} {'gradients':>10s} {'max dE/E':>10s} {'time ms':>10s}"
+    )
     every = 0.01
     for tol in (1e-8, 1e-10) if quick else (1e-8, 1e-10, 1e-12):
         t0 = time.perf_counter()

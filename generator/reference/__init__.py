@@ -153,6 +153,7 @@ def integrate(
     newton_tol: float = 1e-14,
     newton_maxiter: int = 50,
     monitor: MonitorFn | None = None,
+    every: int = 1,
 ) -> RefTrajectory:
     """Integrate from (q0, w0) at t = 0 and sample at t_k = k h, k = 0..nsteps.
 
@@ -160,8 +161,9 @@ def integrate(
     with tolerances rtol/atol, `control` "matlab" (ode45; hmax defaults to T/10) or "hairer"
     (SciPy's RK45; hmax defaults to infinity). For "vi" with coupled M, Newton stops when
     max|update| <= newton_tol * max(1, max|f|) and fails after newton_maxiter iterations.
-    A time-transformed method (``"vi-adaptive"``, ...) takes h as its fictitious step eps and
-    needs the `monitor` (`adaptive.monitor_from_system`).
+    A time-transformed method (``"vi-adaptive"``, ...) takes h as its fictitious step eps,
+    needs the `monitor` (`adaptive.monitor_from_system`) and samples only t_k = k every h
+    (each sample costs it an extra step); the other methods ignore `every`.
     The initial state is used as given (not normalized). Raises a ReferenceIntegrationError
     (with .step, .status and .partial): InfeasibleStep, NewtonFailure, NonFiniteState,
     SingularSystem or StepSizeUnderflow.
@@ -188,6 +190,7 @@ def integrate(
             w0a,
             h,
             int(nsteps),
+            every,
             newton_tol=newton_tol,
             newton_maxiter=newton_maxiter,
         )

@@ -90,6 +90,8 @@ class ReferenceBackend:
         from s2gen import reference
 
         samples = nsteps // every + 1
+        monitor = self._monitor(method, params)
+        stride = every if monitor is None else 1  # a time-transformed run samples the grid itself
         try:
             tr = reference.integrate(
                 self._problem(params),
@@ -103,10 +105,11 @@ class ReferenceBackend:
                 control=options.control,
                 newton_tol=options.newton_tol,
                 newton_maxiter=options.newton_maxiter,
-                monitor=self._monitor(method, params),
+                monitor=monitor,
+                every=every,
             )
-            en = tr.energy[::every] if with_energy else None
-            return 0, tr.q[::every], tr.omega[::every], en, dict(tr.stats)
+            en = tr.energy[::stride] if with_energy else None
+            return 0, tr.q[::stride], tr.omega[::stride], en, dict(tr.stats)
         except reference.ReferenceIntegrationError as exc:
             n = self.system.n
             q = np.full((samples, n, 3), np.nan)
@@ -114,7 +117,7 @@ class ReferenceBackend:
             en = np.full(samples, np.nan)
             k = 0
             if exc.partial is not None:
-                kept = slice(0, len(exc.partial.t), every)
+                kept = slice(0, len(exc.partial.t), stride)
                 k = len(exc.partial.t[kept])
                 q[:k], w[:k] = exc.partial.q[kept], exc.partial.omega[kept]
                 en[:k] = exc.partial.energy[kept]
