@@ -13,9 +13,9 @@ the CPU (from /proc/cpuinfo), the load average and the library versions:
 
 The time-transformed methods run on the reference backend (NumPy, one Python step at a time)
 so far: their wall times are not comparable with the C runs'. The column "C est." gives what
-their gradient evaluations would cost at the C fixed-step composition's measured time per
-gradient evaluation (a projection, not a measurement); monitor evaluations (one per step, a
-pair sum like the gradient) are counted apart.
+their gradient evaluations would cost at the C fixed-step composition's best measured time per
+gradient evaluation (a projection, not a measurement, that leaves out the step-size update);
+monitor evaluations (one per step, a pair sum like the gradient) are counted apart.
 
 Example:
     >>> parse_args(["--quick"]).quick
@@ -74,7 +74,7 @@ def slope(times: np.ndarray, de: np.ndarray, windows: int = 10) -> float:
 
     Example:
         >>> t = np.linspace(0.0, 10.0, 1001)
-        >>> round(slope(t, 1e-6 * t), 2), round(slope(t, 1e-6 * (1 + 0 * t)), 2)
+        >>> round(slope(t, 1e-6 * t), 2), abs(round(slope(t, 1e-6 * (1 + 0 * t)), 2))
         (1.0, 0.0)
     """
     parts = np.array_split(np.arange(1, len(times)), windows)
@@ -114,7 +114,7 @@ def three_bodies(quick: bool) -> None:
         for h in (2e-3, 1e-3) if quick else (4e-3, 2e-3, 1e-3, 5e-4):
             tr, sec = _best(model.integrate, name, h=h, T=T, every=round(T / h), energy=False)
             evals = int(tr.stats["gradient_evals"])
-            per_grad[name] = sec / evals
+            per_grad[name] = min(per_grad.get(name, np.inf), sec / evals)
             rows.append((name, evals, err(tr.q[-1], tr.omega[-1]), sec))
             _row(name, f"h={h:g}", evals, rows[-1][2], sec, "")
     for name in ("dop853", "rk45"):
@@ -127,8 +127,8 @@ def three_bodies(quick: bool) -> None:
     p, mon = problem_from_system(s), monitor_from_system(s)
     for base in ("vi4", "vi6", "vi8"):
         name = f"{base}-adaptive"
-        for eps in (0.1, 0.05) if quick else (0.2, 0.1, 0.05, 0.025):
-            n = round(T / eps)
+        for eps in (0.1, 0.05) if quick else (0.25, 0.2, 0.125, 0.1, 0.05):
+            n = round(T / eps)  # each eps divides T: the last sample is at T
             t0 = time.perf_counter()
             tr = integrate_time_transformed(p, mon, name, s.q0, s.omega0, eps, n, every=n)
             sec = time.perf_counter() - t0
