@@ -28,6 +28,7 @@ from s2gen.reference.adaptive import (
     transformed_steps,
 )
 from s2gen.reference.problem import problem_from_system
+from s2gen.runtime.trajectory import stat_counts
 from s2gen.spec import load_spec_text
 from s2gen.system import SpecError
 from s2gen.systems import builtin
@@ -167,6 +168,9 @@ def test_the_reference_backend_samples_on_the_grid() -> None:
     p, mon = _setup(THREE)
     direct = integrate_time_transformed(p, mon, "vi4-adaptive", THREE.q0, THREE.omega0, 0.05, 20)
     np.testing.assert_array_equal(tr.q[-1], direct.q[-1])
+    counts = stat_counts(tr.stats, tr.method)
+    assert counts["steps"] == direct.stats["steps"] > 0
+    assert counts["gradient_evals"] == 1 + 3 * (direct.stats["steps"] + 4)  # 4 output steps
     assert tr.energy[-1] == pytest.approx(model.energy(tr.q[-1], tr.omega[-1]), rel=1e-14)
 
 
