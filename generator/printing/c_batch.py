@@ -28,7 +28,7 @@ from s2gen.parts.batch import BATCH_LANES, BATCH_PART
 from s2gen.printing.c import CPrinter, c_inline, c_loop
 from s2gen.printing.c_calls import c_binding
 
-__all__ = ["batch_work", "print_batch"]
+__all__ = ["batch_work", "newton_work", "print_batch"]
 
 #: The explicit VI's lane arrays of N3 doubles per lane (then sv, mi and chk); the
 #: Runge-Kutta arrays share the region with them.
@@ -97,8 +97,10 @@ _NO_LANES: dict[str, Any] = {"general": False, "parts": ()}
 def print_batch(module: Module) -> dict[str, Any]:
     """The batch part's record: lane count, the flat size of an NS-per-lane array and the
     workspace offsets (`batch_work`), dV/dq in loops over the lanes (`lane_gradient`; no
-    parts where it runs lane by lane), the field's kernel inline and the member tables the
-    lanes copy; every key empty (or 0) without the part."""
+    parts where it runs lane by lane, or with a coupled M), the field's kernel inline, the
+    member tables the lanes copy, whether the lanes start component-major (`soa`, a C
+    condition: the explicit VI's) and, with a coupled M, where a lane's Newton VI steps keep
+    their buffers (`newton_work`); every key empty (or 0) without the part."""
     if BATCH_PART not in module.parts:
         return {
             "lanes": 0,
@@ -108,21 +110,49 @@ def print_batch(module: Module) -> dict[str, Any]:
             "gradient": _NO_LANES,
             "rhs": (),
             "tables": (),
+            "soa": "0",
+            "newton": {},
         }
-    for name in ("vi_pos", "vi_vel"):
+    explicit = "vi_explicit" in module.parts  # else a coupled M: the Newton VI lane by lane
+    for name in ("vi_pos", "vi_vel") if explicit else ():
         scalars = [a.name for a in module.kernel(name).inputs if a.scalar]
         assert scalars == ["h", "mi"], f"{name}: the batch loads h and mi only, not {scalars}"
+    gradient = lane_gradient(module) if explicit else None
     return {
         "lanes": BATCH_LANES,
         "nsl": 6 * module.n * BATCH_LANES,
         "nl3": 3 * module.n * BATCH_LANES,
         "work": batch_work(module, BATCH_LANES),
-        "gradient": lane_gradient(module) or _NO_LANES,
-        "rhs": _rhs(module),
+        "gradient": gradient or _NO_LANES,
+        "rhs": _rhs(module) if gradient else (),
         "tables": tuple(
             {"index": t.index, "size": t.table * t.loop.count} for t in module.terms if t.table
         ),
+        # whether a block's lane arrays start component-major (the explicit VI's), in C
+        "soa": "scheme != NULL" if explicit else "0",
+        "newton": {} if explicit else newton_work(module),
     }
+
+
+#: The buffers of integrate_geometric()'s workspace a lane's Newton VI step uses.
+_NEWTON = ("g", "gn", "a", "b", "vc", "vd", "qk", "wk", "q1", "w1", "f", "step")
+
+
+def newton_work(module: Module) -> dict[str, int]:
+    """Offsets (doubles), in a lane's own workspace (WORK_SIZE), of the buffers its VI steps
+    use with a coupled M: integrate()'s, inside its run region (integrate_geometric's
+    layout), so that a lane's step is the one-member step on its own buffers.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> w = newton_work(lower_system(builtin("double_pendulum").with_batch()))
+        >>> w["f"] - w["g"] > 0, w["qk"] != w["q1"]
+        (True, True)
+    """
+    layouts = {lay.name: lay for lay in module.layouts}
+    run = layouts["integrate"].offset("run")
+    return {name: run + layouts["geometric"].offset(name) for name in _NEWTON}
 
 
 def _rhs(module: Module) -> tuple[str, ...]:
