@@ -10,7 +10,9 @@ with an angular velocity so large that its first step fails (infeasible for the 
 finite for Runge-Kutta): their neighbours in the same block must not notice. With a coupled
 M (Newton VI), one more member starts upside down at rest under a far stronger gravity:
 it speeds up until, some steps in, its Newton iteration does not converge (ERR_NEWTON) while
-the others, iterating their own number of times, go on.
+the others, iterating their own number of times, go on; and one spins 10^4 times faster: the
+double pendulum's RK4 then meets a singular A(q) a = b in a stage (ERR_SINGULAR, which the
+batch must report as the one-member stage does, not as a non-finite step).
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from s2gen.systems import builtin, resolve
 
 K, H, NSTEPS, EVERY = 11, 0.01, 60, 6
 SPECS = Path(__file__).parent / "specs"
-NAN_MEMBER, FAST_MEMBER, LATE_MEMBER = 3, 9, 6
+NAN_MEMBER, FAST_MEMBER, LATE_MEMBER, SPIN_MEMBER = 3, 9, 6, 1
 #: How much stronger LATE_MEMBER's gravity is: enough that its Newton fails some steps in
 #: (step 9 of the double pendulum, 5 of the rope, 10 of the pendulum chain, 17 of chain4).
 LATE_GRAVITY = {"double_pendulum": 1e3}
@@ -44,7 +46,8 @@ def system(name: str) -> System:
 
 def members(name: str, late: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """K perturbed copies of the spec's state and parameters, two of them made to fail (three
-    when `late`: LATE_MEMBER upside down at rest, its gravity g LATE_GRAVITY times larger)."""
+    when `late`: LATE_MEMBER upside down at rest, its gravity g LATE_GRAVITY times larger, and
+    SPIN_MEMBER 10^4 times faster)."""
     s = system(name)
     rng = np.random.default_rng(7)
     q0 = s.q0[None] + 1e-2 * rng.standard_normal((K, s.n, 3))
@@ -59,6 +62,7 @@ def members(name: str, late: bool = False) -> tuple[np.ndarray, np.ndarray, np.n
         q0[LATE_MEMBER] /= np.linalg.norm(q0[LATE_MEMBER], axis=1, keepdims=True)
         w0[LATE_MEMBER] = 0.0
         p[LATE_MEMBER, s.parameter_names.index("g")] *= LATE_GRAVITY.get(name, 30.0)
+        w0[SPIN_MEMBER] *= 1e4
     return q0, w0, p
 
 
@@ -90,12 +94,14 @@ def check(name: str, methods: tuple[str, ...], opt: str | None, late: bool = Fal
             assert np.array_equal(bits(b.omega[k, :done]), bits(w[:done])), where
             assert np.array_equal(bits(b.energy[k, :done]), bits(e[:done])), where
             assert np.isnan(b.q[k, done:]).all(), where  # nothing written past a failure
-        failing = (NAN_MEMBER, FAST_MEMBER, LATE_MEMBER) if late else (NAN_MEMBER, FAST_MEMBER)
+        failing = (NAN_MEMBER, FAST_MEMBER) + ((LATE_MEMBER, SPIN_MEMBER) if late else ())
         ok = [k for k in range(K) if k not in failing]
         assert (b.status[ok] == 0).all() and b.status[NAN_MEMBER] == 3, m
         assert b.status[FAST_MEMBER] != 0 and b.stats["fail_step"][FAST_MEMBER] == 1, m
         if late and not m.startswith("rk"):  # Newton fails some steps in, the others go on
             assert b.status[LATE_MEMBER] == 2 and b.stats["steps"][LATE_MEMBER] > 0, m
+        if late and name == "double_pendulum" and m == "rk4":
+            assert b.status[SPIN_MEMBER] == 6, m  # a singular solve in a stage
 
 
 def test_four_pendula_every_method() -> None:
