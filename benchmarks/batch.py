@@ -11,9 +11,10 @@ and the fraction of the core's peak the batch reaches, with the CPU model. Peak 
 cycle (2 FMA pipes x 2 flops x the vector width: 8 doubles with AVX-512 F, 4 with AVX2, 2
 otherwise); the emitted code has no fused multiply-adds (-std=c99 keeps gcc from contracting),
 so at most half of it is reachable. The flops of a member-step are counted from the lowered
-kernels (`flops_per_member_step`); with a coupled M (the double pendulum, the 10-link rope)
-they are not counted (Newton's iterations and the solves vary per step), and no fraction of
-peak is printed.
+kernels (`flops_per_member_step`). With a dense M (the double pendulum) the count takes the
+solves as (2/3) N3^3 + 2 N3^2 flops (LU) and (1/3) N3^3 + 2 N3^2 (Cholesky) and the Newton VI's
+iterations per step as the batch's members took them (their mean, which the program prints);
+with a max-index M (the 10-link rope) no flops are counted and no fraction of peak printed.
 
     python benchmarks/batch.py [--systems four_pendula double_pendulum rope:n=10]
         [--members 1024] [--repeats 3]
@@ -65,7 +66,7 @@ int main(int argc, char **argv)
     int *status = malloc(sizeof(int) * K);
     @NAME@_options opt;
     double best_one = 1e300, best_batch = 1e300;
-    long k, e, r, same = 1;
+    long k, e, r, same = 1, iters = 0, steps = 0;
     @NAME@_default_options(&opt);
     opt.every = every;
     @NAME@_default_params(pk);
@@ -103,7 +104,11 @@ int main(int argc, char **argv)
             same &= memcmp(&qe[e * K + k], &qb[((S - 1) * N + e) * K + k], sizeof(double)) == 0;
         }
     }
-    printf("%.6e %.6e %ld\n", best_one, best_batch, same);
+    for (k = 0; k < K; ++k) {
+        iters += stats[k].newton_iters;
+        steps += stats[k].steps;
+    }
+    printf("%.6e %.6e %ld %.6e\n", best_one, best_batch, same, (double)iters / (double)(steps > 0 ? steps : 1));
     return same ? 0 : 1;
 }
 """
@@ -120,14 +125,17 @@ def cpu() -> tuple[str, float, int]:
     return (model.group(1) if model else "unknown"), mhz, 2 * width * 2
 
 
-def flops_per_member_step(system: System, method: str) -> int | None:
+def flops_per_member_step(system: System, method: str, iters: float = 0.0) -> int | None:
     """Floating-point operations of one member-step, from the lowered kernels' op counts
     (`s2gen.inspect.kernel_profile`; a square root or a division counts as one): dV/dq (the
     general kernel, each term's gradient kernel times its members, a quadratic form's
     2 N3^2) plus, for the VI, each body's position and velocity updates, for RK4 four
-    evaluations of the field (dV/dq and each body's rhs_diag) and the stage sums; None with a
-    coupled M."""
+    evaluations of the field (dV/dq and each body's rhs_diag) and the stage sums. A dense M:
+    `newton_flops` (`iters` Newton iterations per step) or four fields of the coupled kind
+    (rhs_body, rhs_pair, A(q) and an LU solve); None for another coupled M."""
     module = lowered(system)
+    if "vi_newton" in module.parts:
+        return newton_flops(system, method, iters)
     if "vi_explicit" not in module.parts:
         return None
 
@@ -143,6 +151,32 @@ def flops_per_member_step(system: System, method: str) -> int | None:
     if method == "vi":
         return gradient + module.n * (ops("vi_pos") + ops("vi_vel"))
     return 4 * (gradient + module.n * ops("rhs_diag")) + 2 * n3 * (2 + 2 + 2 + 8)
+
+
+def newton_flops(system: System, method: str, iters: float) -> int:
+    """Flops of one member-step with a dense M: for the VI, the known side d (d_body, d_pair),
+    `iters` times the residual and Jacobian (res_body, res_pair) and an LU solve, then the
+    Cayley map, dV/dq, the right side c (c_body, c_pair), A(q+) (a_body, a_pair) and its
+    Cholesky solve; for RK4, four fields (dV/dq, rhs_body, rhs_pair, A(q), an LU solve) and
+    the stage sums."""
+    module = lowered(system)
+
+    def ops(name: str) -> int:
+        return int(kernel_profile(module.kernel(name)).total)  # type: ignore[arg-type]
+
+    n, pairs, n3 = module.n, len(module.pairs), 3 * module.n
+    gradient = ops("gradient") if dict(module.facts).get("general") else 0
+    for t in module.terms:
+        gradient += t.loop.count * ops(t.gradient)
+    lu, cholesky = 2 * n3**3 // 3 + 2 * n3 * n3, n3**3 // 3 + 2 * n3 * n3
+    a = n * ops("a_body") + pairs * ops("a_pair")
+    if method == "vi":
+        d = n * ops("d_body") + pairs * ops("d_pair")
+        newton = n * ops("res_body") + pairs * ops("res_pair") + lu
+        c = n * ops("c_body") + pairs * ops("c_pair")
+        return round(d + iters * newton + n * ops("cayley") + gradient + c + a + cholesky)
+    field = gradient + n * ops("rhs_body") + pairs * ops("rhs_pair") + a + lu
+    return 4 * field + 2 * n3 * (2 + 2 + 2 + 8)
 
 
 def run(system: str, method: str, flags: str, members: int, steps: int, repeats: int) -> None:
@@ -174,19 +208,19 @@ def run(system: str, method: str, flags: str, members: int, steps: int, repeats:
             capture_output=True,
             text=True,
         )
-    one, batch, same = out.stdout.split()
+    one, batch, same, iters = out.stdout.split()
     if same != "1":
         print(f"{system} {method} {flags}: batch and one-at-a-time differ", file=sys.stderr)
         sys.exit(1)
     rate_one = members * steps / float(one)
     rate_batch = members * steps / float(batch)
     _, mhz, per_cycle = cpu()
-    ops = flops_per_member_step(s, method)
+    ops = flops_per_member_step(s, method, float(iters))
     peak = mhz * 1e6 * per_cycle
     of_peak = (
         f"~{ops} flops/member-step: {100 * rate_batch * ops / peak:6.2f} % of peak"
         if ops is not None
-        else "flops not counted (coupled M)"
+        else "flops not counted (max-index M)"
     )
     print(
         f"{system:15s} {method:4s} {flags:8s} one/call {rate_one:11.4g}  batch {rate_batch:11.4g}"
