@@ -13,10 +13,12 @@ functions, called lane by lane (their member loops, neighbour lists and member t
 kept as they are).
 
 With a coupled M (dense, banded or max-index), the lanes hold the state body-major: the
-Runge-Kutta stages' arithmetic still runs in loops over the lanes, while the field (dV/dq,
-then A(q) a = b by the one-member solver) and each VI substep (Newton on the Cayley
-parameters, then A(q+) w+ = c: the one-member vi_advance) run lane by lane with the lane's
-own context and workspace. A lane's Newton thus iterates exactly as its member's would alone
+Runge-Kutta stages' arithmetic still runs in loops over the lanes, and so does a dense M's
+field (dV/dq where it runs in lanes, the field's kernels inline, A(q) and its pivoted
+elimination with each lane's own pivots: `s2gen.printing.c_batch.coupled_field`); another
+M's field (its structured solver) and each VI substep (Newton on the Cayley parameters,
+then A(q+) w+ = c: the one-member vi_advance) run lane by lane with the lane's own context
+and workspace. A lane's Newton thus iterates exactly as its member's would alone
 (its own convergence test, iteration count and warm start), and a lane whose Newton, solve or
 state fails stops alone with that status while the other lanes go on.
 

@@ -324,6 +324,12 @@ def _lane_gradient(module: Module) -> Any:
     return lane_gradient(module)
 
 
+def _coupled_field(module: Module) -> Any:
+    from s2gen.printing.c_batch import coupled_field
+
+    return coupled_field(module)
+
+
 def sections(module: Module) -> tuple[Sections, Sections]:
     """(C, NumPy) partials of each optional section of the parts the module lays out, chosen
     by what it has: the general potential or zeros, the quadratic terms' K, the kernels'
@@ -349,6 +355,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     forces = driven and module.drive is not None and module.drive.forces
     batch = "batch" in module.parts  # integrate_batch(): dV/dq in lane loops where it can be
     lanes = batch and explicit and _lane_gradient(module) is not None
+    field = batch and not explicit and _coupled_field(module) is not None  # a dense M's, in lanes
 
     def pick(lang: str, *choices: tuple[bool, str]) -> tuple[str, ...]:
         return tuple(f"{lang}/sections/_{stem}.jinja" for chosen, stem in choices if chosen)
@@ -408,11 +415,14 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         # integrate_batch(): dV/dq and the field in loops over the lanes, or lane by lane
         "batch_gradient": pick(
             "c",
-            (lanes, "batch_gradient_lanes"),
+            (lanes or field, "batch_gradient_lanes"),
             (batch and explicit and not lanes, "batch_gradient_each"),
         ),
         "batch_field": pick(
-            "c", (lanes, "batch_field_lanes"), (batch and not lanes, "batch_field_each")
+            "c",
+            (lanes, "batch_field_lanes"),
+            (field, "batch_field_coupled"),
+            (batch and not lanes and not field, "batch_field_each"),
         ),
         # a coupled M: the lanes hold every state body-major, the Newton VI lane by lane
         "batch_layout": pick(
