@@ -187,7 +187,7 @@ def coupled_field(module: Module) -> dict[str, Any] | None:
         >>> from s2gen.systems import builtin
         >>> from s2gen.passes import lower_system
         >>> f = coupled_field(lower_system(builtin("double_pendulum").with_batch()))
-        >>> f["a_stores"][1]
+        >>> f["a_stores"][0]
         'a[((3 * i0 + 0) * 6 + 3 * j0 + 0) * L + l] = a0;'
     """
     if "field_coupled" not in module.parts or lane_gradient(module) is None:
