@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_chains import banded_chain
 
 from s2gen.parts.batch import BATCH_LANES, BATCH_METHODS
 from s2gen.runtime.batch import integrate_batch
@@ -39,8 +40,11 @@ LATE_GRAVITY = {"double_pendulum": 1e3}
 
 
 def system(name: str) -> System:
-    """A built-in (with its options: ``rope:n=10``), or a spec of tests/specs (``springs4``: a
-    general potential alone; ``chain4``: four coupled links)."""
+    """A built-in (with its options: ``rope:n=10``), a spec of tests/specs (``springs4``: a
+    general potential alone; ``chain4``: four coupled links) or ``banded``: nine bodies whose
+    M couples neighbours (test_chains' banded solver)."""
+    if name == "banded":
+        return banded_chain()
     return resolve(str(SPECS / f"{name}.toml")) if name in ("springs4", "chain4") else resolve(name)
 
 
@@ -143,6 +147,13 @@ def test_coupled_every_method_both_flag_sets(name: str, opt: str) -> None:
     """Every batched method with a coupled M (dense: the double pendulum, the pendulum chain
     and a four-link spec; max-index: the rope), -O2 and -O3 -march=native."""
     check(name, BATCH_METHODS, opt, late=True)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("opt", ["portable", "native"])
+def test_banded_every_method_both_flag_sets(opt: str) -> None:
+    """Every batched method with a banded M (its structured solver, lane by lane)."""
+    check("banded", BATCH_METHODS, opt)
 
 
 def test_model_integrate_batch() -> None:
