@@ -78,7 +78,7 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument(
         "--batch",
         action="store_true",
-        help="C: also emit integrate_batch(), K members per call in SIMD lanes (diagonal M)",
+        help="C: also emit integrate_batch(), K members per call in SIMD lanes (closed systems)",
     )
 
     s = sub.add_parser("simulate", help="integrate a system and save the trajectory (.npz)")

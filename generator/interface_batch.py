@@ -1,6 +1,6 @@
 """The C interface of batches: ``integrate_batch()``, as an `interface.Function`.
 
-A sphere module emitted from `System.with_batch` has it (closed systems with a diagonal M, see
+A sphere module emitted from `System.with_batch` has it (closed systems, see
 `s2gen.parts.batch`); its header also defines BATCH_LANES and BATCH_WORK_SIZE.
 
 Layout: every per-member array is member-innermost, element e of member k at [e * K + k] (the
@@ -50,7 +50,8 @@ INTEGRATE_BATCH = Function(
     "[(3 i + c) * K + k] (NSTATE * K), q and w [(s * NSTATE + 3 i + c) * K + k] ((nsteps / "
     "every + 1) * NSTATE * K), energy [s * K + k] (not evaluated when NULL). Methods: VI, VI4, "
     "VI6, VI8, RK2, RK2_PROJ, RK3, RK4. A member that fails (status[k] as integrate() would "
-    "return it: a non-finite or non-unit q0, an infeasible or non-finite step) stops alone, "
+    "return it: a non-finite or non-unit q0, an infeasible or non-finite step, a Newton "
+    "iteration that does not converge, a singular solve) stops alone, "
     "its samples before stats[k].fail_step valid; the others go on. work: BATCH_WORK_SIZE "
     "doubles, whatever K. Returns ERR_ARGUMENT (nothing written) for K < 1, h <= 0, nsteps < "
     "0, an every that does not divide nsteps or a method it does not take; else OK when every "

@@ -338,7 +338,7 @@ class System:
 
     def with_batch(self) -> System:
         """The same system, its emitted C with integrate_batch(): K members per call, SIMD
-        across members (closed systems with a diagonal M; see `s2gen.parts.batch`).
+        across members (closed systems; see `s2gen.parts.batch`).
 
         Example:
             >>> from s2gen.systems import builtin

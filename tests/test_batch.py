@@ -7,7 +7,12 @@ uint64, so that -0.0 and 0.0 or two NaN payloads would differ). The batch holds 
 members (not a multiple of BATCH_LANES: the last block is padded), every member with its own
 parameters and initial state, one with a NaN in q0 (fails before its first sample) and one
 with an angular velocity so large that its first step fails (infeasible for the VI, not
-finite for Runge-Kutta): their neighbours in the same block must not notice.
+finite for Runge-Kutta): their neighbours in the same block must not notice. With a coupled
+M (Newton VI), one more member starts upside down at rest under a far stronger gravity:
+it speeds up until, some steps in, its Newton iteration does not converge (ERR_NEWTON) while
+the others, iterating their own number of times, go on; and one spins 10^4 times faster: the
+double pendulum's RK4 then meets a singular A(q) a = b in a stage (ERR_SINGULAR, which the
+batch must report as the one-member stage does, not as a non-finite step).
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_chains import banded_chain
 
 from s2gen.parts.batch import BATCH_LANES, BATCH_METHODS
 from s2gen.runtime.batch import integrate_batch
@@ -27,16 +33,25 @@ from s2gen.systems import builtin, resolve
 
 K, H, NSTEPS, EVERY = 11, 0.01, 60, 6
 SPECS = Path(__file__).parent / "specs"
-NAN_MEMBER, FAST_MEMBER = 3, 9
+NAN_MEMBER, FAST_MEMBER, LATE_MEMBER, SPIN_MEMBER = 3, 9, 6, 1
+#: How much stronger LATE_MEMBER's gravity is: enough that its Newton fails some steps in
+#: (step 9 of the double pendulum, 5 of the rope, 10 of the pendulum chain, 17 of chain4).
+LATE_GRAVITY = {"double_pendulum": 1e3}
 
 
 def system(name: str) -> System:
-    """A built-in, or a spec of tests/specs (``springs4``: a general potential alone)."""
-    return resolve(str(SPECS / "springs4.toml")) if name == "springs4" else builtin(name)
+    """A built-in (with its options: ``rope:n=10``), a spec of tests/specs (``springs4``: a
+    general potential alone; ``chain4``: four coupled links) or ``banded``: nine bodies whose
+    M couples neighbours (test_chains' banded solver)."""
+    if name == "banded":
+        return banded_chain()
+    return resolve(str(SPECS / f"{name}.toml")) if name in ("springs4", "chain4") else resolve(name)
 
 
-def members(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """K perturbed copies of the spec's state and parameters, two of them made to fail."""
+def members(name: str, late: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """K perturbed copies of the spec's state and parameters, two of them made to fail (three
+    when `late`: LATE_MEMBER upside down at rest, its gravity g LATE_GRAVITY times larger, and
+    SPIN_MEMBER 10^4 times faster)."""
     s = system(name)
     rng = np.random.default_rng(7)
     q0 = s.q0[None] + 1e-2 * rng.standard_normal((K, s.n, 3))
@@ -46,6 +61,12 @@ def members(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     p = np.array(s.parameter_values)[None] * (1 + 0.2 * rng.random((K, len(s.parameter_values))))
     q0[NAN_MEMBER, 0, 1] = np.nan
     w0[FAST_MEMBER] *= 1e170
+    if late:
+        q0[LATE_MEMBER] = -s.q0 + 1e-3
+        q0[LATE_MEMBER] /= np.linalg.norm(q0[LATE_MEMBER], axis=1, keepdims=True)
+        w0[LATE_MEMBER] = 0.0
+        p[LATE_MEMBER, s.parameter_names.index("g")] *= LATE_GRAVITY.get(name, 30.0)
+        w0[SPIN_MEMBER] *= 1e4
     return q0, w0, p
 
 
@@ -53,11 +74,11 @@ def bits(a: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a).view(np.uint64)
 
 
-def check(name: str, methods: tuple[str, ...], opt: str | None) -> None:
+def check(name: str, methods: tuple[str, ...], opt: str | None, late: bool = False) -> None:
     s = system(name)
     one, batched = CBackend(s, opt=opt), CBackend(s.with_batch(), opt=opt)
     assert not one.library.batch and batched.library.batch
-    q0, w0, p = members(name)
+    q0, w0, p = members(name, late)
     assert K % BATCH_LANES != 0
     for m in methods:
         b = integrate_batch(batched, m, H, NSTEPS, q0, w0, p, Options(), EVERY)
@@ -77,9 +98,14 @@ def check(name: str, methods: tuple[str, ...], opt: str | None) -> None:
             assert np.array_equal(bits(b.omega[k, :done]), bits(w[:done])), where
             assert np.array_equal(bits(b.energy[k, :done]), bits(e[:done])), where
             assert np.isnan(b.q[k, done:]).all(), where  # nothing written past a failure
-        ok = [k for k in range(K) if k not in (NAN_MEMBER, FAST_MEMBER)]
+        failing = (NAN_MEMBER, FAST_MEMBER) + ((LATE_MEMBER, SPIN_MEMBER) if late else ())
+        ok = [k for k in range(K) if k not in failing]
         assert (b.status[ok] == 0).all() and b.status[NAN_MEMBER] == 3, m
         assert b.status[FAST_MEMBER] != 0 and b.stats["fail_step"][FAST_MEMBER] == 1, m
+        if late and not m.startswith("rk"):  # Newton fails some steps in, the others go on
+            assert b.status[LATE_MEMBER] == 2 and b.stats["steps"][LATE_MEMBER] > 0, m
+        if late and name == "double_pendulum" and m == "rk4":
+            assert b.status[SPIN_MEMBER] == 6, m  # a singular solve in a stage
 
 
 def test_four_pendula_every_method() -> None:
@@ -103,6 +129,33 @@ def test_every_method_both_flag_sets(name: str, opt: str) -> None:
     check(name, BATCH_METHODS, opt)
 
 
+def test_double_pendulum_newton() -> None:
+    """A dense M: the Newton VI and a composition lane by lane (each lane its own iterations,
+    a member whose Newton fails mid-run stops alone), RK4 with A(q) a = b solved lane by lane."""
+    check("double_pendulum", ("vi", "vi4", "rk4"), "portable", late=True)
+
+
+def test_rope_newton() -> None:
+    """A 10-link rope, M of max-index structure (its own solver): the Newton VI and RK4."""
+    check("rope:n=10", ("vi", "rk4"), "portable", late=True)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("opt", ["portable", "native"])
+@pytest.mark.parametrize("name", ["double_pendulum", "rope:n=10", "pendulum_chain", "chain4"])
+def test_coupled_every_method_both_flag_sets(name: str, opt: str) -> None:
+    """Every batched method with a coupled M (dense: the double pendulum, the pendulum chain
+    and a four-link spec; max-index: the rope), -O2 and -O3 -march=native."""
+    check(name, BATCH_METHODS, opt, late=True)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("opt", ["portable", "native"])
+def test_banded_every_method_both_flag_sets(opt: str) -> None:
+    """Every batched method with a banded M (its structured solver, lane by lane)."""
+    check("banded", BATCH_METHODS, opt)
+
+
 def test_model_integrate_batch() -> None:
     """Model.integrate_batch: parameters by name, one K for all, the spec's state by default,
     member-first arrays; a member's run equals Model.integrate's."""
@@ -116,10 +169,10 @@ def test_model_integrate_batch() -> None:
 
 
 def test_refusals() -> None:
-    """What is not covered is refused in one line: a coupled M, a method that is not batched,
-    the NumPy backend, members that disagree on K."""
-    with pytest.raises(ValueError, match="diagonal M.*dense M"):
-        Model(builtin("double_pendulum")).integrate_batch("vi", h=0.01, T=0.1, params={"g": [1.0]})
+    """What is not covered is refused in one line: a driven system, a method that is not
+    batched, the NumPy backend, members that disagree on K."""
+    with pytest.raises(ValueError, match="closed systems; this one is driven"):
+        Model(builtin("forced_double_pendulum")).integrate_batch("vi", h=0.01, T=0.1)
     model = Model(builtin("four_pendula"))
     with pytest.raises(ValueError, match="'rk45' is not batched"):
         model.integrate_batch("rk45", h=0.01, T=0.1, params={"g": [1.0, 2.0]})

@@ -199,6 +199,8 @@ SYSTEMS = {
     "four_pendula_batch": lambda: builtin("four_pendula").with_batch(),
     # integrate_batch() with dV/dq lane by lane (pair rows)
     "three_bodies_batch": lambda: builtin("three_bodies").with_batch(),
+    # integrate_batch() with a coupled M: the Newton VI and the field lane by lane
+    "double_pendulum_batch": lambda: builtin("double_pendulum").with_batch(),
 }
 
 

@@ -2,7 +2,7 @@
 `worker.run_member` would give it.
 
 Input: a `Payload` that carries the sources of the module with integrate_batch()
-(`Payload.batch_files`: closed systems with a diagonal M and a batched method, see
+(`Payload.batch_files`: closed systems and a batched method, see
 `s2gen.parts.batch`) and a batch of `Task`s with one step size. Output: their
 `MemberResult`s, each equal to `run_member`'s for that member (its samples, energy and
 statistics bit for bit: integrate_batch() is integrate() lane by lane; its status and message

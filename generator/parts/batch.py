@@ -12,22 +12,31 @@ integrate()'s bit for bit; the gradient dV/dq and the energy are the one-member 
 functions, called lane by lane (their member loops, neighbour lists and member tables are
 kept as they are).
 
-What is covered: closed systems (no forces, inputs or time) with a diagonal M; the explicit VI
-and its compositions (vi, vi4, vi6, vi8) and the fixed-step Runge-Kutta methods (rk2, rk2-proj,
-rk3, rk4). What is not: a coupled M (the Newton VI with per-lane convergence masks), RATTLE,
-the adaptive methods (per-member step sizes) and driven systems; `batch_refusal` says which.
+With a coupled M (dense, banded or max-index), the lanes hold the state body-major: the
+Runge-Kutta stages' arithmetic still runs in loops over the lanes, and so does a dense M's
+field (dV/dq where it runs in lanes, the field's kernels inline, A(q) and its pivoted
+elimination with each lane's own pivots: `s2gen.printing.c_batch.coupled_field`); another
+M's field (its structured solver) and each VI substep (Newton on the Cayley parameters,
+then A(q+) w+ = c: the one-member vi_advance) run lane by lane with the lane's own context
+and workspace. A lane's Newton thus iterates exactly as its member's would alone
+(its own convergence test, iteration count and warm start), and a lane whose Newton, solve or
+state fails stops alone with that status while the other lanes go on.
+
+What is covered: closed systems (no forces, inputs or time); the VI and its compositions
+(vi, vi4, vi6, vi8: explicit with a diagonal M, Newton with a coupled M) and the fixed-step
+Runge-Kutta methods (rk2, rk2-proj, rk3, rk4). What is not: RATTLE, the adaptive methods
+(per-member step sizes) and driven systems; `batch_refusal` says which.
 
 Example:
     >>> from s2gen.systems import builtin
-    >>> batch_refusal(builtin("four_pendula")) is None
+    >>> batch_refusal(builtin("double_pendulum")) is None
     True
-    >>> print(batch_refusal(builtin("double_pendulum")))
-    double_pendulum: integrate_batch() covers closed systems with a diagonal M (explicit VI); this one has a dense M
+    >>> print(batch_refusal(builtin("forced_double_pendulum")))
+    forced_double_pendulum: integrate_batch() covers closed systems; this one is driven (forces, inputs or time)
 """
 
 from __future__ import annotations
 
-from s2gen.inertia import InertiaKind
 from s2gen.parts.records import Part
 from s2gen.system import System
 
@@ -49,18 +58,10 @@ PART = Part(BATCH_PART)
 
 def batch_refusal(system: System) -> str | None:
     """Why `system`'s C cannot carry integrate_batch(), in one line, or None."""
-    from s2gen.equations.structure import choose_solver
-
     if system.driven:
         return (
             f"{system.name}: integrate_batch() covers closed systems; this one is driven "
             "(forces, inputs or time)"
-        )
-    solver = choose_solver(system)
-    if solver is not InertiaKind.DIAGONAL:
-        return (
-            f"{system.name}: integrate_batch() covers closed systems with a diagonal M "
-            f"(explicit VI); this one has a {solver.value} M"
         )
     return None
 

@@ -211,7 +211,9 @@ def print_module(module: Module) -> PrintedModule:
         quadratic=module.quadratic,
         c_includes=(
             ("stdint.h",)
-            if module.quadratic > 0 or any(lay.name == "explicit" for lay in module.layouts)
+            if module.quadratic > 0
+            or any(lay.name == "explicit" for lay in module.layouts)
+            or "batch" in module.parts
             else ()
         ),
         quad_inits=tuple(quad_init(module, t, calls) for t in module.terms if t.quadratic),

@@ -28,7 +28,7 @@ from s2gen.parts.batch import BATCH_LANES, BATCH_PART
 from s2gen.printing.c import CPrinter, c_inline, c_loop
 from s2gen.printing.c_calls import c_binding
 
-__all__ = ["batch_work", "print_batch"]
+__all__ = ["batch_work", "coupled_field", "newton_work", "print_batch"]
 
 #: The explicit VI's lane arrays of N3 doubles per lane (then sv, mi and chk); the
 #: Runge-Kutta arrays share the region with them.
@@ -85,6 +85,11 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
         at2 += t.table * t.loop.count * lanes
     off["g"] = at2
     at2 += n3 * lanes
+    if "field_coupled" in module.parts:  # a dense M's field in lane loops: M's entries, A(q)
+        off["md"] = at2
+        off["mp"] = off["md"] + n * lanes
+        off["a"] = off["mp"] + max(1, len(module.pairs)) * lanes
+        at2 = off["a"] + n3 * n3 * lanes
     off["slack"] = 7
     off["size"] = at + at2 + off["slack"]
     return off
@@ -97,8 +102,10 @@ _NO_LANES: dict[str, Any] = {"general": False, "parts": ()}
 def print_batch(module: Module) -> dict[str, Any]:
     """The batch part's record: lane count, the flat size of an NS-per-lane array and the
     workspace offsets (`batch_work`), dV/dq in loops over the lanes (`lane_gradient`; no
-    parts where it runs lane by lane), the field's kernel inline and the member tables the
-    lanes copy; every key empty (or 0) without the part."""
+    parts where it runs lane by lane, or with a coupled M), the field's kernel inline, the
+    member tables the lanes copy, whether the lanes start component-major (`soa`, a C
+    condition: the explicit VI's) and, with a coupled M, where a lane's Newton VI steps keep
+    their buffers (`newton_work`); every key empty (or 0) without the part."""
     if BATCH_PART not in module.parts:
         return {
             "lanes": 0,
@@ -108,20 +115,135 @@ def print_batch(module: Module) -> dict[str, Any]:
             "gradient": _NO_LANES,
             "rhs": (),
             "tables": (),
+            "soa": "0",
+            "newton": {},
+            "field": {},
         }
-    for name in ("vi_pos", "vi_vel"):
+    explicit = "vi_explicit" in module.parts  # else a coupled M: the Newton VI lane by lane
+    for name in ("vi_pos", "vi_vel") if explicit else ():
         scalars = [a.name for a in module.kernel(name).inputs if a.scalar]
         assert scalars == ["h", "mi"], f"{name}: the batch loads h and mi only, not {scalars}"
+    field = None if explicit else coupled_field(module)
+    gradient = lane_gradient(module) if explicit or field else None
     return {
         "lanes": BATCH_LANES,
         "nsl": 6 * module.n * BATCH_LANES,
         "nl3": 3 * module.n * BATCH_LANES,
         "work": batch_work(module, BATCH_LANES),
-        "gradient": lane_gradient(module) or _NO_LANES,
-        "rhs": _rhs(module),
+        "gradient": gradient or _NO_LANES,
+        "rhs": _rhs(module) if gradient and explicit else (),
         "tables": tuple(
             {"index": t.index, "size": t.table * t.loop.count} for t in module.terms if t.table
         ),
+        # whether a block's lane arrays start component-major (the explicit VI's), in C
+        "soa": "scheme != NULL" if explicit else "0",
+        "newton": {} if explicit else newton_work(module),
+        "field": field or {},
+    }
+
+
+#: The buffers of integrate_geometric()'s workspace a lane's Newton VI step uses.
+_NEWTON = ("g", "gn", "a", "b", "vc", "vd", "qk", "wk", "q1", "w1", "f", "step")
+
+
+def newton_work(module: Module) -> dict[str, int]:
+    """Offsets (doubles), in a lane's own workspace (WORK_SIZE), of the buffers its VI steps
+    use with a coupled M: integrate()'s, inside its run region (integrate_geometric's
+    layout), so that a lane's step is the one-member step on its own buffers.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> w = newton_work(lower_system(builtin("double_pendulum").with_batch()))
+        >>> w["f"] - w["g"] > 0, w["qk"] != w["q1"]
+        (True, True)
+    """
+    layouts = {lay.name: lay for lay in module.layouts}
+    run = layouts["integrate"].offset("run")
+    return {name: run + layouts["geometric"].offset(name) for name in _NEWTON}
+
+
+def _lane_loads(n3: int, scalars: dict[str, tuple[str, str, int]]) -> tuple[str, ...]:
+    """Loads of a kernel's 3-vectors from body-major lane arrays in a loop over lanes l: name
+    -> (array, C index of its body, offset of the array's block in the state)."""
+    lines = []
+    for name, (array, body, block) in scalars.items():
+        base = f"{block} + 3 * {body}" if block else f"3 * {body}"
+        lines.append(
+            f"const double {name}0 = {array}[({base}) * L + l], "
+            f"{name}1 = {array}[({base} + 1) * L + l], {name}2 = {array}[({base} + 2) * L + l];"
+        )
+    return tuple(lines)
+
+
+def coupled_field(module: Module) -> dict[str, Any] | None:
+    """The field with a dense M in loops over the lanes (rhs_cx of the coupled field): the
+    rhs_body, rhs_pair and a_pair kernels inline with their loads from the lanes' state y
+    (body-major, q then w) and gradient g, and the stores of their outputs (dw += b_i, b_j;
+    A's blocks, A_ij and A_ji = A_ij^T); None for another M or where dV/dq does not run in
+    loops over the lanes.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> f = coupled_field(lower_system(builtin("double_pendulum").with_batch()))
+        >>> f["a_stores"][0]
+        'a[((3 * i0 + 0) * 6 + 3 * j0 + 0) * L + l] = a0;'
+    """
+    if "field_coupled" not in module.parts or lane_gradient(module) is None:
+        return None
+    n3 = 3 * module.n
+    inline = {}
+    for name, scalars in (
+        ("rhs_body", ("q", "w", "g")),
+        ("rhs_pair", ("qi", "wi", "qj", "wj")),
+        ("a_pair", ("qi", "qj")),
+    ):
+        kernel = module.kernel(name)
+        assert isinstance(kernel, Kernel), "the passes lowered every kernel"
+        assert [a.name for a in kernel.inputs if a.scalar] == (
+            [] if name == "rhs_body" else ["mij"]
+        )
+        shared, lines = c_inline(kernel, scalars=scalars)
+        if shared:
+            return None
+        inline[name] = lines
+    outputs = [o.name for o in module.kernel("rhs_body").outputs]
+    assert len(outputs) == 2, outputs
+    dw = [
+        f"dw[(3 * {b} + {c}) * L + l] += b{s}{c};"
+        for c in range(3)
+        for b, s in (("i0", "i"), ("j0", "j"))
+    ]
+    a_stores = []
+    for r in range(3):
+        for c in range(3):
+            a_stores.append(f"a[((3 * i0 + {r}) * {n3} + 3 * j0 + {c}) * L + l] = a{3 * r + c};")
+            a_stores.append(f"a[((3 * j0 + {c}) * {n3} + 3 * i0 + {r}) * L + l] = a{3 * r + c};")
+    return {
+        "body_loads": _lane_loads(
+            n3, {"q": ("y", "i", 0), "w": ("y", "i", n3), "g": ("g", "i", 0)}
+        ),
+        "body": inline["rhs_body"],
+        "body_stores": tuple(
+            f"{array}[(3 * i + {c}) * L + l] = {out}{c};"
+            for out, array in zip(outputs, ("dy", "dw"))
+            for c in range(3)
+        ),
+        "pair_loads": _lane_loads(
+            n3,
+            {
+                "qi": ("y", "i0", 0),
+                "wi": ("y", "i0", n3),
+                "qj": ("y", "j0", 0),
+                "wj": ("y", "j0", n3),
+            },
+        ),
+        "pair": inline["rhs_pair"],
+        "pair_stores": tuple(dw),
+        "a_loads": _lane_loads(n3, {"qi": ("y", "i0", 0), "qj": ("y", "j0", 0)}),
+        "a_pair": inline["a_pair"],
+        "a_stores": tuple(a_stores),
     }
 
 

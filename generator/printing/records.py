@@ -287,6 +287,8 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "jacobian_vi": ("jacobian",),
         "batch_gradient": ("batch",),
         "batch_field": ("batch",),
+        "batch_layout": ("batch",),
+        "batch_vi": ("batch",),
     },
     {
         "masses_fill": ("masses", "masses_coupled", "masses_generators"),
@@ -322,6 +324,12 @@ def _lane_gradient(module: Module) -> Any:
     return lane_gradient(module)
 
 
+def _coupled_field(module: Module) -> Any:
+    from s2gen.printing.c_batch import coupled_field
+
+    return coupled_field(module)
+
+
 def sections(module: Module) -> tuple[Sections, Sections]:
     """(C, NumPy) partials of each optional section of the parts the module lays out, chosen
     by what it has: the general potential or zeros, the quadratic terms' K, the kernels'
@@ -346,7 +354,8 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     driven = module.drive is not None  # time and inputs in the context, the driven driver
     forces = driven and module.drive is not None and module.drive.forces
     batch = "batch" in module.parts  # integrate_batch(): dV/dq in lane loops where it can be
-    lanes = batch and _lane_gradient(module) is not None
+    lanes = batch and explicit and _lane_gradient(module) is not None
+    field = batch and not explicit and _coupled_field(module) is not None  # a dense M's, in lanes
 
     def pick(lang: str, *choices: tuple[bool, str]) -> tuple[str, ...]:
         return tuple(f"{lang}/sections/_{stem}.jinja" for chosen, stem in choices if chosen)
@@ -405,10 +414,26 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         ),
         # integrate_batch(): dV/dq and the field in loops over the lanes, or lane by lane
         "batch_gradient": pick(
-            "c", (lanes, "batch_gradient_lanes"), (batch and not lanes, "batch_gradient_each")
+            "c",
+            (lanes or field, "batch_gradient_lanes"),
+            (batch and explicit and not lanes, "batch_gradient_each"),
         ),
         "batch_field": pick(
-            "c", (lanes, "batch_field_lanes"), (batch and not lanes, "batch_field_each")
+            "c",
+            (lanes, "batch_field_lanes"),
+            (field, "batch_field_coupled"),
+            (batch and not lanes and not field, "batch_field_each"),
+        ),
+        # a coupled M: the lanes hold every state body-major, the Newton VI lane by lane
+        "batch_layout": pick(
+            "c",
+            (batch and explicit, "batch_layout_soa"),
+            (batch and not explicit, "batch_layout_body"),
+        ),
+        "batch_vi": pick(
+            "c",
+            (batch and explicit, "batch_vi_explicit"),
+            (batch and not explicit, "batch_vi_newton"),
         ),
     }
     py = {

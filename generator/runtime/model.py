@@ -138,7 +138,7 @@ class Model(JacobianMethods):
         default: the spec's) and parameters (`params`: name -> K values, or one for all),
         through integrate_batch() (`s2gen.runtime.batch`): each member's samples, energy and
         statistics equal `integrate`'s for it bit for bit; a failing member stops alone (its
-        status and stats say why and where). C backend, closed systems with a diagonal M,
+        status and stats say why and where). C backend, closed systems (M diagonal or coupled),
         the methods of `s2gen.parts.batch.BATCH_METHODS`; the first call builds the module
         with integrate_batch() (`System.with_batch`).
 
