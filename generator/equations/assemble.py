@@ -207,8 +207,8 @@ def sphere_module(system: System) -> Module:
         parameter_values=system.parameter_values,
         kernels=tuple(kernels),
         parts=parts,
-        # NumPy: numpy.linalg, scipy.linalg (the step Jacobians are C only)
-        c_only=("cholesky", "lu", "band", "jacobian", BATCH_PART),
+        # NumPy: numpy.linalg, scipy.linalg
+        c_only=("cholesky", "lu", "band", BATCH_PART),
         variants=_variants(solver),
         pairs=pairs,
         terms=loops,

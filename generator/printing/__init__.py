@@ -45,6 +45,7 @@ from s2gen.printing.numpy import (
     py_inertia_setup,
     py_table_names,
 )
+from s2gen.printing.numpy_jacobian import print_numpy_jacobian
 from s2gen.printing.records import PrintedKernel, print_kernel
 from s2gen.printing.tableau import (
     PrintedExplicit,
@@ -137,6 +138,7 @@ class PrintedModule:
     py_data_setup: tuple[str, ...]  # NumPy: the per-body arrays of [data] the terms read
     drive: dict[str, Any]  # a driven module's inputs, methods and tables (empty: closed)
     jac: dict[str, Any]  # the step Jacobians' methods and lines (empty: no step_jacobian)
+    py_jac: dict[str, Any]  # NumPy's step Jacobians: methods and lines (empty: none)
     batch: dict[str, Any]  # integrate_batch()'s lanes, workspace and lines (empty: none)
 
 
@@ -261,5 +263,6 @@ def print_module(module: Module) -> PrintedModule:
         py_data_setup=py_data_setup(module),
         drive=print_drive(module),
         jac=print_jacobian(module),
+        py_jac=print_numpy_jacobian(module),
         batch=print_batch(module),
     )

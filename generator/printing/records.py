@@ -302,6 +302,7 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "drive_start": ("driven",),
         "drive_end": ("driven",),
         "drive_stage": ("driven",),
+        "jacobian_vi": ("jacobian",),
     },
 )
 
@@ -447,6 +448,9 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "drive_start": pick("numpy", (forces, "drive_start_force")),
         "drive_end": pick("numpy", (forces, "drive_end_force")),
         "drive_stage": pick("numpy", (forces, "drive_stage_force")),
+        "jacobian_vi": pick(
+            "numpy", (any(k.name == "vi_jacobian" for k in module.kernels), "jacobian_vi")
+        ),
     }
     variant = dict(module.variants)
     laid = {variant.get(p, p) for p in module.parts} | {"module"}
