@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from docs_text import code_blocks, page, section
 from test_chains import banded_chain
 from test_jacobian import EXACT, _central
 
@@ -199,3 +200,15 @@ def test_numpy_step_jacobian_refuses_in_one_line(request: pytest.FixtureRequest)
         module.step_jacobian(p, method("vi").code, 0.0, -H, s.q0, s.omega0)[0]
         == module.ERR_ARGUMENT
     )
+
+
+def test_docs_backends_block() -> None:
+    """The block of docs/user_guide/linearization.rst's "Backends", run as it stands: its
+    NumPy linearization is its C one to 1e-10 (what the page says of it)."""
+    text = section(page("user_guide/linearization.rst"), "Backends")
+    (code,) = code_blocks(text, "python")
+    ns: dict[str, object] = {}
+    exec(compile(code, "linearization.rst", "exec"), ns)  # noqa: S102 (the page's own example)
+    c, py = ns["in_c"], ns["in_numpy"]
+    for field in ("A", "B", "P"):
+        _close(getattr(py, field), getattr(c, field), f"docs {field}")
