@@ -285,6 +285,7 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "drive_stage": ("driven",),
         "drive_operator": ("drive_force_fns",),
         "jacobian_vi": ("jacobian",),
+        "jacobian_rattle": ("jacobian",),
         "batch_gradient": ("batch",),
         "batch_field": ("batch",),
     },
@@ -303,6 +304,7 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "drive_end": ("driven",),
         "drive_stage": ("driven",),
         "jacobian_vi": ("jacobian",),
+        "jacobian_rattle": ("jacobian",),
     },
 )
 
@@ -348,6 +350,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     forces = driven and module.drive is not None and module.drive.forces
     batch = "batch" in module.parts  # integrate_batch(): dV/dq in lane loops where it can be
     lanes = batch and _lane_gradient(module) is not None
+    rattle_jacobian = any(k.name == "rattle_jacobian" for k in module.kernels)
 
     def pick(lang: str, *choices: tuple[bool, str]) -> tuple[str, ...]:
         return tuple(f"{lang}/sections/_{stem}.jinja" for chosen, stem in choices if chosen)
@@ -404,6 +407,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "jacobian_vi": pick(
             "c", (any(k.name == "vi_jacobian" for k in module.kernels), "jacobian_vi")
         ),
+        "jacobian_rattle": pick("c", (rattle_jacobian, "jacobian_rattle")),
         # integrate_batch(): dV/dq and the field in loops over the lanes, or lane by lane
         "batch_gradient": pick(
             "c", (lanes, "batch_gradient_lanes"), (batch and not lanes, "batch_gradient_each")
@@ -451,6 +455,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "jacobian_vi": pick(
             "numpy", (any(k.name == "vi_jacobian" for k in module.kernels), "jacobian_vi")
         ),
+        "jacobian_rattle": pick("numpy", (rattle_jacobian, "jacobian_rattle")),
     }
     variant = dict(module.variants)
     laid = {variant.get(p, p) for p in module.parts} | {"module"}

@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from s2gen.equations.jacobian import jacobian_refusal
+from s2gen.equations.rattle_jacobian import has_rattle_jacobian
 from s2gen.methods import METHODS, Family, Status, driven_methods, fixed_methods, method
 from s2gen.runtime.c import CBackend, contiguous, pointer
 from s2gen.runtime.options import Options
@@ -155,6 +156,8 @@ def _refuse(backend: Any, method_name: str, basis: str) -> None:
     names = [m.name for m in fixed_methods("sphere")]
     if jacobian_vi:
         names += [m.name for m in METHODS if m.family is Family.VI]
+    if has_rattle_jacobian(system):
+        names += [m.name for m in METHODS if m.family is Family.RATTLE]
     allowed = [m for m in names if not system.driven or m in driven_methods()]
     if method_name not in allowed:
         more = "" if jacobian_vi else " (built without the VI family's)"
