@@ -110,8 +110,8 @@ def _write(out: Path, name: str, ls: Any) -> None:
     for k in range(dim):
         ax.plot(ls.times, ls.running[:, k], lw=0.8, label=rf"$\lambda_{{{k + 1}}}$")
     ax.axhline(0.0, color="0.6", lw=0.6)
-    ax.set_xlabel("averaging time")
-    ax.set_ylabel("running estimate")
+    ax.set_xlabel("averaging time t (the spec's time unit)")
+    ax.set_ylabel(r"running estimate of $\lambda_k$ (1 / time unit)")
     ax.grid(True, alpha=0.3)
     if dim <= 16:
         ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8)

@@ -6,6 +6,7 @@ linearized normal modes (computed here from M and V with NumPy)."""
 
 from __future__ import annotations
 
+import ctypes
 from fractions import Fraction
 
 import numpy as np
@@ -14,6 +15,7 @@ from docs_text import code_blocks, page
 
 from s2gen import load
 from s2gen.methods import Family, method
+from s2gen.runtime.c import CBackend, contiguous, pointer
 from s2gen.runtime.linearize import frame, tangent_basis
 from s2gen.runtime.model import Model
 from s2gen.runtime.options import Options
@@ -283,3 +285,63 @@ def test_parameter_jacobian_matches_central_differences(
     assert scale > 0
     assert np.abs(emb.P - fd).max() <= 1e-6 * scale, np.abs(emb.P - fd).max() / scale
     assert np.allclose(tan.P, tan.basis_out.T @ emb.P, 0, 1e-15)
+
+
+def _columns(backend: CBackend, name: str, with_b: bool, with_p: bool) -> tuple:  # type: ignore[type-arg]
+    """step_jacobian() from the spec's state moved off its initial values (t = 0.3, u + 0.1),
+    B and P passed or NULL: (A, B or None, P or None), in the embedding coordinates."""
+    s = backend.system
+    n, ni, npar = s.n, len(s.inputs.names), len(s.parameter_names)
+    u = contiguous(np.array(s.inputs.values, dtype=float) + 0.1) if ni else None
+    q0, w0 = contiguous(np.asarray(s.q0, dtype=float)), contiguous(np.asarray(s.omega0) + 0.2)
+    A, B, P = (
+        np.full((6 * n, 6 * n), np.nan),
+        np.full((6 * n, ni), np.nan),
+        np.full((6 * n, npar), np.nan),
+    )
+    status = backend.library.fn["step_jacobian"](
+        contiguous(backend.default_params()),
+        ctypes.byref(backend.library.options(EXACT)),
+        method(name).code,
+        ctypes.c_double(0.3),
+        ctypes.c_double(H),
+        pointer(u),
+        q0,
+        w0,
+        np.empty((n, 3)),
+        np.empty((n, 3)),
+        A,
+        pointer(B) if with_b and ni else None,
+        pointer(P) if with_p and npar else None,
+        np.zeros(backend.library.jacobian_work),
+    )
+    assert status == 0
+    return A, B if with_b and ni else None, P if with_p and npar else None
+
+
+@pytest.mark.parametrize(
+    ("spec", "name"),
+    [
+        ("tests/specs/driven_double.toml", "vi"),
+        ("tests/specs/driven_double.toml", "vi6"),
+        ("tests/specs/driven_double.toml", "rk4"),
+        ("four_pendula", "rk2-proj"),
+        ("four_pendula", "vi"),
+        ("double_pendulum", "vi4"),
+    ],
+)
+def test_null_b_and_p_leave_a_and_b_unchanged(spec: str, name: str) -> None:
+    """step_jacobian() computes B's and P's columns only when they are asked for: A alone, A
+    and B (P NULL), A and P (B NULL) equal the columns of the call that asks for all three,
+    whose A, B and P the central-difference tests above check (to rounding: 1e-13 of A's
+    largest entry)."""
+    backend = CBackend(load(spec).with_jacobians())
+    A, B, P = _columns(backend, name, True, True)
+    for with_b, with_p in ((False, False), (True, False), (False, True)):
+        a, b, p = _columns(backend, name, with_b, with_p)
+        tol = 1e-13 * np.abs(A).max()
+        assert np.abs(a - A).max() <= tol
+        if b is not None:
+            assert np.abs(b - B).max() <= tol * max(1.0, np.abs(B).max() / np.abs(A).max())
+        if p is not None:
+            assert np.abs(p - P).max() <= tol * max(1.0, np.abs(P).max() / np.abs(A).max())

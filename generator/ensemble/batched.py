@@ -31,7 +31,16 @@ from typing import Any
 
 import numpy as np
 
-from .worker import MemberResult, Payload, Task, _worker_name, failed_task, run_member, thin
+from .worker import (
+    MemberResult,
+    Payload,
+    Task,
+    _worker_name,
+    failed_task,
+    run_member,
+    sample_statistics,
+    thin,
+)
 
 __all__ = ["run_batched", "run_members"]
 
@@ -100,6 +109,7 @@ def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
         )
         wall = (time.perf_counter() - start) / len(ready)
         assert b.energy is not None
+        ends = []
         for j, (task, *_) in enumerate(ready):
             status = int(b.status[j])
             k = int(b.stats["fail_step"][j]) if status else len(b.t)
@@ -107,8 +117,11 @@ def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
             bad = first_nonfinite(b.energy[j], k)
             if bad is not None:
                 k, status, why = bad, int(Status.NONFINITE), nonfinite_energy(b.t, k)
-            message = failure(method, "c", b.t, k, why) if status else "ok"
-            out[task.index] = _result(payload, task, status, message, b, j, k, wall, setup)
+            ends.append((task, status, failure(method, "c", b.t, k, why) if status else "ok", k))
+        stats = sample_statistics(b.energy, b.q, [end[3] for end in ends])
+        for j, (task, status, message, k) in enumerate(ends):
+            numbers = (stats[0][j], stats[1][j], stats[2][j])
+            out[task.index] = _result(payload, task, status, message, b, j, k, numbers, wall, setup)
             setup = 0.0
     return tuple(out[t.index] for t in tasks)
 
@@ -121,17 +134,14 @@ def _result(
     b: Any,
     j: int,
     k: int,
+    numbers: tuple[float, float, float],
     wall: float,
     setup: float,
 ) -> MemberResult:
-    """Member j of batch b with its k valid samples, summarised as `run_member` does."""
+    """Member j of batch b with its k valid samples and `sample_statistics`' numbers (mean
+    and largest |E - E0|, largest unit-length error), summarised as `run_member` does."""
     t, q, w, e = b.t[:k], b.q[j, :k], b.omega[j, :k], b.energy[j, :k]
-    if k:
-        dev = np.abs(e - e[0])
-        mean_de, max_de = float(dev.mean()), float(dev.max())
-        max_unit = float(np.abs(np.sqrt(np.einsum("skc,skc->sk", q, q)) - 1.0).max())
-    else:
-        mean_de = max_de = max_unit = float("nan")
+    mean_de, max_de, max_unit = numbers
     return MemberResult(
         index=task.index,
         status=status,

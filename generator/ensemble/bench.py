@@ -4,15 +4,16 @@ Input: the ensemble's settings (system, members, perturbation, method, h, T, eve
 the local worker count (default 2) and the small member count for the memory comparison
 (default 16). Output: a `BenchReport` and its printed lines:
 
-- wall time of the members run one after another in this process (``workers=0``, the same
-  store writes) and on a `LocalCluster` of K worker processes, and the speedup;
+- wall time of the members run in this process (``workers=0``, the same store writes; in
+  batches of `s2gen.ensemble.dispatch.MAX_BATCH` through integrate_batch() where it applies) and on a `LocalCluster` of K worker processes, and the speedup;
 - per-member overhead = (K * wall - sum of the members' own integration times) / members: the
   worker time not spent integrating (scheduling, transfer, the client's store writes,
   idle ends), per member; with K = 1 (serial) the same formula;
 - the client's peak resident memory (``ru_maxrss``) for the small and the full ensemble, each
   run in a fresh process of its own (the workers are separate processes, not counted);
 - the machine's ceiling: the same integrations split over K plain processes (no Dask, no
-  store, no transfer), their speedup over the serial run's integration time. On a machine whose
+  store, no transfer; through integrate_batch() where the system has it, as the ensemble's
+  tasks run them), their speedup over the serial run's integration time. On a machine whose
   K cores slow each other down (shared caches, a busy host), this ceiling is below K, and it
   bounds what any scheduler can reach.
 
@@ -39,6 +40,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from s2gen.runtime.options import Options
 
@@ -110,8 +113,8 @@ class BenchReport:
             ),
             (
                 f"machine ceiling: {k} plain processes (no Dask, no store) integrate the same "
-                f"members in {self.plain:.2f} s: {self.ceiling:.2f}x; the ensemble reaches "
-                f"{self.speedup / self.ceiling:.0%} of it"
+                f"members in {self.plain:.2f} s: {self.ceiling:.2f}x; the ensemble's members' "
+                f"phase reaches {self.plain / p.wall:.0%} of their throughput"
             ),
             (
                 f"per-member overhead ({k} x wall - integration) / members: {p.overhead_ms:.1f} ms "
@@ -158,6 +161,14 @@ def _timed(settings: dict[str, Any], workers: int, out: str) -> BenchRun:
 
     kw = dict(settings)
     kw["options"] = Options(**kw["options"])
+    if workers == 0:  # serially in batches where integrate_batch() applies, as tasks run
+        import s2gen
+
+        from .dispatch import MAX_BATCH
+
+        system = s2gen.load(kw["system"])
+        if _batched(system, kw["method"] or system.run.method or "vi"):
+            kw["batch_size"] = MAX_BATCH
     r = ensemble(**kw, workers=workers, out=out, overwrite=True)
     if r.failed or r.task_errors:
         print(f"note: {len(r.failed)} failed, {len(r.task_errors)} task errors", file=sys.stderr)
@@ -177,16 +188,51 @@ def _plain(settings: dict[str, Any], part: int, parts: int) -> float:
         system, settings["members"], settings["perturb"], None, settings["seed"],
         settings["h"], settings["T"],
     )  # fmt: skip
-    model = s2gen.compile(system)
     method = settings["method"] or system.run.method or "vi"
     opts = Options(**settings["options"])
+    mine = table.members[part::parts]
+    if _batched(system, method):
+        return _plain_batched(system, table, mine, method, opts)
+    model = s2gen.compile(system)
     start = time.perf_counter()
-    for m in table.members[part::parts]:
+    for m in mine:
         q0, w0 = initial_state(system, table, m)
         try:
-            model.integrate(method, m.h, table.T, q0=q0, omega0=w0, options=opts)
+            model.integrate(
+                method, m.h, table.T, q0=q0, omega0=w0, params=dict(m.params), options=opts
+            )
         except RuntimeError:  # IntegrationError: a failed member costs what it cost
             pass
+    return time.perf_counter() - start
+
+
+def _batched(system: Any, method: str) -> bool:
+    """Whether the members can run through integrate_batch()."""
+    from s2gen.parts.batch import BATCH_METHODS, batch_refusal
+
+    return method in BATCH_METHODS and batch_refusal(system) is None
+
+
+def _plain_batched(system: Any, table: Any, mine: Any, method: str, opts: Options) -> float:
+    """Seconds to integrate `mine` through integrate_batch(), `MAX_BATCH` members per call
+    (members of one step size and sweep point together)."""
+    import s2gen
+
+    from .dispatch import MAX_BATCH
+    from .members import initial_state
+
+    model = s2gen.compile(system)
+    start = time.perf_counter()
+    groups: dict[tuple[float, tuple[tuple[str, float], ...]], list[Any]] = {}
+    for m in mine:
+        groups.setdefault((m.h, m.params), []).append(m)
+    for (h, params), ms in groups.items():
+        for lo in range(0, len(ms), MAX_BATCH):
+            states = [initial_state(system, table, m) for m in ms[lo : lo + MAX_BATCH]]
+            model.integrate_batch(
+                method, h, table.T, q0=np.stack([s[0] for s in states]),
+                omega0=np.stack([s[1] for s in states]), params=dict(params), options=opts,
+            )  # fmt: skip
     return time.perf_counter() - start
 
 

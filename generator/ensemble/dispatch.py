@@ -18,14 +18,15 @@ batch of consecutive members (their indices, steps, initial states and parameter
 chosen by measurement, `batch_size_for`: the first member runs alone and its integration time
 sets how many make a task of about `TARGET_TASK_SECONDS`). At most `WINDOW_PER_WORKER` tasks
 per worker are in flight; as each completes (`distributed.as_completed`) the client fetches
-its results, writes them to the store (one write per array for the batch), drops them and
+its results, hands them to the store (which writes each chunk of members once, when it is
+complete: `chunks`), drops them and
 submits the next batch, so the client holds a few batches at a time whatever their number. A
 task lost with its worker (killed, disconnected) is resubmitted with its whole batch (up to
 `ATTEMPTS` times, re-sending the payload if every copy was lost); a member whose integration
 raises is recorded with status -2 and its message (the rest of its batch goes on); a failed
 integration is an ordinary result with its partial samples and status. Serially
-(``workers=0``) the members run one by one, written one by one unless `batch_size` groups
-them for the store's writes. Results are deterministic per member (the same library, the same
+(``workers=0``) the members run one by one unless `batch_size` groups them (one
+integrate_batch() call per group where the system has it). Results are deterministic per member (the same library, the same
 inputs), so where a member ran does not change its numbers. With a `Security` (TLS) the
 connections made here are encrypted and admit only certificates signed by its CA.
 
@@ -53,7 +54,7 @@ from typing import TYPE_CHECKING, Any
 from s2gen.runtime.options import Options
 
 from .admission import check_workers
-from .batched import run_members
+from .batched import run_batched, run_members
 from .cluster import CONNECT_TIMEOUT, connect, needs_cluster, worker_count
 from .members import MemberTable, initial_state, member_table
 from .requirements import require
@@ -260,7 +261,7 @@ def ensemble(
     if client is None:  # local workers compile with this machine's C compiler: one is needed
         compiler()  # BuildError (one line) before anything is written
     batched = None  # the module with integrate_batch(), where the members can run through it
-    if client is not None or workers != 0:
+    if client is not None or workers != 0 or batch_size is not None:
         from s2gen.parts.batch import BATCH_METHODS, batch_refusal
 
         if method in BATCH_METHODS and batch_refusal(system) is None:
@@ -285,9 +286,14 @@ def ensemble(
 
 
 def _serial(payload: Payload, tasks: Iterator[Task], size: int | None) -> Iterator[Batch]:
-    """Every member in this process, one after another, in batches of `size` for the
-    store's writes (default 1: each member written, and reported, before the next runs)."""
+    """Every member in this process, in batches of `size` (default 1: each member written,
+    and reported, before the next runs): through one integrate_batch() call where the
+    payload has that module, else one after another."""
     for batch in _batches(tasks, size or 1):
+        done = run_batched(payload, batch) if len(batch) > 1 else None
+        if done is not None:
+            yield done
+            continue
         out = []
         for task in batch:
             try:

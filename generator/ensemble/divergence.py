@@ -107,7 +107,7 @@ def fit_lyapunov(t: np.ndarray, log_d: np.ndarray) -> LyapunovFit:
 
 def divergence(store: EnsembleStore, point: int, per: dict[str, np.ndarray]) -> Divergence | None:
     """The divergence of sweep point `point` (None without a written reference and at least
-    one perturbed member). Reads one member at a time."""
+    one perturbed member). Reads a chunk of members at a time."""
     mine = per["point"] == point
     written = per["status"] != NOT_WRITTEN
     refs = np.flatnonzero(mine & written & (per["replica"] == 0))
@@ -121,8 +121,8 @@ def divergence(store: EnsembleStore, point: int, per: dict[str, np.ndarray]) -> 
     low = np.full(q_ref.shape[0], np.inf)
     high = np.full(q_ref.shape[0], -np.inf)
     curves: list[np.ndarray] = []
-    for m in others:
-        q = store.member(int(m), ("q",))["q"]
+    for _, stored in store.members(others, ("q",)):
+        q = stored["q"]
         d = np.linalg.norm(q - q_ref, axis=2).max(axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
             ld = np.where(d > 0, np.log(d), np.nan)

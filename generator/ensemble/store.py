@@ -3,8 +3,9 @@
 Input: a `MemberTable`, the system's size and the stored sample count (`create`), then one
 `MemberResult` at a time (`write`). Output: the folder ``ensemble.zarr`` that holds
 
-- ``q``, ``omega``: (member, sample, body, component), float64, one chunk per member, NaN
-  after a member's last valid sample (a failed member keeps its samples up to the failure);
+- ``q``, ``omega``: (member, sample, body, component), float64, chunks of many members
+  (`s2gen.ensemble.chunks.members_per_chunk`), NaN after a member's last valid sample (a
+  failed member keeps its samples up to the failure);
 - ``energy``, ``t``: (member, sample), likewise;
 - per-member statistics over all valid samples (not only the stored ones), dimension member:
   ``mean_dE``, ``max_dE`` (|E - E0|), ``max_unit`` (max | |q_i| - 1 |), ``samples`` (valid
@@ -20,9 +21,11 @@ Input: a `MemberTable`, the system's size and the stored sample count (`create`)
   status messages, the generator version and the command.
 
 Every array names its dimensions (Zarr v3 ``dimension_names``; ``xarray.open_zarr`` reads the
-group as a Dataset). Trajectories are written as each member arrives; the small per-member
-statistics are buffered and written together (`flush`, at least every `FLUSH_SECONDS` and at
-the end), ``status`` last, so a member whose status is -1 is absent, whatever its samples say.
+group as a Dataset). Trajectories are gathered by chunk and each chunk written once, when
+its last member arrives (`s2gen.ensemble.chunks`); the small per-member statistics are
+buffered too. `flush` (at least every `FLUSH_SECONDS`, at the end and on interrupt) writes
+the incomplete chunks as far as they go, then the statistics, ``status`` last, so a member
+whose status is -1 is absent, whatever its samples say.
 A complete store has its metadata consolidated (`consolidate`): ``xarray.open_zarr`` opens it
 in one read, without warning.
 
@@ -41,11 +44,13 @@ from __future__ import annotations
 import shutil
 import time
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 
+from .chunks import ChunkBuffer, members_per_chunk, rows, runs
 from .members import EnsembleError, MemberTable
 from .requirements import require
 from .worker import TASK_ERROR, MemberResult
@@ -160,6 +165,7 @@ class EnsembleStore:
         self.group = group
         self._arrays: dict[str, Any] = {}  # opened once: each lookup re-reads its metadata
         self._pending: dict[int, dict[str, Any]] = {}  # statistics only, never samples
+        self._chunks: ChunkBuffer | None = None  # samples, by chunk (made on first write)
         self._errors: dict[str, str] = {}
         self._last_flush = time.monotonic()
 
@@ -187,12 +193,13 @@ class EnsembleStore:
         path.parent.mkdir(parents=True, exist_ok=True)
         group = zarr.open_group(str(path), mode="w")
         count = len(table)
+        per_chunk = members_per_chunk(samples, n)
         for name, dims in TRAJECTORIES.items():
             shape = (count, samples, n, 3)[: len(dims)]
             group.create_array(
                 name,
                 shape=shape,
-                chunks=(1, *shape[1:]),
+                chunks=(per_chunk, *shape[1:]),
                 dtype="f8",
                 fill_value=np.nan,
                 compressors=_codec(),
@@ -241,46 +248,44 @@ class EnsembleStore:
 
     # ------------------------------------------------------------------------------ writing
     def write(self, result: MemberResult) -> None:
-        """Write a member's samples now; buffer its statistics (flushed every
-        `FLUSH_SECONDS`, or by `flush`)."""
-        k = len(result.t)
-        i = result.index
-        if k:
-            for name in TRAJECTORIES:
-                self.array(name)[i, :k] = getattr(result, name)
-        self._pending[i] = {name: getattr(result, name) for name in STATISTICS}
-        if result.status == TASK_ERROR:
-            self._errors[str(i)] = result.message
-        if time.monotonic() - self._last_flush >= FLUSH_SECONDS:
-            self.flush()
+        """Take a member's results: its samples are written with its chunk, its statistics
+        buffered (both flushed every `FLUSH_SECONDS`, or by `flush`)."""
+        self.write_many((result,))
 
     def write_many(self, results: tuple[MemberResult, ...]) -> None:
-        """Write a batch of members: each run of consecutive members whose samples are all
-        present in one assignment per array (one round trip instead of one per member),
-        the others as `write` does; the statistics buffered as `write` buffers them."""
-        full = [r for r in results if len(r.t) == self.array("t").shape[1]]
-        full.sort(key=lambda r: r.index)
-        runs: list[list[MemberResult]] = []
-        for r in full:
-            if runs and runs[-1][-1].index + 1 == r.index:
-                runs[-1].append(r)
-            else:
-                runs.append([r])
-        for run in runs:
-            lo = run[0].index
-            for name in TRAJECTORIES:
-                self.array(name)[lo : lo + len(run)] = np.stack([getattr(r, name) for r in run])
-        done = {r.index for r in full}
+        """Take a batch of members as `write` takes one: each chunk they complete is written
+        in one assignment per array."""
+        chunks = self._buffer()
         for r in results:
-            if r.index in done:
-                self._pending[r.index] = {name: getattr(r, name) for name in STATISTICS}
-            else:
-                self.write(r)
+            done = chunks.add(r)
+            if done is not None:
+                held = chunks.pop(done)
+                self._write_rows([held[i] for i in chunks.members(done)])
+            self._pending[r.index] = {name: getattr(r, name) for name in STATISTICS}
+            if r.status == TASK_ERROR:
+                self._errors[str(r.index)] = r.message
         if time.monotonic() - self._last_flush >= FLUSH_SECONDS:
             self.flush()
 
+    def _buffer(self) -> ChunkBuffer:
+        if self._chunks is None:
+            q = self.array("q")
+            self._chunks = ChunkBuffer(q.shape[0], q.chunks[0])
+        return self._chunks
+
+    def _write_rows(self, results: list[MemberResult]) -> None:
+        """Consecutive members' samples, one assignment per array."""
+        lo, samples = results[0].index, self.array("t").shape[1]
+        for name in TRAJECTORIES:
+            self.array(name)[lo : lo + len(results)] = rows(results, name, samples)
+
     def flush(self) -> None:
-        """Write the buffered statistics (``status`` last)."""
+        """Write the incomplete chunks' samples as far as they go (they stay held until
+        complete), then the buffered statistics (``status`` last)."""
+        if self._chunks is not None:
+            for held in self._chunks.dirty():
+                for run in runs(held):
+                    self._write_rows(run)
         if not self._pending:
             return
         idx = np.array(sorted(self._pending))
@@ -337,6 +342,20 @@ class EnsembleStore:
     def member(self, i: int, names: tuple[str, ...] = tuple(TRAJECTORIES)) -> dict[str, Any]:
         """The stored samples of member i (NaN after its last valid sample)."""
         return {name: np.asarray(self.array(name)[i]) for name in names}
+
+    def members(
+        self, indices: np.ndarray, names: tuple[str, ...] = tuple(TRAJECTORIES)
+    ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        """(i, `member(i, names)`) for each index in `indices` (ascending), read one chunk at a
+        time: reading members one by one would decompress a chunk once per member."""
+        idx = np.unique(np.asarray(indices, dtype=int))
+        size = self.array(names[0]).chunks[0]
+        for c in np.unique(idx // size):
+            sel = idx[(idx >= c * size) & (idx < (c + 1) * size)]
+            lo = int(sel[0])
+            block = {name: np.asarray(self.array(name)[lo : int(sel[-1]) + 1]) for name in names}
+            for i in sel:
+                yield int(i), {name: block[name][i - lo] for name in names}
 
     def written(self) -> np.ndarray:
         """Boolean mask of the members present (status written)."""

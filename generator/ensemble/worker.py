@@ -24,12 +24,14 @@ Example:
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import socket
 import threading
 import time
 import warnings
 from collections import OrderedDict
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -52,6 +54,7 @@ __all__ = [
     "failed_task",
     "make_payload",
     "run_member",
+    "sample_statistics",
     "sources_digest",
     "thin",
 ]
@@ -169,6 +172,41 @@ def _model(payload: Payload) -> tuple[Model, float]:
     return model, time.perf_counter() - start
 
 
+def sample_statistics(
+    energy: np.ndarray, q: np.ndarray, valid: Sequence[int]
+) -> tuple[list[float], list[float], list[float]]:
+    """Per member j of a batch (energy (K, S), q (K, S, n, 3), valid[j] <= S samples valid):
+    the mean and the largest |E - E0| and the largest | |q_i| - 1 | over its valid samples
+    (NaN with none). Members whose samples are all valid are reduced together; the numbers
+    do not depend on the batch (the same reductions, row by row).
+
+    Example:
+        >>> e = np.array([[1.0, 1.5, 2.0]])
+        >>> q = np.zeros((1, 3, 1, 3)); q[..., 0] = 1.0
+        >>> sample_statistics(e, q, [3]), sample_statistics(e, q, [2])[0]
+        (([0.5], [1.0], [0.0]), [0.25])
+    """
+    count = len(valid)
+    mean, high, unit = [math.nan] * count, [math.nan] * count, [math.nan] * count
+    full = [j for j in range(count) if valid[j] == energy.shape[1] > 0]
+    parts = [(full, energy.shape[1])]
+    parts += [([j], valid[j]) for j in range(count) if 0 < valid[j] < energy.shape[1]]
+    for rows, k in parts:
+        if not rows:
+            continue
+        every = rows == list(range(count)) and k == energy.shape[1]
+        e, qq = (energy, q) if every else (energy[rows, :k], q[rows, :k])  # views, not copies
+        dev = np.abs(e - e[:, :1])
+        # sqrt and x - 1 are monotone (correctly rounded): the largest | |q| - 1 | is at the
+        # largest or the smallest |q|^2, the same number as taken sample by sample
+        sq = np.einsum("jskc,jskc->jsk", qq, qq)
+        lo, hi = np.sqrt(sq.min(axis=(1, 2))), np.sqrt(sq.max(axis=(1, 2)))
+        u = np.maximum(np.abs(lo - 1.0), np.abs(hi - 1.0))
+        for j, m, x, y in zip(rows, dev.mean(axis=1), dev.max(axis=1), u, strict=True):
+            mean[j], high[j], unit[j] = float(m), float(x), float(y)
+    return mean, high, unit
+
+
 def thin(x: np.ndarray, every: int) -> np.ndarray:
     """The stored samples of a per-sample array: every `every`-th, from the first.
 
@@ -212,12 +250,7 @@ def run_member(payload: Payload, task: Task) -> MemberResult:
     except IntegrationError as exc:
         tr, status, message = exc.partial, int(exc.status), str(exc)
     k = len(tr.t)
-    if k:
-        dev = np.abs(tr.energy - tr.energy[0])
-        mean_de, max_de = float(dev.mean()), float(dev.max())
-        max_unit = float(np.abs(np.sqrt(np.einsum("skc,skc->sk", tr.q, tr.q)) - 1.0).max())
-    else:
-        mean_de = max_de = max_unit = float("nan")
+    (mean_de,), (max_de,), (max_unit,) = sample_statistics(tr.energy[None], tr.q[None], [k])
     stats = tr.stats
     return MemberResult(
         index=task.index,

@@ -110,6 +110,21 @@ def _diagonal(st: _Step) -> sp.Matrix:
     return sp.Matrix([e for v in (*pos, *vel) for e in v])
 
 
+def _check_lower(
+    groups: list[list[sp.Expr]], unknowns: list[list[sp.Symbol]], ends: list[sp.Symbol]
+) -> None:
+    """Assert that E's rows, in the groups of its unknowns (coupled: f, q+, w+; diagonal: q+,
+    w+), involve no unknown of a later group, and, but for the last group's (w+), none of the
+    end quantities g+, F+ (functions of q+ and w+): E_y is then block lower triangular, which
+    the C's block forward substitution (``jac_vi_solve``) relies on."""
+    for k, rows in enumerate(groups):
+        later = {x for u in unknowns[k + 1 :] for x in u}
+        if k < len(groups) - 1:
+            later |= set(ends)
+        for e in rows:
+            assert not (e.free_symbols & later), "E_y is block lower triangular"
+
+
 def _flat(mat: sp.Matrix) -> tuple[sp.Expr, ...]:
     return tuple(mat[r, c] for r in range(mat.rows) for c in range(mat.cols))
 
@@ -145,6 +160,7 @@ def body_kernel() -> KernelDef:
     st.vectors.update({name: _vec(name, 1) for name in names})
     rows = list(_diagonal(st))
     v = st.vectors
+    _check_lower([rows[:3], rows[3:]], [v["qn"], v["wn"]], v["gn"] + v["Fn"])
     outputs = (
         Output("bey", _flat(sparse_jacobian(rows, v["qn"] + v["wn"]))),
         Output("bex", _flat(sparse_jacobian(rows, v["q"] + v["w"]))),
@@ -200,6 +216,8 @@ def _coupled_blocks() -> tuple[KernelDef, KernelDef]:
     c = _apply(k, "c_body", "c", h=h, m=m, q=v["q"], f=v["f"], qn=v["qn"], gn=v["gn"])
     aw = _apply(k, "a_body", "a", m=m, q=v["qn"])[0] * v["wn"] - h / 2 * v["qn"].cross(v["Fn"])
     rows = [*r, *cay, *(aw - c)]
+    unknowns = [list(v[name]) for name in ("f", "qn", "wn")]
+    _check_lower([rows[:3], rows[3:6], rows[6:]], unknowns, [*v["gn"], *v["Fn"]])
     body_cols = [*_BODY_VARS, "G", "gn", "Fn"]
     body = KernelDef(
         "vi_jacobian",
@@ -235,6 +253,11 @@ def _coupled_blocks() -> tuple[KernelDef, KernelDef]:
         blk.T * pv["wni"] - _apply(k, "c_pair", "cj", **cp),
     ]
     prow = [e for block in (*rows_i, *rows_j) for e in block]
+    unknowns = [[*pv[f"{name}i"], *pv[f"{name}j"]] for name in ("f", "qn", "wn")]
+    groups = [prow[9 * b + 3 * g : 9 * b + 3 * g + 3] for b in (0, 1) for g in range(3)]
+    _check_lower(
+        [groups[0] + groups[3], groups[1] + groups[4], groups[2] + groups[5]], unknowns, []
+    )
     names = [f"{name}{b}" for name in _BODY_VARS for b in "ij"]
     pair = KernelDef(
         "vi_jacobian_pair",

@@ -51,6 +51,7 @@ _KEYS = (
     "setup",
     "stage_time",
     "stage_force",
+    "stage_field",
     "field_time",
     "vi_methods",
     "vi_count",
@@ -109,8 +110,11 @@ def print_jacobian(module: Module) -> dict[str, Any]:
     field_time: tuple[str, ...] = ("(void)t;", "(void)u;")
     stage_force: tuple[str, ...] = ()
     if drive is None:
+        # the step leaves its stages' fields in its workspace: step_jacobian() copies them
+        k_at = module.layout("rk_step").offset("rk") + module.layout("rk_fixed").offset("k")
         step = ("(void)opt;", "(void)t;", "(void)u;")
         step += (f"status = {name}_rk_step(p, method, h, q, w, qn, wn, work);",)
+        step += (f"{name}_copy(k, work + {k_at}, jm->stages * ns);",)
     else:
         step = (f"status = {name}_step(p, opt, method, t, h, u, q, w, qn, wn, NULL, work, NULL);",)
         setup = (f"status = {name}_hold(cx, u);",)
@@ -126,8 +130,18 @@ def print_jacobian(module: Module) -> dict[str, Any]:
             "    return status;",
             "}",
         )
+    stage_field: tuple[str, ...] = ()
+    if drive is not None:
+        stage_field = (
+            f"status = {name}_field(cx, ys, ki, work);",
+            f"if (status != {upper}_OK) {{",
+            "    return status;",
+            "}",
+            *stage_force,
+        )
     return {
         **_vi(module),
+        "stage_field": stage_field,
         "hessian": hessian_lines(module),
         "force": force_lines(module),
         "methods": tuple(methods),

@@ -119,7 +119,8 @@ def _vi_call(module: Module) -> str:
 def vi_diagonal_lines(module: Module) -> tuple[str, ...]:
     """The C lines of the diagonal M's VI equations' derivatives: every matrix zeroed, then
     each body's blocks from the generic body's kernel (its mass from ``jac_mass``) placed at
-    its rows (position 3i, velocity 3n + 3i) and columns, dE/dp = dE/dm dM_ii/dp."""
+    its rows (position 3i, velocity 3n + 3i) and columns, one line per entry not identically
+    zero, dE/dp = dE/dm dM_ii/dp."""
     n, npar = module.n, len(module.parameter_names)
     n3, ns = 3 * n, 6 * n
     lay = module.layout("jacobian")
@@ -127,6 +128,19 @@ def vi_diagonal_lines(module: Module) -> tuple[str, ...]:
     assert mass is not None, "the step Jacobians read M's entries"
     zero = [("ey", ns * ns), ("ex", ns * ns), ("eg", ns * n3), ("egn", ns * n3)]
     zero += [("efn", ns * n3), ("ep", ns * npar)]
+    nonzero = _nonzero(module, "vi_jacobian")
+    lines = []  # the entries not identically zero, at body i's rows and columns
+    for out, mat, width, cols in (
+        ("bey", "ey", ns, 6),
+        ("bex", "ex", ns, 6),
+        ("beg", "eg", n3, 3),
+        ("begn", "egn", n3, 3),
+        ("befn", "efn", n3, 3),
+    ):
+        for k in nonzero[out]:
+            r, c = divmod(k, cols)
+            at = (r // 3 * n3 + r % 3) * width + (c // 3 * n3 + c % 3 if cols == 6 else c)
+            lines.append(f"{mat}[{at} + {3 * (width + 1)} * i] = {out}[{k}];")
     return (
         f"double *mm = work + {lay.offset('mm')}, *mp = work + {lay.offset('mp')};",
         "double bey[36], bex[36], beg[18], begn[18], befn[18], bem[6];",
@@ -137,24 +151,22 @@ def vi_diagonal_lines(module: Module) -> tuple[str, ...]:
         f"for (i = 0; i < {n}; ++i) {{",
         f"    const double mii = mm[i * {n} + i];",
         f"    {_vi_call(module)}",
+        *(f"    {line}" for line in lines),
         "    for (r = 0; r < 6; ++r) {",
         f"        const long row = r < 3 ? 3 * i + r : {n3} + 3 * i + r - 3;",
-        "        for (c = 0; c < 6; ++c) {",
-        f"            const long col = c < 3 ? 3 * i + c : {n3} + 3 * i + c - 3;",
-        f"            ey[row * {ns} + col] = bey[6 * r + c];",
-        f"            ex[row * {ns} + col] = bex[6 * r + c];",
-        "        }",
-        "        for (c = 0; c < 3; ++c) {",
-        f"            eg[row * {n3} + 3 * i + c] = beg[3 * r + c];",
-        f"            egn[row * {n3} + 3 * i + c] = begn[3 * r + c];",
-        f"            efn[row * {n3} + 3 * i + c] = befn[3 * r + c];",
-        "        }",
         f"        for (c = 0; c < {npar}; ++c) {{",
         f"            ep[row * {npar} + c] = bem[r] * mp[(i * {n} + i) * {npar} + c];",
         "        }",
         "    }",
         "}",
     )
+
+
+def _nonzero(module: Module, kernel: str) -> dict[str, list[int]]:
+    """The entries of each output of the module's kernel `kernel` that are not identically
+    zero (the rest need not be added into matrices zeroed beforehand)."""
+    k = next(k for k in module.kernels if k.name == kernel)
+    return {o.name: [i for i, e in enumerate(o.exprs) if e != 0] for o in k.outputs}
 
 
 def _zero(buffer: str, size: int) -> tuple[str, ...]:
@@ -165,8 +177,8 @@ def vi_coupled_lines(module: Module) -> tuple[str, ...]:
     """The C lines of a coupled M's VI equations' derivatives: every matrix zeroed, then each
     body's blocks (``vi_jacobian``) and each coupled pair's (``vi_jacobian_pair``, pairs
     i0 < j0 with M_ij != 0 or dM_ij/dp != 0) added at their rows (residual 0, Cayley update 3n, velocity 6n,
-    plus 3 times the body) and columns (y = (f, q+, w+), x = (q, w), G, g+, F+), and
-    dE/dp = dE/dM_ij dM_ij/dp."""
+    plus 3 times the body) and columns (y = (f, q+, w+), x = (q, w), G, g+, F+), one line per
+    entry not identically zero (about a third of them), and dE/dp = dE/dM_ij dM_ij/dp."""
     n, npar = module.n, len(module.parameter_names)
     n3, ns, ny = 3 * n, 6 * n, 9 * n
     lay = module.layout("jacobian")
@@ -189,9 +201,29 @@ def vi_coupled_lines(module: Module) -> tuple[str, ...]:
         "Fn": ("efn", n3, 0),
     }
 
-    def add(out: str, var: str, body: str) -> str:
-        mat, width, col = target[var]
-        return f"{mat}[row * {width} + {col} + 3 * {body} + c] += {out}[3 * r + c];"
+    body_nz, pair_nz = _nonzero(module, "vi_jacobian"), _nonzero(module, "vi_jacobian_pair")
+
+    def body_adds(out: str) -> list[str]:
+        """`out`'s structurally nonzero entries added at body i's rows and columns."""
+        mat, width, col = target[out[2:]]
+        lines = []
+        for k in body_nz[out]:
+            r, c = divmod(k, 3)
+            at = ((r // 3) * n3 + r % 3) * width + col + c
+            lines.append(f"{mat}[{at} + {3 * (width + 1)} * i] += {out}[{k}];")
+        return lines
+
+    def pair_adds(out: str) -> list[str]:
+        """Those of the pair's output `out` at the rows of i0 (its first 9) and j0, and the
+        columns of the body its name ends with."""
+        mat, width, col = target[out[2:-1]]
+        lines = []
+        for k in pair_nz[out]:
+            r, c = divmod(k, 3)
+            at = ((r % 9 // 3) * n3 + r % 3) * width + col + c
+            rb = "i0" if r < 9 else "j0"
+            lines.append(f"{mat}[{at} + {3 * width} * {rb} + 3 * {out[-1]}0] += {out}[{k}];")
+        return lines
 
     lines = [
         f"double *mm = work + {lay.offset('mm')}, *mp = work + {lay.offset('mp')};",
@@ -204,11 +236,9 @@ def vi_coupled_lines(module: Module) -> tuple[str, ...]:
         f"for (i = 0; i < {n}; ++i) {{",
         f"    const double mii = mm[i * {n} + i];",
         f"    {_vi_call(module)}",
+        *(f"    {line}" for out in body_out for line in body_adds(out)),
         "    for (r = 0; r < 9; ++r) {",
         f"        const long row = (r / 3) * {n3} + 3 * i + r % 3;",
-        "        for (c = 0; c < 3; ++c) {",
-        *(f"            {add(out, out[2:], 'i')}" for out in body_out),
-        "        }",
         f"        for (c = 0; c < {npar}; ++c) {{",
         f"            ep[row * {npar} + c] += b_m[r] * mp[(i * {n} + i) * {npar} + c];",
         "        }",
@@ -225,11 +255,9 @@ def vi_coupled_lines(module: Module) -> tuple[str, ...]:
         "            continue;",
         "        }",
         f"        {c_call(module.name, pair)};",
+        *(f"        {line}" for out in pair_out for line in pair_adds(out)),
         "        for (r = 0; r < 18; ++r) {",
         f"            const long row = (r % 9 / 3) * {n3} + 3 * (r < 9 ? i0 : j0) + r % 3;",
-        "            for (c = 0; c < 3; ++c) {",
-        *(f"                {add(out, out[2:-1], out[-1] + '0')}" for out in pair_out),
-        "            }",
         f"            for (c = 0; c < {npar}; ++c) {{",
         f"                ep[row * {npar} + c] += p_m[r] * mp[(i0 * {n} + j0) * {npar} + c];",
         "            }",
