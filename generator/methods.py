@@ -78,6 +78,7 @@ class Driver(enum.Enum):
     RK45 = "rk45"
     DOP853 = "dop853"
     FIXED = "fixed"
+    TIME_TRANSFORMED = "time-transformed"
 
 
 class Family(enum.Enum):
@@ -88,6 +89,7 @@ class Family(enum.Enum):
     RATTLE = "rattle"
     FIXED_RK = "fixed-step Runge-Kutta"
     ADAPTIVE_RK = "adaptive Runge-Kutta"
+    TIME_VI = "time-transformed VI"
 
 
 class Status(enum.IntEnum):
@@ -224,6 +226,7 @@ class Method:
     project: bool = False
     controls: tuple[str, ...] = ()
     kinds: tuple[str, ...] = ("sphere",)
+    transformed: Composition | None = None
 
     def __post_init__(self) -> None:
         if not set(self.kinds) <= set(KINDS):
@@ -238,8 +241,8 @@ class Method:
 
     @property
     def geometric(self) -> bool:
-        """True for the structure-preserving methods (VI family and RATTLE)."""
-        return self.family in (Family.VI, Family.RATTLE)
+        """True for the structure-preserving methods (VI family, RATTLE, time-transformed VI)."""
+        return self.family in (Family.VI, Family.RATTLE, Family.TIME_VI)
 
     @property
     def adaptive(self) -> bool:
@@ -289,6 +292,24 @@ def _geometric(name: str, code: int, family: Family, comp: Composition, summary:
     )
 
 
+def _transformed(name: str, code: int, comp: Composition, summary: str) -> Method:
+    """A time-transformed VI: steps of `comp` of sizes eps / xi in time (h is eps); on the
+    reference backend only so far, so in no emitted module (`kinds` empty)."""
+    return Method(
+        name,
+        code,
+        comp.order,
+        len(comp.fractions),
+        True,
+        Family.TIME_VI,
+        ("reference",),
+        summary,
+        driver=Driver.TIME_TRANSFORMED,
+        kinds=(),
+        transformed=comp,
+    )
+
+
 #: Every method, in the order of their codes.
 METHODS: tuple[Method, ...] = (
     _geometric("vi", 0, Family.VI, PLAIN, "the paper's variational integrator"),
@@ -332,6 +353,16 @@ METHODS: tuple[Method, ...] = (
         driver=Driver.DOP853,
     ),
     _fixed("rk3", 13, RK3),
+    _transformed(
+        "vi-adaptive",
+        14,
+        PLAIN,
+        "the VI in a fictitious time s, dt = ds / xi, xi tracking the pair monitor reversibly; "
+        "h is the step in s",
+    ),
+    _transformed("vi4-adaptive", 15, TRIPLE_JUMP, "vi-adaptive composed by the triple jump"),
+    _transformed("vi6-adaptive", 16, YOSHIDA6, "vi-adaptive composed by Yoshida's solution A"),
+    _transformed("vi8-adaptive", 17, KAHAN_LI8, "vi-adaptive composed by Kahan and Li's 15 stages"),
 )
 
 #: Method names, in code order.

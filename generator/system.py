@@ -78,6 +78,7 @@ class RunSettings:
     method: str | None = None
     rtol: float | None = None
     atol: float | None = None
+    g: str | None = None  # the time-transformed methods' monitor R(q), spec text (s2gen.monitor)
 
 
 @dataclass(frozen=True)

@@ -55,6 +55,9 @@ MEANINGS: dict[tuple[str, str], str] = {
     ("run", "method"): "the default method: " + ", ".join(f"``{m.name}``" for m in METHODS),
     ("run", "rtol"): "relative tolerance of the adaptive methods",
     ("run", "atol"): "absolute tolerance of the adaptive methods",
+    ("run", "g"): "the monitor R(q) of the time-transformed methods (``vi-adaptive``, ...): an "
+    "expression in ``q1``…``qn`` and the parameters, positive, large where the bodies move "
+    "fast (default: derived from the pair terms)",
     ("forces", "F1"): "``F1`` … ``Fn``: the force on body i, a 3-vector in ``q1``…``qn``, "
     "``w1``…``wn`` (angular velocities), ``t``, the inputs and the parameters",
     ("forces", "body"): "one-body forces: an array of tables ``[[forces.body]]`` with ``F`` (a "

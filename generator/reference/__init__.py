@@ -16,6 +16,10 @@ have modules of their own, not re-exported here: `forced` (`DrivenProblem`, the 
 `driven_rhs`), `forced_steps` (the forced VI and RATTLE steps and a step's work) and
 `forced_integrate` (`integrate_driven`: the VI and RATTLE families with their compositions and
 the fixed-step Runge-Kutta methods, recording the work W so that E - E0 - W is the balance).
+`adaptive` holds the time-transformed VI methods (``"vi-adaptive"``, ``"vi4-adaptive"``, ...:
+the VI and its compositions in a fictitious time, steps eps / xi with xi tracking a monitor of
+the pair terms; the monitor's rule is the definition in `s2gen.monitor`, shared with the
+emitted code as the tableaus are).
 
 Input: a `ReferenceProblem` (inertia matrix M, potential V(q) and its gradient dV/dq), usually
 built from a `System` by `problem_from_system` (structured terms are evaluated vectorized over
@@ -64,7 +68,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from s2gen.methods import CONTROLS, REFERENCE_METHODS
+from s2gen.methods import CONTROLS, REFERENCE_METHODS, Family
+from s2gen.methods import method as method_row
+from s2gen.reference.adaptive import MonitorFn, integrate_time_transformed
 from s2gen.reference.dopri import _rk45_hairer, _rk45_matlab
 from s2gen.reference.errors import (
     InfeasibleStep,
@@ -146,6 +152,8 @@ def integrate(
     hmax: float | None = None,
     newton_tol: float = 1e-14,
     newton_maxiter: int = 50,
+    monitor: MonitorFn | None = None,
+    every: int = 1,
 ) -> RefTrajectory:
     """Integrate from (q0, w0) at t = 0 and sample at t_k = k h, k = 0..nsteps.
 
@@ -153,6 +161,9 @@ def integrate(
     with tolerances rtol/atol, `control` "matlab" (ode45; hmax defaults to T/10) or "hairer"
     (SciPy's RK45; hmax defaults to infinity). For "vi" with coupled M, Newton stops when
     max|update| <= newton_tol * max(1, max|f|) and fails after newton_maxiter iterations.
+    A time-transformed method (``"vi-adaptive"``, ...) takes h as its fictitious step eps,
+    needs the `monitor` (`adaptive.monitor_from_system`) and samples only t_k = k every h
+    (each sample costs it an extra step); the other methods ignore `every`.
     The initial state is used as given (not normalized). Raises a ReferenceIntegrationError
     (with .step, .status and .partial): InfeasibleStep, NewtonFailure, NonFiniteState,
     SingularSystem or StepSizeUnderflow.
@@ -168,6 +179,21 @@ def integrate(
     q0a = np.array(q0, dtype=float)
     w0a = np.array(w0, dtype=float)
     _check_inputs(problem, method, q0a, w0a, h, nsteps, control)
+    if method_row(method).family is Family.TIME_VI:
+        if monitor is None:
+            raise ValueError(f"integrate: method {method!r} needs a monitor")
+        return integrate_time_transformed(
+            problem,
+            monitor,
+            method,
+            q0a,
+            w0a,
+            h,
+            int(nsteps),
+            every,
+            newton_tol=newton_tol,
+            newton_maxiter=newton_maxiter,
+        )
     rec = _Recorder(problem, method, h, int(nsteps))
     y0 = _state(q0a, w0a)
     rec.push(y0)

@@ -29,6 +29,7 @@ class ReferenceBackend:
     def __init__(self, system: System) -> None:
         self.system = system
         self._problems: dict[tuple[float, ...], Any] = {}
+        self._monitors: dict[tuple[float, ...], Any] = {}
 
     def default_params(self) -> np.ndarray:
         return np.array(self.system.parameter_values, dtype=float)
@@ -40,6 +41,19 @@ class ReferenceBackend:
         if key not in self._problems:
             self._problems[key] = reference.problem_from_system(self.system, key)
         return self._problems[key]
+
+    def _monitor(self, method: str, params: np.ndarray) -> Any:
+        """The pair monitor of a time-transformed method (None for the others)."""
+        from s2gen.methods import Family
+        from s2gen.methods import method as method_row
+        from s2gen.reference.adaptive import monitor_from_system
+
+        if method_row(method).family is not Family.TIME_VI:
+            return None
+        key = tuple(float(v) for v in params)
+        if key not in self._monitors:
+            self._monitors[key] = monitor_from_system(self.system, key)
+        return self._monitors[key]
 
     def energy(self, q: np.ndarray, w: np.ndarray, params: np.ndarray) -> float:
         from s2gen import reference
@@ -76,6 +90,8 @@ class ReferenceBackend:
         from s2gen import reference
 
         samples = nsteps // every + 1
+        monitor = self._monitor(method, params)
+        stride = every if monitor is None else 1  # a time-transformed run samples the grid itself
         try:
             tr = reference.integrate(
                 self._problem(params),
@@ -89,9 +105,11 @@ class ReferenceBackend:
                 control=options.control,
                 newton_tol=options.newton_tol,
                 newton_maxiter=options.newton_maxiter,
+                monitor=monitor,
+                every=every,
             )
-            en = tr.energy[::every] if with_energy else None
-            return 0, tr.q[::every], tr.omega[::every], en, dict(tr.stats)
+            en = tr.energy[::stride] if with_energy else None
+            return 0, tr.q[::stride], tr.omega[::stride], en, dict(tr.stats)
         except reference.ReferenceIntegrationError as exc:
             n = self.system.n
             q = np.full((samples, n, 3), np.nan)
@@ -99,7 +117,7 @@ class ReferenceBackend:
             en = np.full(samples, np.nan)
             k = 0
             if exc.partial is not None:
-                kept = slice(0, len(exc.partial.t), every)
+                kept = slice(0, len(exc.partial.t), stride)
                 k = len(exc.partial.t[kept])
                 q[:k], w[:k] = exc.partial.q[kept], exc.partial.omega[kept]
                 en[:k] = exc.partial.energy[kept]

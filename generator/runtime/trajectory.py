@@ -73,7 +73,8 @@ _REFERENCE_NAMES = {"rhs_evaluations": "gradient_evals", "newton_iterations_tota
 def stat_counts(stats: dict[str, int], method: str = "") -> dict[str, int | None]:
     """Accepted steps, rejected steps, gradient evaluations and Newton iterations of a run,
     whatever backend counted them; None for a count the backend does not keep (the
-    reference's VI and RATTLE do not count their gradient evaluations).
+    reference's VI and RATTLE do not count their gradient evaluations; its time-transformed
+    methods count them as ``gradient_evaluations``).
 
     Example:
         >>> stat_counts({"steps": 5, "rhs_evaluations": 30, "newton_iterations_total": 0}, "rk45")
@@ -86,7 +87,7 @@ def stat_counts(stats: dict[str, int], method: str = "") -> dict[str, int | None
         for old, new in _REFERENCE_NAMES.items():
             named[new] = named.pop(old, None)
         if method in NAMES and method_record(method).geometric:
-            named["gradient_evals"] = None
+            named["gradient_evals"] = named.get("gradient_evaluations")  # time-transformed only
     keys = ("steps", "rejected", "gradient_evals", "newton_iters")
     return {k: named.get(k, 0) if k != "gradient_evals" else named.get(k) for k in keys}
 

@@ -220,7 +220,7 @@ def define_system(
         potential=general,
         q0=_initial(initial_q, "q", n, params, origin),
         omega0=_initial(initial_omega, "omega", n, params, origin),
-        run=_run_settings(run, origin),
+        run=_run_settings(run, origin, n, list(params)),
         origin=origin,
         terms=terms,
         inertia_solver=_solver(inertia_solver, origin),
@@ -289,7 +289,7 @@ _TABLE_KEYS = {
     "inertia": ("M", "diagonal", "max_index", "scale", "data", "solver"),
     "potential": ("V", "body", "pair"),
     "initial": ("q", "omega"),
-    "run": ("h", "T", "method", "rtol", "atol"),
+    "run": ("h", "T", "method", "rtol", "atol", "g"),
 }
 
 

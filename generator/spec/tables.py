@@ -25,6 +25,7 @@ import sympy as sp
 from s2gen.methods import NAMES
 from s2gen.spec.names import _Q_RESERVED, _ROLES, RESERVED_NAMES
 from s2gen.spec.parser import parse_expression
+from s2gen.symbols import TIME
 from s2gen.system import MAX_BODIES, RunSettings, SpecError, shown
 
 
@@ -190,24 +191,39 @@ def _number(value: Any, where: str, params: Mapping[str, float]) -> float:
     return result
 
 
-def _run_settings(run: Any, origin: str) -> RunSettings:
+def _run_settings(run: Any, origin: str, n: int = 0, parameters: Sequence[str] = ()) -> RunSettings:
     if run is None:
         return RunSettings()
     if isinstance(run, RunSettings):
         run = {k: v for k, v in asdict(run).items() if v is not None}
     if not isinstance(run, Mapping):
         raise SpecError(f"{origin}: [run]: expected a table, got {shown(run)}")
-    _check_keys(run, ("h", "T", "method", "rtol", "atol"), f"{origin}: [run]")
+    _check_keys(run, ("h", "T", "method", "rtol", "atol", "g"), f"{origin}: [run]")
     settings: dict[str, Any] = {}
     for key, value in run.items():
         where = f"{origin}: [run] {key}"
-        if key != "method":
+        if key == "g":
+            settings[key] = _monitor_text(value, n, parameters, where)
+        elif key != "method":
             settings[key] = _positive(value, where)
         elif value in NAMES:
             settings[key] = value
         else:
             raise SpecError(f"{where}: unknown method {shown(value)} (one of {', '.join(NAMES)})")
     return RunSettings(**settings)
+
+
+def _monitor_text(value: Any, n: int, parameters: Sequence[str], where: str) -> str:
+    """[run] g: an expression in q1..qn and the parameters (the time-transformed methods'
+    monitor R(q), positive where the bodies move fast), kept as its text once it parses."""
+    if not isinstance(value, str):
+        raise SpecError(
+            f"{where}: expected an expression in q1..q{n} (a string), got {shown(value)}"
+        )
+    expr = parse_expression(value, n=n, parameters=parameters, where=where)
+    if TIME in expr.free_symbols:
+        raise SpecError(f"{where}: the monitor depends on q only, not on time t")
+    return value
 
 
 def _positive(value: Any, where: str) -> float:

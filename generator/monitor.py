@@ -1,0 +1,147 @@
+"""The monitor of the time-transformed methods: how fast a closed system with pair terms moves.
+
+Input: a `System` (its pair terms and parameters). Output: `Monitor`, one `PairRate` per pair
+term: the term's profile f(c) (its value as a function of c = qi.qj), the rate r(c) and its
+derivative r'(c) as SymPy expressions in c and the parameters, with the term's members. The
+monitor is R(q) = sum over the pair terms and their members (i, j) of r(qi.qj); the
+time-transformed methods (`vi-adaptive`, ...) take steps dt = eps / xi with xi tracking R
+reversibly, so R is the inverse of the local time scale.
+
+The rule. A pair potential that depends on qi and qj only through c = qi.qj = cos(theta) is
+f(c); in the pair's angle theta its derivatives are V' = -f'(c) sin(theta) and
+V'' = f''(c) (1 - c^2) - c f'(c). A pair with unit inertia oscillates about a stable angle with
+frequency sqrt(|V''|); near a singularity of f (wherever it is: theta -> 0 as for gravity, or
+theta -> pi as for the cotangent potential of the three bodies) |V''| grows like the inverse
+cube of the distance, and sqrt(|V''|) is then the Kepler rate r^(-3/2) of a close encounter.
+V'' alone vanishes at inflection points (a softened potential), and |V'|/sin(theta) = |f'(c)|
+is the second, never-vanishing part of the same Hessian (the curvature term of the sphere).
+So
+
+    r(c) = (f'(c)^2 + (f''(c) (1 - c^2) - c f'(c))^2)^(1/4),
+
+the square root of the norm of the pair's Hessian in (theta, its tangent direction), which is
+smooth wherever f is, positive wherever f' or V'' is nonzero, and grows like the encounter
+rate at every singular point of f in [-1, 1]. The monitor is derived here, once, in the
+generic pair's symbols; a term that is not a function of qi.qj alone (checked at random unit
+pairs), that reads per-member or per-body data, or whose profile is constant is refused in
+one line, and so is a system with other potentials; a spec may instead give its own monitor
+as [run] g, an expression in q1..qn and the parameters (then any closed system is taken).
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> mon = monitor(builtin("three_bodies"))
+    >>> [r.label for r in mon.rates], mon.rates[0].members
+    (['cotangent attraction'], ((0, 1), (0, 2), (1, 2)))
+    >>> mon.rates[0].profile
+    -c*gamma/sqrt(1 - c**2)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sp
+
+from s2gen.spec.parser import parse_expression
+from s2gen.symbols import local_vector
+from s2gen.system import System
+from s2gen.terms import TermKind
+
+__all__ = ["C", "Monitor", "PairRate", "monitor"]
+
+#: The variable of a pair's profile: c = qi.qj.
+C = sp.Symbol("c", real=True)
+
+
+@dataclass(frozen=True)
+class PairRate:
+    """One pair term's share of the monitor: r(c) summed over `members` (0-based pairs)."""
+
+    label: str
+    profile: sp.Expr
+    rate: sp.Expr
+    slope: sp.Expr
+    members: tuple[tuple[int, int], ...]
+
+
+@dataclass(frozen=True)
+class Monitor:
+    """R(q) = sum over `rates` and their members (i, j) of rate(qi.qj), or the spec's own
+    `given` R in the global symbols q1_0..qn_2, in the parameters `parameters` (the system's,
+    in declared order)."""
+
+    rates: tuple[PairRate, ...]
+    parameters: tuple[sp.Symbol, ...]
+    given: sp.Expr | None = None
+
+
+def _profile(expr: sp.Expr, label: str) -> sp.Expr:
+    """f(c): the pair expression at qi = e1, qj = (c, sqrt(1 - c^2), 0)."""
+    qi, qj = local_vector("qi"), local_vector("qj")
+    at = dict(zip(qi, (1, 0, 0))) | dict(zip(qj, (C, sp.sqrt(1 - C**2), 0)))
+    return sp.simplify(sp.sympify(expr).subs(at))
+
+
+def _check_invariant(
+    expr: sp.Expr, profile: sp.Expr, params: dict[sp.Symbol, float], label: str
+) -> None:
+    """Refuse a term that is not f(qi.qj) at a few random unit pairs."""
+    qi, qj = local_vector("qi"), local_vector("qj")
+    rng = np.random.default_rng(2026)
+    value = sp.lambdify([*qi, *qj], sp.sympify(expr).subs(params), "math")
+    along = sp.lambdify([C], profile.subs(params), "math")
+    for _ in range(4):
+        a, b = rng.normal(size=(2, 3))
+        a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
+        v, f = complex(value(*a, *b)), complex(along(float(a @ b)))
+        if not abs(v - f) <= 1e-9 * max(1.0, abs(v)):
+            raise ValueError(
+                f"pair term {label!r} is not a function of qi.qj alone: the time-transformed "
+                "methods derive their monitor from such terms only"
+            )
+
+
+def monitor(system: System) -> Monitor:
+    """The monitor of a closed system: the spec's [run] g when it gives one (any closed
+    system), else the pair rule of the module docstring; ValueError in one line for a driven
+    system, or without g for one with other potentials than pair terms or a pair term the
+    rule does not cover.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> r = monitor(builtin("three_bodies")).rates[0]
+        >>> g = sp.Symbol("gamma", real=True)
+        >>> bool(sp.simplify(r.rate**4 - g**2 * (1 + 4 * C**2) / (1 - C**2) ** 3) == 0)
+        True
+    """
+    why = "the time-transformed methods take closed systems with pair terms"
+    system.refuse_driven("the time-transformed methods")
+    names = tuple(sp.Symbol(p, real=True) for p in system.parameter_names)
+    if system.run.g is not None:
+        given = parse_expression(
+            system.run.g, n=system.n, parameters=system.parameter_names, where="[run] g"
+        )
+        return Monitor((), names, given)
+    pairs = [t for t in system.terms if t.kind is TermKind.PAIR and t.count(system.n) > 0]
+    others = system.potential != 0 or len(pairs) < len(system.terms)
+    if not pairs or others:
+        raise ValueError(
+            f"{system.name}: {why} and no other potential, or a monitor [run] g (this one "
+            f"has {'other potential terms' if pairs else 'no pair term'})"
+        )
+    params = {sp.Symbol(p, real=True): v for p, v in system.parameters.items()}
+    rates = []
+    for t in pairs:
+        if t.data or t.body_data:
+            raise ValueError(f"pair term {t.label!r}: {why} without per-member or per-body data")
+        f = _profile(t.expr, t.label)
+        _check_invariant(t.expr, f, params, t.label)
+        d1 = sp.diff(f, C)
+        if sp.simplify(d1) == 0:
+            raise ValueError(f"pair term {t.label!r} is constant: it sets no time scale")
+        d2 = sp.diff(f, C, 2)
+        rate = (d1**2 + (d2 * (1 - C**2) - C * d1) ** 2) ** sp.Rational(1, 4)
+        members = tuple((int(m[0]), int(m[1])) for m in t.member_list(system.n))
+        rates.append(PairRate(t.label, f, rate, sp.diff(rate, C), members))
+    return Monitor(tuple(rates), names)
