@@ -73,7 +73,8 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument(
         "--jacobians",
         action="store_true",
-        help="C: also emit step_jacobian(), one step's exact derivatives (up to 32 bodies)",
+        help="also emit step_jacobian() and field_jacobian(), one step's and the field's exact "
+        "derivatives (C and NumPy; up to 32 bodies)",
     )
     g.add_argument(
         "--batch",

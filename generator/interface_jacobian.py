@@ -40,7 +40,8 @@ STEP_JACOBIAN = Function(
         Param("work", _A),
     ),
     "One step of size h of a fixed-step method (the fixed-step Runge-Kutta methods; the VI "
-    "family, vi, vi4, vi6, vi8, when JACOBIAN_VI is 1: any M) from "
+    "family, vi, vi4, vi6, vi8, when JACOBIAN_VI is 1: any M; the RATTLE family, rattle, "
+    "rattle4, rattle6, rattle8, in a closed module) from "
     "(q, w) at time t into (qn, wn), as step() takes it (Newton from its cold start), and its "
     "exact derivatives in the embedding coordinates: with x = (q, w) (NS = 2 NSTATE doubles, "
     "q body-major then w), A (NS x NS, row-major) receives dx+/dx and B (NS x NINPUTS, "
@@ -51,7 +52,8 @@ STEP_JACOBIAN = Function(
     "rule of the tableau through its stages (and the normalization of q_i for the -proj methods) on the field's Jacobian; VI: "
     "the implicit function theorem on each substep's equations (Newton's residual in the "
     "Cayley parameters, the Cayley update and the velocity equations; diagonal M: the "
-    "explicit update), the substeps' derivatives multiplied. SymPy derives every derivative "
+    "explicit update), the substeps' derivatives multiplied; RATTLE: the same on its "
+    "constrained Stormer-Verlet equations in x = q and v = w x q. SymPy derives every derivative "
     "(the Hessian of V, assembled per term member, those of the forces and of M in the "
     "parameters); no differences are taken. t and u (NINPUTS "
     "doubles; NULL: the defaults) are read by a driven module only; opt (NULL: the defaults) "

@@ -38,7 +38,8 @@ def add_parser(subparsers: Any) -> None:
         "state: QR re-orthonormalization of the products of exact step Jacobians in the "
         "tangent coordinates of T(S^2)^n (4n exponents), a transient discarded, errors from "
         "block means. The systems `s2gen generate --jacobians` covers (a bounded number of "
-        "bodies, no cutoff terms); the VI family and the fixed-step Runge-Kutta methods.",
+        "bodies, no cutoff terms); the VI family, the fixed-step Runge-Kutta methods and (a "
+        "closed system) the RATTLE family.",
     )
     p.add_argument("spec", metavar="SPEC")
     p.add_argument("--method", choices=NAMES, default="vi", help="integrator (default vi)")

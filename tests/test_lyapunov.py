@@ -183,7 +183,7 @@ def test_lyapunov_command_prints_the_spectrum_and_writes_csv_and_plot(
     [
         (["double_pendulum", "--h", "0"], "h = 0.0: must be positive"),
         (["double_pendulum", "--T", "0.05", "--blocks", "10"], "fewer than 10 blocks"),
-        (["double_pendulum", "--method", "rattle"], "method 'rattle' has no step Jacobian"),
+        (["double_pendulum", "--method", "rk45"], "method 'rk45' has no step Jacobian"),
         (["rope:n=40"], "at most 32 bodies"),
         (["no_such_system"], "no_such_system"),
     ],

@@ -195,6 +195,8 @@ SYSTEMS = {
     "driven_timed": lambda: resolve(str(SPECS / "driven_timed.toml")),
     # the step Jacobians: Runge-Kutta and the VI (dense M, Newton), forces and an input
     "driven_double_jacobians": lambda: resolve(str(SPECS / "driven_double.toml")).with_jacobians(),
+    # closed: RATTLE's too (dense M, Newton on the multipliers)
+    "double_pendulum_jacobians": lambda: builtin("double_pendulum").with_jacobians(),
     # integrate_batch(): diagonal M, listed and body terms with member tables
     "four_pendula_batch": lambda: builtin("four_pendula").with_batch(),
     # integrate_batch() with dV/dq lane by lane (pair rows)

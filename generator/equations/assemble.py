@@ -28,6 +28,7 @@ from s2gen.equations.driven import drive_of, driven_kernels
 from s2gen.equations.jacobian import has_jacobian, jacobian_kernels
 from s2gen.equations.operators import operator_kernels
 from s2gen.equations.rattle import rattle_kernels
+from s2gen.equations.rattle_jacobian import rattle_jacobian_kernels
 from s2gen.equations.structure import (
     choose_solver,
     coupling_pairs,
@@ -179,6 +180,7 @@ def sphere_module(system: System) -> Module:
     kernels += driven_kernels(system) if drive is not None else []
     kernels += jacobian_kernels(system)
     kernels += vi_jacobian_kernels(system, solver)
+    kernels += rattle_jacobian_kernels(system)
     loops = tuple(_term_loop(k, t, system.n) for k, t in terms)
     cutoff = any(not t.loop.kind.fixed for t in loops)
     per_body = per_body_inertia(system, solver) is not None
@@ -207,8 +209,8 @@ def sphere_module(system: System) -> Module:
         parameter_values=system.parameter_values,
         kernels=tuple(kernels),
         parts=parts,
-        # NumPy: numpy.linalg, scipy.linalg (the step Jacobians are C only)
-        c_only=("cholesky", "lu", "band", "jacobian", BATCH_PART),
+        # NumPy: numpy.linalg, scipy.linalg
+        c_only=("cholesky", "lu", "band", BATCH_PART),
         variants=_variants(solver),
         pairs=pairs,
         terms=loops,

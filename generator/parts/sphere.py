@@ -137,7 +137,23 @@ def _vi_jacobian_sites(module: Module) -> tuple[Site, ...]:
         pair: dict[str, Binding] = {f"{x}i": Slot(x, 3, Index.FIRST) for x in _VI_BODY}
         pair.update({f"{x}j": Slot(x, 3, Index.SECOND) for x in _VI_BODY})
         sites.append(Site("vi_jacobian_pair", "vi_jacobian_pair", _S, pair))
+    if any(k.name == "rattle_jacobian" for k in module.kernels):
+        sites += _rattle_jacobian_sites()
     return tuple(sites)
+
+
+def _rattle_jacobian_sites() -> list[Site]:
+    """RATTLE's equations' blocks: the generic body's at body i (its multipliers from the
+    arrays lam and mu), the generic pair's at the pair (i0, j0)."""
+    body: dict[str, Binding] = {n: Slot(n, 3, Index.BODY) for n in ("vh", "xn", "vn", "x", "v")}
+    body.update({"m": Local("mii"), "lam": Element("lam", Index.BODY)})
+    body["mu"] = Element("mu", Index.BODY)
+    pair: dict[str, Binding] = {f"{n}i": Slot(n, 3, Index.FIRST) for n in ("vh", "vn", "v")}
+    pair.update({f"{n}j": Slot(n, 3, Index.SECOND) for n in ("vh", "vn", "v")})
+    return [
+        Site("rattle_jacobian", "rattle_jacobian", _S, body),
+        Site("rattle_jacobian_pair", "rattle_jacobian_pair", _S, pair),
+    ]
 
 
 #: The vectors of the generic body and pair kernels of the VI's equations
@@ -152,6 +168,9 @@ HB: dict[str, Binding] = {"hb": Local("hb"), "gpb": Local("gpb")}
 def _vi_jacobian_buffers() -> tuple[str, ...]:
     return ("qs", "ws", "qd", "wd", "g", "gn", "f", "ey", "ex", "sd", *_VI_MORE)
 
+
+#: The buffers of RATTLE's step Jacobian (`s2gen.passes.jacobian_layout`)
+RATTLE_JACOBIAN_BUFFERS = ("rey", "rex", "rex0", "reg", "regn", "rep", "rvh", "rlam", "rmu", "rsv")
 
 #: The buffers of the second derivatives (start and end of a step) and the VI's products
 _VI_MORE = ("ex0", "eg", "egn", "efn", "ep", "hn", "gxn", "Gn", "Fn")
@@ -186,6 +205,7 @@ _JACOBIAN = Part(
         ("jacobian", ("ys", "k", "dy", "kd", "d", "jx", "jq", "jr", "am", "ju")),
         ("jacobian", ("H", "gx", "G", "F", "fq", "fw", "fu", "mm", "mp", "gp", "fp")),
         ("jacobian", _vi_jacobian_buffers()),
+        ("jacobian", RATTLE_JACOBIAN_BUFFERS),
     ),
     module_sites=_vi_jacobian_sites,
 )

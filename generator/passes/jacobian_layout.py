@@ -70,6 +70,13 @@ def jacobian_layout(module: Module) -> Layout:
         sizes += [("ex0", ny * ns), ("eg", ny * m3), ("egn", ny * m3), ("efn", ny * m3)]
         sizes += [("ep", ny * npar)]
         sizes += [("hn", m3 * m3), ("gxn", m3 * cols), ("Gn", m3), ("Fn", m3)]
+    if any(k.name == "rattle_jacobian" for k in module.kernels):
+        # RATTLE's equations: 11n unknowns (v+1/2, lambda, x+, v+, mu), their derivatives
+        # (rey, rex, rex0 = dE/dx, reg, regn, rep), v+1/2, the multipliers, Newton's start
+        ny = 11 * n
+        sizes += [("rey", ny * ny), ("rex", ny * cols), ("rex0", ny * ns), ("reg", ny * m3)]
+        sizes += [("regn", ny * m3), ("rep", ny * npar), ("rvh", m3)]
+        sizes += [("rlam", n), ("rmu", n), ("rsv", n)]
     buffers, offset = [], 0
     for name, size in sizes:
         buffers.append(Buffer(name, size, offset))

@@ -45,6 +45,8 @@ from s2gen.printing.numpy import (
     py_inertia_setup,
     py_table_names,
 )
+from s2gen.printing.numpy_jacobian import print_numpy_jacobian
+from s2gen.printing.rattle_jacobian import RATTLE_SITES, print_rattle_jacobian
 from s2gen.printing.records import PrintedKernel, print_kernel
 from s2gen.printing.tableau import (
     PrintedExplicit,
@@ -137,6 +139,8 @@ class PrintedModule:
     py_data_setup: tuple[str, ...]  # NumPy: the per-body arrays of [data] the terms read
     drive: dict[str, Any]  # a driven module's inputs, methods and tables (empty: closed)
     jac: dict[str, Any]  # the step Jacobians' methods and lines (empty: no step_jacobian)
+    py_jac: dict[str, Any]  # NumPy's step Jacobians: methods and lines (empty: none)
+    rattle_jac: dict[str, Any]  # RATTLE's step Jacobians: methods, C and NumPy lines (or empty)
     batch: dict[str, Any]  # integrate_batch()'s lanes, workspace and lines (empty: none)
 
 
@@ -156,7 +160,7 @@ def print_module(module: Module) -> PrintedModule:
         for t in module.terms
         for s in ("value", "gradient", "table", "quad", "hessian")
     }
-    consumed |= JACOBIAN_SITES  # and the step Jacobians' into m.jac
+    consumed |= JACOBIAN_SITES | RATTLE_SITES  # and the step Jacobians' into m.jac, m.rattle_jac
     c_masses, py_masses = records.masses_partials(module)
     facts = dict(module.facts)
     n, npairs = module.n, len(module.pairs)
@@ -263,5 +267,7 @@ def print_module(module: Module) -> PrintedModule:
         py_data_setup=py_data_setup(module),
         drive=print_drive(module),
         jac=print_jacobian(module),
+        py_jac=print_numpy_jacobian(module),
+        rattle_jac=print_rattle_jacobian(module),
         batch=print_batch(module),
     )

@@ -285,6 +285,7 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "drive_stage": ("driven",),
         "drive_operator": ("drive_force_fns",),
         "jacobian_vi": ("jacobian",),
+        "jacobian_rattle": ("jacobian",),
         "batch_gradient": ("batch",),
         "batch_field": ("batch",),
         "batch_layout": ("batch",),
@@ -304,6 +305,8 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "drive_start": ("driven",),
         "drive_end": ("driven",),
         "drive_stage": ("driven",),
+        "jacobian_vi": ("jacobian",),
+        "jacobian_rattle": ("jacobian",),
     },
 )
 
@@ -356,6 +359,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     batch = "batch" in module.parts  # integrate_batch(): dV/dq in lane loops where it can be
     lanes = batch and explicit and _lane_gradient(module) is not None
     field = batch and not explicit and _coupled_field(module) is not None  # a dense M's, in lanes
+    rattle_jacobian = any(k.name == "rattle_jacobian" for k in module.kernels)
 
     def pick(lang: str, *choices: tuple[bool, str]) -> tuple[str, ...]:
         return tuple(f"{lang}/sections/_{stem}.jinja" for chosen, stem in choices if chosen)
@@ -412,6 +416,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "jacobian_vi": pick(
             "c", (any(k.name == "vi_jacobian" for k in module.kernels), "jacobian_vi")
         ),
+        "jacobian_rattle": pick("c", (rattle_jacobian, "jacobian_rattle")),
         # integrate_batch(): dV/dq and the field in loops over the lanes, or lane by lane
         "batch_gradient": pick(
             "c",
@@ -472,6 +477,10 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "drive_start": pick("numpy", (forces, "drive_start_force")),
         "drive_end": pick("numpy", (forces, "drive_end_force")),
         "drive_stage": pick("numpy", (forces, "drive_stage_force")),
+        "jacobian_vi": pick(
+            "numpy", (any(k.name == "vi_jacobian" for k in module.kernels), "jacobian_vi")
+        ),
+        "jacobian_rattle": pick("numpy", (rattle_jacobian, "jacobian_rattle")),
     }
     variant = dict(module.variants)
     laid = {variant.get(p, p) for p in module.parts} | {"module"}

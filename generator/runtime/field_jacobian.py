@@ -1,7 +1,7 @@
 """The continuous field's Jacobian, in the tangent basis or the embedding coordinates.
 
-Input: a C backend whose module has field_jacobian() (built from `System.with_jacobians`), a
-state, time and inputs. Output: a `FieldJacobian`.
+Input: a C or NumPy backend whose module has field_jacobian() (built from
+`System.with_jacobians`), a state, time and inputs. Output: a `FieldJacobian`.
 
 The field is f(x) = (qdot, wdot) with qdot_i = w_i x q_i and A(q) wdot = b(q, w, t, u), x =
 (q, w) in the embedding order of `s2gen.runtime.linearize`. The emitted C returns J = df/dx
@@ -34,7 +34,7 @@ import numpy as np
 
 from s2gen.methods import Status
 from s2gen.runtime.c import CBackend, contiguous, pointer
-from s2gen.runtime.linearize import BASES, frame, tangent_basis
+from s2gen.runtime.linearize import BASES, frame, jacobian_features, tangent_basis
 
 __all__ = ["FieldJacobian", "basis_rate", "jacobian_field"]
 
@@ -113,7 +113,7 @@ def jacobian_field(
     basis: str = "tangent",
 ) -> FieldJacobian:
     """The `FieldJacobian` at (q, w) (shape (n, 3)) at time t with the inputs u (None: the
-    spec's defaults) on a `CBackend` whose module has field_jacobian().
+    spec's defaults) on a `CBackend` or `NumpyBackend` whose module has field_jacobian().
 
     Example:
         >>> from s2gen.systems import builtin
@@ -126,29 +126,34 @@ def jacobian_field(
     system = backend.system
     if basis not in BASES:
         raise ValueError(f"basis {basis!r}: choose one of {', '.join(BASES)}")
-    if not isinstance(backend, CBackend) or not backend.library.jacobian:
-        raise ValueError(f"{system.name}: field_jacobian needs the C module with Jacobians")
+    if not jacobian_features(backend)[0]:
+        raise ValueError(f"{system.name}: field_jacobian needs the module with Jacobians")
     n, ni = system.n, len(system.inputs.names)
     q0 = contiguous(np.asarray(q, dtype=float).reshape(n, 3))
     w0 = contiguous(np.asarray(w, dtype=float).reshape(n, 3))
     uu = None if u is None else contiguous(np.asarray(u, dtype=float).reshape(ni))
-    qd, wd = np.empty((n, 3)), np.empty((n, 3))
-    npar = len(system.parameter_names)
-    J, Ju, Jp = np.empty((6 * n, 6 * n)), np.empty((6 * n, ni)), np.empty((6 * n, npar))
-    work = np.zeros(backend.library.jacobian_work)
-    status = backend.library.fn["field_jacobian"](
-        contiguous(params),
-        float(t),
-        pointer(uu),
-        q0,
-        w0,
-        pointer(qd),
-        pointer(wd),
-        J,
-        pointer(Ju) if ni else None,
-        pointer(Jp) if npar else None,
-        work,
-    )
+    if isinstance(backend, CBackend):
+        qd, wd = np.empty((n, 3)), np.empty((n, 3))
+        npar = len(system.parameter_names)
+        J, Ju, Jp = np.empty((6 * n, 6 * n)), np.empty((6 * n, ni)), np.empty((6 * n, npar))
+        work = np.zeros(backend.library.jacobian_work)
+        status = backend.library.fn["field_jacobian"](
+            contiguous(params),
+            float(t),
+            pointer(uu),
+            q0,
+            w0,
+            pointer(qd),
+            pointer(wd),
+            J,
+            pointer(Ju) if ni else None,
+            pointer(Jp) if npar else None,
+            work,
+        )
+    else:
+        status, qd, wd, J, Ju, Jp = backend.module.field_jacobian(
+            np.asarray(params, dtype=float), float(t), q0, w0, uu
+        )
     if status != 0:
         st = Status(status)
         raise ValueError(f"{system.name}: field_jacobian: {st.c_name}: {st.message}")

@@ -1,9 +1,10 @@
 """Linearize one step: the exact Jacobians of the emitted step, in the tangent basis or the
 embedding coordinates.
 
-Input: a C backend whose module has step_jacobian() (built from `System.with_jacobians`:
-systems of a few bodies), a state, a step size, a fixed-step method, time and inputs. Output:
-a `Linearization`.
+Input: a C or NumPy backend whose module has step_jacobian() (built from
+`System.with_jacobians`: systems of a few bodies), a state, a step size, a fixed-step method,
+time and inputs. Output: a `Linearization`. The two backends' step_jacobian() print the same
+kernels and agree to round-off (`tests/test_numpy_jacobian.py`).
 
 The tangent basis. The state (q, w) lives on T(S^2)^n = {|q_i| = 1, q_i . w_i = 0}, of
 dimension 4n inside the 6n embedding coordinates x = (q, w) (the 3n components of q
@@ -41,11 +42,20 @@ from typing import Any
 import numpy as np
 
 from s2gen.equations.jacobian import jacobian_refusal
+from s2gen.equations.rattle_jacobian import has_rattle_jacobian
 from s2gen.methods import METHODS, Family, Status, driven_methods, fixed_methods, method
 from s2gen.runtime.c import CBackend, contiguous, pointer
 from s2gen.runtime.options import Options
 
-__all__ = ["BASES", "Linearization", "frame", "linearize", "tangent_basis"]
+__all__ = [
+    "BASES",
+    "Linearization",
+    "frame",
+    "jacobian_features",
+    "linearize",
+    "step_jacobian",
+    "tangent_basis",
+]
 
 #: The coordinates `linearize` returns A and B in
 BASES = ("tangent", "embedding")
@@ -112,26 +122,118 @@ def tangent_basis(q: np.ndarray, w: np.ndarray) -> np.ndarray:
     return out
 
 
+def jacobian_features(backend: Any) -> tuple[bool, bool]:
+    """(whether the backend's module has step_jacobian(), whether it differentiates the VI
+    family too) for a C or NumPy backend; TypeError for another backend.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.runtime.numpy_module import NumpyBackend
+        >>> jacobian_features(NumpyBackend(builtin("double_pendulum")))
+        (False, False)
+    """
+    from s2gen.runtime.numpy_module import NumpyBackend
+
+    if isinstance(backend, CBackend):
+        return backend.library.jacobian, backend.library.jacobian_vi
+    if isinstance(backend, NumpyBackend):
+        return backend.jacobian, backend.jacobian_vi
+    raise TypeError(
+        f"{backend.system.name}: the step Jacobians run on the C or NumPy backend, not "
+        f"{backend.name!r}"
+    )
+
+
 def _refuse(backend: Any, method_name: str, basis: str) -> None:
     """A one-line ValueError for what `linearize` does not do."""
     system = backend.system
     if basis not in BASES:
         raise ValueError(f"basis {basis!r}: choose one of {', '.join(BASES)}")
-    if not isinstance(backend, CBackend):
-        raise TypeError(f"{system.name}: linearize runs on the C backend, not {backend.name!r}")
-    if not backend.library.jacobian:
+    jacobian, jacobian_vi = jacobian_features(backend)
+    if not jacobian:
         why = jacobian_refusal(system) or "built without them (System.with_jacobians)"
         raise ValueError(f"{system.name}: {why}")
     names = [m.name for m in fixed_methods("sphere")]
-    if backend.library.jacobian_vi:
+    if jacobian_vi:
         names += [m.name for m in METHODS if m.family is Family.VI]
+    if has_rattle_jacobian(system):
+        names += [m.name for m in METHODS if m.family is Family.RATTLE]
     allowed = [m for m in names if not system.driven or m in driven_methods()]
     if method_name not in allowed:
-        more = "" if backend.library.jacobian_vi else " (built without the VI family's)"
+        more = "" if jacobian_vi else " (built without the VI family's)"
         raise ValueError(
             f"{system.name}: method {method_name!r} has no step Jacobian{more}; choose one of "
             f"{', '.join(allowed)}"
         )
+
+
+def step_jacobian(
+    backend: Any,
+    method_name: str,
+    t: float,
+    h: float,
+    q: np.ndarray,
+    w: np.ndarray,
+    u: np.ndarray | None,
+    params: np.ndarray,
+    options: Options,
+) -> tuple[np.ndarray, ...]:
+    """One call of the module's step_jacobian() on a C or NumPy backend: (qn, wn, A, B, P) in
+    the embedding coordinates, q, w of shape (n, 3), u the inputs (None: the defaults);
+    ValueError naming the status of a failed step.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.runtime.numpy_module import NumpyBackend
+        >>> s = builtin("double_pendulum")
+        >>> be = NumpyBackend(s.with_jacobians())
+        >>> qn, wn, A, B, P = step_jacobian(be, "vi", 0.0, 0.01, s.q0, s.omega0, None,
+        ...                                 be.default_params(), Options())
+        >>> A.shape, B.shape, P.shape
+        ((12, 12), (12, 0), (12, 5))
+    """
+    system = backend.system
+    n, ni, npar = system.n, len(system.inputs.names), len(system.parameter_names)
+    q0 = contiguous(np.asarray(q, dtype=float).reshape(n, 3))
+    w0 = contiguous(np.asarray(w, dtype=float).reshape(n, 3))
+    uu = None if u is None else contiguous(np.asarray(u, dtype=float).reshape(ni))
+    if isinstance(backend, CBackend):
+        qn, wn = np.empty((n, 3)), np.empty((n, 3))
+        A, B, P = np.empty((6 * n, 6 * n)), np.empty((6 * n, ni)), np.empty((6 * n, npar))
+        work = np.zeros(backend.library.jacobian_work)
+        opt = backend.library.options(options)
+        status = backend.library.fn["step_jacobian"](
+            contiguous(params),
+            ctypes.byref(opt),
+            method(method_name).code,
+            ctypes.c_double(t),
+            ctypes.c_double(h),
+            pointer(uu),
+            q0,
+            w0,
+            qn,
+            wn,
+            A,
+            pointer(B) if ni else None,
+            pointer(P) if npar else None,
+            work,
+        )
+    else:
+        status, qn, wn, A, B, P = backend.module.step_jacobian(
+            np.asarray(params, dtype=float),
+            method(method_name).code,
+            float(t),
+            float(h),
+            q0,
+            w0,
+            uu,
+            newton_tol=options.newton_tol,
+            newton_maxiter=options.newton_maxiter,
+        )
+    if status != 0:
+        st = Status(status)
+        raise ValueError(f"{system.name}: step_jacobian: {st.c_name}: {st.message}")
+    return qn, wn, A, B, P
 
 
 def linearize(
@@ -147,8 +249,8 @@ def linearize(
     options: Options | None = None,
 ) -> Linearization:
     """The `Linearization` of one step of `method_name` from (q, w) (shape (n, 3)) at time t
-    with the inputs u (None: the spec's defaults) on a `CBackend`, with the step's `options`
-    (None: the defaults).
+    with the inputs u (None: the spec's defaults) on a `CBackend` or a `NumpyBackend`, with
+    the step's `options` (None: the defaults).
 
     Example:
         >>> from s2gen.systems import builtin
@@ -159,35 +261,10 @@ def linearize(
         ((8, 8), (8, 0), (8, 5), (12, 8))
     """
     _refuse(backend, method_name, basis)
-    system = backend.system
-    n, ni = system.n, len(system.inputs.names)
-    q0 = contiguous(np.asarray(q, dtype=float).reshape(n, 3))
-    w0 = contiguous(np.asarray(w, dtype=float).reshape(n, 3))
-    uu = None if u is None else contiguous(np.asarray(u, dtype=float).reshape(ni))
-    qn, wn = np.empty((n, 3)), np.empty((n, 3))
-    npar = len(system.parameter_names)
-    A, B, P = np.empty((6 * n, 6 * n)), np.empty((6 * n, ni)), np.empty((6 * n, npar))
-    work = np.zeros(backend.library.jacobian_work)
-    opt = backend.library.options(Options() if options is None else options)
-    status = backend.library.fn["step_jacobian"](
-        contiguous(params),
-        ctypes.byref(opt),
-        method(method_name).code,
-        ctypes.c_double(t),
-        ctypes.c_double(h),
-        pointer(uu),
-        q0,
-        w0,
-        qn,
-        wn,
-        A,
-        pointer(B) if ni else None,
-        pointer(P) if npar else None,
-        work,
-    )
-    if status != 0:
-        st = Status(status)
-        raise ValueError(f"{system.name}: step_jacobian: {st.c_name}: {st.message}")
+    opts = Options() if options is None else options
+    qn, wn, A, B, P = step_jacobian(backend, method_name, t, h, q, w, u, params, opts)
+    q0 = np.asarray(q, dtype=float).reshape(-1, 3)
+    w0 = np.asarray(w, dtype=float).reshape(-1, 3)
     E_in, E_out = tangent_basis(q0, w0), tangent_basis(qn, wn)
     if basis == "tangent":
         A, B, P = E_out.T @ A @ E_in, E_out.T @ B, E_out.T @ P

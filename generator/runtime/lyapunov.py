@@ -1,6 +1,6 @@
 """Lyapunov spectra of a system's discrete flow, from products of exact step Jacobians.
 
-Input: a C backend whose module has step_jacobian() (`System.with_jacobians`), an initial
+Input: a C or NumPy backend whose module has step_jacobian() (`System.with_jacobians`), an initial
 state, a fixed-step method with a step Jacobian, h, the averaging time T and a transient.
 Output: a `LyapunovSpectrum`.
 
@@ -16,8 +16,8 @@ coordinates (6n x 4n, orthonormal columns spanning the tangent space): each step
 by the embedding A and projects it on the tangent space after the step (the complement of
 (q_i, 0) and (w_i - (w_i . q_i) q_i, q_i), q_i normalized), which is the tangent A of
 `linearize`, basis_out^T A basis_in, without building the bases; the first step goes through
-`linearize` itself (its checks and errors), the others through step_jacobian() with buffers
-prepared once.
+`linearize` itself (its checks and errors), the others through step_jacobian() (C: with
+buffers prepared once).
 
 The statistical error of each exponent (and of the pair sums lambda_k + lambda_(4n+1-k) and
 the total) is the standard error of the means over `blocks` consecutive blocks of equal length,
@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from s2gen.methods import Status, method
-from s2gen.runtime.c import contiguous, pointer
+from s2gen.runtime.c import CBackend, contiguous, pointer
 from s2gen.runtime.linearize import linearize
 from s2gen.runtime.options import Options
 
@@ -150,8 +150,8 @@ def lyapunov(
     progress: Callable[[float], None] | None = None,
 ) -> LyapunovSpectrum:
     """The `LyapunovSpectrum` of `method_name`'s steps of size h from (q, w) (shape (n, 3))
-    at time t0 with the inputs u held (None: the spec's defaults) on a `CBackend` with
-    step_jacobian(): `transient` (rounded to steps) discarded, then T averaged in `blocks`
+    at time t0 with the inputs u held (None: the spec's defaults) on a `CBackend` or
+    `NumpyBackend` with step_jacobian(): `transient` (rounded to steps) discarded, then T averaged in `blocks`
     blocks, the running estimates at `samples` times; `progress(fraction)` is called about a
     hundred times. ValueError for bad input or a failed step (named by its time).
 
@@ -172,10 +172,7 @@ def lyapunov(
     Q = first.basis_in
     A = contiguous(first.A)
     qa, wa = contiguous(first.q), contiguous(first.omega)
-    qb, wb = np.empty((n, 3)), np.empty((n, 3))
-    work = np.zeros(backend.library.jacobian_work)
-    fn, code = backend.library.fn["step_jacobian"], method(method_name).code
-    opt, p, up = ctypes.byref(backend.library.options(opts)), contiguous(params), pointer(uu)
+    advance = _advance(backend, method_name, params, uu, opts)
     total = skip + steps
     edges = _steps(steps, blocks)
     record = set(_steps(steps, samples)[1:].tolist())
@@ -184,14 +181,13 @@ def lyapunov(
     running, times = [], []
     for k in range(total):
         if k > 0:
-            status = fn(p, opt, code, t0 + k * h, h, up, qa, wa, qb, wb, A, None, None, work)
+            status, qa, wa, A = advance(t0 + k * h, h, qa, wa)
             if status != 0:
                 st = Status(status)
                 raise ValueError(
                     f"{system.name}: step_jacobian at t = {t0 + k * h:.6g}: {st.c_name}: "
                     f"{st.message}"
                 )
-            qa, wa, qb, wb = qb, wb, qa, wa
         N = tangent_normals(qa, wa)
         Y = A @ Q
         Y -= N @ (N.T @ Y)
@@ -205,6 +201,37 @@ def lyapunov(
         if progress is not None and (k + 1) % tick == 0:
             progress((k + 1) / total)
     return _spectrum(sums, edges, h, np.array(times), np.array(running), method_name, transient)
+
+
+def _advance(
+    backend: Any, method_name: str, params: np.ndarray, u: np.ndarray | None, opts: Options
+) -> Callable[[float, float, np.ndarray, np.ndarray], tuple[Any, ...]]:
+    """The step of `lyapunov`'s loop: (t, h, q, w) -> (status, qn, wn, A), A in the embedding
+    coordinates; on the C backend one call of step_jacobian() into buffers prepared once (two
+    state buffers used in turn), on the NumPy backend one call of the module's."""
+    code = method(method_name).code
+    if not isinstance(backend, CBackend):
+        fun, p = backend.module.step_jacobian, np.asarray(params, dtype=float)
+
+        def numpy_step(t: float, h: float, q: np.ndarray, w: np.ndarray) -> tuple[Any, ...]:
+            tol, most = opts.newton_tol, opts.newton_maxiter
+            return tuple(fun(p, code, t, h, q, w, u, tol, most)[:4])
+
+        return numpy_step
+    n = backend.system.n
+    buffers = [(np.empty((n, 3)), np.empty((n, 3))) for _ in range(2)]
+    A = np.empty((6 * n, 6 * n))
+    work = np.zeros(backend.library.jacobian_work)
+    fn = backend.library.fn["step_jacobian"]
+    opt, pc, up = ctypes.byref(backend.library.options(opts)), contiguous(params), pointer(u)
+
+    def c_step(t: float, h: float, q: np.ndarray, w: np.ndarray) -> tuple[Any, ...]:
+        qb, wb = buffers[0]
+        buffers.reverse()
+        status = fn(pc, opt, code, t, h, up, q, w, qb, wb, A, None, None, work)
+        return status, qb, wb, A
+
+    return c_step
 
 
 def _spectrum(

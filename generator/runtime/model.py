@@ -63,7 +63,7 @@ class Model(JacobianMethods):
 
             self._backend = CBackend(system, files, opt)
         self._steps: Any = None
-        self._jacobians: Any = None  # the C backend with step_jacobian(), once linearize asks
+        self._jacobians: Any = None  # the backend with step_jacobian(), once linearize asks
         self._batch: Any = None  # the C backend with integrate_batch(), once asked for
         self._opt = opt
         if backend in ("c", "numpy") and not system.driven:
@@ -275,7 +275,7 @@ class Model(JacobianMethods):
         P = dx+/dp (one column per parameter, in the order of `System.parameter_names`, at
         `params`) in the tangent basis of T(S^2)^n (4n coordinates) or the embedding
         coordinates (6n), with the state after the step and the bases (`s2gen.runtime.linearize`); the VI family (M
-        any M) and the fixed-step Runge-Kutta methods, C backend only (the first
+        any M) and the fixed-step Runge-Kutta methods, C or NumPy backend (the first
         call builds the module with step_jacobian(), `System.with_jacobians`). `options`: the
         step's (Newton's tolerance for a coupled M).
 

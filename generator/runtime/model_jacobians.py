@@ -1,9 +1,10 @@
-"""The methods of `Model` built on the step Jacobians' C module: the field's Jacobian and
+"""The methods of `Model` built on the step Jacobians' module: the field's Jacobian and
 Lyapunov spectra (`Model.linearize` is in `s2gen.runtime.model`).
 
 Input: a `Model` (its system, backend and parameters). Output: `FieldJacobian` and
-`LyapunovSpectrum` records, from the C module with step_jacobian() and field_jacobian(),
-built once from `System.with_jacobians` when first asked for.
+`LyapunovSpectrum` records, from the C or NumPy module (the Model's backend) with
+step_jacobian() and field_jacobian(), built once from `System.with_jacobians` when first
+asked for.
 
 Example:
     >>> from s2gen.runtime.model import Model
@@ -38,17 +39,21 @@ class JacobianMethods:
 
     def _jacobian_backend(self) -> Any:
         """The backend with step_jacobian() and field_jacobian(): this one when it has them,
-        else (C) the module built once from `System.with_jacobians` when first asked for."""
+        else (C or NumPy) the module of the same backend built once from
+        `System.with_jacobians` when first asked for."""
         from s2gen.equations.jacobian import jacobian_refusal
         from s2gen.runtime.c import CBackend
+        from s2gen.runtime.linearize import jacobian_features
+        from s2gen.runtime.numpy_module import NumpyBackend
 
         backend = self._backend
-        if isinstance(backend, CBackend) and not backend.library.jacobian:
+        if not jacobian_features(backend)[0]:
             why = jacobian_refusal(self.system)
             if why is not None:
                 raise ValueError(f"{self.system.name}: {why}")
             if self._jacobians is None:
-                self._jacobians = CBackend(self.system.with_jacobians())
+                kind = CBackend if isinstance(backend, CBackend) else NumpyBackend
+                self._jacobians = kind(self.system.with_jacobians())
             backend = self._jacobians
         return backend
 
@@ -65,7 +70,7 @@ class JacobianMethods:
         time t with the inputs u (None: the spec's): J = d/dx and Ju = d/du in the tangent
         basis (4n: the generator of `linearize`'s tangent A, A = I + hJ + O(h^2) for a
         Runge-Kutta step) or the embedding coordinates (6n), with the field and the basis
-        (`s2gen.runtime.field_jacobian`); C backend only, as `linearize`.
+        (`s2gen.runtime.field_jacobian`); C or NumPy backend, as `linearize`.
 
         Example:
             >>> from s2gen.runtime.model import Model
@@ -102,8 +107,8 @@ class JacobianMethods:
         re-orthonormalization of the step Jacobians in the tangent basis
         (`s2gen.runtime.lyapunov`): the exponents (4n, decreasing up to nearly equal ones)
         and their errors from `blocks` block means, the pair sums, the running estimates at
-        `samples` times; `progress(fraction)` is called as the run goes. C backend only, as
-        `linearize`.
+        `samples` times; `progress(fraction)` is called as the run goes. C or NumPy backend,
+        as `linearize`.
 
         Example:
             >>> from s2gen.runtime.model import Model

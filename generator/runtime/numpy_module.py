@@ -55,6 +55,23 @@ class NumpyBackend:
     def default_params(self) -> np.ndarray:
         return np.array(self.system.parameter_values, dtype=float)
 
+    @property
+    def jacobian(self) -> bool:
+        """Whether the module has step_jacobian() and field_jacobian() (emitted from
+        `System.with_jacobians`).
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> NumpyBackend(builtin("double_pendulum").with_jacobians()).jacobian
+            True
+        """
+        return hasattr(self.module, "step_jacobian")
+
+    @property
+    def jacobian_vi(self) -> bool:
+        """Whether step_jacobian() differentiates the VI family too (as the C's JACOBIAN_VI)."""
+        return self.jacobian and bool(self.module.JACOBIAN_VI)
+
     def energy(self, q: np.ndarray, w: np.ndarray, params: np.ndarray) -> float:
         return float(self.module.energy(params, q, w))
 
