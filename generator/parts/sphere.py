@@ -354,7 +354,7 @@ SPHERE_PARTS = (
         buffers=(
             ("rk45", ("k", "y", "yn", "ys", "field")),
             ("dop853", ("k", "y", "yt", "yn", "ys", "field")),
-            ("explicit", ("x", "v", "gx", "xn", "vn", "gn", "s", "bridge", "slack")),
+            ("explicit", ("x", "v", "gx", "xn", "vn", "gn", "s", "bridge", "qs", "ws", "slack")),
             ("geometric", ("g", "gn", "a", "b", "va", "vb", "vc", "vd")),
             ("geometric", ("qk", "wk", "q1", "w1", "f", "s", "step")),
             ("fixed", ("qk", "wk", "q1", "w1", "step")),

@@ -184,10 +184,12 @@ def _explicit(module: Module, _: _Layouts) -> Layout | None:
     """The explicit VI's own driver (diagonal M only): its buffers from the first 64-byte
     boundary of the workspace (`KQ_SLACK` doubles to spare), each a whole number of 64-byte
     lines, so that the vector loops over bodies never read across a cache line when n is a
-    multiple of 8 (see templates/c/sections/_integrate_explicit.jinja)."""
+    multiple of 8 (see templates/c/sections/_integrate_explicit.jinja); qs and ws take the
+    body-major state of the substeps whose state is not stored."""
     if _coupled(module):
         return None
-    lines = [(name, -(-size // 8) * 8) for name, size in _soa(module)]
+    m3 = _m3(module)
+    lines = [(name, -(-size // 8) * 8) for name, size in (*_soa(module), ("qs", m3), ("ws", m3))]
     return layout("explicit", *lines, ("slack", KQ_SLACK))
 
 

@@ -642,14 +642,17 @@ static void four_pendula_gradient_soa(const four_pendula_ctx *cx, const double *
 }
 
 /* One explicit step, all arrays component-major: from (x, v) with gx = dV/dq at x to (xn, vn)
- * and gn = dV/dq at xn (vn holds the half-step velocity in between); sv: n doubles of scratch, bridge: see gradient_soa. Returns OK,
+ * and gn = dV/dq at xn (vn holds the half-step velocity in between); sv: n doubles of scratch, bridge: see gradient_soa.
+ * The loops that compute xn and vn also write them body-major into qo and wo (N3 doubles
+ * each), so that a stored state costs no second pass over the bodies. Returns OK,
  * ERR_INFEASIBLE (|a_i| > 1: no rotation realises the step) or ERR_NONFINITE; with x, v and
- * gx finite, OK means xn and vn are finite. */
+ * gx finite, OK means xn and vn (and qo, wo) are finite; otherwise qo and wo hold anything. */
 static int four_pendula_vi_explicit(const four_pendula_ctx *cx, double h,
         const double *FOUR_PENDULA_RESTRICT x, const double *FOUR_PENDULA_RESTRICT v,
         const double *FOUR_PENDULA_RESTRICT gx, double *FOUR_PENDULA_RESTRICT xn,
         double *FOUR_PENDULA_RESTRICT vn, double *FOUR_PENDULA_RESTRICT gn,
-        double *FOUR_PENDULA_RESTRICT sv, double *bridge)
+        double *FOUR_PENDULA_RESTRICT sv, double *bridge, double *FOUR_PENDULA_RESTRICT qo,
+        double *FOUR_PENDULA_RESTRICT wo)
 {
     double chk = 0.0;
     long i;
@@ -683,6 +686,9 @@ FOUR_PENDULA_SIMD
         xn[i] = qn0;
         xn[4 + i] = qn1;
         xn[8 + i] = qn2;
+        qo[3 * i] = qn0;
+        qo[3 * i + 1] = qn1;
+        qo[3 * i + 2] = qn2;
         vn[i] = wh0;
         vn[4 + i] = wh1;
         vn[8 + i] = wh2;
@@ -712,6 +718,9 @@ FOUR_PENDULA_SIMD_SUM(chk)
         vn[i] = wn0;
         vn[4 + i] = wn1;
         vn[8 + i] = wn2;
+        wo[3 * i] = wn0;
+        wo[3 * i + 1] = wn1;
+        wo[3 * i + 2] = wn2;
         chk += (wn0 * 0.0 + wn1 * 0.0) + wn2 * 0.0;
     }
     return chk == 0.0 ? FOUR_PENDULA_OK : FOUR_PENDULA_ERR_NONFINITE;
@@ -736,10 +745,8 @@ static int four_pendula_vi_advance(const four_pendula_ctx *cx, const four_pendul
     four_pendula_to_soa(w, v);
     four_pendula_to_soa(g, gx);
     status = four_pendula_vi_explicit(cx, h, x, v, gx, xn, vn, gs, work + 72,
-            work + 76);
+            work + 76, qn, wn);
     if (status == FOUR_PENDULA_OK) {
-        four_pendula_from_soa(xn, qn);
-        four_pendula_from_soa(vn, wn);
         four_pendula_from_soa(gs, gn);
     }
     return status;
@@ -1796,20 +1803,23 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
 }
 
 /* A composition of explicit VI steps from (q0, w0), on component-major copies of the state
- * (see vi_explicit); every `every`-th state is stored, body-major. One gradient per substep
- * (the gradient at the new state is reused by the next substep).
- * work: x (16), v (16), gx (16), xn (16), vn (16), gn (16), s (8), bridge (24), slack (7). */
+ * (see vi_explicit); every `every`-th state is stored, body-major: the substeps of a stored
+ * step write it straight into its sample (the last one's is what stays), the others into qs
+ * and ws of work. One gradient per substep (the gradient at the new state is reused by the
+ * next substep).
+ * work: x (16), v (16), gx (16), xn (16), vn (16), gn (16), s (8), bridge (24), qs (16), ws (16), slack (7). */
 static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, const four_pendula_scheme *sc, double h,
         long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
         double *energy, double *work, four_pendula_stats *stats)
 {
     /* the buffers start at the first 64-byte boundary of work (the layout ends in 7 doubles
-     * to spare, from 128), so that the loops over bodies do not read across cache lines */
+     * to spare, from 160), so that the loops over bodies do not read across cache lines */
     double *const line = work + (8 - (long)((uintptr_t)work / sizeof(double) % 8)) % 8;
     double *x = line + 0, *v = line + 16;
     double *gx = line + 32, *xn = line + 48;
     double *vn = line + 64, *gn = line + 80;
     double *sv = line + 96, *bridge = line + 104;
+    double *const qscratch = line + 128, *const wscratch = line + 144;
     double *tmp;
     long k;
     int sub, status = FOUR_PENDULA_OK;
@@ -1818,9 +1828,13 @@ static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, const fou
     four_pendula_gradient_soa(cx, x, gx, bridge);
     stats->gradient_evals += 1;
     for (k = 0; k < nsteps; ++k) {
+        const int keep = (k + 1) % every == 0;
+        const long s = (k + 1) / every;
+        double *qs = keep ? q + s * FOUR_PENDULA_N3 : qscratch;
+        double *ws = keep ? w + s * FOUR_PENDULA_N3 : wscratch;
         for (sub = 0; sub < sc->count && status == FOUR_PENDULA_OK; ++sub) {
             status = four_pendula_vi_explicit(cx, sc->fractions[sub] * h, x, v, gx, xn, vn, gn, sv,
-                    bridge);
+                    bridge, qs, ws);
             tmp = x;
             x = xn;
             xn = tmp;
@@ -1837,11 +1851,7 @@ static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, const fou
         }
         stats->gradient_evals += sc->count;
         stats->steps += 1;
-        if ((k + 1) % every == 0) {
-            const long s = (k + 1) / every;
-            double *qs = q + s * FOUR_PENDULA_N3, *ws = w + s * FOUR_PENDULA_N3;
-            four_pendula_from_soa(x, qs);
-            four_pendula_from_soa(v, ws);
+        if (keep) {
             if (energy) {
                 energy[s] = four_pendula_energy_cx(cx, qs, ws);
             }

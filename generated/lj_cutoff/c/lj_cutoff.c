@@ -860,14 +860,17 @@ LJ_CUTOFF_SIMD_SUM(a0, a1, a2)
 }
 
 /* One explicit step, all arrays component-major: from (x, v) with gx = dV/dq at x to (xn, vn)
- * and gn = dV/dq at xn (vn holds the half-step velocity in between); sv: n doubles of scratch, bridge: see gradient_soa. Returns OK,
+ * and gn = dV/dq at xn (vn holds the half-step velocity in between); sv: n doubles of scratch, bridge: see gradient_soa.
+ * The loops that compute xn and vn also write them body-major into qo and wo (N3 doubles
+ * each), so that a stored state costs no second pass over the bodies. Returns OK,
  * ERR_INFEASIBLE (|a_i| > 1: no rotation realises the step) or ERR_NONFINITE; with x, v and
- * gx finite, OK means xn and vn are finite. */
+ * gx finite, OK means xn and vn (and qo, wo) are finite; otherwise qo and wo hold anything. */
 static int lj_cutoff_vi_explicit(const lj_cutoff_ctx *cx, double h,
         const double *LJ_CUTOFF_RESTRICT x, const double *LJ_CUTOFF_RESTRICT v,
         const double *LJ_CUTOFF_RESTRICT gx, double *LJ_CUTOFF_RESTRICT xn,
         double *LJ_CUTOFF_RESTRICT vn, double *LJ_CUTOFF_RESTRICT gn,
-        double *LJ_CUTOFF_RESTRICT sv, double *bridge)
+        double *LJ_CUTOFF_RESTRICT sv, double *bridge, double *LJ_CUTOFF_RESTRICT qo,
+        double *LJ_CUTOFF_RESTRICT wo)
 {
     double chk = 0.0;
     long i;
@@ -901,6 +904,9 @@ LJ_CUTOFF_SIMD
         xn[i] = qn0;
         xn[8 + i] = qn1;
         xn[16 + i] = qn2;
+        qo[3 * i] = qn0;
+        qo[3 * i + 1] = qn1;
+        qo[3 * i + 2] = qn2;
         vn[i] = wh0;
         vn[8 + i] = wh1;
         vn[16 + i] = wh2;
@@ -930,6 +936,9 @@ LJ_CUTOFF_SIMD_SUM(chk)
         vn[i] = wn0;
         vn[8 + i] = wn1;
         vn[16 + i] = wn2;
+        wo[3 * i] = wn0;
+        wo[3 * i + 1] = wn1;
+        wo[3 * i + 2] = wn2;
         chk += (wn0 * 0.0 + wn1 * 0.0) + wn2 * 0.0;
     }
     return chk == 0.0 ? LJ_CUTOFF_OK : LJ_CUTOFF_ERR_NONFINITE;
@@ -954,10 +963,8 @@ static int lj_cutoff_vi_advance(const lj_cutoff_ctx *cx, const lj_cutoff_options
     lj_cutoff_to_soa(w, v);
     lj_cutoff_to_soa(g, gx);
     status = lj_cutoff_vi_explicit(cx, h, x, v, gx, xn, vn, gs, work + 144,
-            work + 152);
+            work + 152, qn, wn);
     if (status == LJ_CUTOFF_OK) {
-        lj_cutoff_from_soa(xn, qn);
-        lj_cutoff_from_soa(vn, wn);
         lj_cutoff_from_soa(gs, gn);
     }
     return status;
@@ -2014,20 +2021,23 @@ static int lj_cutoff_integrate_geometric(const lj_cutoff_ctx *cx, const lj_cutof
 }
 
 /* A composition of explicit VI steps from (q0, w0), on component-major copies of the state
- * (see vi_explicit); every `every`-th state is stored, body-major. One gradient per substep
- * (the gradient at the new state is reused by the next substep).
- * work: x (24), v (24), gx (24), xn (24), vn (24), gn (24), s (8), bridge (48), slack (7). */
+ * (see vi_explicit); every `every`-th state is stored, body-major: the substeps of a stored
+ * step write it straight into its sample (the last one's is what stays), the others into qs
+ * and ws of work. One gradient per substep (the gradient at the new state is reused by the
+ * next substep).
+ * work: x (24), v (24), gx (24), xn (24), vn (24), gn (24), s (8), bridge (48), qs (24), ws (24), slack (7). */
 static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, const lj_cutoff_scheme *sc, double h,
         long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
         double *energy, double *work, lj_cutoff_stats *stats)
 {
     /* the buffers start at the first 64-byte boundary of work (the layout ends in 7 doubles
-     * to spare, from 200), so that the loops over bodies do not read across cache lines */
+     * to spare, from 248), so that the loops over bodies do not read across cache lines */
     double *const line = work + (8 - (long)((uintptr_t)work / sizeof(double) % 8)) % 8;
     double *x = line + 0, *v = line + 24;
     double *gx = line + 48, *xn = line + 72;
     double *vn = line + 96, *gn = line + 120;
     double *sv = line + 144, *bridge = line + 152;
+    double *const qscratch = line + 200, *const wscratch = line + 224;
     double *tmp;
     long k;
     int sub, status = LJ_CUTOFF_OK;
@@ -2036,9 +2046,13 @@ static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, const lj_cutoff
     lj_cutoff_gradient_soa(cx, x, gx, bridge);
     stats->gradient_evals += 1;
     for (k = 0; k < nsteps; ++k) {
+        const int keep = (k + 1) % every == 0;
+        const long s = (k + 1) / every;
+        double *qs = keep ? q + s * LJ_CUTOFF_N3 : qscratch;
+        double *ws = keep ? w + s * LJ_CUTOFF_N3 : wscratch;
         for (sub = 0; sub < sc->count && status == LJ_CUTOFF_OK; ++sub) {
             status = lj_cutoff_vi_explicit(cx, sc->fractions[sub] * h, x, v, gx, xn, vn, gn, sv,
-                    bridge);
+                    bridge, qs, ws);
             tmp = x;
             x = xn;
             xn = tmp;
@@ -2055,11 +2069,7 @@ static int lj_cutoff_integrate_explicit(const lj_cutoff_ctx *cx, const lj_cutoff
         }
         stats->gradient_evals += sc->count;
         stats->steps += 1;
-        if ((k + 1) % every == 0) {
-            const long s = (k + 1) / every;
-            double *qs = q + s * LJ_CUTOFF_N3, *ws = w + s * LJ_CUTOFF_N3;
-            lj_cutoff_from_soa(x, qs);
-            lj_cutoff_from_soa(v, ws);
+        if (keep) {
             if (energy) {
                 energy[s] = lj_cutoff_energy_cx(cx, qs, ws);
             }

@@ -582,8 +582,13 @@ void rope_default_options(rope_options *opt)
  * sides per row (b[i * nrhs + k]). Row i of A is kept in 2 kl + ku + 1 doubles holding
  * columns i - kl .. i + kl + ku: A_ij = ab[i * (2 kl + ku) + kl + j]; A is destroyed. Returns
  * ROPE_ERR_SINGULAR when a pivot is 0 or not finite, ROPE_ERR_NONFINITE
- * when the solution is not finite, else ROPE_OK. */
-static int rope_band_solve(long dim, long kl, long ku, double *ab, double *b, int nrhs)
+ * when the solution is not finite, else ROPE_OK.
+ * The interchanges and the row updates of step k run over the fixed window of columns
+ * k .. k + kl + ku (every row that takes part holds it, zero beyond the reach): a loop of
+ * kl + ku iterations, a constant once the solve is written into its call sites (hence
+ * KERNEL), which vectorises as the loops to the reach did not; the extra entries only ever
+ * subtract l * 0, so the result is the same. */
+ROPE_KERNEL int rope_band_solve(long dim, long kl, long ku, double *ab, double *b, int nrhs)
 {
     const long stride = 2 * kl + ku;
     long i, j, k, reach = 0; /* the last column any row k.. may hold a nonzero in */
@@ -627,7 +632,7 @@ static int rope_band_solve(long dim, long kl, long ku, double *ab, double *b, in
         last = reach < dim ? reach : dim - 1;
         if (piv != k) {
             double *rp = ab + piv * stride + kl, t;
-            for (j = k; j <= last; ++j) {
+            for (j = k; j <= k + kl + ku; ++j) {
                 t = rk[j];
                 rk[j] = rp[j];
                 rp[j] = t;
@@ -643,11 +648,13 @@ static int rope_band_solve(long dim, long kl, long ku, double *ab, double *b, in
         }
         pinv = 1.0 / rk[k];
         for (i = k + 1; i <= bottom; ++i) {
-            double *ri = ab + i * stride + kl;
-            const double l = ri[k] * pinv;
+            double *ROPE_RESTRICT ri = ab + i * stride + kl + k + 1;
+            const double *ROPE_RESTRICT rw = rk + k + 1;
+            const double l = ri[-1] * pinv;
             if (l != 0.0) {
-                for (j = k + 1; j <= last; ++j) {
-                    ri[j] -= l * rk[j];
+ROPE_SIMD
+                for (j = 0; j < kl + ku; ++j) {
+                    ri[j] -= l * rw[j];
                 }
                 for (c = 0; c < nrhs; ++c) {
                     b[i * nrhs + c] -= l * b[k * nrhs + c];
@@ -708,7 +715,7 @@ static void rope_m_apply(const rope_ctx *cx, int r, const double *u, double *z)
  * (b[(i p + a) nrhs + k]), overwritten by x. Returns ROPE_ERR_SINGULAR when L is
  * singular or some delta_i is 0 (the parameters break the structure), else what the band
  * solve returns. work: rows (2 kl + ku + 1) doubles, then rows nrhs. */
-static int rope_coupled_solve(const rope_ctx *cx, int p, int r, long kl, long ku,
+ROPE_KERNEL int rope_coupled_solve(const rope_ctx *cx, int p, int r, long kl, long ku,
         const double *E, const double *H, const double *K, double *b, int nrhs, double *work)
 {
     const double *sa = cx->mp, *sc = cx->mp + 20;
