@@ -38,6 +38,7 @@ from s2gen.printing.c_module import (
 )
 from s2gen.printing.driven import print_drive
 from s2gen.printing.jacobian import JACOBIAN_SITES, print_jacobian
+from s2gen.printing.jvp import print_jvp
 from s2gen.printing.numpy import (
     py_call,
     py_data_setup,
@@ -138,6 +139,7 @@ class PrintedModule:
     drive: dict[str, Any]  # a driven module's inputs, methods and tables (empty: closed)
     jac: dict[str, Any]  # the step Jacobians' methods and lines (empty: no step_jacobian)
     batch: dict[str, Any]  # integrate_batch()'s lanes, workspace and lines (empty: none)
+    jvp: dict[str, Any]  # step_jvp()'s methods and lines (empty: no step_jvp)
 
 
 def print_module(module: Module) -> PrintedModule:
@@ -154,7 +156,7 @@ def print_module(module: Module) -> PrintedModule:
     consumed = {
         f"t{t.index}_{s}"
         for t in module.terms
-        for s in ("value", "gradient", "table", "quad", "hessian")
+        for s in ("value", "gradient", "table", "quad", "hessian", "hvp")
     }
     consumed |= JACOBIAN_SITES  # and the step Jacobians' into m.jac
     c_masses, py_masses = records.masses_partials(module)
@@ -262,4 +264,5 @@ def print_module(module: Module) -> PrintedModule:
         drive=print_drive(module),
         jac=print_jacobian(module),
         batch=print_batch(module),
+        jvp=print_jvp(module),
     )

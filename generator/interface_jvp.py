@@ -1,0 +1,47 @@
+"""The C interface of the Jacobian-vector products of a step: ``step_jvp()``, as an
+`interface.Function` record.
+
+A sphere module emitted from `System.with_jacobians` has it when its field is solved without
+dense matrices (`s2gen.equations.jvp.has_jvp`: a diagonal M, or a banded or max-index M with
+the structured solvers; closed; any n); its header also defines JVP_WORK_SIZE.
+
+Example:
+    >>> [p.name for p in STEP_JVP.params][-5:]
+    ['qn', 'wn', 'dqn', 'dwn', 'work']
+"""
+
+from __future__ import annotations
+
+from s2gen.interface import Function, Kind, Param
+
+__all__ = ["STEP_JVP"]
+
+_D, _CA, _A = Kind.DOUBLE, Kind.CONST_ARRAY, Kind.ARRAY
+
+STEP_JVP = Function(
+    "step_jvp",
+    Kind.INT,
+    (
+        Param("p", _CA),
+        Param("method", Kind.INT),
+        Param("h", _D),
+        Param("q", _CA),
+        Param("w", _CA),
+        Param("dq", _CA),
+        Param("dw", _CA),
+        Param("qn", _A),
+        Param("wn", _A),
+        Param("dqn", _A),
+        Param("dwn", _A),
+        Param("work", _A),
+    ),
+    "One step of size h of a fixed-step Runge-Kutta method (rk2, rk2-proj, rk3, rk4) from "
+    "(q, w) into (qn, wn), as rk_step() takes it, and its exact directional derivative along "
+    "the tangent (dq, dw) in the embedding coordinates (NSTATE doubles each, body-major): "
+    "(dqn, dwn) = A (dq, dw), A the step's Jacobian that step_jacobian() writes, without "
+    "forming it: the tangent is carried through each stage (the field's tangent: the Hessian "
+    "of V times dq member by member, the products with M and the field's own structured "
+    "solve), O(n) time and memory. work: JVP_WORK_SIZE doubles. Returns OK, ERR_ARGUMENT "
+    "(h <= 0 or another method), ERR_NONFINITE (a non-finite input or result) or the "
+    "field's ERR_SINGULAR",
+)

@@ -1,0 +1,79 @@
+"""The parts of step_jvp(): O(n) Jacobian-vector products of a fixed Runge-Kutta step (C only).
+
+A sphere module with `s2gen.equations.jvp.has_jvp` selects, after its other parts:
+
+- ``jvp_hvp``: dg = H dq, the Hessian of V times a tangent of the positions, member by member
+  in each term's loop (``t<k>_hvp``);
+- ``jvp_diagonal`` or ``jvp_structured``: the field and its tangent at a state along a
+  tangent direction (``jvp_diag``; or ``jvp_src``, ``jvp_ka``, ``jvp_rhs``, the products with
+  M_off and the field's structured solve on its own blocks);
+- ``jvp``: step_jvp(), the tableau's stages with their tangents.
+
+Example:
+    >>> [p.name for p in JVP_PARTS]
+    ['jvp_hvp', 'jvp_diagonal', 'jvp_structured', 'jvp']
+"""
+
+from __future__ import annotations
+
+from s2gen.bindings import Binding, Element, Index, Local
+from s2gen.ir import Module
+from s2gen.parts.records import Context, Part, Site
+
+__all__ = ["JVP_C_ONLY", "JVP_PART", "JVP_PARTS", "jvp_parts"]
+
+#: The name of the part that emits step_jvp() (its partial: c/_jvp.jinja)
+JVP_PART = "jvp"
+
+
+def _hvp_sites(module: Module) -> tuple[Site, ...]:
+    """Each term's Hessian-vector product at member m of its loop: the member's data as its
+    gradient reads them, the tangents of its positions in the locals t_<role>, into hv."""
+    from s2gen.parts import term_sites
+
+    sites = []
+    for t in module.terms:
+        roles = t.loop.kind.kind.roles
+        bind: dict[str, Binding] = {**term_sites(t)[1].bind, "hv": Local("hv")}
+        bind.update({f"t_{role}": Local(f"t_{role}") for role in roles})
+        sites.append(Site(f"t{t.index}_hvp", f"t{t.index}_hvp", Context.SYSTEM, bind))
+    return tuple(sites)
+
+
+_B = Context.BODY
+
+#: The parts, in the order a module lays them out
+JVP_PARTS = (
+    Part("jvp_hvp", module_sites=_hvp_sites),
+    Part(
+        "jvp_diagonal",
+        sites=(Site("jvp_diag", "jvp_diag", _B, {"m": Element("md", Index.BODY, context=True)}),),
+        buffers=(("field", ("g",)), ("jvp", ("dg", "field"))),
+    ),
+    Part(
+        "jvp_structured",
+        sites=(
+            Site("jvp_src", "jvp_src", _B),
+            Site("jvp_ka", "jvp_ka", _B),
+            Site("jvp_rhs", "jvp_rhs", _B),
+        ),
+        buffers=(
+            ("field", ("g", "z", "e", "hb", "kb", "solve")),
+            ("jvp", ("dg", "field", "du", "dz", "ka", "dka", "zy", "dzy")),
+        ),
+    ),
+    Part(JVP_PART, buffers=(("jvp", ("ys", "k", "dys", "dk")),)),
+)
+
+#: The parts have no NumPy partial (step_jvp() is C only)
+JVP_C_ONLY = tuple(p.name for p in JVP_PARTS)
+
+
+def jvp_parts(diagonal: bool) -> tuple[str, ...]:
+    """The names of the parts a module with step_jvp() selects (diagonal M or not).
+
+    Example:
+        >>> jvp_parts(True)
+        ('jvp_hvp', 'jvp_diagonal', 'jvp')
+    """
+    return ("jvp_hvp", "jvp_diagonal" if diagonal else "jvp_structured", JVP_PART)
