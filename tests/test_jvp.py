@@ -1,0 +1,134 @@
+"""step_jvp(): the Jacobian-vector product of a Runge-Kutta step, against independent checks.
+
+- small chains (n = 4..8: max-index M with the structured solves, banded M, diagonal M): the
+  tangent equals the full step Jacobian of step_jacobian() (the dense chain rule through the
+  stages, a separate code path) times the direction, to 1e-12 relative, for every method;
+- a rope of n = 200 (no dense Jacobian there): the tangent equals central differences of the
+  emitted step (rk_step() through ctypes) along the direction, to 1e-7 relative, and the
+  step equals rk_step()'s;
+- the refusals (dense M, a method without a tangent) are one-line errors.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from s2gen.runtime.c import CBackend, contiguous
+from s2gen.runtime.jvp import jvp_methods, step_jvp
+from s2gen.runtime.model import Model
+from s2gen.spec import define_system
+from s2gen.system import System
+from s2gen.systems import builtin
+
+
+def banded(n: int = 6) -> System:
+    """n bodies whose M couples neighbours (banded), with chain springs and a body term."""
+    inertia = [["0"] * n for _ in range(n)]
+    for i in range(n):
+        inertia[i][i] = f"m*(2 + {i % 3})"
+        if i + 1 < n:
+            inertia[i][i + 1] = inertia[i + 1][i] = "c*m"
+    q = np.zeros((n, 3))
+    q[:, 2] = 1.0
+    return define_system(
+        name="banded",
+        bodies=n,
+        parameters={"m": 1.0, "c": 0.3, "k": 2.0},
+        inertia=inertia,
+        pair_terms=[{"V": "k*(1 - dot(qi, qj)) + k*dot(qi, qj)**3", "pairs": "chain"}],
+        body_terms=[{"V": "q[2] + q[0]*q[1]"}],
+        initial_q=q.tolist(),
+        initial_omega=np.zeros((n, 3)).tolist(),
+        inertia_solver="structured",
+    )
+
+
+def _state(n: int, seed: int) -> tuple[np.ndarray, ...]:
+    """A random state on T(S^2)^n and a random direction of the embedding (6n)."""
+    rng = np.random.default_rng(seed)
+    q = rng.standard_normal((n, 3))
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    w = rng.standard_normal((n, 3))
+    w -= (w * q).sum(axis=1)[:, None] * q
+    return q, w, rng.standard_normal((n, 3)), rng.standard_normal((n, 3))
+
+
+SMALL = {
+    "rope4": lambda: builtin("rope", n=4, solver="structured"),
+    "rope8": lambda: builtin("rope", n=8, solver="structured"),
+    "banded": banded,
+    "four_pendula": lambda: builtin("four_pendula"),
+}
+
+
+@pytest.fixture(scope="module", params=sorted(SMALL))
+def small(request: pytest.FixtureRequest) -> Model:
+    return Model(SMALL[request.param]().with_jacobians())
+
+
+@pytest.mark.parametrize("name", jvp_methods())
+def test_jvp_is_the_step_jacobian_times_the_direction(small: Model, name: str) -> None:
+    """A v from step_jacobian() (dense, n <= 32) against step_jvp()'s tangent, 1e-12."""
+    n = small.system.n
+    q, w, dq, dw = _state(n, 3)
+    lin = small.linearize(q, w, 0.02, name, basis="embedding")
+    st = small.step_jvp(q, w, 0.02, dq, dw, name)
+    want = lin.A @ np.concatenate([dq.ravel(), dw.ravel()])
+    got = np.concatenate([st.dq.ravel(), st.domega.ravel()])
+    assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+    assert np.abs(st.q - lin.q).max() <= 1e-14 and np.abs(st.omega - lin.omega).max() <= 1e-13
+
+
+@pytest.fixture(scope="module")
+def rope200() -> CBackend:
+    return CBackend(builtin("rope", n=200).with_jacobians())
+
+
+def _rk_step(be: CBackend, name: str, h: float, q: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """(q+, w+) of the emitted rk_step(), flattened."""
+    from s2gen.methods import method
+
+    n = be.system.n
+    qn, wn = np.empty((n, 3)), np.empty((n, 3))
+    p = contiguous(be.default_params())
+    code = method(name).code
+    status = be.library.fn["rk_step"](
+        p, code, h, contiguous(q), contiguous(w), qn, wn, be.library.work
+    )
+    assert status == 0
+    return np.concatenate([qn.ravel(), wn.ravel()])
+
+
+@pytest.mark.parametrize("name", ["rk4", "rk2-proj"])
+def test_jvp_against_central_differences_of_the_step(rope200: CBackend, name: str) -> None:
+    """n = 200 (beyond the dense Jacobian): the tangent against central differences of the
+    emitted step along the direction (tangent to the sphere, so that the perturbed states
+    stay near it), 1e-7 relative; the step itself is rk_step()'s."""
+    be, n, h = rope200, 200, 1e-3
+    q, w, dq, dw = _state(n, 5)
+    q = 0.9 * np.asarray(be.system.q0) + 0.1 * q  # near the rope's own state: a stiff chain
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    w *= 0.5
+    dq -= (dq * q).sum(axis=1)[:, None] * q
+    st = step_jvp(be, q, w, h, dq, dw, name, be.default_params())
+    eps = 1e-6
+    plus = _rk_step(be, name, h, q + eps * dq, w + eps * dw)
+    minus = _rk_step(be, name, h, q - eps * dq, w - eps * dw)
+    want = (plus - minus) / (2 * eps)
+    got = np.concatenate([st.dq.ravel(), st.domega.ravel()])
+    assert np.abs(got - want).max() <= 1e-7 * np.abs(want).max()
+    x1 = _rk_step(be, name, h, q, w)
+    assert np.abs(np.concatenate([st.q.ravel(), st.omega.ravel()]) - x1).max() <= 1e-13
+
+
+def test_refusals() -> None:
+    """A dense M and a method without a tangent: one-line ValueErrors."""
+    with pytest.raises(ValueError, match="not a dense M"):
+        Model(builtin("double_pendulum")).step_jvp(
+            np.eye(3)[:2], np.zeros((2, 3)), 0.01, np.zeros((2, 3)), np.zeros((2, 3))
+        )
+    m = Model(builtin("four_pendula"))
+    s = m.system
+    with pytest.raises(ValueError, match="fixed-step Runge-Kutta methods"):
+        m.step_jvp(s.q0, s.omega0, 0.01, s.q0, s.omega0, method="vi")
