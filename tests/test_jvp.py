@@ -6,13 +6,15 @@
 - a rope of n = 200 (no dense Jacobian there): the tangent equals central differences of the
   emitted step (rk_step() through ctypes) along the direction, to 1e-7 relative, and the
   step equals rk_step()'s;
-- the refusals (dense M, a method without a tangent) are one-line errors.
+- the refusals (dense M, a method without a tangent) are one-line errors; the page's
+  example runs.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from docs_text import code_blocks, page
 
 from s2gen.runtime.c import CBackend, contiguous
 from s2gen.runtime.jvp import jvp_methods, step_jvp
@@ -132,3 +134,20 @@ def test_refusals() -> None:
     s = m.system
     with pytest.raises(ValueError, match="fixed-step Runge-Kutta methods"):
         m.step_jvp(s.q0, s.omega0, 0.01, s.q0, s.omega0, method="vi")
+
+
+def test_docs_block(rope200: CBackend) -> None:
+    """The step_jvp block of docs/user_guide/linearization.rst, run as it stands: its tangent
+    against central differences of the emitted step (the rope of 200 bodies it loads is the
+    one above)."""
+    code = code_blocks(page("user_guide/linearization.rst"), "python")[-1]
+    ns: dict[str, object] = {}
+    exec(compile(code, "linearization.rst", "exec"), ns)  # noqa: S102 (the page's own example)
+    st, dq, rope = ns["st"], np.asarray(ns["dq"]), rope200.system
+    eps = 1e-6
+    q, w = np.asarray(rope.q0), np.asarray(rope.omega0)
+    plus = _rk_step(rope200, "rk4", 2e-4, q + eps * dq, w)
+    minus = _rk_step(rope200, "rk4", 2e-4, q - eps * dq, w)
+    want = (plus - minus) / (2 * eps)
+    got = np.concatenate([st.dq.ravel(), st.domega.ravel()])  # type: ignore[attr-defined]
+    assert np.abs(got - want).max() <= 1e-7 * np.abs(want).max()
