@@ -23,6 +23,7 @@ STEP_JVP = Function(
     Kind.INT,
     (
         Param("p", _CA),
+        Param("opt", Kind.OPTIONS, True),
         Param("method", Kind.INT),
         Param("h", _D),
         Param("q", _CA),
@@ -35,13 +36,17 @@ STEP_JVP = Function(
         Param("dwn", _A),
         Param("work", _A),
     ),
-    "One step of size h of a fixed-step Runge-Kutta method (rk2, rk2-proj, rk3, rk4) from "
-    "(q, w) into (qn, wn), as rk_step() takes it, and its exact directional derivative along "
-    "the tangent (dq, dw) in the embedding coordinates (NSTATE doubles each, body-major): "
-    "(dqn, dwn) = A (dq, dw), A the step's Jacobian that step_jacobian() writes, without "
-    "forming it: the tangent is carried through each stage (the field's tangent: the Hessian "
-    "of V times dq member by member, the products with M and the field's own structured "
-    "solve), O(n) time and memory. work: JVP_WORK_SIZE doubles. Returns OK, ERR_ARGUMENT "
-    "(h <= 0 or another method), ERR_NONFINITE (a non-finite input or result) or the "
-    "field's ERR_SINGULAR",
+    "One step of size h of a fixed-step method from (q, w) into (qn, wn) and its exact "
+    "directional derivative along the tangent (dq, dw) in the embedding coordinates (NSTATE "
+    "doubles each, body-major): (dqn, dwn) = A (dq, dw), A the step's Jacobian that "
+    "step_jacobian() writes, without forming it, in O(n) time and memory. The fixed-step "
+    "Runge-Kutta methods (rk2, rk2-proj, rk3, rk4; the step as rk_step() takes it): the "
+    "tangent carried through each stage (the field's tangent: the Hessian of V times dq "
+    "member by member, the products with M and the field's own structured solve). With a "
+    "banded or max-index M also the VI family (vi, vi4, vi6, vi8; each substep as "
+    "step_jacobian() takes it, Newton from its cold start, with the options opt, NULL: the "
+    "defaults): the implicit function theorem on the substep's converged equations, solved "
+    "by the step's own structured solves. work: JVP_WORK_SIZE doubles. Returns OK, "
+    "ERR_ARGUMENT (h <= 0 or a method it does not take), ERR_NONFINITE (a non-finite input "
+    "or result), ERR_NEWTON or ERR_SINGULAR",
 )

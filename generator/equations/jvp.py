@@ -212,6 +212,105 @@ def _structured(solver: InertiaKind) -> list[KernelDef]:
     ]
 
 
+def _kernel(name: str, doc: str, inputs: list[Argument], outputs: list[Output]) -> KernelDef:
+    return KernelDef(name, doc, tuple(inputs), tuple(outputs))
+
+
+def _vi_structured(solver: InertiaKind) -> list[KernelDef]:
+    """The tangents of one VI step's equations with a structured M (the emitted step's own
+    kernels, `s2gen.equations.operators`), for the implicit function theorem at the converged
+    Cayley parameters f: the known side d (``jvp_vel``, ``jvp_d``), the residual at f held
+    (``jvp_dispq``, ``jvp_res``; Newton's own Jacobian then gives df), the Cayley update
+    (``jvp_cay``), the velocity side c (``jvp_disp``, ``jvp_c``) and A(q+) w+ at w+ held
+    (``jvp_vrhs``: dc - dA w+, A's diagonal a = M_ii |q+|^2 and its pair part)."""
+    from s2gen.equations.assemble import generic_kernel_defs
+
+    k = {kd.name: kd for kd in generic_kernel_defs(True, solver)}
+    vel, dco, disp, res = k["vel"], k["d_coupled"], k["disp"], k["res_coupled"]
+    cay, cco, abody, blocks = k["cayley"], k["c_coupled"], k["a_body"], k["a_blocks"]
+    t = {name: _vec(f"d{name}") for name in ("q", "w", "g", "z", "d", "f", "qn", "gn", "wn")}
+    t["zy"] = _vec("dzy")
+
+    def args(kd: KernelDef) -> dict[str, tuple[sp.Symbol, ...]]:
+        return {a.name: a.symbols for a in kd.inputs}
+
+    def along(kd: KernelDef, out: str, names: tuple[str, ...]) -> tuple[sp.Expr, ...]:
+        a = args(kd)
+        exprs = next(o.exprs for o in kd.outputs if o.name == out)
+        return tangent(exprs, [(a[x], t[x]) for x in names])
+
+    def targs(*names: str) -> list[Argument]:
+        return [_arg(f"d{x}", t[x]) for x in names]
+
+    v = vel.outputs[0].exprs
+    a_c = args(cco)
+    # A(q+) w+ at body i: a w+ + hat(q+) zy, a = a_body(m, q+), zy = M_off K(q+) w+
+    qn, wn, zy = a_c["qn"], _vec("wn"), _vec("zy")
+    adiag = abody.outputs[0].exprs[0].xreplace(dict(zip(args(abody)["q"], qn)))
+    bq = dict(zip(args(blocks)["q"], qn))
+    hq = sp.Matrix(3, 3, [e.xreplace(bq) for e in blocks.outputs[1].exprs])
+    aw = list(adiag * sp.Matrix(wn) + hq * sp.Matrix(zy))
+    lift = tangent(aw, [(qn, t["qn"]), (zy, t["zy"])])
+    m = args(abody)["m"]
+    return [
+        _kernel(
+            "jvp_vel",
+            "v = w x q and its tangent along (dq, dw)",
+            [*vel.inputs, *targs("q", "w")],
+            [Output("v", v), Output("dv", along(vel, "v", ("q", "w")))],
+        ),
+        _kernel(
+            "jvp_d",
+            "the tangent of the known side d along (dq, dw, dg, dz)",
+            [*dco.inputs, *targs("q", "w", "g", "z")],
+            [Output("dd", along(dco, "d", ("q", "w", "g", "z")))],
+        ),
+        _kernel(
+            "jvp_dispq",
+            "the tangent of the Cayley displacement F q - q along dq at f held",
+            [*disp.inputs, *targs("q")],
+            [Output("duq", along(disp, "u", ("q",)))],
+        ),
+        _kernel(
+            "jvp_res",
+            "the tangent of the residual at f held, along (dq, dd, dz)",
+            [*res.inputs, *targs("q", "d", "z")],
+            [Output("dr", along(res, "r", ("q", "d", "z")))],
+        ),
+        _kernel(
+            "jvp_cay",
+            "the tangent of q+ = cayley(f, q) along (dq, df)",
+            [*cay.inputs, *targs("q", "f")],
+            [Output("dqn", along(cay, "qn", ("q", "f")))],
+        ),
+        _kernel(
+            "jvp_disp",
+            "the tangent of the Cayley displacement F q - q along (dq, df)",
+            [*disp.inputs, *targs("q", "f")],
+            [Output("du", along(disp, "u", ("q", "f")))],
+        ),
+        _kernel(
+            "jvp_c",
+            "the tangent of the velocity side c along (dq, df, dq+, dg+, dz)",
+            [*cco.inputs, *targs("q", "f", "qn", "gn", "z")],
+            [Output("dc", along(cco, "c", ("q", "f", "qn", "gn", "z")))],
+        ),
+        _kernel(
+            "jvp_vrhs",
+            "dc - dA w+ at w+ held: the tangent of a w+ + hat(q+) zy along (dq+, dzy)",
+            [
+                Argument("m", (m,), scalar=True),
+                _arg("qn", qn),
+                _arg("wn", wn),
+                _arg("zy", zy),
+                *targs("qn", "zy"),
+                _arg("dc", _vec("dc")),
+            ],
+            [Output("tb", tuple(c - x for c, x in zip(_vec("dc"), lift)))],
+        ),
+    ]
+
+
 def jvp_kernels(system: System) -> list[KernelDef]:
     """The tangent kernels of `system`'s field (`has_jvp`), or none."""
     from s2gen.equations.structure import choose_solver
@@ -219,5 +318,6 @@ def jvp_kernels(system: System) -> list[KernelDef]:
     if not has_jvp(system):
         return []
     solver = choose_solver(system)
-    field = _diagonal() if solver is InertiaKind.DIAGONAL else _structured(solver)
-    return [*_hvp_kernels(system), *field]
+    if solver is InertiaKind.DIAGONAL:
+        return [*_hvp_kernels(system), *_diagonal()]
+    return [*_hvp_kernels(system), *_structured(solver), *_vi_structured(solver)]

@@ -7,16 +7,20 @@ A sphere module with `s2gen.equations.jvp.has_jvp` selects, after its other part
 - ``jvp_diagonal`` or ``jvp_structured``: the field and its tangent at a state along a
   tangent direction (``jvp_diag``; or ``jvp_src``, ``jvp_ka``, ``jvp_rhs``, the products with
   M_off and the field's structured solve on its own blocks);
+- ``jvp_vi`` (structured M): one VI step and its tangent by the implicit function theorem on
+  the step's converged equations (Newton's own Jacobian in the Cayley parameters, the
+  velocity equations' A(q+)), each solved by the structured solve, and the compositions'
+  substeps;
 - ``jvp``: step_jvp(), the tableau's stages with their tangents.
 
 Example:
     >>> [p.name for p in JVP_PARTS]
-    ['jvp_hvp', 'jvp_diagonal', 'jvp_structured', 'jvp']
+    ['jvp_hvp', 'jvp_diagonal', 'jvp_structured', 'jvp_vi', 'jvp']
 """
 
 from __future__ import annotations
 
-from s2gen.bindings import Binding, Element, Index, Local
+from s2gen.bindings import Binding, Element, Index, Local, Slot
 from s2gen.ir import Module
 from s2gen.parts.records import Context, Part, Site
 
@@ -62,6 +66,41 @@ JVP_PARTS = (
             ("jvp", ("dg", "field", "du", "dz", "ka", "dka", "zy", "dzy")),
         ),
     ),
+    Part(
+        "jvp_vi",
+        sites=(
+            Site("jvp_vel", "jvp_vel", _B),
+            Site("jvp_d", "jvp_d", _B),
+            Site("jvp_vi_disp", "disp", _B, {"kd": Slot("kb2", 9, Index.BODY)}),
+            Site("jvp_dispq", "jvp_dispq", _B),
+            Site(
+                "jvp_vi_res",
+                "res_coupled",
+                _B,
+                {"e": Slot("e2", 9, Index.BODY), "hq": Slot("hb2", 9, Index.BODY)},
+            ),
+            Site("jvp_res", "jvp_res", _B, {"dr": Slot("df", 3, Index.BODY)}),
+            Site("jvp_cay", "jvp_cay", _B),
+            Site("jvp_disp", "jvp_disp", _B),
+            Site("jvp_c", "jvp_c", _B),
+            Site(
+                "jvp_ka_vi",
+                "jvp_ka",
+                _B,
+                {
+                    "q": Slot("qn", 3, Index.BODY),
+                    "a": Slot("wn", 3, Index.BODY),
+                    "dq": Slot("dqn", 3, Index.BODY),
+                },
+            ),
+            Site("jvp_vrhs", "jvp_vrhs", _B, {"tb": Slot("dwn", 3, Index.BODY)}),
+        ),
+        buffers=(
+            ("vi_advance", ("d", "e", "hb", "kb", "solve")),
+            ("jvp", ("vi", "g", "gn", "f", "dg", "dgn", "v", "dv", "z", "dz", "dd", "u")),
+            ("jvp", ("duq", "r", "df", "dc", "e2", "hb2", "kb2", "ka", "dka", "zy", "dzy")),
+        ),
+    ),
     Part(JVP_PART, buffers=(("jvp", ("ys", "k", "dys", "dk")),)),
 )
 
@@ -76,4 +115,6 @@ def jvp_parts(diagonal: bool) -> tuple[str, ...]:
         >>> jvp_parts(True)
         ('jvp_hvp', 'jvp_diagonal', 'jvp')
     """
-    return ("jvp_hvp", "jvp_diagonal" if diagonal else "jvp_structured", JVP_PART)
+    if diagonal:
+        return ("jvp_hvp", "jvp_diagonal", JVP_PART)
+    return ("jvp_hvp", "jvp_structured", "jvp_vi", JVP_PART)

@@ -359,7 +359,7 @@ _SPHERE: dict[str, _Builder] = {
     "carry": _carry,
     "driven": _driven,
     "jacobian": lambda module, _: jacobian_layout(module),
-    "jvp": lambda module, lays: jvp_layout(module, lays.size("field")),
+    "jvp": lambda module, lays: jvp_layout(module, lays.size("field"), lays.size("vi_advance")),
 }
 
 

@@ -120,6 +120,11 @@ def _step_macros(module: Module) -> tuple[Macro, ...]:
                 str(module.layout("jvp").size),
                 "workspace doubles step_jvp() needs (more than WORK_SIZE)",
             ),
+            (
+                "JVP_VI",
+                "1" if "jvp_vi" in module.parts else "0",
+                "1: step_jvp() takes the VI family too",
+            ),
         )
     if module.drive is not None:
         return (("NINPUTS", str(len(module.drive.inputs)), "inputs in u (see input_names)"), *jac)

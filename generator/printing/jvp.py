@@ -3,7 +3,7 @@
 Input: a lowered sphere `Module` whose parts include ``jvp`` (`s2gen.parts.jvp`). Output:
 the fixed-step explicit methods step_jvp() takes, each with its tableau as round-trip
 literals (a zero-padded to stages x stages, b) and whether q_i is normalized after the
-step; the C lines of dg = H dq (each term's member loop calling its ``t<k>_hvp`` and adding
+step, and the VI family's substeps (structured M); the C lines of dg = H dq (each term's member loop calling its ``t<k>_hvp`` and adding
 the member's blocks at its bodies); the field's structured solve's arguments. Every key is
 empty for a module without it.
 
@@ -21,14 +21,14 @@ from fractions import Fraction
 from typing import Any
 
 from s2gen.ir import Module
-from s2gen.methods import fixed_methods
+from s2gen.methods import METHODS, Family, fixed_methods
 from s2gen.parts.jvp import JVP_PART
 from s2gen.printing.c import c_loop
 from s2gen.printing.c_calls import c_call
 
 __all__ = ["print_jvp"]
 
-_KEYS = ("methods", "count", "max_stages", "hvp")
+_KEYS = ("methods", "count", "max_stages", "hvp", "vi_methods", "vi_count", "max_sub", "other")
 
 
 def _lits(values: list[Fraction]) -> str:
@@ -60,6 +60,41 @@ def print_jvp(module: Module) -> dict[str, Any]:
         "count": str(len(methods)),
         "max_stages": str(max(int(m["stages"]) for m in methods)),
         "hvp": hvp_lines(module),
+        **_vi(module),
+    }
+
+
+def _vi(module: Module) -> dict[str, Any]:
+    """The VI family's entries: each method's substeps (fractions of h) and the lines that
+    step_jvp() runs for a method without a tableau (the VI's substeps where the module has
+    the ``jvp_vi`` part, else ERR_ARGUMENT)."""
+    name, upper = module.name, module.name.upper()
+    if "jvp_vi" not in module.parts:
+        return {
+            "vi_methods": (),
+            "vi_count": "0",
+            "max_sub": "1",
+            "other": (f"return {upper}_ERR_ARGUMENT;",),
+        }
+    methods = tuple(
+        {
+            "c_name": m.c_name,
+            "name": m.name,
+            "count": str(len(m.composition.fractions)),
+            "fractions": ", ".join(repr(float(x)) for x in m.composition.fractions),
+        }
+        for m in METHODS
+        if m.family is Family.VI and m.composition is not None
+    )
+    copies = [("ys", "q"), ("ys + n3", "w"), ("dys", "dq"), ("dys + n3", "dw")]
+    return {
+        "vi_methods": methods,
+        "vi_count": str(len(methods)),
+        "max_sub": str(max(int(m["count"]) for m in methods)),
+        "other": (
+            *(f"{name}_copy({to}, {src}, n3);" for to, src in copies),
+            f"return {name}_jvp_vi_step(&cx, opt, method, h, ys, dys, qn, wn, dqn, dwn, work);",
+        ),
     }
 
 

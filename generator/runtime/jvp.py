@@ -19,14 +19,16 @@ Example:
 
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from s2gen.equations.jvp import jvp_refusal
-from s2gen.methods import Status, fixed_methods, method
+from s2gen.methods import METHODS, Family, Status, fixed_methods, method
 from s2gen.runtime.c import CBackend, contiguous
+from s2gen.runtime.options import Options
 
 __all__ = ["StepTangent", "jvp_backend", "jvp_methods", "step_jvp"]
 
@@ -49,14 +51,16 @@ class StepTangent:
     domega: np.ndarray
 
 
-def jvp_methods() -> tuple[str, ...]:
-    """The methods step_jvp() takes: the fixed-step Runge-Kutta methods.
+def jvp_methods(vi: bool = False) -> tuple[str, ...]:
+    """The methods step_jvp() takes: the fixed-step Runge-Kutta methods and, with `vi` (a
+    banded or max-index M), the VI family.
 
     Example:
-        >>> jvp_methods()
-        ('rk2', 'rk2-proj', 'rk4', 'rk3')
+        >>> jvp_methods(vi=True)
+        ('rk2', 'rk2-proj', 'rk4', 'rk3', 'vi', 'vi4', 'vi6', 'vi8')
     """
-    return tuple(m.name for m in fixed_methods("sphere"))
+    family = tuple(m.name for m in METHODS if m.family is Family.VI) if vi else ()
+    return (*(m.name for m in fixed_methods("sphere")), *family)
 
 
 def jvp_backend(model: Any) -> Any:
@@ -88,11 +92,9 @@ def _refuse(backend: Any, method_name: str) -> None:
     if not backend.library.jvp:
         why = jvp_refusal(system) or f"{system.name}: built without it (System.with_jacobians)"
         raise ValueError(why)
-    if method_name not in jvp_methods():
-        raise ValueError(
-            f"{system.name}: step_jvp takes the fixed-step Runge-Kutta methods "
-            f"({', '.join(jvp_methods())}), not {method_name!r}"
-        )
+    allowed = jvp_methods(backend.library.jvp_vi)
+    if method_name not in allowed:
+        raise ValueError(f"{system.name}: step_jvp takes {', '.join(allowed)}, not {method_name!r}")
 
 
 def step_jvp(
@@ -104,9 +106,11 @@ def step_jvp(
     dw: np.ndarray,
     method_name: str,
     params: np.ndarray,
+    options: Options | None = None,
 ) -> StepTangent:
     """One step of `method_name` from (q, w) with its tangent along (dq, dw) (each of shape
-    (n, 3)) on a `CBackend` whose module has step_jvp(), at the parameters `params`."""
+    (n, 3)) on a `CBackend` whose module has step_jvp(), at the parameters `params`, with the
+    step's `options` (Newton's, for the VI; None: the defaults)."""
     _refuse(backend, method_name)
     system = backend.system
     n = system.n
@@ -116,8 +120,10 @@ def step_jvp(
 
     qn, wn, dqn, dwn = (np.empty((n, 3)) for _ in range(4))
     work = np.zeros(backend.library.jvp_work)
+    opt = backend.library.options(Options() if options is None else options)
     status = backend.library.fn["step_jvp"](
         contiguous(params),
+        ctypes.byref(opt),
         method(method_name).code,
         float(h),
         state(q),

@@ -303,13 +303,15 @@ class Model(JacobianMethods):
         domega: np.ndarray,
         method: str = "rk4",
         params: Mapping[str, float] | None = None,
+        options: Options | None = None,
     ) -> StepTangent:
-        """One step of a fixed-step Runge-Kutta method from (q, omega) and its exact
-        directional derivative along (dq, domega) (embedding coordinates, shape (n, 3) each):
+        """One step of a fixed-step method from (q, omega) and its exact directional
+        derivative along (dq, domega) (embedding coordinates, shape (n, 3) each):
         A (dq, domega), A = `linearize`'s embedding A, without forming it, in O(n) time and
-        memory (`s2gen.runtime.jvp`): a diagonal M, or a banded or max-index M with the
-        structured solvers, closed, any n. C backend only (the first call builds the module
-        with step_jvp(), `System.with_jacobians`).
+        memory (`s2gen.runtime.jvp`): a diagonal M (the Runge-Kutta methods), or a banded or
+        max-index M with the structured solvers (those and the VI family, vi, vi4, vi6, vi8,
+        with Newton's `options`), closed, any n. C backend only (the first call builds the
+        module with step_jvp(), `System.with_jacobians`).
 
         Example:
             >>> from s2gen.systems import builtin
@@ -322,7 +324,7 @@ class Model(JacobianMethods):
         from s2gen.runtime.jvp import jvp_backend, step_jvp
 
         p = parameter_vector(self.system, params)
-        return step_jvp(jvp_backend(self), q, omega, h, dq, domega, method, p)
+        return step_jvp(jvp_backend(self), q, omega, h, dq, domega, method, p, options)
 
     def stepper(
         self,
