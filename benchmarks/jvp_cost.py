@@ -4,9 +4,10 @@ Input: command-line options (``--n``, ``--methods``, ``--flags``, ``--calls``,
 ``--repeats``). Output: a table on stdout: per chain ``rope:n=N`` (max-index M, structured
 solves), flag set (``portable``: -O2; ``native``: -O3 -march=native; see
 `s2gen.build.FLAG_SETS`, what S2GEN_OPT selects) and method, the time per call of the emitted
-step (``NAME_rk_step``) and of ``NAME_step_jvp`` (the same step and its tangent along one
+step (``NAME_rk_step``; for ``vi`` ``NAME_vi_step``, Newton from its cold start as
+step_jvp() takes it) and of ``NAME_step_jvp`` (the same step and its tangent along one
 direction; the module built with ``System.with_jacobians``), both called through ctypes from
-the rope's initial state and a fixed random tangent, and their ratio. The two are timed in
+the rope's initial state (h = 1e-5) and a fixed random tangent, and their ratio. The two are timed in
 alternating batches (the best of `repeats` batches of `calls` calls each), so that the load
 of a shared machine falls on both alike. The header names the CPU (from /proc/cpuinfo) and
 the load average. Numbers only: no test times them.
@@ -19,6 +20,7 @@ Example:
 from __future__ import annotations
 
 import argparse
+import ctypes
 import os
 import time
 from collections.abc import Callable
@@ -28,6 +30,7 @@ from python_step import cpu_model
 
 from s2gen.methods import method
 from s2gen.runtime.c import CBackend, contiguous
+from s2gen.runtime.options import Options
 from s2gen.systems import builtin
 
 
@@ -35,7 +38,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """The options of the module docstring."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", nargs="+", type=int, default=[100, 1000, 10000])
-    ap.add_argument("--methods", nargs="+", default=["rk4"])
+    ap.add_argument("--methods", nargs="+", default=["rk4", "vi"])
     ap.add_argument("--flags", nargs="+", default=["portable", "native"])
     ap.add_argument("--calls", type=int, default=0, help="calls per batch (0: about 0.1 s)")
     ap.add_argument("--repeats", type=int, default=7)
@@ -53,12 +56,15 @@ def _calls(be: CBackend, name: str, h: float) -> tuple[Callable[[], int], Callab
     qn, wn, dqn, dwn = (np.empty((n, 3)) for _ in range(4))
     work, jwork = lib.work, np.zeros(lib.jvp_work)
     code, fn = method(name).code, lib.fn
+    opt = ctypes.byref(lib.options(Options()))
 
     def step() -> int:
+        if name == "vi":
+            return int(fn["vi_step"](p, opt, h, q, w, qn, wn, work, None))
         return int(fn["rk_step"](p, code, h, q, w, qn, wn, work))
 
     def jvp() -> int:
-        return int(fn["step_jvp"](p, code, h, q, w, dq, dw, qn, wn, dqn, dwn, jwork))
+        return int(fn["step_jvp"](p, opt, code, h, q, w, dq, dw, qn, wn, dqn, dwn, jwork))
 
     assert step() == 0 and jvp() == 0, (s.name, name)
     return step, jvp

@@ -312,6 +312,10 @@ def c_api_jvp_rst() -> str:
         "",
         "   The doubles ``work`` must hold for step_jvp (more than WORK_SIZE; O(n)).",
         "",
+        f".. c:macro:: {upper}_JVP_VI",
+        "",
+        "   1 when step_jvp takes the VI family too (a banded or max-index M), else 0.",
+        "",
     ]
     return "\n".join(lines + _function(STEP_JVP, PREFIX, sizes)) + "\n"
 

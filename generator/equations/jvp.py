@@ -20,15 +20,19 @@ body, never forming a matrix of the whole system:
   right-hand side b = -q x g + q x z, less dA a = dH[dq] zy + H dzy with
   zy = (M_off (x) I) K a). The tangent of wdot then solves A(q) da = db - dA a with the
   field's own structured solve (its blocks E, H, K as the field built them), and z, zy and
-  their tangents are products with M_off (``m_apply``, O(n)).
+  their tangents are products with M_off (``m_apply``, O(n));
+- structured M, the VI step (`_vi_structured`): the tangents of the step's own equations
+  (known side, residual at the Cayley parameters held, Cayley update, velocity side, A(q+) w+
+  at w+ held), for the implicit function theorem at the converged parameters.
 
 SymPy takes every derivative of the kernels the field itself is printed from; nothing is
 differenced.
 
 Example:
     >>> from s2gen.systems import builtin
-    >>> [k.name for k in jvp_kernels(builtin("rope", n=4, solver="structured").with_jacobians())]
-    ['t1_hvp', 'jvp_src', 'jvp_ka', 'jvp_rhs']
+    >>> ks = jvp_kernels(builtin("rope", n=4, solver="structured").with_jacobians())
+    >>> [k.name for k in ks][:4], len(ks)
+    (['t1_hvp', 'jvp_src', 'jvp_ka', 'jvp_rhs'], 12)
 """
 
 from __future__ import annotations
