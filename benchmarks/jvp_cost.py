@@ -89,7 +89,7 @@ def _alternating(a: Callable[[], int], b: Callable[[], int], calls: int, repeats
 def main(argv: list[str] | None = None) -> int:
     """Print the table."""
     args = parse_args(argv)
-    print(f"# step_jvp against rk_step; CPU: {cpu_model()}; load {os.getloadavg()[0]:.2f}")
+    print(f"# step_jvp against the step; CPU: {cpu_model()}; load {os.getloadavg()[0]:.2f}")
     print(f"{'system':14} {'flags':9} {'method':7} {'step µs':>10} {'jvp µs':>10} {'ratio':>6}")
     for n in args.n:
         system = builtin("rope", n=n, solver="structured").with_jacobians()
