@@ -42,11 +42,11 @@ STEP_JVP = Function(
     "step_jacobian() writes, without forming it, in O(n) time and memory. The fixed-step "
     "Runge-Kutta methods (rk2, rk2-proj, rk3, rk4; the step as rk_step() takes it): the "
     "tangent carried through each stage (the field's tangent: the Hessian of V times dq "
-    "member by member, the products with M and the field's own structured solve). With a "
-    "banded or max-index M also the VI family (vi, vi4, vi6, vi8; each substep as "
-    "step_jacobian() takes it, Newton from its cold start, with the options opt, NULL: the "
-    "defaults): the implicit function theorem on the substep's converged equations, solved "
-    "by the step's own structured solves. work: JVP_WORK_SIZE doubles. Returns OK, "
+    "member by member, the products with M and the field's own structured solve). The VI "
+    "family (vi, vi4, vi6, vi8; each substep as step_jacobian() takes it, Newton from its "
+    "cold start, with the options opt, NULL: the defaults): a diagonal M's explicit update "
+    "differentiated body by body; a banded or max-index M's by the implicit function theorem "
+    "on the substep's converged equations, solved by the step's own structured solves. work: JVP_WORK_SIZE doubles. Returns OK, "
     "ERR_ARGUMENT (h <= 0 or a method it does not take), ERR_NONFINITE (a non-finite input "
     "or result), ERR_NEWTON or ERR_SINGULAR",
 )

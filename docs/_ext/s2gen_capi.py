@@ -314,7 +314,7 @@ def c_api_jvp_rst() -> str:
         "",
         f".. c:macro:: {upper}_JVP_VI",
         "",
-        "   1 when step_jvp takes the VI family too (a banded or max-index M), else 0.",
+        "   1 when step_jvp takes the VI family too, else 0.",
         "",
     ]
     return "\n".join(lines + _function(STEP_JVP, PREFIX, sizes)) + "\n"

@@ -21,6 +21,8 @@ body, never forming a matrix of the whole system:
   zy = (M_off (x) I) K a). The tangent of wdot then solves A(q) da = db - dA a with the
   field's own structured solve (its blocks E, H, K as the field built them), and z, zy and
   their tangents are products with M_off (``m_apply``, O(n));
+- diagonal M, the explicit VI step (`_vi_diagonal`): the tangents of its position and
+  velocity updates, body by body;
 - structured M, the VI step (`_vi_structured`): the tangents of the step's own equations
   (known side, residual at the Cayley parameters held, Cayley update, velocity side, A(q+) w+
   at w+ held), for the implicit function theorem at the converged parameters.
@@ -167,6 +169,40 @@ def _diagonal() -> list[KernelDef]:
             (*rhs.inputs, _arg("dq", dq), _arg("dw", dw), _arg("dg", dg)),
             (Output("tq", tangent(outs["dq"], by)), Output("tw", tangent(outs["dw"], by))),
         )
+    ]
+
+
+def _vi_diagonal() -> list[KernelDef]:
+    """The tangents of one explicit VI step (diagonal M): the positions and half-step
+    velocity (``jvp_vpos``: q+ and w_h along (dq, dw, dg), w_h itself) and the end velocity
+    (``jvp_vvel``: w+ along (dw_h, dq+, dg+))."""
+    from s2gen.equations.discrete import explicit_kernels
+
+    k = {kd.name: kd for kd in explicit_kernels()}
+    pos, vel = k["vi_pos"], k["vi_vel"]
+    _, _, q, w, g = (a.symbols for a in pos.inputs)
+    _, _, wh, qn, gn = (a.symbols for a in vel.inputs)
+    dq, dw, dg, dwh, dqn, dgn = (_vec(x) for x in ("dq", "dw", "dg", "dwh", "dqn", "dgn"))
+    po = {o.name: o.exprs for o in pos.outputs}
+    by = [(q, dq), (w, dw), (g, dg)]
+    return [
+        _kernel(
+            "jvp_vpos",
+            "the explicit VI's q+ and half-step velocity w_h, with their tangents along "
+            "(dq, dw, dg)",
+            [*pos.inputs, _arg("dq", dq), _arg("dw", dw), _arg("dg", dg)],
+            [
+                Output("wh", po["wh"]),
+                Output("dqn", tangent(po["qn"], by)),
+                Output("dwh", tangent(po["wh"], by)),
+            ],
+        ),
+        _kernel(
+            "jvp_vvel",
+            "the tangent of the explicit VI's end velocity along (dw_h, dq+, dg+)",
+            [*vel.inputs, _arg("dwh", dwh), _arg("dqn", dqn), _arg("dgn", dgn)],
+            [Output("dwn", tangent(vel.outputs[0].exprs, [(wh, dwh), (qn, dqn), (gn, dgn)]))],
+        ),
     ]
 
 
@@ -323,5 +359,5 @@ def jvp_kernels(system: System) -> list[KernelDef]:
         return []
     solver = choose_solver(system)
     if solver is InertiaKind.DIAGONAL:
-        return [*_hvp_kernels(system), *_diagonal()]
+        return [*_hvp_kernels(system), *_diagonal(), *_vi_diagonal()]
     return [*_hvp_kernels(system), *_structured(solver), *_vi_structured(solver)]

@@ -9,13 +9,14 @@ A sphere module with `s2gen.equations.jvp.has_jvp` selects, after its other part
   M_off and the field's structured solve on its own blocks);
 - ``jvp_vi`` (structured M): one VI step and its tangent by the implicit function theorem on
   the step's converged equations (Newton's own Jacobian in the Cayley parameters, the
-  velocity equations' A(q+)), each solved by the structured solve, and the compositions'
-  substeps;
+  velocity equations' A(q+)), each solved by the structured solve; or ``jvp_vi_diagonal``
+  (diagonal M): the explicit VI step and its tangent, body by body;
+- ``jvp_vi_steps``: the VI family's methods, their substeps in turn;
 - ``jvp``: step_jvp(), the tableau's stages with their tangents.
 
 Example:
     >>> [p.name for p in JVP_PARTS]
-    ['jvp_hvp', 'jvp_diagonal', 'jvp_structured', 'jvp_vi', 'jvp']
+    ['jvp_hvp', 'jvp_diagonal', 'jvp_structured', 'jvp_vi', 'jvp_vi_diagonal', 'jvp_vi_steps', 'jvp']
 """
 
 from __future__ import annotations
@@ -101,6 +102,15 @@ JVP_PARTS = (
             ("jvp", ("duq", "r", "df", "dc", "e2", "hb2", "kb2", "ka", "dka", "zy", "dzy")),
         ),
     ),
+    Part(
+        "jvp_vi_diagonal",
+        sites=(
+            Site("jvp_vpos", "jvp_vpos", _B),
+            Site("jvp_vvel", "jvp_vvel", _B),
+        ),
+        buffers=(("jvp", ("vi", "g", "gn", "f", "dg", "dgn", "wh", "dwh")),),
+    ),
+    Part("jvp_vi_steps"),
     Part(JVP_PART, buffers=(("jvp", ("ys", "k", "dys", "dk")),)),
 )
 
@@ -113,8 +123,8 @@ def jvp_parts(diagonal: bool) -> tuple[str, ...]:
 
     Example:
         >>> jvp_parts(True)
-        ('jvp_hvp', 'jvp_diagonal', 'jvp')
+        ('jvp_hvp', 'jvp_diagonal', 'jvp_vi_diagonal', 'jvp_vi_steps', 'jvp')
     """
     if diagonal:
-        return ("jvp_hvp", "jvp_diagonal", JVP_PART)
-    return ("jvp_hvp", "jvp_structured", "jvp_vi", JVP_PART)
+        return ("jvp_hvp", "jvp_diagonal", "jvp_vi_diagonal", "jvp_vi_steps", JVP_PART)
+    return ("jvp_hvp", "jvp_structured", "jvp_vi", "jvp_vi_steps", JVP_PART)

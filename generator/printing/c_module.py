@@ -122,7 +122,7 @@ def _step_macros(module: Module) -> tuple[Macro, ...]:
             ),
             (
                 "JVP_VI",
-                "1" if "jvp_vi" in module.parts else "0",
+                "1" if "jvp_vi_steps" in module.parts else "0",
                 "1: step_jvp() takes the VI family too",
             ),
         )

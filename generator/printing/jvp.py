@@ -3,7 +3,7 @@
 Input: a lowered sphere `Module` whose parts include ``jvp`` (`s2gen.parts.jvp`). Output:
 the fixed-step explicit methods step_jvp() takes, each with its tableau as round-trip
 literals (a zero-padded to stages x stages, b) and whether q_i is normalized after the
-step, and the VI family's substeps (structured M); the C lines of dg = H dq (each term's member loop calling its ``t<k>_hvp`` and adding
+step, and the VI family's substeps; the C lines of dg = H dq (each term's member loop calling its ``t<k>_hvp`` and adding
 the member's blocks at its bodies); the field's structured solve's arguments. Every key is
 empty for a module without it.
 
@@ -69,7 +69,7 @@ def _vi(module: Module) -> dict[str, Any]:
     step_jvp() runs for a method without a tableau (the VI's substeps where the module has
     the ``jvp_vi`` part, else ERR_ARGUMENT)."""
     name, upper = module.name, module.name.upper()
-    if "jvp_vi" not in module.parts:
+    if "jvp_vi_steps" not in module.parts:
         return {
             "vi_methods": (),
             "vi_count": "0",

@@ -88,7 +88,7 @@ class CLibrary:
         self.api: Interface = interface(kind, driven, self.jacobian, self.batch, self.jvp)
         #: Doubles of step_jvp()'s workspace (0 without it)
         self.jvp_work = header_macro(header, "JVP_WORK_SIZE") if self.jvp else 0
-        #: Whether step_jvp() takes the VI family too (a banded or max-index M)
+        #: Whether step_jvp() takes the VI family too
         self.jvp_vi = self.jvp and header_macro(header, "JVP_VI") == 1
         #: Doubles of integrate_batch()'s workspace (0 without it)
         self.batch_work = header_macro(header, "BATCH_WORK_SIZE") if self.batch else 0

@@ -53,7 +53,7 @@ class StepTangent:
 
 def jvp_methods(vi: bool = False) -> tuple[str, ...]:
     """The methods step_jvp() takes: the fixed-step Runge-Kutta methods and, with `vi` (a
-    banded or max-index M), the VI family.
+    module whose JVP_VI is 1), the VI family.
 
     Example:
         >>> jvp_methods(vi=True)

@@ -308,9 +308,9 @@ class Model(JacobianMethods):
         """One step of a fixed-step method from (q, omega) and its exact directional
         derivative along (dq, domega) (embedding coordinates, shape (n, 3) each):
         A (dq, domega), A = `linearize`'s embedding A, without forming it, in O(n) time and
-        memory (`s2gen.runtime.jvp`): a diagonal M (the Runge-Kutta methods), or a banded or
-        max-index M with the structured solvers (those and the VI family, vi, vi4, vi6, vi8,
-        with Newton's `options`), closed, any n. C backend only (the first call builds the
+        memory (`s2gen.runtime.jvp`): the fixed-step Runge-Kutta methods and the VI family
+        (vi, vi4, vi6, vi8, with Newton's `options`), for a diagonal M or a banded or
+        max-index M with the structured solvers, closed, any n. C backend only (the first call builds the
         module with step_jvp(), `System.with_jacobians`).
 
         Example:
