@@ -74,7 +74,8 @@ def _parser() -> argparse.ArgumentParser:
         "--jacobians",
         action="store_true",
         help="also emit step_jacobian() and field_jacobian(), one step's and the field's exact "
-        "derivatives (C and NumPy; up to 32 bodies)",
+        "derivatives (C and NumPy; up to 32 bodies), and in C step_jvp(), O(n) "
+        "Jacobian-vector products (diagonal or structured M, any n)",
     )
     g.add_argument(
         "--batch",
@@ -193,9 +194,10 @@ def _generate(args: argparse.Namespace) -> int:
     system = resolve(args.spec)
     if args.jacobians:
         from s2gen.equations.jacobian import jacobian_refusal
+        from s2gen.equations.jvp import jvp_refusal
 
         why = jacobian_refusal(system)
-        if why is not None:
+        if why is not None and jvp_refusal(system) is not None:
             raise ValueError(f"--jacobians: {system.name}: {why}")
         system = system.with_jacobians()
     if args.batch:

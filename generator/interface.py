@@ -447,12 +447,17 @@ _DRIVEN = Interface(
 
 
 def interface(
-    kind: ModuleKind, driven: bool = False, jacobian: bool = False, batch: bool = False
+    kind: ModuleKind,
+    driven: bool = False,
+    jacobian: bool = False,
+    batch: bool = False,
+    jvp: bool = False,
 ) -> Interface:
     """The interface of one kind of module (the angle form's in `s2gen.interface_angles`);
     `driven`: a sphere module with forces, inputs or time; `jacobian`: one with
     step_jacobian() and field_jacobian() (`s2gen.interface_jacobian`); `batch`: one with
-    integrate_batch() (`s2gen.interface_batch`).
+    integrate_batch() (`s2gen.interface_batch`); `jvp`: one with step_jvp()
+    (`s2gen.interface_jvp`).
 
     Example:
         >>> [p.name for p in interface(ModuleKind.SPHERE, driven=True).function("step").params][:6]
@@ -460,12 +465,14 @@ def interface(
     """
     if kind is ModuleKind.SPHERE:
         api = _DRIVEN if driven else _SPHERE
-        if not (jacobian or batch):
+        if not (jacobian or batch or jvp):
             return api
         from s2gen.interface_batch import INTEGRATE_BATCH
         from s2gen.interface_jacobian import JACOBIAN_FUNCTIONS
+        from s2gen.interface_jvp import STEP_JVP
 
         extra = (*(JACOBIAN_FUNCTIONS if jacobian else ()), *((INTEGRATE_BATCH,) if batch else ()))
+        extra += (STEP_JVP,) if jvp else ()
         return Interface((*api.functions, *extra), api.options, api.stats, api.stepper)
     from s2gen.interface_angles import ANGLES
 

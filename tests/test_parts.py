@@ -197,6 +197,11 @@ SYSTEMS = {
     "driven_double_jacobians": lambda: resolve(str(SPECS / "driven_double.toml")).with_jacobians(),
     # closed: RATTLE's too (dense M, Newton on the multipliers)
     "double_pendulum_jacobians": lambda: builtin("double_pendulum").with_jacobians(),
+    # step_jvp(): the structured field's tangent (max-index M, chain terms, beyond the dense
+    # Jacobians' 32 bodies), the banded one's and the diagonal one's
+    "rope_jvp": lambda: builtin("rope", n=40).with_jacobians(),
+    "banded_jvp": lambda: banded_chain(5).with_jacobians(),
+    "four_pendula_jvp": lambda: builtin("four_pendula").with_jacobians(),
     # integrate_batch(): diagonal M, listed and body terms with member tables
     "four_pendula_batch": lambda: builtin("four_pendula").with_batch(),
     # integrate_batch() with dV/dq lane by lane (pair rows)

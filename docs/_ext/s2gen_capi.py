@@ -291,6 +291,35 @@ def c_api_batch_rst() -> str:
     return "\n".join(lines + _function(INTEGRATE_BATCH, PREFIX, sizes)) + "\n"
 
 
+def c_api_jvp_rst() -> str:
+    """step_jvp() and its workspace size (modules emitted with ``--jacobians`` whose field
+    is solved without dense matrices).
+
+    Example:
+        >>> "JVP_WORK_SIZE" in c_api_jvp_rst()
+        True
+    """
+    from s2gen.interface_jvp import STEP_JVP
+
+    upper = PREFIX.upper()
+    sizes = {
+        **_SIZES,
+        **{x: f"{upper}_NSTATE doubles" for x in ("dq", "dw", "dqn", "dwn")},
+        "work": f"{upper}_JVP_WORK_SIZE doubles",
+    }
+    lines = [
+        f".. c:macro:: {upper}_JVP_WORK_SIZE",
+        "",
+        "   The doubles ``work`` must hold for step_jvp (more than WORK_SIZE; O(n)).",
+        "",
+        f".. c:macro:: {upper}_JVP_VI",
+        "",
+        "   1 when step_jvp takes the VI family too, else 0.",
+        "",
+    ]
+    return "\n".join(lines + _function(STEP_JVP, PREFIX, sizes)) + "\n"
+
+
 def setup(app: Any) -> dict[str, Any]:
     """Register ``.. s2gen-c-api:: sphere|angles`` (Sphinx is imported here only, so that the
     tests can call `c_api_rst` without it)."""
@@ -308,6 +337,8 @@ def setup(app: Any) -> dict[str, Any]:
                 return self.parse_text_to_nodes(c_api_jacobian_rst())
             if self.arguments[0] == "batch":
                 return self.parse_text_to_nodes(c_api_batch_rst())
+            if self.arguments[0] == "jvp":
+                return self.parse_text_to_nodes(c_api_jvp_rst())
             kinds = {"sphere": ModuleKind.SPHERE, "angles": ModuleKind.ANGLES}
             kind = kinds.get(self.arguments[0])
             if kind is None:

@@ -26,6 +26,7 @@ from s2gen.equations.continuous import continuous_kernels
 from s2gen.equations.discrete import explicit_kernels, newton_kernels
 from s2gen.equations.driven import drive_of, driven_kernels
 from s2gen.equations.jacobian import has_jacobian, jacobian_kernels
+from s2gen.equations.jvp import has_jvp, jvp_kernels
 from s2gen.equations.operators import operator_kernels
 from s2gen.equations.rattle import rattle_kernels
 from s2gen.equations.rattle_jacobian import rattle_jacobian_kernels
@@ -42,6 +43,7 @@ from s2gen.inertia import InertiaKind
 from s2gen.interface import INITIAL_STATE_MAX_BODIES
 from s2gen.ir import Drive, KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
 from s2gen.parts.batch import BATCH_PART, has_batch
+from s2gen.parts.jvp import JVP_C_ONLY, jvp_parts
 from s2gen.system import SpecError, System, Term
 
 __all__ = [
@@ -181,6 +183,7 @@ def sphere_module(system: System) -> Module:
     kernels += jacobian_kernels(system)
     kernels += vi_jacobian_kernels(system, solver)
     kernels += rattle_jacobian_kernels(system)
+    kernels += jvp_kernels(system)
     loops = tuple(_term_loop(k, t, system.n) for k, t in terms)
     cutoff = any(not t.loop.kind.fixed for t in loops)
     per_body = per_body_inertia(system, solver) is not None
@@ -198,6 +201,7 @@ def sphere_module(system: System) -> Module:
     chain_data = system.chain.data if per_body and system.chain is not None else ()
     parts = _parts(solver, bool(pairs) or bool(loops) or bool(chain_data), cutoff, drive)
     parts += ("jacobian",) if has_jacobian(system) else ()
+    parts += jvp_parts(not coupled) if has_jvp(system) else ()
     parts += (BATCH_PART,) if has_batch(system) else ()
     return Module(
         kind=ModuleKind.SPHERE,
@@ -209,8 +213,8 @@ def sphere_module(system: System) -> Module:
         parameter_values=system.parameter_values,
         kernels=tuple(kernels),
         parts=parts,
-        # NumPy: numpy.linalg, scipy.linalg
-        c_only=("cholesky", "lu", "band", BATCH_PART),
+        # NumPy: numpy.linalg, scipy.linalg (step_jvp() is C only)
+        c_only=("cholesky", "lu", "band", *JVP_C_ONLY, BATCH_PART),
         variants=_variants(solver),
         pairs=pairs,
         terms=loops,

@@ -24,6 +24,7 @@ from s2gen.bindings import (
 )
 from s2gen.ir import Module
 from s2gen.parts.batch import PART as BATCH
+from s2gen.parts.jvp import JVP_PARTS
 from s2gen.parts.records import CC, Context, Part, Site
 
 __all__ = ["PARTS_BY_NAME", "SPHERE_PARTS"]
@@ -370,6 +371,7 @@ SPHERE_PARTS = (
     ),
     _DRIVEN,
     _JACOBIAN,
+    *JVP_PARTS,
     BATCH,
 )
 

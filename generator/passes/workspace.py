@@ -27,6 +27,7 @@ from s2gen.ir import Band, Buffer, Layout, LoopKind, Module, ModuleKind, TermLoo
 from s2gen.methods import METHODS, explicit_tableaus
 from s2gen.parts import selected
 from s2gen.passes.jacobian_layout import jacobian_layout
+from s2gen.passes.jvp_layout import jvp_layout
 from s2gen.tableaus import DOP853, DOPRI5
 
 __all__ = ["CONTEXT", "band", "bands", "layout", "padded", "workspace_pass"]
@@ -360,6 +361,7 @@ _SPHERE: dict[str, _Builder] = {
     "carry": _carry,
     "driven": _driven,
     "jacobian": lambda module, _: jacobian_layout(module),
+    "jvp": lambda module, lays: jvp_layout(module, lays.size("field"), lays.size("vi_advance")),
 }
 
 
@@ -381,7 +383,7 @@ _ANGLES: dict[str, _Builder] = {
 #: Layouts that are not workspace (kept by the caller between calls)
 _NOT_WORKSPACE = ("carry",)
 #: Layouts placed after the per-call context (their offsets count from the workspace's start)
-_TAIL = ("jacobian",)
+_TAIL = ("jacobian", "jvp")
 
 
 #: Name of the layout of the per-call context kept at the tail of the workspace.

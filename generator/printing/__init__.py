@@ -38,6 +38,7 @@ from s2gen.printing.c_module import (
 )
 from s2gen.printing.driven import print_drive
 from s2gen.printing.jacobian import JACOBIAN_SITES, print_jacobian
+from s2gen.printing.jvp import print_jvp
 from s2gen.printing.numpy import (
     py_call,
     py_data_setup,
@@ -142,6 +143,7 @@ class PrintedModule:
     py_jac: dict[str, Any]  # NumPy's step Jacobians: methods and lines (empty: none)
     rattle_jac: dict[str, Any]  # RATTLE's step Jacobians: methods, C and NumPy lines (or empty)
     batch: dict[str, Any]  # integrate_batch()'s lanes, workspace and lines (empty: none)
+    jvp: dict[str, Any]  # step_jvp()'s methods and lines (empty: no step_jvp)
 
 
 def print_module(module: Module) -> PrintedModule:
@@ -158,7 +160,7 @@ def print_module(module: Module) -> PrintedModule:
     consumed = {
         f"t{t.index}_{s}"
         for t in module.terms
-        for s in ("value", "gradient", "table", "quad", "hessian")
+        for s in ("value", "gradient", "table", "quad", "hessian", "hvp")
     }
     consumed |= JACOBIAN_SITES | RATTLE_SITES  # and the step Jacobians' into m.jac, m.rattle_jac
     c_masses, py_masses = records.masses_partials(module)
@@ -270,4 +272,5 @@ def print_module(module: Module) -> PrintedModule:
         py_jac=print_numpy_jacobian(module),
         rattle_jac=print_rattle_jacobian(module),
         batch=print_batch(module),
+        jvp=print_jvp(module),
     )

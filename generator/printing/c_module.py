@@ -18,6 +18,7 @@ from s2gen.inertia import InertiaKind
 from s2gen.interface import interface
 from s2gen.ir import Kernel, Module, ModuleKind
 from s2gen.parts.batch import BATCH_LANES, BATCH_PART
+from s2gen.parts.jvp import JVP_PART
 from s2gen.passes.workspace import padded
 from s2gen.printing.c import (
     c_decl,
@@ -112,6 +113,19 @@ def _step_macros(module: Module) -> tuple[Macro, ...]:
                 "workspace doubles integrate_batch() needs, whatever K",
             ),
         )
+    if JVP_PART in module.parts:
+        jac += (
+            (
+                "JVP_WORK_SIZE",
+                str(module.layout("jvp").size),
+                "workspace doubles step_jvp() needs (more than WORK_SIZE)",
+            ),
+            (
+                "JVP_VI",
+                "1" if "jvp_vi_steps" in module.parts else "0",
+                "1: step_jvp() takes the VI family too",
+            ),
+        )
     if module.drive is not None:
         return (("NINPUTS", str(len(module.drive.inputs)), "inputs in u (see input_names)"), *jac)
     return (("STEP_CARRY", str(module.layout("carry").size), "doubles of step()'s carry"), *jac)
@@ -171,6 +185,7 @@ def c_functions(module: Module) -> tuple[dict[str, str | tuple[str, ...]], ...]:
         module.drive is not None,
         JACOBIAN_PART in module.parts,
         BATCH_PART in module.parts,
+        JVP_PART in module.parts,
     ).functions:
         note = nullable_note(f.params)
         doc = f.doc + (" " + note if note and "NULL" not in f.doc else "")
@@ -194,6 +209,7 @@ def c_fields(module: Module, which: str) -> tuple[dict[str, str], ...]:
         module.drive is not None,
         JACOBIAN_PART in module.parts,
         BATCH_PART in module.parts,
+        JVP_PART in module.parts,
     )
     upper = module.name.upper()
     return tuple(

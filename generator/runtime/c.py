@@ -83,7 +83,13 @@ class CLibrary:
         self.jacobian = f"#define {prefix.upper()}_JACOBIAN_WORK_SIZE " in header
         #: Whether the module has integrate_batch() (`System.with_batch`)
         self.batch = f"#define {prefix.upper()}_BATCH_WORK_SIZE " in header
-        self.api: Interface = interface(kind, driven, self.jacobian, self.batch)
+        #: Whether the module has step_jvp() (`s2gen.equations.jvp.has_jvp`)
+        self.jvp = f"#define {prefix.upper()}_JVP_WORK_SIZE " in header
+        self.api: Interface = interface(kind, driven, self.jacobian, self.batch, self.jvp)
+        #: Doubles of step_jvp()'s workspace (0 without it)
+        self.jvp_work = header_macro(header, "JVP_WORK_SIZE") if self.jvp else 0
+        #: Whether step_jvp() takes the VI family too
+        self.jvp_vi = self.jvp and header_macro(header, "JVP_VI") == 1
         #: Doubles of integrate_batch()'s workspace (0 without it)
         self.batch_work = header_macro(header, "BATCH_WORK_SIZE") if self.batch else 0
         self.lib, self.build = load_library(files, build_flags(opt))

@@ -29,6 +29,7 @@ from s2gen.system import System
 
 if TYPE_CHECKING:
     from s2gen.runtime.batch import Batch
+    from s2gen.runtime.jvp import StepTangent
     from s2gen.runtime.linearize import Linearization
     from s2gen.runtime.stepper import Stepper
 
@@ -292,6 +293,38 @@ class Model(JacobianMethods):
         uu = None if u is None else np.asarray(u, dtype=float)
         backend = self._jacobian_backend()
         return linearize(backend, q, omega, h, method, p, t, uu, basis, options)
+
+    def step_jvp(
+        self,
+        q: np.ndarray,
+        omega: np.ndarray,
+        h: float,
+        dq: np.ndarray,
+        domega: np.ndarray,
+        method: str = "rk4",
+        params: Mapping[str, float] | None = None,
+        options: Options | None = None,
+    ) -> StepTangent:
+        """One step of a fixed-step method from (q, omega) and its exact directional
+        derivative along (dq, domega) (embedding coordinates, shape (n, 3) each):
+        A (dq, domega), A = `linearize`'s embedding A, without forming it, in O(n) time and
+        memory (`s2gen.runtime.jvp`): the fixed-step Runge-Kutta methods and the VI family
+        (vi, vi4, vi6, vi8, with Newton's `options`), for a diagonal M or a banded or
+        max-index M with the structured solvers, closed, any n. C backend only (the first call builds the
+        module with step_jvp(), `System.with_jacobians`).
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> s = builtin("rope", n=100)
+            >>> st = Model(s).step_jvp(s.q0, s.omega0, 1e-4, s.q0, 0 * s.omega0)
+            >>> q1 = Model(s).step(s.q0, s.omega0, 1e-4, "rk4")[0]
+            >>> st.domega.shape, float(abs(st.q - q1).max()) < 1e-14
+            ((100, 3), True)
+        """
+        from s2gen.runtime.jvp import jvp_backend, step_jvp
+
+        p = parameter_vector(self.system, params)
+        return step_jvp(jvp_backend(self), q, omega, h, dq, domega, method, p, options)
 
     def stepper(
         self,
