@@ -19,11 +19,20 @@ included: on a shared machine the steadier figure, since it leaves out the time 
 hold the cores), the generate command in the process (its imports included), the build (gcc
 and loading the library), and the derivation's stages as logged (``s2gen.derive``: equations
 derived, passes done). The header names the CPU (from
-/proc/cpuinfo), Python, gcc and the load average before and after.
+/proc/cpuinfo), Python, gcc, the load average before and after, and whether s2gen's own modules
+are read from Python's bytecode cache or compiled from source in every process (with
+``PYTHONDONTWRITEBYTECODE`` set and no ``__pycache__`` beside them, the latter: about 0.2 s
+of CPU per process, which an installed package does not pay).
+
+``--against PYTHON`` runs the same processes with another interpreter too (e.g. another
+checkout's virtual environment), alternating run by run so that both see the same load, and
+prints its table and the ratios of the process CPU times, this one / the other.
 
 Example:
     >>> parse_args(["--repeats", "3"]).repeats
     3
+    >>> parse_args(["--against", "/usr/bin/python3"]).against
+    '/usr/bin/python3'
 """
 
 from __future__ import annotations
@@ -42,7 +51,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-__all__ = ["CHILD", "cpu_model", "main", "parse_args", "run_once"]
+__all__ = ["CHILD", "bytecode_state", "cpu_model", "main", "parse_args", "run_once"]
 
 #: What one fresh process runs: generate, then build and load; it prints its times as JSON.
 CHILD = r"""
@@ -95,14 +104,36 @@ def _gcc() -> str:
         return "gcc not found"
 
 
-def run_once(spec: str, cache: Path, out: Path) -> dict[str, object]:
-    """One fresh process with ``S2GEN_CACHE=cache``: its times (seconds) as the child reports
-    them, and ``wall``, the whole process on the parent's clock."""
+#: What `bytecode_state` runs in a fresh process of the interpreter it is given.
+_BYTECODE = r"""
+import importlib.util, os, sys
+import s2gen
+cached = os.path.exists(importlib.util.cache_from_source(s2gen.__file__))
+print(("read from" if cached else "compiled from source") + " " + os.path.dirname(s2gen.__file__)
+      + ("; bytecode not written" if sys.dont_write_bytecode else ""))
+"""
+
+
+def bytecode_state(python: str = sys.executable) -> str:
+    """Whether `python`'s s2gen is read from Python's bytecode cache or compiled from source
+    in every process, and where it lives.
+
+    Example:
+        >>> bytecode_state().split(" /")[0] in ("read from", "compiled from source")
+        True
+    """
+    done = subprocess.run([python, "-c", _BYTECODE], capture_output=True, text=True, check=False)
+    return done.stdout.strip() or f"unknown ({done.stderr.strip()[-200:]})"
+
+
+def run_once(spec: str, cache: Path, out: Path, python: str = sys.executable) -> dict[str, object]:
+    """One fresh process of `python` with ``S2GEN_CACHE=cache``: its times (seconds) as the
+    child reports them, and ``wall``, the whole process on the parent's clock."""
     env = {**os.environ, "S2GEN_CACHE": str(cache)}
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     done = subprocess.run(
-        [sys.executable, "-c", CHILD, spec, str(out)],
+        [python, "-c", CHILD, spec, str(out)],
         env=env,
         capture_output=True,
         text=True,
@@ -120,19 +151,23 @@ def run_once(spec: str, cache: Path, out: Path) -> dict[str, object]:
     return times
 
 
-def _state_runs(spec: str, seed: str, state: str, repeats: int, root: Path) -> list[dict]:
-    """`repeats` runs of `spec` from one cache state (each from its own copy of it)."""
-    runs = []
+def _state_runs(
+    spec: str, seed: str, state: str, repeats: int, root: Path, pythons: Sequence[str]
+) -> list[list[dict]]:
+    """`repeats` runs of `spec` from one cache state (each from its own copy of it), per
+    interpreter in `pythons`, alternating between them run by run."""
+    runs: list[list[dict]] = [[] for _ in pythons]
     for k in range(repeats):
-        cache = root / f"{state}-{k}"
-        if state == "seeded":
-            run_once(seed, cache, root / f"seed-{k}")
-            for entry in cache.iterdir():
-                if entry.name != "derived":  # keep only the derivations
-                    shutil.rmtree(entry) if entry.is_dir() else entry.unlink()
-        elif state == "warm":
-            run_once(spec, cache, root / f"prime-{k}")
-        runs.append(run_once(spec, cache, root / f"out-{state}-{k}"))
+        for p, python in enumerate(pythons):
+            cache = root / f"{state}-{k}-{p}"
+            if state == "seeded":
+                run_once(seed, cache, root / f"seed-{k}-{p}", python)
+                for entry in cache.iterdir():
+                    if entry.name != "derived":  # keep only the derivations
+                        shutil.rmtree(entry) if entry.is_dir() else entry.unlink()
+            elif state == "warm":
+                run_once(spec, cache, root / f"prime-{k}-{p}", python)
+            runs[p].append(run_once(spec, cache, root / f"out-{state}-{k}-{p}", python))
     return runs
 
 
@@ -154,24 +189,17 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     p.add_argument("--spec", default="molecular", help="the system to generate (default molecular)")
     p.add_argument("--seed", default="lj_cutoff", help="the system run before (default lj_cutoff)")
     p.add_argument("--repeats", type=int, default=5, help="runs per cache state (default 5)")
+    p.add_argument(
+        "--against",
+        metavar="PYTHON",
+        help="another interpreter (e.g. another checkout's venv) run alternately; prints ratios",
+    )
     return p.parse_args(argv)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Print the table; exit status 0."""
-    args = parse_args(argv)
-    print(f"CPU: {cpu_model()} ({os.cpu_count()} logical cores)")
-    print(f"Python {platform.python_version()}, {_gcc()}")
-    print(f"load average before: {os.getloadavg()[0]:.2f}")
+def _table(spec: str, repeats: int, rows: list[tuple[str, list[dict]]]) -> None:
     stages = ("equations derived", "pass factor done", "pass workspace done")
-    with tempfile.TemporaryDirectory(prefix="s2gen-cold-") as tmp:
-        root = Path(tmp)
-        states = (("cold", "cold"), ("seeded", f"after {args.seed}"), ("warm", "warm"))
-        rows = [
-            (label, _state_runs(args.spec, args.seed, s, args.repeats, root)) for s, label in states
-        ]
-    print(f"load average after: {os.getloadavg()[0]:.2f}")
-    print(f"\n{args.spec}: seconds, best and median of {args.repeats} fresh processes")
+    print(f"\n{spec}: seconds, best and median of {repeats} fresh processes")
     print(
         "(derivation stages: seconds since the derivation began, imports of the passes included)\n"
     )
@@ -180,6 +208,37 @@ def main(argv: Sequence[str] | None = None) -> int:
     print("|" + "---|" * (len(head) + 1))
     for label, runs in rows:
         print(_row(label, runs, stages if label != "warm" else ()))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Print the table (and with ``--against``, the other interpreter's and the ratios);
+    exit status 0."""
+    args = parse_args(argv)
+    pythons = [sys.executable] + ([args.against] if args.against else [])
+    print(f"CPU: {cpu_model()} ({os.cpu_count()} logical cores)")
+    print(f"Python {platform.python_version()}, {_gcc()}")
+    for python in pythons:
+        print(f"s2gen of {python}: {bytecode_state(python)}")
+    print(f"load average before: {os.getloadavg()[0]:.2f}")
+    with tempfile.TemporaryDirectory(prefix="s2gen-cold-") as tmp:
+        root = Path(tmp)
+        states = (("cold", "cold"), ("seeded", f"after {args.seed}"), ("warm", "warm"))
+        rows = [
+            (label, _state_runs(args.spec, args.seed, s, args.repeats, root, pythons))
+            for s, label in states
+        ]
+    print(f"load average after: {os.getloadavg()[0]:.2f}")
+    for p, python in enumerate(pythons):
+        if args.against:
+            print(f"\n{python}:")
+        _table(args.spec, args.repeats, [(label, runs[p]) for label, runs in rows])
+    if args.against:
+        print(f"\nprocess CPU, {sys.executable} / {args.against}: best, median")
+        for label, runs in rows:
+            mine, other = ([float(r["cpu"]) for r in rs] for rs in runs)
+            best = min(mine) / min(other)
+            median = statistics.median(mine) / statistics.median(other)
+            print(f"  {label:<20} {best:5.2f} {median:5.2f}")
     return 0
 
 

@@ -239,3 +239,32 @@ def test_compiled_templates_are_read_back(tmp_path: Path, monkeypatch: pytest.Mo
     monkeypatch.setattr(third, "compile", counting)
     assert third.get_template("t.jinja").render(n=5) == first
     assert compiled == [1]
+
+
+def test_structural_text_tells_apart_what_srepr_tells_apart() -> None:
+    """The cache keys' text (`structural_text`) of two objects is the same exactly when
+    SymPy's own full form (`sympy.srepr`) is: over symbols differing only in assumptions,
+    Dummies, undefined functions, numbers of each type, containers, and the generic kernels'
+    own expressions (equal trees built apart, and every pair of distinct outputs)."""
+    import sympy as sp
+
+    from s2gen.derivations import structural_text
+    from s2gen.equations.continuous import continuous_kernels
+
+    x, xr = sp.Symbol("x"), sp.Symbol("x", real=True)
+    f, fr = sp.Function("f"), sp.Function("f", real=True)
+    items: list[object] = [
+        x, xr, sp.Dummy("x"), sp.Dummy("x"), f(x), fr(x), f(xr), sp.Integer(1) + x,
+        sp.Float(1.0) + x, sp.Rational(1, 2) * x, sp.Float(0.5) * x, sp.sin(x), sp.sin(xr),
+        sp.cos(x), sp.Max(x, xr), (x,), [x], (x, xr), (), sp.Tuple(x), sp.Tuple(),
+        sp.ImmutableMatrix([[x, 1]]), sp.ImmutableMatrix([[x], [1]]), sp.Integer(2), 2, 2.0,
+        "x", None, sp.Piecewise((x, xr > 0), (1, True)), sp.Derivative(f(x), x),
+        sp.Subs(f(x), x, 1), sp.pi, sp.Float("0.1", 30), sp.Float("0.1", 15),
+    ]  # fmt: skip
+    exprs = [e for k in continuous_kernels(False) for o in k.outputs for e in o.exprs]
+    items += exprs[:40] + [sp.sympify(sp.srepr(e)) for e in exprs[:5]]
+    texts = [structural_text(a) for a in items]
+    forms = [sp.srepr(a) for a in items]
+    for i, (ti, fi) in enumerate(zip(texts, forms)):
+        for tj, fj in zip(texts[i:], forms[i:]):
+            assert (ti == tj) == (fi == fj), (fi, fj)

@@ -374,3 +374,20 @@ def test_adaptive_co_simulation_takes_the_spec_tolerances(tmp_path: Path, pendul
         errors.append(float(np.abs(_state(r, 2) - _reference(tight)[::25]).max()))
     default, precise_error = errors
     assert precise_error <= 1e-8 and precise_error * 100 <= default, errors
+
+
+def test_the_command_line_parser_loads_no_fmu_export_module() -> None:
+    """`s2gen fmu` is registered through the `s2gen.fmi` package, whose model, wrapper and
+    archive (and xml.etree) load on first use: a fresh process that builds the command line's
+    parser, as every command does, has none of them, and `s2gen.fmi.KINDS` still reads."""
+    import sys
+
+    probe = (
+        "import sys\nfrom s2gen import cli\ncli._parser()\n"
+        "print(sorted(m for m in sys.modules if m.startswith(('s2gen.fmi.', 'xml.'))))\n"
+        "import s2gen.fmi\nprint(s2gen.fmi.KINDS, s2gen.fmi.FMI_VERSIONS)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    loaded, kinds = out.stdout.splitlines()
+    assert loaded == "['s2gen.fmi.command']"
+    assert kinds == "('cs', 'me', 'both') (2, 3)"

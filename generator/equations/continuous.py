@@ -63,22 +63,33 @@ def el_residual(
     return qi.cross(mii * qdd_i + mij * qdd_j) + qi.cross(gi)
 
 
+def _residual() -> tuple[sp.Matrix, tuple[sp.Matrix, ...]]:
+    """R_i of a generic pair and its vectors (qi, qj, wi, wj, ai, aj, gi)."""
+    vectors = tuple(vector(s) for s in ("qi", "qj", "wi", "wj", "ai", "aj", "gi"))
+    return el_residual(M_II, M_IJ, *vectors), vectors
+
+
+def _known_side(R: sp.Matrix, ai: sp.Matrix, aj: sp.Matrix) -> sp.Matrix:
+    """b_i = -R_i(omegadot = 0), each entry factored."""
+    return (-R.subs({a: 0 for a in list(ai) + list(aj)})).applyfunc(
+        lambda e: sp.factor(sp.expand(e))
+    )
+
+
 def system_matrix_blocks() -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
     """(A_ii, A_ij, b_i pieces) derived from `el_residual` for a generic pair.
 
     Returns the completed diagonal block (M_ii I after the identity -hat(q)^2 + q q^T = I on
     |q| = 1), the off-diagonal block dR_i/d omegadot_j, and b_i = -R_i(omegadot = 0).
     """
-    qi, qj, wi, wj, ai, aj, gi = (vector(s) for s in ("qi", "qj", "wi", "wj", "ai", "aj", "gi"))
-    R = el_residual(M_II, M_IJ, qi, qj, wi, wj, ai, aj, gi)
+    R, (qi, _, _, _, ai, aj, _) = _residual()
     Aii_raw = R.jacobian(ai)
     Aij = R.jacobian(aj)
     completed = (Aii_raw + M_II * qi * qi.T).applyfunc(sp.expand)
     unit = {qi[2] ** 2: 1 - qi[0] ** 2 - qi[1] ** 2}
     Aii = completed.applyfunc(lambda e: sp.expand(e.subs(unit)))
     assert Aii == M_II * sp.eye(3), "the completed diagonal block must be M_ii I on |q| = 1"
-    b = (-R.subs({a: 0 for a in list(ai) + list(aj)})).applyfunc(lambda e: sp.factor(sp.expand(e)))
-    return Aii, Aij.applyfunc(sp.expand), b
+    return Aii, Aij.applyfunc(sp.expand), _known_side(R, ai, aj)
 
 
 def continuous_kernels(coupled: bool) -> list[KernelDef]:
@@ -87,45 +98,53 @@ def continuous_kernels(coupled: bool) -> list[KernelDef]:
     qi, wi, qj, wj = vector("qi"), vector("wi"), vector("qj"), vector("wj")
     vi, vj = wi.cross(qi), wj.cross(qj)
     v = w.cross(q)
-    _, Aij, b = system_matrix_blocks()
+    if coupled:
+        _, Aij, b = system_matrix_blocks()
+    else:  # only the one-body part of b is used: the blocks and the pair part are not derived
+        R, (_, _, _, _, ai, aj, _) = _residual()
+        b = _known_side(R, ai, aj)
     gi = vector("gi")
     # b splits into a one-body part (M_ij = 0) and a pair part (g_i = 0); M_ii drops out.
     b_body = b.subs({M_IJ: 0}).subs(dict(zip(list(qi) + list(gi), list(q) + list(g))))
+    kin_body = KernelDef(
+        "kin_body",
+        "kinetic energy of one body: 1/2 M_ii |omega x q|^2",
+        (_scalar_in(M_II), _arg("q", q), _arg("w", w)),
+        (Output("t", (M_II * dot(v, v) / 2,), scalar=True),),
+    )
+    mom_body = KernelDef(
+        "mom_body",
+        "angular momentum of one body: M_ii q x (omega x q)",
+        (_scalar_in(M_II), _arg("q", q), _arg("w", w)),
+        (_out("j", M_II * q.cross(v)),),
+    )
+    if not coupled:
+        rhs_diag = KernelDef(
+            "rhs_diag",
+            "vector field, uncoupled body: qdot = omega x q, omegadot = -q x g / M_ii",
+            (_scalar_in(M_II), _arg("q", q), _arg("w", w), _arg("g", g)),
+            (_out("dq", v), _out("dw", b_body / M_II)),
+        )
+        return [kin_body, mom_body, rhs_diag]
     b_pair_i = b.subs({gc: 0 for gc in gi}).applyfunc(lambda e: sp.factor(e))
     swap = dict(
         zip(list(qi) + list(wi) + list(qj) + list(wj), list(qj) + list(wj) + list(qi) + list(wi))
     )
     b_pair_j = b_pair_i.subs(swap, simultaneous=True)
-    ks = [
-        KernelDef(
-            "kin_body",
-            "kinetic energy of one body: 1/2 M_ii |omega x q|^2",
-            (_scalar_in(M_II), _arg("q", q), _arg("w", w)),
-            (Output("t", (M_II * dot(v, v) / 2,), scalar=True),),
-        ),
+    return [
+        kin_body,
         KernelDef(
             "kin_pair",
             "kinetic energy of a coupled pair: M_ij (omega_i x q_i).(omega_j x q_j)",
             (_scalar_in(M_IJ), _arg("qi", qi), _arg("wi", wi), _arg("qj", qj), _arg("wj", wj)),
             (Output("t", (M_IJ * dot(vi, vj),), scalar=True),),
         ),
-        KernelDef(
-            "mom_body",
-            "angular momentum of one body: M_ii q x (omega x q)",
-            (_scalar_in(M_II), _arg("q", q), _arg("w", w)),
-            (_out("j", M_II * q.cross(v)),),
-        ),
+        mom_body,
         KernelDef(
             "mom_pair",
             "angular momentum of a pair: M_ij (q_i x qdot_j + q_j x qdot_i)",
             (_scalar_in(M_IJ), _arg("qi", qi), _arg("wi", wi), _arg("qj", qj), _arg("wj", wj)),
             (_out("j", M_IJ * (qi.cross(vj) + qj.cross(vi))),),
-        ),
-        KernelDef(
-            "rhs_diag",
-            "vector field, uncoupled body: qdot = omega x q, omegadot = -q x g / M_ii",
-            (_scalar_in(M_II), _arg("q", q), _arg("w", w), _arg("g", g)),
-            (_out("dq", v), _out("dw", b_body / M_II)),
         ),
         KernelDef(
             "rhs_body",
@@ -146,7 +165,3 @@ def continuous_kernels(coupled: bool) -> list[KernelDef]:
             (Output("a", tuple(Aij[r, c] for r in range(3) for c in range(3))),),
         ),
     ]
-    pair_kernels = {"kin_pair", "mom_pair", "rhs_body", "rhs_pair", "a_pair"}
-    if coupled:
-        return [k for k in ks if k.name != "rhs_diag"]
-    return [k for k in ks if k.name not in pair_kernels]

@@ -67,27 +67,38 @@ def legendre_pair() -> dict[str, sp.Matrix]:
     Returns the tangent (cross-product) forms of -D_{q_i} L_d and D_{q_i+} L_d, and the
     momenta q_i x sum_j M_ij qdot_j at both ends, in symbols qi, qj, qni, qnj, wi, wj, gi, gni...
     """
+    qni = vector("qni")
+    Ld = _discrete_lagrangian()
+    minus_d1 = _minus_d1(Ld)
+    d2 = sp.Matrix([sp.diff(Ld, c) for c in qni])  # D_{q_i+} L_d
+    return {"minus_D1": minus_d1, "D2": qni.cross(d2)}
+
+
+def _discrete_lagrangian() -> sp.Expr:
+    """L_d of a generic coupled pair (i, j) over one step."""
     qi, qj, qni, qnj = vector("qi"), vector("qj"), vector("qni"), vector("qnj")
     gi, gj, gni, gnj = vector("gi"), vector("gj"), vector("gni"), vector("gnj")
     di, dj = qni - qi, qnj - qj
     kinetic = (M_II * dot(di, di) + 2 * M_IJ * dot(di, dj) + M_JJ * dot(dj, dj)) / (2 * H)
     # V enters through its gradient: V(q) ~ g.q to first order is all D L_d ever sees.
-    Ld = kinetic - H / 2 * (dot(gi, qi) + dot(gj, qj)) - H / 2 * (dot(gni, qni) + dot(gnj, qnj))
+    return kinetic - H / 2 * (dot(gi, qi) + dot(gj, qj)) - H / 2 * (dot(gni, qni) + dot(gnj, qnj))
+
+
+def _minus_d1(Ld: sp.Expr) -> sp.Matrix:
+    """The projected first transform q_i x (-D_{q_i} L_d)."""
+    qi = vector("qi")
     d1 = sp.Matrix([sp.diff(Ld, c) for c in qi])  # D_{q_i} L_d
-    d2 = sp.Matrix([sp.diff(Ld, c) for c in qni])  # D_{q_i+} L_d
-    return {"minus_D1": qi.cross(-d1), "D2": qni.cross(d2)}
+    return qi.cross(-d1)
 
 
 def explicit_kernels() -> list[KernelDef]:
     """Closed-form VI step for a body whose row of M is diagonal (paper's qikpexp/wikpexp)."""
     q, w, g, qn, gn = vector("q"), vector("w"), vector("g"), vector("qn"), vector("gn")
-    lp = legendre_pair()
+    minus_d1 = _minus_d1(_discrete_lagrangian())  # the transform at k+1 is not needed here
     qi, gi = vector("qi"), vector("gi")
     # d_i = h q_i x p_i - h (q_i x -D_{q_i} L_d)|_{q+ = q}; the second term (M_ij = 0) is the
     # gradient part, h^2/2 q_i x g_i.
-    d_grad = (
-        -(H * lp["minus_D1"]).subs({M_IJ: 0}).subs({**{c: c2 for c, c2 in zip(vector("qni"), qi)}})
-    )
+    d_grad = -(H * minus_d1).subs({M_IJ: 0}).subs({**{c: c2 for c, c2 in zip(vector("qni"), qi)}})
     d_grad = _tidy(d_grad.subs(dict(zip(list(qi) + list(gi), list(q) + list(g)))))
     a = H * w + d_grad / M_II
     s = 1 - dot(a, a)

@@ -22,14 +22,22 @@ Example:
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-from s2gen.emit import emit
-from s2gen.fmi.archive import entries, write_zip
-from s2gen.fmi.model import FMI_VERSIONS, KINDS, describe
-from s2gen.fmi.wrapper import wrapper_files
-from s2gen.system import System
+if TYPE_CHECKING:
+    from s2gen.system import System
 
 __all__ = ["FMI_VERSIONS", "KINDS", "export", "fmu_files"]
+
+
+def __getattr__(name: str) -> Any:
+    """`FMI_VERSIONS` and `KINDS` from `model`, imported on first use: the command line's
+    parser imports `s2gen.fmi.command` through this package and needs none of the rest."""
+    if name in ("FMI_VERSIONS", "KINDS"):
+        from s2gen.fmi import model
+
+        return getattr(model, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def fmu_files(
@@ -47,6 +55,11 @@ def fmu_files(
         >>> [name for name in files if name.startswith("binaries/")]
         ['binaries/x86_64-linux/double_pendulum.so']
     """
+    from s2gen.emit import emit
+    from s2gen.fmi.archive import entries
+    from s2gen.fmi.model import describe
+    from s2gen.fmi.wrapper import wrapper_files
+
     model = describe(system, fmi, kind, method, h)
     return entries(model, emit(system, "c"), wrapper_files(model))
 
@@ -70,4 +83,6 @@ def export(
         >>> export(s2gen.load("double_pendulum"), out, fmi=3).name
         'pendulum.fmu'
     """
+    from s2gen.fmi.archive import write_zip
+
     return write_zip(fmu_files(system, fmi, kind, method, h), Path(out))
