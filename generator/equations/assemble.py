@@ -40,6 +40,7 @@ from s2gen.equations.vi_jacobian import vi_jacobian_kernels
 from s2gen.inertia import InertiaKind
 from s2gen.interface import INITIAL_STATE_MAX_BODIES
 from s2gen.ir import Drive, KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
+from s2gen.monitor import monitor_kernel
 from s2gen.parts.batch import BATCH_PART, has_batch
 from s2gen.system import SpecError, System, Term
 
@@ -179,6 +180,8 @@ def sphere_module(system: System) -> Module:
     kernels += driven_kernels(system) if drive is not None else []
     kernels += jacobian_kernels(system)
     kernels += vi_jacobian_kernels(system, solver)
+    monitor = monitor_kernel(system) if drive is None else None
+    kernels += [monitor] if monitor is not None else []
     loops = tuple(_term_loop(k, t, system.n) for k, t in terms)
     cutoff = any(not t.loop.kind.fixed for t in loops)
     per_body = per_body_inertia(system, solver) is not None
@@ -195,6 +198,9 @@ def sphere_module(system: System) -> Module:
         field.append(("rhs_diag", system.n))
     chain_data = system.chain.data if per_body and system.chain is not None else ()
     parts = _parts(solver, bool(pairs) or bool(loops) or bool(chain_data), cutoff, drive)
+    if monitor is not None:  # the time-transformed driver, after the tables it reads
+        at = parts.index("driver") + 1
+        parts = (*parts[:at], "transformed", *parts[at:])
     parts += ("jacobian",) if has_jacobian(system) else ()
     parts += (BATCH_PART,) if has_batch(system) else ()
     return Module(
@@ -208,7 +214,7 @@ def sphere_module(system: System) -> Module:
         kernels=tuple(kernels),
         parts=parts,
         # NumPy: numpy.linalg, scipy.linalg (the step Jacobians are C only)
-        c_only=("cholesky", "lu", "band", "jacobian", BATCH_PART),
+        c_only=("cholesky", "lu", "band", "jacobian", BATCH_PART, "transformed"),
         variants=_variants(solver),
         pairs=pairs,
         terms=loops,

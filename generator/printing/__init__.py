@@ -56,6 +56,7 @@ from s2gen.printing.tableau import (
     print_tableau,
 )
 from s2gen.printing.terms import PrintedTerm, print_term, py_quad_lines, quad_init
+from s2gen.printing.transformed import print_transformed
 from s2gen.tableaus import DOP853, DOPRI5
 from s2gen.version import __version__
 
@@ -138,6 +139,7 @@ class PrintedModule:
     drive: dict[str, Any]  # a driven module's inputs, methods and tables (empty: closed)
     jac: dict[str, Any]  # the step Jacobians' methods and lines (empty: no step_jacobian)
     batch: dict[str, Any]  # integrate_batch()'s lanes, workspace and lines (empty: none)
+    transformed: tuple[dict[str, Any], ...]  # time-transformed methods: c_name, count, table
 
 
 def print_module(module: Module) -> PrintedModule:
@@ -262,4 +264,5 @@ def print_module(module: Module) -> PrintedModule:
         drive=print_drive(module),
         jac=print_jacobian(module),
         batch=print_batch(module),
+        transformed=print_transformed(module),
     )
