@@ -110,3 +110,13 @@ def test_a_given_monitor_is_part_of_the_spec_hash() -> None:
     """[run] g changes the emitted C: a cached library of the spec without it must not be
     taken for it."""
     assert PENDULUM_G.spec_hash() != builtin("double_pendulum").spec_hash()
+
+
+def test_an_fmu_refuses_the_methods_in_one_line() -> None:
+    """An FMU advances by step() (fixed steps) or by integrate() over one step of an adaptive
+    Runge-Kutta method: neither is a time-transformed run."""
+    from s2gen.fmi.model import describe
+
+    with pytest.raises(ValueError, match="take no fixed step") as e:
+        describe(THREE, 2, "cs", "vi4-adaptive")
+    assert "\n" not in str(e.value)
