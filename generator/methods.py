@@ -293,8 +293,9 @@ def _geometric(name: str, code: int, family: Family, comp: Composition, summary:
 
 
 def _transformed(name: str, code: int, comp: Composition, summary: str) -> Method:
-    """A time-transformed VI: steps of `comp` of sizes eps / xi in time (h is eps); on the
-    reference backend only so far, so in no emitted module (`kinds` empty)."""
+    """A time-transformed VI: steps of `comp` of sizes eps / xi in time (h is eps); in the
+    reference and the emitted C (every S^2 module's enum has it, the modules with a monitor,
+    `s2gen.monitor`, run it)."""
     return Method(
         name,
         code,
@@ -302,10 +303,9 @@ def _transformed(name: str, code: int, comp: Composition, summary: str) -> Metho
         len(comp.fractions),
         True,
         Family.TIME_VI,
-        ("reference",),
+        ("c", "reference"),
         summary,
         driver=Driver.TIME_TRANSFORMED,
-        kinds=(),
         transformed=comp,
     )
 

@@ -43,12 +43,24 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
+from s2gen.ir import Argument, KernelDef, Output
 from s2gen.spec.parser import parse_expression
-from s2gen.symbols import local_vector
+from s2gen.symbols import local_vector, q_symbols, w_symbol
 from s2gen.system import System
 from s2gen.terms import TermKind
 
-__all__ = ["C", "Monitor", "PairRate", "monitor"]
+__all__ = [
+    "MONITOR_MAX_PAIRS",
+    "C",
+    "Monitor",
+    "PairRate",
+    "emitted_refusal",
+    "monitor",
+    "monitor_kernel",
+]
+
+#: The emitted monitor is one expression summed over its pairs: at most this many of them.
+MONITOR_MAX_PAIRS = 64
 
 #: The variable of a pair's profile: c = qi.qj.
 C = sp.Symbol("c", real=True)
@@ -145,3 +157,72 @@ def monitor(system: System) -> Monitor:
         members = tuple((int(m[0]), int(m[1])) for m in t.member_list(system.n))
         rates.append(PairRate(t.label, f, rate, sp.diff(rate, C), members))
     return Monitor(tuple(rates), names)
+
+
+def emitted_refusal(system: System) -> str | None:
+    """Why the emitted C of `system` has no time-transformed driver, in one line (None: it
+    has one): no monitor (`monitor`), pair terms within a cutoff, or more than
+    `MONITOR_MAX_PAIRS` monitored pairs (a monitor given as [run] g takes any closed system).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> emitted_refusal(builtin("three_bodies")) is None
+        True
+    """
+    try:
+        mon = monitor(system)
+    except ValueError as e:
+        return str(e)
+    if mon.given is None and any(t.cutoff is not None for t in system.terms):
+        return (
+            f"{system.name}: the emitted time-transformed methods do not take pair terms within "
+            "a cutoff (their pairs are found per call): use the reference backend or give a "
+            "monitor as [run] g"
+        )
+    pairs = sum(len(r.members) for r in mon.rates)
+    if pairs > MONITOR_MAX_PAIRS:
+        return (
+            f"{system.name}: the emitted time-transformed methods take at most "
+            f"{MONITOR_MAX_PAIRS} monitored pairs (this system has {pairs}): use the reference "
+            "backend or give a monitor as [run] g"
+        )
+    return None
+
+
+def monitor_kernel(system: System) -> KernelDef | None:
+    """The emitted monitor: a system kernel of (p, q, w) with the scalar outputs r = R(q) and
+    dr = dR/dt = grad R . qdot (qdot_i = w_i x q_i), from the same expressions as `monitor`
+    (each pair term's rate at qi.qj, summed over its members, or the spec's g); None when the
+    system has no monitor (`monitor` refuses it).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> k = monitor_kernel(builtin("three_bodies"))
+        >>> k.name, [o.name for o in k.outputs], monitor_kernel(builtin("double_pendulum"))
+        ('monitor', ['r', 'dr'], None)
+    """
+    if emitted_refusal(system) is not None:
+        return None
+    mon = monitor(system)
+    n = system.n
+    qs = q_symbols(n)
+    ws = tuple(w_symbol(i, a) for i in range(1, n + 1) for a in range(3))
+    q = [sp.Matrix(qs[3 * i : 3 * i + 3]) for i in range(n)]
+    qdot = [sp.Matrix(ws[3 * i : 3 * i + 3]).cross(q[i]) for i in range(n)]
+    if mon.given is not None:
+        R = mon.given
+        dR = sum(sp.diff(R, qs[3 * i + a]) * qdot[i][a] for i in range(n) for a in range(3))
+    else:
+        R = dR = sp.Integer(0)
+        for r in mon.rates:
+            for i, j in r.members:
+                c = q[i].dot(q[j])
+                R += r.rate.subs(C, c)
+                dR += r.slope.subs(C, c) * (qdot[i].dot(q[j]) + q[i].dot(qdot[j]))
+    return KernelDef(
+        "monitor",
+        "monitor R(q) of the time-transformed methods and dR/dt",
+        (Argument("p", system.parameter_symbols), Argument("q", tuple(qs)), Argument("w", ws)),
+        (Output("r", (R,), scalar=True), Output("dr", (dR,), scalar=True)),
+        system=True,
+    )

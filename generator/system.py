@@ -387,6 +387,8 @@ class System:
             h.update(b"jacobians;")
         if self.batch:  # absent by default: the digest is unchanged
             h.update(b"batch;")
+        if self.run.g is not None:  # the emitted monitor (absent by default: unchanged)
+            h.update(f"monitor g={self.run.g};".encode())
         for u, v in zip(self.inputs.names, self.inputs.values):  # none: the digest is unchanged
             h.update(f"input {u}={v!r};".encode())
         for f in self.forces:

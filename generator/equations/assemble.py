@@ -42,6 +42,7 @@ from s2gen.equations.vi_jacobian import vi_jacobian_kernels
 from s2gen.inertia import InertiaKind
 from s2gen.interface import INITIAL_STATE_MAX_BODIES
 from s2gen.ir import Drive, KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
+from s2gen.monitor import monitor_kernel
 from s2gen.parts.batch import BATCH_PART, has_batch
 from s2gen.parts.jvp import JVP_C_ONLY, jvp_parts
 from s2gen.system import SpecError, System, Term
@@ -184,6 +185,8 @@ def sphere_module(system: System) -> Module:
     kernels += vi_jacobian_kernels(system, solver)
     kernels += rattle_jacobian_kernels(system)
     kernels += jvp_kernels(system)
+    monitor = monitor_kernel(system) if drive is None else None
+    kernels += [monitor] if monitor is not None else []
     loops = tuple(_term_loop(k, t, system.n) for k, t in terms)
     cutoff = any(not t.loop.kind.fixed for t in loops)
     per_body = per_body_inertia(system, solver) is not None
@@ -200,6 +203,9 @@ def sphere_module(system: System) -> Module:
         field.append(("rhs_diag", system.n))
     chain_data = system.chain.data if per_body and system.chain is not None else ()
     parts = _parts(solver, bool(pairs) or bool(loops) or bool(chain_data), cutoff, drive)
+    if monitor is not None:  # the time-transformed driver, after the tables it reads
+        at = parts.index("driver") + 1
+        parts = (*parts[:at], "transformed", *parts[at:])
     parts += ("jacobian",) if has_jacobian(system) else ()
     parts += jvp_parts(not coupled) if has_jvp(system) else ()
     parts += (BATCH_PART,) if has_batch(system) else ()
@@ -213,8 +219,9 @@ def sphere_module(system: System) -> Module:
         parameter_values=system.parameter_values,
         kernels=tuple(kernels),
         parts=parts,
-        # NumPy: numpy.linalg, scipy.linalg (step_jvp() is C only)
-        c_only=("cholesky", "lu", "band", *JVP_C_ONLY, BATCH_PART),
+        # NumPy: numpy.linalg, scipy.linalg (step_jvp() and the time-transformed driver are C
+        # only)
+        c_only=("cholesky", "lu", "band", *JVP_C_ONLY, BATCH_PART, "transformed"),
         variants=_variants(solver),
         pairs=pairs,
         terms=loops,

@@ -26,6 +26,7 @@ import hashlib
 import uuid
 from dataclasses import dataclass
 
+from s2gen.methods import Driver
 from s2gen.methods import method as method_record
 from s2gen.runtime.driven import check_driven_method
 from s2gen.system import System
@@ -167,6 +168,8 @@ def _check_choices(system: System, fmi: int, kind: str, method: str) -> None:
     record = method_record(method)
     if "c" not in record.backends or "sphere" not in record.kinds:
         raise ValueError(f"--method {method}: not a method of the emitted C")
+    if record.driver is Driver.TIME_TRANSFORMED:
+        raise ValueError(f"--method {method}: the time-transformed methods take no fixed step")
 
 
 def _driven_variables(system: System, layout: Layout) -> list[Variable]:

@@ -351,6 +351,21 @@ SPHERE_PARTS = (
     Part("rk", buffers=(("rk_fixed", ("k", "field")),)),
     Part("rk_step", buffers=(("rk_step", ("y0", "yt", "rk")),)),
     Part(
+        "transformed",
+        sites=(
+            Site(
+                "monitor",
+                "monitor",
+                _S,
+                {"r": Local("R", address=True), "dr": Local("dR", address=True)},
+            ),
+        ),
+        buffers=(
+            ("transformed", ("g", "g1", "ga", "gb", "a", "b", "vc", "vd")),
+            ("transformed", ("qk", "wk", "q1", "w1", "qs", "ws", "f", "step")),
+        ),
+    ),
+    Part(
         "driver",
         buffers=(
             ("rk45", ("k", "y", "yn", "ys", "field")),

@@ -273,6 +273,24 @@ def _geometric(module: Module, lays: _Layouts) -> Layout:
     )
 
 
+def _transformed(module: Module, lays: _Layouts) -> Layout | None:
+    """The time-transformed driver: g at the state, g1 at the next, ga and gb within a
+    composed step, whose substeps alternate between (a, vc) and (b, vd); the state, the next
+    and a sample's (qs, ws); the VI's Newton starts (f) and its step's own workspace."""
+    if "transformed" not in module.parts:
+        return None
+    m3 = _m3(module)
+    return layout(
+        "transformed",
+        *((b, m3) for b in ("g", "g1", "ga", "gb", "a", "b", "vc", "vd")),
+        *_state(module),
+        ("qs", m3),
+        ("ws", m3),
+        _starts(module)[0] if _coupled(module) else ("f", 0),
+        ("step", lays.size("vi_advance")),
+    )
+
+
 def _fixed(module: Module, lays: _Layouts) -> Layout:
     return layout("fixed", *_state(module), ("step", lays.size("rk_step")))
 
@@ -288,7 +306,7 @@ def _integrate(module: Module, lays: _Layouts) -> Layout:
     if module.kind is ModuleKind.ANGLES:
         run = max(lays.size("rk45"), lays.size("rk_step"))
         return layout("integrate", ("run", run), ("y0", ns), ("fail", ns))
-    drivers = ("geometric", "rk45", "dop853", "fixed", "explicit")
+    drivers = ("geometric", "rk45", "dop853", "fixed", "explicit", "transformed")
     return layout("integrate", ("run", max(lays.size(d) for d in drivers)), ("y0", ns))
 
 
@@ -355,6 +373,7 @@ _SPHERE: dict[str, _Builder] = {
     "dop853": _dop853,
     "geometric": _geometric,
     "fixed": _fixed,
+    "transformed": _transformed,
     "vi_step": _vi_step,
     "integrate": _integrate,
     "step": _one_step,

@@ -59,6 +59,7 @@ from s2gen.printing.tableau import (
     print_tableau,
 )
 from s2gen.printing.terms import PrintedTerm, print_term, py_quad_lines, quad_init
+from s2gen.printing.transformed import print_transformed
 from s2gen.tableaus import DOP853, DOPRI5
 from s2gen.version import __version__
 
@@ -144,6 +145,7 @@ class PrintedModule:
     rattle_jac: dict[str, Any]  # RATTLE's step Jacobians: methods, C and NumPy lines (or empty)
     batch: dict[str, Any]  # integrate_batch()'s lanes, workspace and lines (empty: none)
     jvp: dict[str, Any]  # step_jvp()'s methods and lines (empty: no step_jvp)
+    transformed: tuple[dict[str, Any], ...]  # time-transformed methods: c_name, count, table
 
 
 def print_module(module: Module) -> PrintedModule:
@@ -273,4 +275,5 @@ def print_module(module: Module) -> PrintedModule:
         rattle_jac=print_rattle_jacobian(module),
         batch=print_batch(module),
         jvp=print_jvp(module),
+        transformed=print_transformed(module),
     )

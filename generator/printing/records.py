@@ -274,6 +274,8 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "geometric_vi": ("driver",),
         "explicit_driver": ("driver",),
         "explicit_dispatch": ("driver",),
+        "transformed_dispatch": ("driver",),
+        "transformed_decl": ("driver",),
         "initial_table": ("context",),
         "initial_state": ("context",),
         "context_fields": ("context",),
@@ -398,6 +400,8 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "geometric_vi": pick("c", (not explicit, "geometric_vi_branch")),
         "explicit_driver": pick("c", (explicit, "integrate_explicit")),
         "explicit_dispatch": pick("c", (explicit, "explicit_dispatch")),
+        "transformed_dispatch": pick("c", ("transformed" in module.parts, "transformed_dispatch")),
+        "transformed_decl": pick("c", ("transformed" in module.parts, "transformed_decl")),
         "initial_table": pick("c", (initial, "initial_table")),
         "initial_state": pick(
             "c", (initial, "initial_state_copy"), (not initial, "initial_state_none")

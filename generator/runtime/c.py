@@ -28,7 +28,8 @@ from s2gen.build import BuildError, build_flags, header_macro, load_library
 from s2gen.emit import emit
 from s2gen.interface import Field, Interface, Kind, interface
 from s2gen.ir import ModuleKind
-from s2gen.methods import CONTROLS, Status, method
+from s2gen.methods import CONTROLS, Driver, Status, method
+from s2gen.monitor import emitted_refusal
 from s2gen.runtime.options import Options
 from s2gen.system import System
 
@@ -338,6 +339,9 @@ class CBackend:
         `POLL_SECONDS`, read from the statistics the C updates as it goes (steps taken, or
         the time reached by RK45): the run itself is the same call, bit for bit."""
         n, samples = self.system.n, nsteps // every + 1
+        transformed = method(method_name).driver is Driver.TIME_TRANSFORMED
+        if transformed:
+            self._check_transformed()
         q = np.full((samples, n, 3), np.nan)
         w = np.full((samples, n, 3), np.nan)
         en = np.full(samples, np.nan) if with_energy else None
@@ -364,6 +368,8 @@ class CBackend:
             span = h * nsteps
 
             def done() -> float:
+                if transformed:  # samples stored so far
+                    return (stats.fail_step - 1) / (samples - 1)
                 return stats.fail_time / span if adaptive else stats.steps / nsteps
 
             result: list[int] = []
@@ -375,3 +381,11 @@ class CBackend:
             status = result[0]
             progress(1.0 if status == 0 else min(1.0, done()))
         return status, q, w, en, lib.stats(stats)
+
+    def _check_transformed(self) -> None:
+        """Refuse, in one line, the time-transformed methods for a system whose emitted C has
+        no driver for them (checked once per backend)."""
+        if not hasattr(self, "_transformed_refusal"):
+            self._transformed_refusal = emitted_refusal(self.system)
+        if self._transformed_refusal is not None:
+            raise ValueError(self._transformed_refusal)

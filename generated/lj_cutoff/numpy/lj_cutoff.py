@@ -52,6 +52,10 @@ METHOD_RATTLE6 = 10  # RATTLE composed by Yoshida's solution A, order 6
 METHOD_RATTLE8 = 11  # RATTLE composed by Kahan and Li's 15 stages, order 8
 METHOD_DOP853 = 12  # Dormand-Prince 8(5,3) (Hairer's DOP853), adaptive, output on the grid by its 7th-order continuous extension, order 8
 METHOD_RK3 = 13  # Ralston's third-order method, order 3
+METHOD_VI_ADAPTIVE = 14  # the VI in a fictitious time s, dt = ds / xi, xi tracking the pair monitor reversibly; h is the step in s, order 2
+METHOD_VI4_ADAPTIVE = 15  # vi-adaptive composed by the triple jump, order 4
+METHOD_VI6_ADAPTIVE = 16  # vi-adaptive composed by Yoshida's solution A, order 6
+METHOD_VI8_ADAPTIVE = 17  # vi-adaptive composed by Kahan and Li's 15 stages, order 8
 CONTROL_MATLAB, CONTROL_HAIRER = range(2)
 EVALS = "gradient_evals"  # the statistics counter of field evaluations
 

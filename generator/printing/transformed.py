@@ -1,0 +1,34 @@
+"""The time-transformed VI methods' records for the C driver (`templates/c/_transformed.jinja`).
+
+Input: a lowered `Module`. Output: one record per time-transformed method of `s2gen.methods`
+(its enum constant, the length and the table of its composition, the tables the geometric
+driver prints), or none when the module has no monitor (no `transformed` part).
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> from s2gen.passes import lower_system
+    >>> print_transformed(lower_system(builtin("three_bodies")))[1]
+    {'c_name': 'METHOD_VI4_ADAPTIVE', 'count': 3, 'table': 'triple_jump'}
+    >>> print_transformed(lower_system(builtin("double_pendulum")))
+    ()
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from s2gen.ir import Module
+from s2gen.methods import METHODS, Driver
+
+__all__ = ["print_transformed"]
+
+
+def print_transformed(module: Module) -> tuple[dict[str, Any], ...]:
+    """Per time-transformed method: c_name, count and table (the composition's name)."""
+    if "transformed" not in module.parts:
+        return ()
+    return tuple(
+        {"c_name": m.c_name, "count": len(m.transformed.fractions), "table": m.transformed.name}
+        for m in METHODS
+        if m.driver is Driver.TIME_TRANSFORMED and m.transformed is not None
+    )
