@@ -39,6 +39,7 @@ from .worker import (
     failed_task,
     run_member,
     sample_statistics,
+    task_state,
     thin,
 )
 
@@ -88,7 +89,7 @@ def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
         try:
             p = parameter_vector(system, parameter_vector(system, dict(task.params)))
             check_run(system, method, h, payload.T, opts, 1)
-            q0, w0 = initial_state(system, task.q0, task.omega0, opts.unit_tol)
+            q0, w0 = initial_state(system, *task_state(payload, task), opts.unit_tol)
             energy_scale(be, q0, w0, p, True)
         except Exception as exc:  # noqa: BLE001 (the member's outcome, as run_members records it)
             out[task.index] = failed_task(task, n, f"{type(exc).__name__}: {exc}")

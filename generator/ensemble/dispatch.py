@@ -13,8 +13,10 @@ the client's s2gen version, generator and build flags (`admission.check_workers`
 
 How it runs on Dask: the system, its emitted C sources (and those of its module with
 integrate_batch() where the members can run through it, `batched.run_batched`) and the run's
-settings go to every worker once (`client.scatter(..., broadcast=True)`); each task carries a
-batch of consecutive members (their indices, steps, initial states and parameters; `batch_size` of them, by default
+settings, with the member table, go to every worker once (`client.scatter(...,
+broadcast=True)`); each task carries a batch of consecutive members (their indices, steps
+and parameters; the worker makes their initial states from the table, `worker.task_state`;
+`batch_size` of them, by default
 chosen by measurement, `batch_size_for`: the first member runs alone and its integration time
 sets how many make a task of about `TARGET_TASK_SECONDS`). At most `WINDOW_PER_WORKER` tasks
 per worker are in flight; as each completes (`distributed.as_completed`) the client fetches
@@ -47,7 +49,7 @@ import tempfile
 import time
 import uuid
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -142,9 +144,11 @@ def _resolve(system: System | str | Path) -> System:
     return system
 
 
-def _tasks(system: System, table: MemberTable) -> Iterator[Task]:
+def _tasks(system: System, table: MemberTable, states: bool = True) -> Iterator[Task]:
+    """Each member's task; without `states`, the worker makes its initial state from the
+    payload's table (`worker.task_state`), so the client sends indices, not arrays."""
     for m in table.members:
-        q0, w0 = initial_state(system, table, m)
+        q0, w0 = initial_state(system, table, m) if states else (None, None)
         yield Task(m.index, m.h, q0, w0, m.params)
 
 
@@ -279,8 +283,10 @@ def ensemble(
         if c is None:
             results = _serial(payload, _tasks(system, table), batch_size)
             return _collect(store, table, results, 0, start, progress)
+        initial_state(system, table, table.members[0])  # no initial state: one line, here
+        payload = replace(payload, table=table)  # the workers make the members' states
         data = c.scatter(payload, broadcast=True, hash=False)
-        tasks = _tasks(system, table)
+        tasks = _tasks(system, table, states=False)
         results = _on_dask(c, data, payload, tasks, system.n, len(table), batch_size)
         return _collect(store, table, results, worker_count(c), start, progress)
 

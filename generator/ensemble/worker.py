@@ -56,6 +56,7 @@ __all__ = [
     "run_member",
     "sample_statistics",
     "sources_digest",
+    "task_state",
     "thin",
 ]
 
@@ -84,16 +85,20 @@ class Payload:
     #: The sources of the module with integrate_batch() (`System.with_batch`), when the
     #: members can run through it (`ensemble.batched`); None otherwise.
     batch_files: dict[str, str] | None = None
+    #: The ensemble's `members.MemberTable`, when its tasks leave their initial states to the
+    #: worker (`task_state`); None otherwise.
+    table: Any = None
 
 
 @dataclass(frozen=True)
 class Task:
-    """One member's own inputs: its index, step size, initial state and swept parameters."""
+    """One member's own inputs: its index, step size, initial state (None: the member's, made
+    by the worker from the payload's table, `task_state`) and swept parameters."""
 
     index: int
     h: float
-    q0: np.ndarray
-    omega0: np.ndarray
+    q0: np.ndarray | None
+    omega0: np.ndarray | None
     params: tuple[tuple[str, float], ...]
 
 
@@ -147,11 +152,37 @@ def make_payload(
     every: int = 1,
     options: Options | None = None,
     batch_files: dict[str, str] | None = None,
+    table: Any = None,
 ) -> Payload:
     """The payload of an ensemble (computes the sources' digest)."""
     opts = options or Options()
     digest = sources_digest({**files, **{f"batch/{k}": v for k, v in (batch_files or {}).items()}})
-    return Payload(system, files, digest, method, T, every, opts, identity(), batch_files)
+    return Payload(system, files, digest, method, T, every, opts, identity(), batch_files, table)
+
+
+def task_state(payload: Payload, task: Task) -> tuple[np.ndarray, np.ndarray]:
+    """The task's initial state (q0, omega0): its own, or its member's from the payload's
+    table (`members.initial_state`: the same numbers, made on the worker rather than by the
+    client, which then only sends indices).
+
+    Example:
+        >>> import s2gen
+        >>> from s2gen.ensemble.members import member_table
+        >>> s = s2gen.load("double_pendulum")
+        >>> t = member_table(s, 2, {"omega": 1e-10})
+        >>> p = make_payload(s, {}, "vi", T=0.1, table=t)
+        >>> q0, w0 = task_state(p, Task(1, 0.01, None, None, ()))
+        >>> bool(np.array_equal(q0, s.q0)), bool(np.array_equal(w0, s.omega0))
+        (True, False)
+    """
+    if task.q0 is not None and task.omega0 is not None:
+        return task.q0, task.omega0
+    from .members import initial_state
+
+    table = payload.table
+    if table is None:
+        raise ValueError(f"member {task.index}: no initial state and no member table to make it")
+    return initial_state(payload.system, table, table.members[task.index])
 
 
 def _model(payload: Payload) -> tuple[Model, float]:
@@ -234,6 +265,7 @@ def run_member(payload: Payload, task: Task) -> MemberResult:
     if different:  # a worker that joined after the start, running other code or flags
         raise RuntimeError(f"worker {_worker_name()} runs {different}: refused")
     model, setup = _model(payload)
+    q0, w0 = task_state(payload, task)
     status, message = 0, "ok"
     try:
         with warnings.catch_warnings():  # a member's drift is in its statistics (max_dE)
@@ -242,8 +274,8 @@ def run_member(payload: Payload, task: Task) -> MemberResult:
                 payload.method,
                 task.h,
                 payload.T,
-                q0=task.q0,
-                omega0=task.omega0,
+                q0=q0,
+                omega0=w0,
                 options=payload.options,
                 params=dict(task.params),
             )
