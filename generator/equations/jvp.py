@@ -111,7 +111,7 @@ def tangent(
             for x, t in zip(xs, ts):
                 if x in e.free_symbols:
                     total += sp.diff(e, x) * t
-        out.append(sp.expand(total) if total != 0 else total)
+        out.append(total)  # not expanded: expanding a second derivative can multiply its size
     return tuple(out)
 
 
