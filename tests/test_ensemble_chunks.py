@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from test_ensemble import _direct
 
 import s2gen
 from s2gen.ensemble import EnsembleStore, initial_state, member_table
@@ -17,24 +18,8 @@ from s2gen.ensemble import chunks as chunks_module
 from s2gen.ensemble.chunks import MAX_MEMBERS_PER_CHUNK, members_per_chunk
 from s2gen.ensemble.store import TRAJECTORIES
 from s2gen.ensemble.worker import TASK_ERROR, Task, failed_task, make_payload, run_member
-from s2gen.runtime import IntegrationError
 
 pytest.importorskip("zarr")
-
-
-def _direct(system: Any, table: Any) -> list[dict[str, Any]]:
-    """Each member on its own: its samples and status (every sample kept)."""
-    model = s2gen.compile(system)
-    out = []
-    for m in table.members:
-        q0, w0 = initial_state(system, table, m)
-        status = 0
-        try:
-            tr = model.integrate("vi", m.h, table.T, q0=q0, omega0=w0, params=dict(m.params))
-        except IntegrationError as exc:
-            tr, status = exc.partial, int(exc.status)
-        out.append({"status": status, "q": tr.q, "omega": tr.omega, "energy": tr.energy, "t": tr.t})
-    return out
 
 
 def _check(store: EnsembleStore, expected: list[dict[str, Any]], present: set[int]) -> None:
@@ -80,7 +65,7 @@ def test_members_in_any_order_and_partial_flushes_fill_chunks_exactly(
             if m.index == 4
             else run_member(payload, task)
         )
-    expected = _direct(s, table)
+    expected = _direct(s, table, every=1)
     assert any(e["status"] != 0 for e in expected)  # a member that fails inside a chunk
     expected[4] = {
         "status": TASK_ERROR,
