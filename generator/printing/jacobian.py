@@ -24,7 +24,7 @@ from typing import Any
 
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Module
-from s2gen.methods import METHODS, Family, driven_methods, fixed_methods
+from s2gen.methods import METHODS, Family, Method, driven_methods, fixed_methods
 from s2gen.printing.jacobian_lines import (
     call_of,
     force_lines,
@@ -33,7 +33,13 @@ from s2gen.printing.jacobian_lines import (
     vi_diagonal_lines,
 )
 
-__all__ = ["JACOBIAN_PART", "JACOBIAN_SITES", "print_jacobian"]
+__all__ = [
+    "JACOBIAN_PART",
+    "JACOBIAN_SITES",
+    "composition_record",
+    "print_jacobian",
+    "tableau_record",
+]
 
 #: The name of the part that emits step_jacobian()
 JACOBIAN_PART = "jacobian"
@@ -75,6 +81,38 @@ def _lits(values: list[Fraction]) -> str:
     return ", ".join(repr(float(v)) for v in values)
 
 
+def tableau_record(m: Method) -> dict[str, str]:
+    """A fixed-step method's row of a differentiating function's method table: its enum
+    name, its tableau (a zero-padded to stages x stages, row-major; b; c) as C literals and
+    whether it normalizes q_i after the step."""
+    t = m.tableau
+    assert t is not None, "fixed-step methods have a tableau"
+    s = t.stages
+    a = [row[j] if j < len(row) else Fraction(0) for row in t.a for j in range(s)]
+    return {
+        "c_name": m.c_name,
+        "name": m.name,
+        "stages": str(s),
+        "a": _lits(a),
+        "b": _lits(list(t.b)),
+        "c": _lits(list(t.c)),
+        "project": "1" if m.project else "0",
+    }
+
+
+def composition_record(m: Method) -> dict[str, str]:
+    """A composed geometric method's row of a differentiating function's method table: its
+    enum name, its substep count and fractions as C literals."""
+    assert m.composition is not None, "composed methods have a composition"
+    fractions = m.composition.fractions
+    return {
+        "c_name": m.c_name,
+        "name": m.name,
+        "count": str(len(fractions)),
+        "fractions": ", ".join(repr(float(x)) for x in fractions),
+    }
+
+
 def print_jacobian(module: Module) -> dict[str, Any]:
     """The ``m.jac`` record of a module (every key empty without the ``jacobian`` part)."""
     if JACOBIAN_PART not in module.parts:
@@ -85,23 +123,7 @@ def print_jacobian(module: Module) -> dict[str, Any]:
         rows = [m for m in METHODS if m.name in driven_methods() and m.tableau is not None]
     else:
         rows = list(fixed_methods(module.kind.value))
-    methods = []
-    for m in rows:
-        t = m.tableau
-        assert t is not None, "fixed-step methods have a tableau"
-        s = t.stages
-        a = [row[j] if j < len(row) else Fraction(0) for row in t.a for j in range(s)]
-        methods.append(
-            {
-                "c_name": m.c_name,
-                "name": m.name,
-                "stages": str(s),
-                "a": _lits(a),
-                "b": _lits(list(t.b)),
-                "c": _lits(list(t.c)),
-                "project": "1" if m.project else "0",
-            }
-        )
+    methods = [tableau_record(m) for m in rows]
     drive = module.drive
     ninputs = len(drive.inputs) if drive is not None else 0
     step: tuple[str, ...]
@@ -188,16 +210,7 @@ def _vi(module: Module) -> dict[str, Any]:
         and m.composition is not None
         and (drive is None or m.name in driven_methods())
     ]
-    methods = tuple(
-        {
-            "c_name": m.c_name,
-            "name": m.name,
-            "count": str(len(m.composition.fractions)),
-            "fractions": ", ".join(repr(float(x)) for x in m.composition.fractions),
-        }
-        for m in rows
-        if m.composition is not None
-    )
+    methods = tuple(composition_record(m) for m in rows if m.composition is not None)
     coupled = module.solver is not InertiaKind.DIAGONAL
     if drive is None:
         substep: tuple[str, ...] = (

@@ -25,6 +25,7 @@ from s2gen.methods import METHODS, Family, fixed_methods
 from s2gen.parts.jvp import JVP_PART
 from s2gen.printing.c import c_loop
 from s2gen.printing.c_calls import c_call
+from s2gen.printing.jacobian import composition_record, tableau_record
 
 __all__ = ["print_jvp"]
 
@@ -39,22 +40,7 @@ def print_jvp(module: Module) -> dict[str, Any]:
     """The ``m.jvp`` record of a module (every key empty without the ``jvp`` part)."""
     if JVP_PART not in module.parts:
         return dict.fromkeys(_KEYS, ())
-    methods = []
-    for m in fixed_methods(module.kind.value):
-        t = m.tableau
-        assert t is not None, "fixed-step methods have a tableau"
-        s = t.stages
-        a = [row[j] if j < len(row) else Fraction(0) for row in t.a for j in range(s)]
-        methods.append(
-            {
-                "c_name": m.c_name,
-                "name": m.name,
-                "stages": str(s),
-                "a": _lits(a),
-                "b": _lits(list(t.b)),
-                "project": "1" if m.project else "0",
-            }
-        )
+    methods = [tableau_record(m) for m in fixed_methods(module.kind.value)]
     return {
         "methods": tuple(methods),
         "count": str(len(methods)),
@@ -77,12 +63,7 @@ def _vi(module: Module) -> dict[str, Any]:
             "other": (f"return {upper}_ERR_ARGUMENT;",),
         }
     methods = tuple(
-        {
-            "c_name": m.c_name,
-            "name": m.name,
-            "count": str(len(m.composition.fractions)),
-            "fractions": ", ".join(repr(float(x)) for x in m.composition.fractions),
-        }
+        composition_record(m)
         for m in METHODS
         if m.family is Family.VI and m.composition is not None
     )

@@ -24,6 +24,7 @@ from typing import Any
 from s2gen.ir import Call, Module
 from s2gen.methods import METHODS, Family
 from s2gen.printing.c_calls import c_call
+from s2gen.printing.jacobian import composition_record
 from s2gen.printing.numpy import py_call
 
 __all__ = ["RATTLE_SITES", "print_rattle_jacobian"]
@@ -70,12 +71,7 @@ def print_rattle_jacobian(module: Module) -> dict[str, Any]:
         return dict.fromkeys(_KEYS, ())
     name = module.name
     methods = tuple(
-        {
-            "c_name": m.c_name,
-            "name": m.name,
-            "count": str(len(m.composition.fractions)),
-            "fractions": ", ".join(repr(float(x)) for x in m.composition.fractions),
-        }
+        composition_record(m)
         for m in METHODS
         if m.family is Family.RATTLE and m.composition is not None
     )
