@@ -27,7 +27,14 @@ import numpy as np
 import sympy as sp
 
 from s2gen.reference.forced import DrivenProblem
-from s2gen.reference.problem import Array, ReferenceProblem, _parameter_values
+from s2gen.reference.problem import (
+    Array,
+    ReferenceProblem,
+    _parameter_values,
+    inertia,
+    numbers,
+    scalar,
+)
 from s2gen.symbols import TIME, q_symbols, w_symbol
 from s2gen.system import System
 
@@ -46,9 +53,7 @@ def driven_problem_from_system(
     qs = q_symbols(n)
     ws = [w_symbol(i, c) for i in range(1, n + 1) for c in range(3)]
     us = list(system.inputs.symbols)
-    zero = ReferenceProblem(
-        system.inertia_numeric(values), lambda q: np.zeros((n, 3)), lambda q: 0.0
-    )
+    zero = ReferenceProblem(inertia(system, values), lambda q: np.zeros((n, 3)), lambda q: 0.0)
     V = sp.sympify(system.full_potential()).xreplace(subs)  # a parameter t is substituted
     args = [qs, TIME, us]
     v_fn = sp.lambdify(args, V, modules="numpy", dummify=True)
@@ -56,16 +61,16 @@ def driven_problem_from_system(
     t_fn = sp.lambdify(args, sp.diff(V, TIME), modules="numpy", dummify=True)
 
     def flat(q: Array) -> list[float]:
-        return list(np.asarray(q, dtype=float).ravel())
+        return list(numbers(q).ravel())
 
     def potential(q: Array, t: float, u: Array) -> float:
-        return float(v_fn(flat(q), t, list(u)))
+        return scalar(v_fn(flat(q), t, list(u)))  # type: ignore[no-any-return]
 
     def grad(q: Array, t: float, u: Array) -> Array:
-        return np.array(g_fn(flat(q), t, list(u)), dtype=float).reshape(n, 3)
+        return np.array(numbers(g_fn(flat(q), t, list(u)))).reshape(n, 3)
 
     def potential_t(q: Array, t: float, u: Array) -> float:
-        return float(t_fn(flat(q), t, list(u)))
+        return scalar(t_fn(flat(q), t, list(u)))  # type: ignore[no-any-return]
 
     force = None
     moving = False
@@ -80,7 +85,7 @@ def driven_problem_from_system(
 
         def force(q: Array, w: Array, t: float, u: Array) -> Array:
             out = f_fn(flat(q), flat(w), t, list(u))
-            return np.array(out, dtype=float).reshape(n, 3)
+            return np.array(numbers(out)).reshape(n, 3)
 
     return DrivenProblem(
         zero,
