@@ -21,7 +21,16 @@ from s2gen.symbols import q_symbols
 from s2gen.system import System, Term
 from s2gen.terms import Selection
 
-__all__ = ["Array", "GradFn", "PotentialFn", "ReferenceProblem", "numbers", "problem_from_system"]
+__all__ = [
+    "ANALYTIC",
+    "Array",
+    "GradFn",
+    "PotentialFn",
+    "ReferenceProblem",
+    "numbers",
+    "problem_from_system",
+    "scalar",
+]
 
 Array = np.ndarray
 GradFn = Callable[[Array], Array]
@@ -49,6 +58,27 @@ def scalar(x: Any) -> Any:
         (0.5, 1j)
     """
     return complex(x) if np.iscomplexobj(x) else float(x)
+
+
+def _abs(x: Any) -> Any:
+    """|x| for real x (Python's abs, as lambdify prints it); for complex x the analytic
+    continuation of |Re x|, x sign(Re x), so that a complex-step derivative of |x| is
+    sign(x) dx (NumPy's |x| of a complex number is the modulus, which drops it)."""
+    if not np.iscomplexobj(x):
+        return abs(x)
+    return np.where(np.real(x) < 0, -x, x)
+
+
+def _sign(x: Any) -> Any:
+    """sign(x) for real x (NumPy's); for complex x the sign of the real part (constant
+    nearby: derivative 0; NumPy's sign of a complex number is x/|x|)."""
+    return np.sign(np.real(x)) if np.iscomplexobj(x) else np.sign(x)
+
+
+#: The functions lambdify takes from here before NumPy: those that are not analytic in NumPy's
+#: complex arithmetic (`_abs`, `_sign`); on real arguments they are what NumPy computes.
+ANALYTIC: dict[str, Callable[..., Any]] = {"Abs": _abs, "sign": _sign}
+MODULES: list[Any] = [ANALYTIC, "numpy"]
 
 
 @dataclass(frozen=True)
@@ -171,7 +201,7 @@ def inertia(system: System, values: Sequence[Any]) -> Array:
     if not np.iscomplexobj(np.asarray(values)):
         return system.inertia_numeric(values)
     matrix = sp.Matrix(system.inertia)
-    entries = sp.lambdify(list(system.parameter_symbols), matrix, modules="numpy")
+    entries = sp.lambdify(list(system.parameter_symbols), matrix, modules=MODULES)
     return np.asarray(entries(*values), dtype=complex).reshape(system.n, system.n)
 
 
@@ -206,8 +236,8 @@ def _general_part(
         return None
     n = system.n
     qs = q_symbols(n)
-    v_fn = sp.lambdify([qs, ps], V, modules="numpy", dummify=True)
-    g_fn = sp.lambdify([qs, ps], [sp.diff(V, s) for s in qs], modules="numpy", dummify=True)
+    v_fn = sp.lambdify([qs, ps], V, modules=MODULES, dummify=True)
+    g_fn = sp.lambdify([qs, ps], [sp.diff(V, s) for s in qs], modules=MODULES, dummify=True)
 
     def potential(q: Array) -> float:
         return scalar(v_fn(list(numbers(q).ravel()), pvals))  # type: ignore[no-any-return]
@@ -328,8 +358,8 @@ def _compile_term(term: Term, n: int, ps: list[sp.Symbol], values: Sequence[floa
     args = [*positions, *data_syms, *params]
     expr = sp.sympify(term.expr)
     derivatives = [sp.diff(expr, s) for s in positions]
-    value = sp.lambdify(args, expr, modules="numpy", dummify=True, cse=True)
-    gradient = sp.lambdify(args, derivatives, modules="numpy", dummify=True, cse=True)
+    value = sp.lambdify(args, expr, modules=MODULES, dummify=True, cse=True)
+    gradient = sp.lambdify(args, derivatives, modules=MODULES, dummify=True, cse=True)
     return _TermKernel(
         n=n,
         index=index,
