@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 import pytest
+from docs_text import code_blocks, page, section
 
 from s2gen import load
 from s2gen.methods import Family, method
@@ -180,3 +181,17 @@ def test_reference_refuses_methods_without_a_fixed_step() -> None:
     s = load("double_pendulum")
     with pytest.raises(ValueError, match="fixed-step methods vi, vi4.*not 'rk45'"):
         _model("double_pendulum", "reference").linearize(s.q0, s.omega0, H, "rk45")
+
+
+def test_docs_reference_block() -> None:
+    """The block of docs/user_guide/linearization.rst's section on the reference's Jacobian,
+    run as it stands: its A and P are the emitted RATTLE Jacobian's to 1e-10."""
+    title = "The reference's Jacobian: an independent check"
+    text = section(page("user_guide/linearization.rst"), title)
+    ns: dict[str, object] = {}
+    exec(compile(code_blocks(text, "python")[0], "linearization.rst", "exec"), ns)  # noqa: S102
+    lin = ns["lin"]
+    assert isinstance(lin, Linearization)
+    s = load("double_pendulum")
+    c = _model("double_pendulum", "c").linearize(s.q0, s.omega0, 0.01, "rattle")
+    assert _rel(c.A, lin.A) <= 1e-10 and _columns(c.P, lin.P) <= 1e-10

@@ -140,8 +140,8 @@ def jacobian_features(backend: Any) -> tuple[bool, bool]:
     if isinstance(backend, NumpyBackend):
         return backend.jacobian, backend.jacobian_vi
     raise TypeError(
-        f"{backend.system.name}: the step Jacobians run on the C or NumPy backend, not "
-        f"{backend.name!r}"
+        f"{backend.system.name}: the emitted Jacobians run on the C or NumPy backend, not "
+        f"{backend.name!r} (whose linearize is its own step's complex-step derivative)"
     )
 
 
