@@ -77,7 +77,7 @@ def inertia_operator(M: Array, q: Array) -> Array:
 
 def _hats(q: Array) -> Array:
     """hat(q_i) for each row of q: shape (n, 3, 3)."""
-    H = np.zeros((q.shape[0], 3, 3), dtype=q.dtype)
+    H = np.zeros((q.shape[0], 3, 3), dtype=np.result_type(q, float))
     H[:, 0, 1], H[:, 0, 2], H[:, 1, 2] = -q[:, 2], q[:, 1], -q[:, 0]
     H[:, 1, 0], H[:, 2, 0], H[:, 2, 1] = q[:, 2], -q[:, 1], q[:, 0]
     return H
