@@ -89,10 +89,10 @@ def _linearizations(spec: str, name: str, basis: str) -> dict[str, Linearization
 def test_c_numpy_and_reference_jacobians_agree(spec: str, name: str) -> None:
     """A, B and P in the tangent basis from the three derivations agree to 1e-10 (relative to
     the matrix norm; P column by column), and in the embedding coordinates on T(S^2)^n:
-    A along the tangent basis, B and P whole. Off T(S^2)^n (q_i scaled) the two step formulas
-    are different extensions of the same step (the reference's Cayley residual keeps a
-    factor q_i.q_i), so the VI's embedding A is compared on the tangent space only; RATTLE's
-    and the Runge-Kutta methods' are compared whole."""
+    A along the tangent basis, B and P whole. The VI with a coupled M is written differently in
+    the two (the same equations on T(S^2)^n, different expressions off it), so its embedding A
+    along q_i (off the sphere) differs, and the VI's embedding A is compared on the tangent
+    space only; RATTLE's and the Runge-Kutta methods' are compared whole."""
     tan = _linearizations(spec, name, "tangent")
     emb = _linearizations(spec, name, "embedding")
     c, ref = tan["c"], tan["reference"]
