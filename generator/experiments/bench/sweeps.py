@@ -1,9 +1,9 @@
 """Work-precision sweeps of one example: our integrators and the outside peers.
 
 Input: an example name, `quick`, an optional horizon T and PyDy's code generator. Output: an
-`ExampleBench` whose `rows` hold one `WPRow` per run (fixed-step methods over h = T/N, RK45
-under both error controls and DOP853 on the emitted C, scipy's RK45/DOP853 and PyDy over
-tolerances), measured against a converged `reference`; also the per-call overhead and the
+`ExampleBench` whose `rows` hold one `WPRow` per run (fixed-step methods over h = T/N, the
+time-transformed ones over eps = T/N where the emitted C has them, RK45 under both error
+controls and DOP853 on the emitted C, scipy's RK45/DOP853 and PyDy over tolerances), measured against a converged `reference`; also the per-call overhead and the
 per-step timings (`per_step.py`). `fitted_orders` turns the rows into convergence orders.
 The full sweeps step h by 2^(1/4) and the tolerance by 10^(1/4), so that the cheapest run
 below an error target is close to it; the quick ones by 2 and 100.
@@ -24,10 +24,10 @@ import numpy as np
 
 from s2gen import IntegrationError, Options, System, Trajectory, simulate
 from s2gen.experiments import peers
-from s2gen.inspect import get_backend
+from s2gen.inspect import get_backend, lowered
 
 from .common import Log, _best_wall, _err, _ms, _print, _state, _why, example_system, kinetic_energy
-from .model import FIXED, REF_RTOL, SAMPLES, ExampleBench, Reference, WPRow
+from .model import FIXED, REF_RTOL, SAMPLES, TIME_TRANSFORMED, ExampleBench, Reference, WPRow
 from .per_step import newton_per_substep, per_step_times
 
 #: Horizons (full, quick) of the work-precision sweeps, chosen so the reference is trustworthy.
@@ -74,6 +74,28 @@ def _sweep_steps(system: System, T: float, quick: bool) -> list[int]:
     return sorted({round(n0 * 2 ** (k / 4)) for k in range(45)})
 
 
+def _eps_steps(quick: bool) -> list[int]:
+    """Fictitious step counts of the time-transformed methods (eps = T/N), coarse to fine:
+    N from 8, doubling (quick, 7) or by 2^(1/4) (45). A count whose eps does not resolve the
+    monitor (no real root for the step size) gives a failed row."""
+    if quick:
+        return [8 * 2**k for k in range(7)]
+    return sorted({round(8 * 2 ** (k / 4)) for k in range(45)})
+
+
+def has_transformed(system: System) -> bool:
+    """Whether the emitted C of `system` has the time-transformed driver: a closed system with
+    monitored pair terms (none within a cutoff) or a monitor given as [run] g.
+
+    Example:
+        >>> has_transformed(example_system("three_bodies"))
+        True
+        >>> has_transformed(example_system("double_pendulum"))
+        False
+    """
+    return "transformed" in lowered(system).parts
+
+
 def _runs(
     system: System, method: str, h: float, T: float, k: int, options: Options | None = None
 ) -> tuple[Trajectory, Trajectory]:
@@ -101,7 +123,7 @@ def _our_row(
         name,
         method,
         "s2gen",
-        tr.h if method in FIXED else float("nan"),
+        tr.h if method in FIXED or method in TIME_TRANSFORMED else float("nan"),
         rtol,
         ref.T,
         steps,
@@ -124,6 +146,8 @@ def _failed_row(
 def _fixed_sweep(
     name: str, method: str, ref: Reference, steps: Sequence[int], budget: float, k: int, log: Log
 ) -> list[WPRow]:
+    """`method` at h = T/N (a time-transformed one at eps = T/N) for N in `steps`, until its
+    error reaches 30x the reference accuracy or a run takes longer than `budget`."""
     rows: list[WPRow] = []
     for n in steps:
         h = ref.T / n
@@ -275,6 +299,9 @@ def work_precision(
     steps = _sweep_steps(system, T, quick)
     for method in FIXED:
         ex.rows += _fixed_sweep(name, method, ref, steps, budget, k, log)
+    if has_transformed(system):
+        for method in TIME_TRANSFORMED:
+            ex.rows += _fixed_sweep(name, method, ref, _eps_steps(quick), budget, k, log)
     for control in ("hairer", "matlab"):
         ex.rows += _adaptive_sweep(name, "rk45", control, ref, quick, k, log)
     ex.rows += _adaptive_sweep(name, "dop853", "hairer", ref, quick, k, log)
@@ -297,7 +324,8 @@ def _call_overhead(system: System, T: float) -> float:
 
 
 def fitted_orders(rows: Sequence[WPRow], floor: float) -> dict[str, float]:
-    """Least-squares slope of log(state error) against log(h) per fixed-step method.
+    """Least-squares slope of log(state error) against log(h) per fixed-step method (and
+    against log(eps) per time-transformed one).
 
     Uses the runs whose error lies between 100 x the reference accuracy and 1e-2 (the
     asymptotic range), when there are at least three.
@@ -309,7 +337,7 @@ def fitted_orders(rows: Sequence[WPRow], floor: float) -> dict[str, float]:
         2.0
     """
     out = {}
-    for method in FIXED:
+    for method in (*FIXED, *TIME_TRANSFORMED):
         pts = [
             (r.h, r.state_err)
             for r in rows
