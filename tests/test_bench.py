@@ -135,7 +135,9 @@ def test_the_time_transformed_methods_are_swept_where_the_c_has_them(
     assert tt is not None and f"{tt.method} ({tt.setting})" in text
 
 
-@pytest.mark.parametrize(("method", "order"), [("vi-adaptive", 2.0), ("vi4-adaptive", 4.0)])
+@pytest.mark.parametrize(
+    ("method", "order"), [("vi-adaptive", 2.0), ("vi4-adaptive", 4.0), ("vi6-adaptive", 6.0)]
+)
 def test_fitted_orders_of_the_time_transformed_methods(
     quick_three: bench.BenchReport, method: str, order: float
 ) -> None:

@@ -74,13 +74,26 @@ def _sweep_steps(system: System, T: float, quick: bool) -> list[int]:
     return sorted({round(n0 * 2 ** (k / 4)) for k in range(45)})
 
 
-def _eps_steps(quick: bool) -> list[int]:
-    """Fictitious step counts of the time-transformed methods (eps = T/N), coarse to fine:
-    N from 8, doubling (quick, 7) or by 2^(1/4) (45). A count whose eps does not resolve the
-    monitor (no real root for the step size) gives a failed row."""
-    if quick:
-        return [8 * 2**k for k in range(7)]
-    return sorted({round(8 * 2 ** (k / 4)) for k in range(45)})
+#: Fictitious steps of the run that measures a time-transformed chain's mean step (eps = T/N)
+PROBE_STEPS = 4096
+
+
+def _eps_steps(system: System, T: float, quick: bool) -> list[int]:
+    """Fictitious step counts N (eps = T/N) of the time-transformed methods, coarse to fine,
+    matched to the fixed-step sweep (`_sweep_steps`) two octaves coarser: eps = T/N takes
+    about a quarter as many steps in time as h = T/n does (adaptive steps resolve the
+    encounters with fewer), the ratio measured by one fine run of ``vi-adaptive`` (eps =
+    T/`PROBE_STEPS`); so the sweep starts where the methods resolve the motion, not at an eps
+    whose chain wanders off (or fails: no real root for the step size)."""
+    steps = _sweep_steps(system, T, quick)
+    try:
+        probe = simulate(
+            system, "vi-adaptive", "c", h=T / PROBE_STEPS, T=T, every=PROBE_STEPS, energy=False
+        )
+    except IntegrationError:
+        return steps
+    ratio = PROBE_STEPS / max(int(probe.stats["steps"]), 1) / 4
+    return sorted({max(1, round(n * ratio)) for n in steps})
 
 
 def has_transformed(system: System) -> bool:
@@ -147,8 +160,11 @@ def _fixed_sweep(
     name: str, method: str, ref: Reference, steps: Sequence[int], budget: float, k: int, log: Log
 ) -> list[WPRow]:
     """`method` at h = T/N (a time-transformed one at eps = T/N) for N in `steps`, until its
-    error reaches 30x the reference accuracy or a run takes longer than `budget`."""
+    error reaches 30x the reference accuracy, grows past 10x its smallest so far once that
+    is below 1e-4 (round-off has taken over: more steps only add to it) or a run takes longer
+    than `budget`."""
     rows: list[WPRow] = []
+    best = math.inf
     for n in steps:
         h = ref.T / n
         try:
@@ -158,7 +174,9 @@ def _fixed_sweep(
             continue
         row = _our_row(name, method, runs, ref)
         rows.append(row)
-        if row.state_err < 30 * ref.accuracy or row.wall > budget:
+        worse = best < 1e-4 and row.state_err > 10 * best
+        best = min(best, row.state_err)
+        if row.state_err < 30 * ref.accuracy or worse or row.wall > budget:
             break
     log(f"    {method:11s} {_sweep_line(rows)}")
     return rows
@@ -300,8 +318,9 @@ def work_precision(
     for method in FIXED:
         ex.rows += _fixed_sweep(name, method, ref, steps, budget, k, log)
     if has_transformed(system):
+        eps_steps = _eps_steps(system, T, quick)
         for method in TIME_TRANSFORMED:
-            ex.rows += _fixed_sweep(name, method, ref, _eps_steps(quick), budget, k, log)
+            ex.rows += _fixed_sweep(name, method, ref, eps_steps, budget, k, log)
     for control in ("hairer", "matlab"):
         ex.rows += _adaptive_sweep(name, "rk45", control, ref, quick, k, log)
     ex.rows += _adaptive_sweep(name, "dop853", "hairer", ref, quick, k, log)
@@ -327,13 +346,17 @@ def fitted_orders(rows: Sequence[WPRow], floor: float) -> dict[str, float]:
     """Least-squares slope of log(state error) against log(h) per fixed-step method (and
     against log(eps) per time-transformed one).
 
-    Uses the runs whose error lies between 100 x the reference accuracy and 1e-2 (the
-    asymptotic range), when there are at least three.
+    Uses the runs whose error lies between 100 x the reference accuracy and 1e-2 and whose h
+    is at least that of the most accurate run (the asymptotic range: below it round-off
+    grows), when there are at least three.
 
     Example:
         >>> rows = [WPRow("x", "vi", "s2gen", h, 0, 1, 0, 0, 0, 0, 3 * h**2, 0, 0)
         ...         for h in (0.01, 0.005, 0.0025)]
         >>> round(fitted_orders(rows, 1e-12)["vi"], 6)
+        2.0
+        >>> tail = WPRow("x", "vi", "s2gen", 0.001, 0, 1, 0, 0, 0, 0, 1e-3, 0, 0)  # round-off
+        >>> round(fitted_orders([*rows, tail], 1e-12)["vi"], 6)
         2.0
     """
     out = {}
@@ -343,6 +366,9 @@ def fitted_orders(rows: Sequence[WPRow], floor: float) -> dict[str, float]:
             for r in rows
             if r.method == method and r.ok and 100 * floor < r.state_err < 1e-2
         ]
+        if pts:
+            finest = min(pts, key=lambda p: p[1])[0]
+            pts = [p for p in pts if p[0] >= finest]
         if len(pts) >= 3:
             hs, es = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
             out[method] = float(np.polyfit(hs, es, 1)[0])
