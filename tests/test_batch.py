@@ -17,12 +17,15 @@ batch must report as the one-member stage does, not as a non-finite step).
 
 from __future__ import annotations
 
+import re
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
 from test_chains import banded_chain
 
+from s2gen.emit import emit
 from s2gen.parts.batch import BATCH_LANES, BATCH_METHODS
 from s2gen.runtime.batch import integrate_batch
 from s2gen.runtime.c import CBackend
@@ -74,9 +77,17 @@ def bits(a: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a).view(np.uint64)
 
 
-def check(name: str, methods: tuple[str, ...], opt: str | None, late: bool = False) -> None:
+def check(
+    name: str,
+    methods: tuple[str, ...],
+    opt: str | None,
+    late: bool = False,
+    files: dict[str, str] | None = None,
+) -> None:
+    """Every member of the batch against integrate() of that member alone (`files`: the
+    batched module's C, by default the emitted one)."""
     s = system(name)
-    one, batched = CBackend(s, opt=opt), CBackend(s.with_batch(), opt=opt)
+    one, batched = CBackend(s, opt=opt), CBackend(s.with_batch(), files, opt=opt)
     assert not one.library.batch and batched.library.batch
     q0, w0, p = members(name, late)
     assert K % BATCH_LANES != 0
@@ -129,15 +140,47 @@ def test_every_method_both_flag_sets(name: str, opt: str) -> None:
     check(name, BATCH_METHODS, opt)
 
 
-def test_double_pendulum_newton() -> None:
-    """A dense M: the Newton VI and a composition lane by lane (each lane its own iterations,
-    a member whose Newton fails mid-run stops alone), RK4 with A(q) a = b solved lane by lane."""
-    check("double_pendulum", ("vi", "vi4", "rk4"), "portable", late=True)
+@pytest.mark.parametrize("opt", ["portable", "native"])
+def test_double_pendulum_newton(opt: str) -> None:
+    """A dense M: the Newton VI and a composition in loops over the lanes (each lane its own
+    iterations under its own mask, a member whose Newton fails mid-run stops alone), RK4 with
+    A(q) a = b solved in loops over the lanes; -O2 and -O3 -march=native."""
+    check("double_pendulum", ("vi", "vi4", "rk4"), opt, late=True)
 
 
-def test_rope_newton() -> None:
-    """A 10-link rope, M of max-index structure (its own solver): the Newton VI and RK4."""
-    check("rope:n=10", ("vi", "rk4"), "portable", late=True)
+@pytest.mark.parametrize("opt", ["portable", "native"])
+def test_rope_newton(opt: str) -> None:
+    """A 10-link rope, M of max-index structure (its own solver, lane by lane): the Newton VI
+    and RK4, -O2 and -O3 -march=native."""
+    check("rope:n=10", ("vi", "rk4"), opt, late=True)
+
+
+def _lane0_decides(c: str, upper: str) -> str:
+    """Every active lane stops when lane 0's convergence test holds."""
+    assert c.count("act[l] = !converged;") == 1
+    return c.replace("act[l] = !converged;", "act[l] = l == 0 ? !converged : act[0];")
+
+
+def _failures_unmasked(c: str, upper: str) -> str:
+    """A lane whose Newton fails keeps iterating (its mask follows convergence alone)."""
+    cleared = re.subn(r"\n *act\[l\] = 0;", "", c)
+    assert cleared[1] == 2 and cleared[0].count("act[l] = !converged;") == 1
+    return cleared[0].replace(
+        "act[l] = !converged;", f"act[l] = !converged || st[l] != {upper}_OK;"
+    )
+
+
+@pytest.mark.parametrize("broken", [_lane0_decides, _failures_unmasked])
+def test_broken_lane_masks_are_caught(broken: Callable[[str, str], str]) -> None:
+    """The Newton VI's per-lane masks matter: a batch whose lanes all take lane 0's
+    iterations, or whose failed lanes go on iterating, is not integrate() member by member
+    (the comparison above fails on the double pendulum's VI)."""
+    s = system("double_pendulum")
+    files = dict(emit(s.with_batch(), "c"))
+    source = f"{s.name}.c"
+    files[source] = broken(files[source], s.name.upper())
+    with pytest.raises(AssertionError, match="double_pendulum vi member"):
+        check("double_pendulum", ("vi",), "portable", late=True, files=files)
 
 
 @pytest.mark.slow

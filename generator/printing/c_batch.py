@@ -26,6 +26,7 @@ from s2gen.ir import Call, Kernel, Module
 from s2gen.methods import explicit_tableaus
 from s2gen.parts.batch import BATCH_LANES, BATCH_PART
 from s2gen.printing.c import CPrinter, c_inline, c_loop
+from s2gen.printing.c_batch_newton import newton_lane_work, newton_lanes
 from s2gen.printing.c_calls import c_binding
 
 __all__ = ["batch_work", "coupled_field", "newton_work", "print_batch"]
@@ -90,6 +91,9 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
         off["mp"] = off["md"] + n * lanes
         off["a"] = off["mp"] + max(1, len(module.pairs)) * lanes
         at2 = off["a"] + n3 * n3 * lanes
+        if "vi_newton" in module.parts:  # and its Newton VI
+            off.update(newton_lane_work(module, at2, lanes))
+            at2 = off.pop("end")
     off["slack"] = 7
     off["size"] = at + at2 + off["slack"]
     return off
@@ -118,6 +122,7 @@ def print_batch(module: Module) -> dict[str, Any]:
             "soa": "0",
             "newton": {},
             "field": {},
+            "newton_lanes": {},
         }
     explicit = "vi_explicit" in module.parts  # else a coupled M: the Newton VI lane by lane
     for name in ("vi_pos", "vi_vel") if explicit else ():
@@ -139,6 +144,7 @@ def print_batch(module: Module) -> dict[str, Any]:
         "soa": "scheme != NULL" if explicit else "0",
         "newton": {} if explicit else newton_work(module),
         "field": field or {},
+        "newton_lanes": newton_lanes(module) if field else {},
     }
 
 
@@ -241,7 +247,7 @@ def coupled_field(module: Module) -> dict[str, Any] | None:
         ),
         "pair": inline["rhs_pair"],
         "pair_stores": tuple(dw),
-        "a_loads": _lane_loads(n3, {"qi": ("y", "i0", 0), "qj": ("y", "j0", 0)}),
+        "a_loads": _lane_loads(n3, {"qi": ("x", "i0", 0), "qj": ("x", "j0", 0)}),
         "a_pair": inline["a_pair"],
         "a_stores": tuple(a_stores),
     }
