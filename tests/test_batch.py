@@ -12,7 +12,10 @@ M (Newton VI), one more member starts upside down at rest under a far stronger g
 it speeds up until, some steps in, its Newton iteration does not converge (ERR_NEWTON) while
 the others, iterating their own number of times, go on; and one spins 10^4 times faster: the
 double pendulum's RK4 then meets a singular A(q) a = b in a stage (ERR_SINGULAR, which the
-batch must report as the one-member stage does, not as a non-finite step).
+batch must report as the one-member stage does, not as a non-finite step). With a dense M the
+Newton VI runs in loops over the lanes, each lane under its own convergence mask: two broken
+variants of the emitted C (every lane stops with lane 0; failed lanes keep iterating) must
+fail the comparison.
 """
 
 from __future__ import annotations
@@ -185,10 +188,14 @@ def test_broken_lane_masks_are_caught(broken: Callable[[str, str], str]) -> None
 
 @pytest.mark.slow
 @pytest.mark.parametrize("opt", ["portable", "native"])
-@pytest.mark.parametrize("name", ["double_pendulum", "rope:n=10", "pendulum_chain", "chain4"])
+@pytest.mark.parametrize(
+    "name",
+    ["double_pendulum", "rope:n=10", "pendulum_chain", "chain4", "rope:n=10,solver=dense"],
+)
 def test_coupled_every_method_both_flag_sets(name: str, opt: str) -> None:
-    """Every batched method with a coupled M (dense: the double pendulum, the pendulum chain
-    and a four-link spec; max-index: the rope), -O2 and -O3 -march=native."""
+    """Every batched method with a coupled M (dense, its Newton VI in loops over the lanes:
+    the double pendulum, the pendulum chain, a four-link spec and the 10-link rope solved
+    densely; max-index, lane by lane: the rope), -O2 and -O3 -march=native."""
     check(name, BATCH_METHODS, opt, late=True)
 
 

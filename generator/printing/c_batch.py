@@ -108,8 +108,9 @@ def print_batch(module: Module) -> dict[str, Any]:
     workspace offsets (`batch_work`), dV/dq in loops over the lanes (`lane_gradient`; no
     parts where it runs lane by lane, or with a coupled M), the field's kernel inline, the
     member tables the lanes copy, whether the lanes start component-major (`soa`, a C
-    condition: the explicit VI's) and, with a coupled M, where a lane's Newton VI steps keep
-    their buffers (`newton_work`); every key empty (or 0) without the part."""
+    condition: the explicit VI's), with a coupled M where a lane's Newton VI steps keep
+    their buffers (`newton_work`) and with a dense M its Newton VI's kernels inline for the
+    lane loops (`newton_lanes`); every key empty (or 0) without the part."""
     if BATCH_PART not in module.parts:
         return {
             "lanes": 0,
@@ -124,7 +125,7 @@ def print_batch(module: Module) -> dict[str, Any]:
             "field": {},
             "newton_lanes": {},
         }
-    explicit = "vi_explicit" in module.parts  # else a coupled M: the Newton VI lane by lane
+    explicit = "vi_explicit" in module.parts  # else a coupled M: the Newton VI
     for name in ("vi_pos", "vi_vel") if explicit else ():
         scalars = [a.name for a in module.kernel(name).inputs if a.scalar]
         assert scalars == ["h", "mi"], f"{name}: the batch loads h and mi only, not {scalars}"

@@ -435,7 +435,8 @@ def sections(module: Module) -> tuple[Sections, Sections]:
             (field, "batch_field_coupled"),
             (batch and not lanes and not field, "batch_field_each"),
         ),
-        # a coupled M: the lanes hold every state body-major, the Newton VI lane by lane
+        # a coupled M: the lanes hold every state body-major; the Newton VI in loops over the
+        # lanes with a dense M (its field in lanes too), else lane by lane
         "batch_layout": pick(
             "c",
             (batch and explicit, "batch_layout_soa"),
