@@ -77,9 +77,10 @@ DEFAULT_FLAGS: tuple[str, ...] = (
 #: -ffp-contract=off) forbids contraction: every built-in's one-member code held 3-13 of them
 #: (the double pendulum's vi_advance, rhs_cx, angular_momentum), so its results depended on
 #: how the vectoriser grouped statements and integrate_batch()'s lane loops could not match
-#: integrate() bit for bit. Without it the VI per step took 0-6 % longer (double pendulum
-#: 471 -> 472 ns, rod 6034 -> 6396 ns, dipoles 70.5 -> 73.6 ns, molecular 104 -> 103 us on an
-#: AMD EPYC); the loop vectoriser, which keeps the operation order, still runs.
+#: integrate() bit for bit. Its cost is within noise: `python -m s2gen.experiments.flags
+#: --launches 7` (AMD EPYC, load 1.3-1.9) gave per VI step double pendulum 0.882 -> 0.888 us,
+#: rod 6.10 -> 6.15 us, dipoles 0.353 -> 0.335 us, molecular 102 -> 100 us without it; the
+#: loop vectoriser, which keeps the operation order, still runs.
 FLAG_SETS: dict[str, tuple[str, ...]] = {
     "portable": DEFAULT_FLAGS,
     "native": (
