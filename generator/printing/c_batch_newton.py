@@ -99,7 +99,15 @@ def newton_lanes(module: Module) -> dict[str, Any]:
     """The inline kernels of a dense M's vi_advance for loops over lanes and the stores of
     their outputs (empty for another module): d (assigned per body, pairs added), the
     residual r and the Jacobian's blocks (diagonal blocks assigned, pair blocks added onto
-    zeros, as vi_advance does), the Cayley map, c and A(q+)'s diagonal."""
+    zeros, as vi_advance does), the Cayley map, c and A(q+)'s diagonal.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> r = newton_lanes(lower_system(builtin("double_pendulum").with_batch()))
+        >>> r["a_body_stores"], r["c_pair_stores"][:2]
+        (('adiag[i * L + l] = a0;',), ('wn[(3 * i0 + 0) * L + l] += ci0;', 'wn[(3 * j0 + 0) * L + l] += cj0;'))
+    """
     if "vi_newton" not in module.parts or "batch" not in module.parts:
         return {}
     n3 = 3 * module.n
@@ -140,7 +148,15 @@ def newton_lane_work(module: Module, at: int, lanes: int) -> dict[str, int]:
     """Offsets (doubles, from `at`) of the lane arrays of a dense M's Newton VI: the state's
     gradient g and gn, the substeps' positions and velocities (qa, qb, va, vb, q1, w1), d, r,
     A(q+)'s diagonal, and the Cayley parameters of every substep (f: as many N3 blocks as
-    integrate_geometric keeps); `end` past them."""
+    integrate_geometric keeps); `end` past them.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> w = newton_lane_work(lower_system(builtin("double_pendulum").with_batch()), 0, 8)
+        >>> w["vgn"], w["vadiag"], w["vf"] - w["vadiag"]
+        (48, 480, 16)
+    """
     n3 = 3 * module.n
     layouts = {lay.name: lay for lay in module.layouts}
     substeps = next(b.size for b in layouts["geometric"].buffers if b.name == "f") // n3
