@@ -14,8 +14,8 @@ the others, iterating their own number of times, go on; and one spins 10^4 times
 double pendulum's RK4 then meets a singular A(q) a = b in a stage (ERR_SINGULAR, which the
 batch must report as the one-member stage does, not as a non-finite step). With a dense M the
 Newton VI runs in loops over the lanes, each lane under its own convergence mask: two broken
-variants of the emitted C (every lane stops with lane 0; failed lanes keep iterating) must
-fail the comparison.
+variants of the emitted C (every lane stops with lane 0; failed lanes keep iterating; a lane at
+newton_maxiter does not fail) must fail the comparison.
 """
 
 from __future__ import annotations
@@ -86,20 +86,21 @@ def check(
     opt: str | None,
     late: bool = False,
     files: dict[str, str] | None = None,
+    options: Options | None = None,
 ) -> None:
     """Every member of the batch against integrate() of that member alone (`files`: the
-    batched module's C, by default the emitted one)."""
+    batched module's C, by default the emitted one), both with `options` (default Options())."""
     s = system(name)
     one, batched = CBackend(s, opt=opt), CBackend(s.with_batch(), files, opt=opt)
     assert not one.library.batch and batched.library.batch
     q0, w0, p = members(name, late)
     assert K % BATCH_LANES != 0
     for m in methods:
-        b = integrate_batch(batched, m, H, NSTEPS, q0, w0, p, Options(), EVERY)
+        b = integrate_batch(batched, m, H, NSTEPS, q0, w0, p, options or Options(), EVERY)
         assert b.energy is not None
         for k in range(K):
             status, q, w, e, stats = one.integrate(
-                m, H, NSTEPS, q0[k], w0[k], p[k], Options(), EVERY
+                m, H, NSTEPS, q0[k], w0[k], p[k], options or Options(), EVERY
             )
             assert e is not None
             done = int(stats["fail_step"]) if status else q.shape[0]
@@ -158,6 +159,18 @@ def test_rope_newton(opt: str) -> None:
     check("rope:n=10", ("vi", "rk4"), opt, late=True)
 
 
+def test_newton_limit_fails_alone() -> None:
+    """With newton_maxiter = 4 the double pendulum's speeding-up member needs more iterations
+    some steps in and fails at the limit (ERR_NEWTON) in its lane alone; the others, which
+    need at most 3, go on bit for bit."""
+    limit = Options(newton_maxiter=4)
+    check("double_pendulum", ("vi", "vi4"), "portable", late=True, options=limit)
+    s = system("double_pendulum")
+    q0, w0, p = members("double_pendulum", late=True)
+    b = integrate_batch(CBackend(s.with_batch(), opt="portable"), "vi", H, NSTEPS, q0, w0, p, limit)
+    assert b.stats["newton_max"][LATE_MEMBER] == 4 and b.stats["steps"][LATE_MEMBER] > 0
+
+
 def _lane0_decides(c: str, upper: str) -> str:
     """Every active lane stops when lane 0's convergence test holds."""
     assert c.count("act[l] = !converged;") == 1
@@ -173,17 +186,32 @@ def _failures_unmasked(c: str, upper: str) -> str:
     )
 
 
-@pytest.mark.parametrize("broken", [_lane0_decides, _failures_unmasked])
-def test_broken_lane_masks_are_caught(broken: Callable[[str, str], str]) -> None:
+def _limit_unflagged(c: str, upper: str) -> str:
+    """A lane still iterating at newton_maxiter keeps its status OK (its step is taken)."""
+    flag = f"st[l] = {upper}_ERR_NEWTON; /* not converged within newton_maxiter */"
+    assert c.count(flag) == 1
+    return c.replace(flag, "")
+
+
+@pytest.mark.parametrize(
+    ("broken", "options"),
+    [
+        (_lane0_decides, Options()),
+        (_failures_unmasked, Options()),
+        (_limit_unflagged, Options(newton_maxiter=4)),
+    ],
+)
+def test_broken_lane_masks_are_caught(broken: Callable[[str, str], str], options: Options) -> None:
     """The Newton VI's per-lane masks matter: a batch whose lanes all take lane 0's
-    iterations, or whose failed lanes go on iterating, is not integrate() member by member
-    (the comparison above fails on the double pendulum's VI)."""
+    iterations, whose failed lanes go on iterating, or whose lanes at the iteration limit do
+    not fail, is not integrate() member by member (the comparison above fails on the double
+    pendulum's VI)."""
     s = system("double_pendulum")
     files = dict(emit(s.with_batch(), "c"))
     source = f"{s.name}.c"
     files[source] = broken(files[source], s.name.upper())
     with pytest.raises(AssertionError, match="double_pendulum vi member"):
-        check("double_pendulum", ("vi",), "portable", late=True, files=files)
+        check("double_pendulum", ("vi",), "portable", late=True, files=files, options=options)
 
 
 @pytest.mark.slow
