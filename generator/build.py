@@ -72,12 +72,22 @@ DEFAULT_FLAGS: tuple[str, ...] = (
 #: every instruction set of this machine's processor (the library may not run elsewhere).
 #: -fno-math-errno lets sqrt be one instruction (no errno on negative input: the emitted code
 #: checks its inputs itself); -fopenmp-simd honours the emitted loops' SIMD hints.
+#: -fno-tree-slp-vectorize: with -march=native on a processor with FMA, gcc 12's basic-block
+#: (SLP) vectoriser fuses a*b+c into vfmadd/vfmaddsub/vfmsubadd although -std=c99 (and even
+#: -ffp-contract=off) forbids contraction: every built-in's one-member code held 3-13 of them
+#: (the double pendulum's vi_advance, rhs_cx, angular_momentum), so its results depended on
+#: how the vectoriser grouped statements and integrate_batch()'s lane loops could not match
+#: integrate() bit for bit. Its cost is within noise: `python -m s2gen.experiments.flags
+#: --launches 7` (AMD EPYC, load 1.3-1.9) gave per VI step double pendulum 0.882 -> 0.888 us,
+#: rod 6.10 -> 6.15 us, dipoles 0.353 -> 0.335 us, molecular 102 -> 100 us without it; the
+#: loop vectoriser, which keeps the operation order, still runs.
 FLAG_SETS: dict[str, tuple[str, ...]] = {
     "portable": DEFAULT_FLAGS,
     "native": (
         "-std=c99",
         "-O3",
         "-march=native",
+        "-fno-tree-slp-vectorize",
         "-fno-math-errno",
         "-fopenmp-simd",
         "-fPIC",

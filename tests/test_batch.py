@@ -12,17 +12,23 @@ M (Newton VI), one more member starts upside down at rest under a far stronger g
 it speeds up until, some steps in, its Newton iteration does not converge (ERR_NEWTON) while
 the others, iterating their own number of times, go on; and one spins 10^4 times faster: the
 double pendulum's RK4 then meets a singular A(q) a = b in a stage (ERR_SINGULAR, which the
-batch must report as the one-member stage does, not as a non-finite step).
+batch must report as the one-member stage does, not as a non-finite step). With a dense M the
+Newton VI runs in loops over the lanes, each lane under its own convergence mask: two broken
+variants of the emitted C (every lane stops with lane 0; failed lanes keep iterating; a lane at
+newton_maxiter does not fail) must fail the comparison.
 """
 
 from __future__ import annotations
 
+import re
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
 from test_chains import banded_chain
 
+from s2gen.emit import emit
 from s2gen.parts.batch import BATCH_LANES, BATCH_METHODS
 from s2gen.runtime.batch import integrate_batch
 from s2gen.runtime.c import CBackend
@@ -74,18 +80,27 @@ def bits(a: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a).view(np.uint64)
 
 
-def check(name: str, methods: tuple[str, ...], opt: str | None, late: bool = False) -> None:
+def check(
+    name: str,
+    methods: tuple[str, ...],
+    opt: str | None,
+    late: bool = False,
+    files: dict[str, str] | None = None,
+    options: Options | None = None,
+) -> None:
+    """Every member of the batch against integrate() of that member alone (`files`: the
+    batched module's C, by default the emitted one), both with `options` (default Options())."""
     s = system(name)
-    one, batched = CBackend(s, opt=opt), CBackend(s.with_batch(), opt=opt)
+    one, batched = CBackend(s, opt=opt), CBackend(s.with_batch(), files, opt=opt)
     assert not one.library.batch and batched.library.batch
     q0, w0, p = members(name, late)
     assert K % BATCH_LANES != 0
     for m in methods:
-        b = integrate_batch(batched, m, H, NSTEPS, q0, w0, p, Options(), EVERY)
+        b = integrate_batch(batched, m, H, NSTEPS, q0, w0, p, options or Options(), EVERY)
         assert b.energy is not None
         for k in range(K):
             status, q, w, e, stats = one.integrate(
-                m, H, NSTEPS, q0[k], w0[k], p[k], Options(), EVERY
+                m, H, NSTEPS, q0[k], w0[k], p[k], options or Options(), EVERY
             )
             assert e is not None
             done = int(stats["fail_step"]) if status else q.shape[0]
@@ -129,23 +144,86 @@ def test_every_method_both_flag_sets(name: str, opt: str) -> None:
     check(name, BATCH_METHODS, opt)
 
 
-def test_double_pendulum_newton() -> None:
-    """A dense M: the Newton VI and a composition lane by lane (each lane its own iterations,
-    a member whose Newton fails mid-run stops alone), RK4 with A(q) a = b solved lane by lane."""
-    check("double_pendulum", ("vi", "vi4", "rk4"), "portable", late=True)
+@pytest.mark.parametrize("opt", ["portable", "native"])
+def test_double_pendulum_newton(opt: str) -> None:
+    """A dense M: the Newton VI and a composition in loops over the lanes (each lane its own
+    iterations under its own mask, a member whose Newton fails mid-run stops alone), RK4 with
+    A(q) a = b solved in loops over the lanes; -O2 and -O3 -march=native."""
+    check("double_pendulum", ("vi", "vi4", "rk4"), opt, late=True)
 
 
-def test_rope_newton() -> None:
-    """A 10-link rope, M of max-index structure (its own solver): the Newton VI and RK4."""
-    check("rope:n=10", ("vi", "rk4"), "portable", late=True)
+@pytest.mark.parametrize("opt", ["portable", "native"])
+def test_rope_newton(opt: str) -> None:
+    """A 10-link rope, M of max-index structure (its own solver, lane by lane): the Newton VI
+    and RK4, -O2 and -O3 -march=native."""
+    check("rope:n=10", ("vi", "rk4"), opt, late=True)
+
+
+def test_newton_limit_fails_alone() -> None:
+    """With newton_maxiter = 4 the double pendulum's speeding-up member needs more iterations
+    some steps in and fails at the limit (ERR_NEWTON) in its lane alone; the others, which
+    need at most 3, go on bit for bit."""
+    limit = Options(newton_maxiter=4)
+    check("double_pendulum", ("vi", "vi4"), "portable", late=True, options=limit)
+    s = system("double_pendulum")
+    q0, w0, p = members("double_pendulum", late=True)
+    b = integrate_batch(CBackend(s.with_batch(), opt="portable"), "vi", H, NSTEPS, q0, w0, p, limit)
+    assert b.stats["newton_max"][LATE_MEMBER] == 4 and b.stats["steps"][LATE_MEMBER] > 0
+
+
+def _lane0_decides(c: str, upper: str) -> str:
+    """Every active lane stops when lane 0's convergence test holds."""
+    assert c.count("act[l] = !converged;") == 1
+    return c.replace("act[l] = !converged;", "act[l] = l == 0 ? !converged : act[0];")
+
+
+def _failures_unmasked(c: str, upper: str) -> str:
+    """A lane whose Newton fails keeps iterating (its mask follows convergence alone)."""
+    cleared = re.subn(r"\n *act\[l\] = 0;", "", c)
+    assert cleared[1] == 2 and cleared[0].count("act[l] = !converged;") == 1
+    return cleared[0].replace(
+        "act[l] = !converged;", f"act[l] = !converged || st[l] != {upper}_OK;"
+    )
+
+
+def _limit_unflagged(c: str, upper: str) -> str:
+    """A lane still iterating at newton_maxiter keeps its status OK (its step is taken)."""
+    flag = f"st[l] = {upper}_ERR_NEWTON; /* not converged within newton_maxiter */"
+    assert c.count(flag) == 1
+    return c.replace(flag, "")
+
+
+@pytest.mark.parametrize(
+    ("broken", "options"),
+    [
+        (_lane0_decides, Options()),
+        (_failures_unmasked, Options()),
+        (_limit_unflagged, Options(newton_maxiter=4)),
+    ],
+)
+def test_broken_lane_masks_are_caught(broken: Callable[[str, str], str], options: Options) -> None:
+    """The Newton VI's per-lane masks matter: a batch whose lanes all take lane 0's
+    iterations, whose failed lanes go on iterating, or whose lanes at the iteration limit do
+    not fail, is not integrate() member by member (the comparison above fails on the double
+    pendulum's VI)."""
+    s = system("double_pendulum")
+    files = dict(emit(s.with_batch(), "c"))
+    source = f"{s.name}.c"
+    files[source] = broken(files[source], s.name.upper())
+    with pytest.raises(AssertionError, match="double_pendulum vi member"):
+        check("double_pendulum", ("vi",), "portable", late=True, files=files, options=options)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("opt", ["portable", "native"])
-@pytest.mark.parametrize("name", ["double_pendulum", "rope:n=10", "pendulum_chain", "chain4"])
+@pytest.mark.parametrize(
+    "name",
+    ["double_pendulum", "rope:n=10", "pendulum_chain", "chain4", "rope:n=10,solver=dense"],
+)
 def test_coupled_every_method_both_flag_sets(name: str, opt: str) -> None:
-    """Every batched method with a coupled M (dense: the double pendulum, the pendulum chain
-    and a four-link spec; max-index: the rope), -O2 and -O3 -march=native."""
+    """Every batched method with a coupled M (dense, its Newton VI in loops over the lanes:
+    the double pendulum, the pendulum chain, a four-link spec and the 10-link rope solved
+    densely; max-index, lane by lane: the rope), -O2 and -O3 -march=native."""
     check(name, BATCH_METHODS, opt, late=True)
 
 

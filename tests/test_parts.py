@@ -216,8 +216,10 @@ SYSTEMS = {
     "four_pendula_batch": lambda: builtin("four_pendula").with_batch(),
     # integrate_batch() with dV/dq lane by lane (pair rows)
     "three_bodies_batch": lambda: builtin("three_bodies").with_batch(),
-    # integrate_batch() with a coupled M: the Newton VI and the field lane by lane
+    # integrate_batch() with a dense M: the Newton VI and the field in loops over the lanes
     "double_pendulum_batch": lambda: builtin("double_pendulum").with_batch(),
+    # integrate_batch() with a max-index M: the Newton VI and the field lane by lane
+    "rope_batch": lambda: resolve("rope:n=10").with_batch(),
 }
 
 

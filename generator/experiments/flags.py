@@ -33,6 +33,8 @@ CANDIDATES: dict[str, tuple[str, ...]] = {
     "O2 simd": (*_BASE, "-O2", *_SIMD),
     "O3 simd": (*_BASE, "-O3", *_SIMD),
     "O3 native simd": (*_BASE, "-O3", "-march=native", *_SIMD),
+    # s2gen's "native" set: gcc's SLP vectoriser off, as it fuses multiply-adds (build.py)
+    "O3 native simd no-SLP": (*_BASE, "-O3", "-march=native", "-fno-tree-slp-vectorize", *_SIMD),
 }
 #: (system, h, steps per launch) as the hand-written yardsticks run them.
 RUNS = {

@@ -15,12 +15,15 @@ kept as they are).
 With a coupled M (dense, banded or max-index), the lanes hold the state body-major: the
 Runge-Kutta stages' arithmetic still runs in loops over the lanes, and so does a dense M's
 field (dV/dq where it runs in lanes, the field's kernels inline, A(q) and its pivoted
-elimination with each lane's own pivots: `s2gen.printing.c_batch.coupled_field`); another
-M's field (its structured solver) and each VI substep (Newton on the Cayley parameters,
-then A(q+) w+ = c: the one-member vi_advance) run lane by lane with the lane's own context
-and workspace. A lane's Newton thus iterates exactly as its member's would alone
-(its own convergence test, iteration count and warm start), and a lane whose Newton, solve or
-state fails stops alone with that status while the other lanes go on.
+elimination with each lane's own pivots: `s2gen.printing.c_batch.coupled_field`), and a
+dense M's VI substeps (Newton on the Cayley parameters, then A(q+) w+ = c), the kernels of
+the one-member vi_advance inline in loops over the lanes and its LU and Cholesky solves on
+all lanes at once (`s2gen.printing.c_batch_newton`), each lane under its own mask: it stops
+updating once its own convergence test holds, or fails alone. Another M's field (its
+structured solver) and VI substeps are the one-member code's, run lane by lane with the
+lane's own context and workspace. Either way a lane's Newton iterates exactly as its
+member's would alone (its own convergence test, iteration count and warm start), and a lane
+whose Newton, solve or state fails stops alone with that status while the other lanes go on.
 
 What is covered: closed systems (no forces, inputs or time); the VI and its compositions
 (vi, vi4, vi6, vi8: explicit with a diagonal M, Newton with a coupled M) and the fixed-step

@@ -26,6 +26,7 @@ from s2gen.ir import Call, Kernel, Module
 from s2gen.methods import explicit_tableaus
 from s2gen.parts.batch import BATCH_LANES, BATCH_PART
 from s2gen.printing.c import CPrinter, c_inline, c_loop
+from s2gen.printing.c_batch_newton import newton_lane_work, newton_lanes
 from s2gen.printing.c_calls import c_binding
 
 __all__ = ["batch_work", "coupled_field", "newton_work", "print_batch"]
@@ -90,6 +91,9 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
         off["mp"] = off["md"] + n * lanes
         off["a"] = off["mp"] + max(1, len(module.pairs)) * lanes
         at2 = off["a"] + n3 * n3 * lanes
+        if "vi_newton" in module.parts:  # and its Newton VI
+            off.update(newton_lane_work(module, at2, lanes))
+            at2 = off.pop("end")
     off["slack"] = 7
     off["size"] = at + at2 + off["slack"]
     return off
@@ -104,8 +108,9 @@ def print_batch(module: Module) -> dict[str, Any]:
     workspace offsets (`batch_work`), dV/dq in loops over the lanes (`lane_gradient`; no
     parts where it runs lane by lane, or with a coupled M), the field's kernel inline, the
     member tables the lanes copy, whether the lanes start component-major (`soa`, a C
-    condition: the explicit VI's) and, with a coupled M, where a lane's Newton VI steps keep
-    their buffers (`newton_work`); every key empty (or 0) without the part."""
+    condition: the explicit VI's), with a coupled M where a lane's Newton VI steps keep
+    their buffers (`newton_work`) and with a dense M its Newton VI's kernels inline for the
+    lane loops (`newton_lanes`); every key empty (or 0) without the part."""
     if BATCH_PART not in module.parts:
         return {
             "lanes": 0,
@@ -118,8 +123,9 @@ def print_batch(module: Module) -> dict[str, Any]:
             "soa": "0",
             "newton": {},
             "field": {},
+            "newton_lanes": {},
         }
-    explicit = "vi_explicit" in module.parts  # else a coupled M: the Newton VI lane by lane
+    explicit = "vi_explicit" in module.parts  # else a coupled M: the Newton VI
     for name in ("vi_pos", "vi_vel") if explicit else ():
         scalars = [a.name for a in module.kernel(name).inputs if a.scalar]
         assert scalars == ["h", "mi"], f"{name}: the batch loads h and mi only, not {scalars}"
@@ -139,6 +145,7 @@ def print_batch(module: Module) -> dict[str, Any]:
         "soa": "scheme != NULL" if explicit else "0",
         "newton": {} if explicit else newton_work(module),
         "field": field or {},
+        "newton_lanes": newton_lanes(module) if field else {},
     }
 
 
@@ -241,7 +248,7 @@ def coupled_field(module: Module) -> dict[str, Any] | None:
         ),
         "pair": inline["rhs_pair"],
         "pair_stores": tuple(dw),
-        "a_loads": _lane_loads(n3, {"qi": ("y", "i0", 0), "qj": ("y", "j0", 0)}),
+        "a_loads": _lane_loads(n3, {"qi": ("x", "i0", 0), "qj": ("x", "j0", 0)}),
         "a_pair": inline["a_pair"],
         "a_stores": tuple(a_stores),
     }

@@ -291,6 +291,7 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "batch_gradient": ("batch",),
         "batch_field": ("batch",),
         "batch_layout": ("batch",),
+        "batch_dense": ("batch",),
         "batch_vi": ("batch",),
     },
     {
@@ -361,6 +362,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     batch = "batch" in module.parts  # integrate_batch(): dV/dq in lane loops where it can be
     lanes = batch and explicit and _lane_gradient(module) is not None
     field = batch and not explicit and _coupled_field(module) is not None  # a dense M's, in lanes
+    dense_vi = "vi_newton" in module.parts  # and its Newton VI in lanes too
     rattle_jacobian = any(k.name == "rattle_jacobian" for k in module.kernels)
 
     def pick(lang: str, *choices: tuple[bool, str]) -> tuple[str, ...]:
@@ -433,16 +435,19 @@ def sections(module: Module) -> tuple[Sections, Sections]:
             (field, "batch_field_coupled"),
             (batch and not lanes and not field, "batch_field_each"),
         ),
-        # a coupled M: the lanes hold every state body-major, the Newton VI lane by lane
+        # a coupled M: the lanes hold every state body-major; the Newton VI in loops over the
+        # lanes with a dense M (its field in lanes too), else lane by lane
         "batch_layout": pick(
             "c",
             (batch and explicit, "batch_layout_soa"),
             (batch and not explicit, "batch_layout_body"),
         ),
+        "batch_dense": pick("c", (field, "batch_dense")),
         "batch_vi": pick(
             "c",
             (batch and explicit, "batch_vi_explicit"),
-            (batch and not explicit, "batch_vi_newton"),
+            (field and dense_vi, "batch_vi_lanes"),
+            (batch and not explicit and not (field and dense_vi), "batch_vi_newton"),
         ),
     }
     py = {
