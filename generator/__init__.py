@@ -162,7 +162,7 @@ def generate(system: System, lang: str = "c", out: str | Path | None = None) -> 
 def compile(system: System, backend: str = "c", opt: str | None = None) -> Model:
     """`system` compiled for `backend` ("c", "numpy" or "reference") as a `Model`; `opt`
     picks the C library's gcc flags: "portable" (the default) or "native" (-O3
-    -march=native, for this processor only).
+    -march=native -fno-tree-slp-vectorize, for this processor only).
 
     Example:
         >>> compile(load("double_pendulum")).parameters["g"]

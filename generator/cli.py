@@ -110,7 +110,7 @@ def _parser() -> argparse.ArgumentParser:
         "--opt",
         choices=("portable", "native"),
         help="gcc flags of the C library: portable (default: -O2 with SIMD hints, runs on any "
-        "machine) or native (-O3 -march=native: this processor only); or set S2GEN_OPT",
+        "machine) or native (-O3 -march=native -fno-tree-slp-vectorize: this processor only); or set S2GEN_OPT",
     )
     s.add_argument(
         "--out",
