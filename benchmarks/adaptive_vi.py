@@ -5,8 +5,9 @@ Input: command-line options (``--quick``, ``--cluster-T``). Output: tables on st
 the CPU (from /proc/cpuinfo), the load average and the library versions:
 
 1. three_bodies over T = 10: per run the gradient evaluations, the state error at T (max over
-   q and omega against the C DOP853 at rtol = atol = 3e-14) and the wall time; then, for the
-   errors 1e-6 and 1e-8, the cheapest run of each method that reaches it.
+   q and omega against the C DOP853 at rtol = atol = 3e-14), the wall time and the time per
+   gradient evaluation (us/grad); then, for the errors 1e-6 and 1e-8, the cheapest run of each
+   method that reaches it.
 2. encounter_cluster over `--cluster-T` (default 110, about 10^4 encounter times sqrt(a^3/k)):
    per run the gradient evaluations, the largest relative energy error and the fitted slope of
    the windowed maxima of |dE| against time in log-log (0: bounded, 1: linear drift).
@@ -92,7 +93,11 @@ def _best(run: Callable[..., Any], *args: Any, **kwargs: Any) -> tuple[Any, floa
 
 
 def _row(name: str, setting: str, evals: int, value: float, seconds: float, extra: str) -> None:
-    print(f"  {name:14s} {setting:>12s} {evals:>10,d} {value:10.2e} {seconds * 1e3:10.3f} {extra}")
+    per = seconds / evals * 1e6
+    print(
+        f"  {name:14s} {setting:>12s} {evals:>10,d} {value:10.2e} {seconds * 1e3:10.3f} "
+        f"{per:8.4f} {extra}"
+    )
 
 
 def three_bodies(quick: bool) -> None:
@@ -105,7 +110,10 @@ def three_bodies(quick: bool) -> None:
         return float(max(np.abs(q - truth.q[-1]).max(), np.abs(w - truth.omega[-1]).max()))
 
     print(f"three_bodies, T = {T:g}: state error at T against DOP853 at 3e-14")
-    print(f"  {'method':14s} {'setting':>12s} {'gradients':>10s} {'error':>10s} {'time ms':>10s}")
+    print(
+        f"  {'method':14s} {'setting':>12s} {'gradients':>10s} {'error':>10s} {'time ms':>10s} "
+        f"{'us/grad':>8s}"
+    )
     rows: list[tuple[str, int, float, float]] = []
     for name in ("vi4", "vi6", "vi8"):
         for h in (2e-3, 1e-3) if quick else (4e-3, 2e-3, 1e-3, 5e-4):
@@ -185,7 +193,8 @@ def cluster(T: float, quick: bool) -> None:
     a, k = s.parameters["a"], s.parameters["k"]
     print(f"encounter_cluster, T = {T:g} ({T / np.sqrt(a**3 / k):,.0f} encounter times):")
     print(
-        f"  {'method':14s} {'setting':>12s} {'gradients':>10s} {'max dE/E':>10s} {'time ms':>10s}"
+        f"  {'method':14s} {'setting':>12s} {'gradients':>10s} {'max dE/E':>10s} {'time ms':>10s} "
+        f"{'us/grad':>8s}"
     )
     every = 0.01
     for tol in (1e-8, 1e-10) if quick else (1e-8, 1e-10, 1e-12):

@@ -96,6 +96,58 @@ def test_pydy_peer_maps_angles_back_and_converges(quick: bench.BenchReport) -> N
     assert np.allclose(q, q0, atol=1e-14) and np.allclose(w, w0, atol=1e-13)
 
 
+@pytest.fixture(scope="module")
+def quick_three(tmp_path_factory: pytest.TempPathFactory) -> bench.BenchReport:
+    """The quick bench on the three bodies, whose emitted C has the time-transformed driver
+    (a few seconds)."""
+    out = tmp_path_factory.mktemp("bench_three")
+    return bench.bench(["three_bodies"], out, quick=True, log=lambda line: None)
+
+
+def test_the_time_transformed_methods_are_swept_where_the_c_has_them(
+    quick: bench.BenchReport, quick_three: bench.BenchReport
+) -> None:
+    """The three bodies' sweeps hold every time-transformed method over eps = T/N, each
+    reaching the converged reference to at least 1e-5 within the sweep, in bench.csv and in
+    its table against DOP853; the double pendulum (no monitor) has none."""
+    assert not any(r.method in bench.TIME_TRANSFORMED for r in _rows(quick))
+    rows = [r for r in _rows(quick_three) if r.method in bench.TIME_TRANSFORMED]
+    assert (
+        {r.method for r in rows}
+        == set(bench.TIME_TRANSFORMED)
+        == {
+            "vi-adaptive",
+            "vi4-adaptive",
+            "vi6-adaptive",
+            "vi8-adaptive",
+        }
+    )
+    for name in bench.TIME_TRANSFORMED:
+        mine = [r for r in rows if r.method == name]
+        assert min(r.state_err for r in mine if r.ok) < 1e-5, name
+        assert all(r.setting.startswith("eps=") and r.evals > 0 for r in mine)
+    with (quick_three.out / "bench.csv").open() as fh:
+        methods = {r["method"] for r in csv.DictReader(fh)}
+    assert set(bench.TIME_TRANSFORMED) <= methods
+    text = (quick_three.out / "bench.md").read_text()
+    assert "### The time-transformed VI against DOP853" in text
+    tt = bench.cheapest(rows, "state_err", 1e-6)
+    assert tt is not None and f"{tt.method} ({tt.setting})" in text
+
+
+@pytest.mark.parametrize(
+    ("method", "order"), [("vi-adaptive", 2.0), ("vi4-adaptive", 4.0), ("vi6-adaptive", 6.0)]
+)
+def test_fitted_orders_of_the_time_transformed_methods(
+    quick_three: bench.BenchReport, method: str, order: float
+) -> None:
+    """The state error against eps falls at the order of the composition (in the fictitious
+    time s the transformed system is integrated by the fixed-step VI)."""
+    ex = quick_three.examples[0]
+    orders = bench.fitted_orders(ex.rows, ex.reference.accuracy)
+    assert abs(orders[method] - order) <= 0.05 * order, orders
+
+
 def test_crossover_horizon_takes_the_rk_runs_as_cheap_as_the_vi() -> None:
     """(tolerance, cost per unit time, time the error exceeded the target): of the runs that
     cost less than the VI, the one that keeps the error longest decides."""

@@ -220,8 +220,11 @@ def test_linearize_refuses_in_one_line(double: Model) -> None:
         double.linearize(s.q0, s.omega0, H, "rk45")
     with pytest.raises(ValueError, match="basis 'polar'"):
         double.linearize(s.q0, s.omega0, H, "vi", basis="polar")
+    reference = Model(s, "reference")
     with pytest.raises(TypeError, match="C or NumPy backend, not 'reference'"):
-        Model(s, "reference").linearize(s.q0, s.omega0, H, "rk4")
+        reference.jacobian_field(s.q0, s.omega0)  # linearize is the reference's complex step
+    with pytest.raises(ValueError, match="fixed-step methods vi, .*not 'rk45'"):
+        reference.linearize(s.q0, s.omega0, H, "rk45")
 
 
 def test_docs_linearization_block(double: Model) -> None:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 from collections.abc import Iterator
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -164,6 +165,13 @@ def screened_rows() -> System:
     )
 
 
+def double_pendulum_monitor() -> System:
+    """The double pendulum with a monitor given as [run] g: the time-transformed driver of a
+    coupled M (Newton VI)."""
+    text = (resources.files("s2gen.systems.examples") / "double_pendulum.toml").read_text()
+    return load_spec_text(text + 'g = "3 + dot(q1, q2)"\n')
+
+
 def chain4_structured() -> System:
     """The chain of tests/specs with its max-index M solved by the structured solvers, M's
     generators from one system kernel (not per body)."""
@@ -183,7 +191,9 @@ SYSTEMS = {
     "beads": per_body_diagonal,  # per-body diagonal M, no parameters, no initial state
     "springs4": lambda: resolve(str(SPECS / "springs4.toml")),  # diagonal M, general V only
     "springs4_terms": lambda: resolve(str(SPECS / "springs4_terms.toml")),  # listed terms
-    "three_bodies": lambda: builtin("three_bodies"),  # pair terms laid out as rows
+    "three_bodies": lambda: builtin("three_bodies"),  # pair terms laid out as rows, the
+    # time-transformed driver on the explicit VI's arrays; with a coupled M on the Newton VI's
+    "double_pendulum_g": double_pendulum_monitor,
     "screened": screened_rows,  # rows split at their calls
     "dipoles": lambda: builtin("dipoles"),  # quadratic terms (K)
     "lj_cutoff": lambda: builtin("lj_cutoff"),  # cutoff: sorted cell lists
@@ -448,7 +458,10 @@ def test_recorder_logs_attribute_and_key_reads() -> None:
 
 # ------------------------------------------------------------------ (c) part by part
 def _languages(module: Module, part: Part) -> tuple[str, ...]:
-    return ("c",) if part.name in module.c_only else ("c", "numpy")
+    """A part's languages: C alone where the part (or the one a variant stands for) is C only."""
+    stands_for = {partial: name for name, partial in module.variants}
+    only = stands_for.get(part.name, part.name) in module.c_only
+    return ("c",) if only else ("c", "numpy")
 
 
 @functools.cache

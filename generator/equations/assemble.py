@@ -129,11 +129,14 @@ def _term_loop(index: int, term: Term, n: int) -> TermLoop:
     )
 
 
-def _variants(solver: InertiaKind) -> tuple[tuple[str, str], ...]:
+def _variants(solver: InertiaKind, transformed: bool) -> tuple[tuple[str, str], ...]:
     """(part, partial) where a part is laid out by a variant: the energy and momentum of a
-    dense or banded M add the coupled pairs' kinetic terms."""
+    dense or banded M add the coupled pairs' kinetic terms; with a diagonal M the
+    time-transformed driver keeps the explicit VI's component-major state across its steps."""
     if solver in (InertiaKind.DENSE, InertiaKind.BANDED):
         return (("energy", "energy_coupled"),)
+    if solver is InertiaKind.DIAGONAL and transformed:
+        return (("transformed", "transformed_explicit"),)
     return ()
 
 
@@ -222,7 +225,7 @@ def sphere_module(system: System) -> Module:
         # NumPy: numpy.linalg, scipy.linalg (step_jvp() and the time-transformed driver are C
         # only)
         c_only=("cholesky", "lu", "band", *JVP_C_ONLY, BATCH_PART, "transformed"),
-        variants=_variants(solver),
+        variants=_variants(solver, "transformed" in parts),
         pairs=pairs,
         terms=loops,
         coupling=Loop(LoopKind.COUPLING, len(pairs), pairs) if pairs else None,

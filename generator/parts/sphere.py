@@ -49,6 +49,10 @@ _GENERATORS = Product((Element("sa", Index.BODY), Element("sc", Index.BODY)))
 
 _GRADIENT = Site("gradient", "gradient", _S, CC)
 _CAYLEY = Site("cayley", "cayley", _B)
+#: The monitor R(q) and dR/dt of the time-transformed drivers
+_MONITOR = Site(
+    "monitor", "monitor", _S, {"r": Local("R", address=True), "dr": Local("dR", address=True)}
+)
 _A_BODY = Site(
     "a_body",
     "a_body",
@@ -352,17 +356,18 @@ SPHERE_PARTS = (
     Part("rk_step", buffers=(("rk_step", ("y0", "yt", "rk")),)),
     Part(
         "transformed",
-        sites=(
-            Site(
-                "monitor",
-                "monitor",
-                _S,
-                {"r": Local("R", address=True), "dr": Local("dR", address=True)},
-            ),
-        ),
+        sites=(_MONITOR,),
         buffers=(
             ("transformed", ("g", "g1", "ga", "gb", "a", "b", "vc", "vd")),
             ("transformed", ("qk", "wk", "q1", "w1", "qs", "ws", "f", "step")),
+        ),
+    ),
+    Part(
+        "transformed_explicit",
+        sites=(_MONITOR,),
+        buffers=(
+            ("transformed", ("x", "v", "gx", "xa", "va", "ga", "xb", "vb", "gb")),
+            ("transformed", ("s", "bridge", "qk", "wk", "slack")),
         ),
     ),
     Part(

@@ -276,9 +276,12 @@ def _geometric(module: Module, lays: _Layouts) -> Layout:
 def _transformed(module: Module, lays: _Layouts) -> Layout | None:
     """The time-transformed driver: g at the state, g1 at the next, ga and gb within a
     composed step, whose substeps alternate between (a, vc) and (b, vd); the state, the next
-    and a sample's (qs, ws); the VI's Newton starts (f) and its step's own workspace."""
+    and a sample's (qs, ws); the VI's Newton starts (f) and its step's own workspace. With a
+    diagonal M, the explicit VI's (`_transformed_explicit`)."""
     if "transformed" not in module.parts:
         return None
+    if not _coupled(module):
+        return _transformed_explicit(module)
     m3 = _m3(module)
     return layout(
         "transformed",
@@ -286,9 +289,22 @@ def _transformed(module: Module, lays: _Layouts) -> Layout | None:
         *_state(module),
         ("qs", m3),
         ("ws", m3),
-        _starts(module)[0] if _coupled(module) else ("f", 0),
+        _starts(module)[0],
         ("step", lays.size("vi_advance")),
     )
+
+
+def _transformed_explicit(module: Module) -> Layout:
+    """The time-transformed driver of a diagonal M, on the explicit VI's component-major
+    arrays: the state (x, v, gx), the substeps' (xa, va, ga) and (xb, vb, gb), the step's
+    scratch (s, bridge) and the body-major state (qk, wk) the monitor reads; placed as the
+    explicit driver's buffers (whole 64-byte lines from the first boundary, `KQ_SLACK`
+    doubles to spare)."""
+    m3, soa = _m3(module), dict(_soa(module))
+    state = [(b, m3) for b in ("x", "v", "gx", "xa", "va", "ga", "xb", "vb", "gb")]
+    sized = (*state, ("s", soa["s"]), ("bridge", soa["bridge"]), ("qk", m3), ("wk", m3))
+    lines = [(name, -(-size // 8) * 8) for name, size in sized]
+    return layout("transformed", *lines, ("slack", KQ_SLACK))
 
 
 def _fixed(module: Module, lays: _Layouts) -> Layout:

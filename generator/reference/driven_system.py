@@ -22,12 +22,21 @@ Example:
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import sympy as sp
 
 from s2gen.reference.forced import DrivenProblem
-from s2gen.reference.problem import Array, ReferenceProblem, _parameter_values
+from s2gen.reference.problem import (
+    MODULES,
+    Array,
+    ReferenceProblem,
+    _parameter_values,
+    inertia,
+    numbers,
+    scalar,
+)
 from s2gen.symbols import TIME, q_symbols, w_symbol
 from s2gen.system import System
 
@@ -42,30 +51,37 @@ def driven_problem_from_system(
     drive). `parameter_values` overrides the spec's values as in `problem_from_system`."""
     values = _parameter_values(system, parameter_values)
     n = system.n
-    subs = dict(zip(system.parameter_symbols, values))
+    pv: list[Any] = []  # the parameters' values when they stay symbols (complex values)
+    if np.iscomplexobj(np.asarray(values)):
+        # a complex-step derivative: SymPy would evaluate |p| of a complex number p as its
+        # modulus, so the parameters stay symbols (fresh ones: a parameter may be called t)
+        dummies = [sp.Dummy() for _ in values]
+        subs: dict[sp.Symbol, Any] = dict(zip(system.parameter_symbols, dummies))
+        pv = [list(values)]
+    else:
+        subs = dict(zip(system.parameter_symbols, values))
+    extra = [list(subs.values())] if pv else []
     qs = q_symbols(n)
     ws = [w_symbol(i, c) for i in range(1, n + 1) for c in range(3)]
     us = list(system.inputs.symbols)
-    zero = ReferenceProblem(
-        system.inertia_numeric(values), lambda q: np.zeros((n, 3)), lambda q: 0.0
-    )
+    zero = ReferenceProblem(inertia(system, values), lambda q: np.zeros((n, 3)), lambda q: 0.0)
     V = sp.sympify(system.full_potential()).xreplace(subs)  # a parameter t is substituted
-    args = [qs, TIME, us]
-    v_fn = sp.lambdify(args, V, modules="numpy", dummify=True)
-    g_fn = sp.lambdify(args, [sp.diff(V, s) for s in qs], modules="numpy", dummify=True)
-    t_fn = sp.lambdify(args, sp.diff(V, TIME), modules="numpy", dummify=True)
+    args = [qs, TIME, us, *extra]
+    v_fn = sp.lambdify(args, V, modules=MODULES, dummify=True)
+    g_fn = sp.lambdify(args, [sp.diff(V, s) for s in qs], modules=MODULES, dummify=True)
+    t_fn = sp.lambdify(args, sp.diff(V, TIME), modules=MODULES, dummify=True)
 
     def flat(q: Array) -> list[float]:
-        return list(np.asarray(q, dtype=float).ravel())
+        return list(numbers(q).ravel())
 
     def potential(q: Array, t: float, u: Array) -> float:
-        return float(v_fn(flat(q), t, list(u)))
+        return scalar(v_fn(flat(q), t, list(u), *pv))  # type: ignore[no-any-return]
 
     def grad(q: Array, t: float, u: Array) -> Array:
-        return np.array(g_fn(flat(q), t, list(u)), dtype=float).reshape(n, 3)
+        return np.array(numbers(g_fn(flat(q), t, list(u), *pv))).reshape(n, 3)
 
     def potential_t(q: Array, t: float, u: Array) -> float:
-        return float(t_fn(flat(q), t, list(u)))
+        return scalar(t_fn(flat(q), t, list(u), *pv))  # type: ignore[no-any-return]
 
     force = None
     moving = False
@@ -76,11 +92,11 @@ def driven_problem_from_system(
                 total[body] += force
         F = [e.xreplace(subs) for v in total for e in v]
         moving = any(e.has(*ws) for e in F)
-        f_fn = sp.lambdify([qs, ws, TIME, us], F, modules="numpy", dummify=True)
+        f_fn = sp.lambdify([qs, ws, TIME, us, *extra], F, modules=MODULES, dummify=True)
 
         def force(q: Array, w: Array, t: float, u: Array) -> Array:
-            out = f_fn(flat(q), flat(w), t, list(u))
-            return np.array(out, dtype=float).reshape(n, 3)
+            out = f_fn(flat(q), flat(w), t, list(u), *pv)
+            return np.array(numbers(out)).reshape(n, 3)
 
     return DrivenProblem(
         zero,

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from s2gen.reference.geometry import _cross, _off_diagonal, inertia_operator
-from s2gen.reference.problem import Array, ReferenceProblem
+from s2gen.reference.problem import Array, ReferenceProblem, numbers
 
 __all__ = ["continuous_rhs"]
 
@@ -28,10 +28,10 @@ def continuous_rhs(problem: ReferenceProblem, q: Array, w: Array) -> tuple[Array
         >>> dw.tolist()
         [[0.0, -0.5, 0.0]]
     """
-    q = np.asarray(q, dtype=float)
-    w = np.asarray(w, dtype=float)
+    q = numbers(q)
+    w = numbers(w)
     M = problem.M
-    g = np.asarray(problem.grad(q), dtype=float)
+    g = numbers(problem.grad(q))
     ww = np.sum(w * w, axis=1)
     b = _cross(q, (_off_diagonal(M) * ww[None, :]) @ q) - _cross(q, g)
     if problem.is_diagonal:  # A = diag(M_ii) I: the solve is a division

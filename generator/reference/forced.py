@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from s2gen.reference.geometry import _cross, _off_diagonal, energy, inertia_operator
-from s2gen.reference.problem import Array, ReferenceProblem
+from s2gen.reference.problem import Array, ReferenceProblem, numbers, scalar
 
 __all__ = ["DrivenProblem", "ForceFn", "TimeGradFn", "TimePotentialFn", "driven_rhs"]
 
@@ -100,34 +100,34 @@ class DrivenProblem:
 
     def V(self, q: Array, t: float, u: Array) -> float:
         """The potential V0(q) + V1(q, t, u)."""
-        v = float(self.base.potential(q))
-        return v if self.potential is None else v + float(self.potential(q, t, u))
+        v = scalar(self.base.potential(q))
+        return v if self.potential is None else v + scalar(self.potential(q, t, u))  # type: ignore[no-any-return]
 
     def dVdq(self, q: Array, t: float, u: Array) -> Array:
         """dV/dq (n, 3) at time t with inputs u."""
-        g = np.asarray(self.base.grad(q), dtype=float)
-        return g if self.grad is None else g + np.asarray(self.grad(q, t, u), dtype=float)
+        g = numbers(self.base.grad(q))
+        return g if self.grad is None else g + numbers(self.grad(q, t, u))
 
     def dVdt(self, q: Array, t: float, u: Array) -> float:
         """The partial derivative dV/dt (0 without an added potential)."""
-        return 0.0 if self.potential_t is None else float(self.potential_t(q, t, u))
+        return 0.0 if self.potential_t is None else scalar(self.potential_t(q, t, u))
 
     def F(self, q: Array, w: Array, t: float, u: Array) -> Array | None:
         """The generalized forces (n, 3), or None when there are none."""
         if self.force is None:
             return None
-        return np.asarray(self.force(q, w, t, u), dtype=float).reshape(self.n, 3)
+        return numbers(self.force(q, w, t, u)).reshape(self.n, 3)
 
     def power(self, q: Array, w: Array, t: float, u: Array) -> float:
         """P = dV/dt + sum_i F_i . qdot_i with qdot_i = w_i x q_i: the rate of the work W."""
         p = self.dVdt(q, t, u)
         F = self.F(q, w, t, u)
-        return p if F is None else p + float(np.sum(F * _cross(w, q)))
+        return p if F is None else p + scalar(np.sum(F * _cross(w, q)))  # type: ignore[no-any-return]
 
     def energy(self, q: Array, w: Array, t: float, u: Array) -> float:
         """E = 1/2 sum_ij M_ij qdot_i . qdot_j + V(q, t, u)."""
         e = energy(self.base, q, w)
-        return e if self.potential is None else e + float(self.potential(q, t, u))
+        return e if self.potential is None else e + scalar(self.potential(q, t, u))  # type: ignore[no-any-return]
 
 
 def driven_rhs(
@@ -146,9 +146,9 @@ def driven_rhs(
         >>> dw.tolist()
         [[0.0, -0.5, 0.0]]
     """
-    q = np.asarray(q, dtype=float)
-    w = np.asarray(w, dtype=float)
-    ua = np.asarray(u, dtype=float)
+    q = numbers(q)
+    w = numbers(w)
+    ua = numbers(u)
     M = problem.M
     g = problem.dVdq(q, t, ua)
     ww = np.sum(w * w, axis=1)

@@ -47,7 +47,7 @@ from s2gen.methods import method as method_row
 from s2gen.reference.errors import NonFiniteState, ReferenceIntegrationError, SingularSystem
 from s2gen.reference.forced import DrivenProblem, driven_rhs
 from s2gen.reference.forced_steps import forced_rattle_step, forced_vi_step, step_work
-from s2gen.reference.problem import Array
+from s2gen.reference.problem import Array, scalar
 from s2gen.reference.recorder import RefTrajectory, _new_stats
 from s2gen.reference.rk import _weighted
 
@@ -155,8 +155,8 @@ def _runge_kutta(problem: DrivenProblem, name: str, stats: dict[str, int]) -> St
         y1 = y + h * _weighted(b, ks, y)
         q1, w1 = y1[: 3 * n].reshape(n, 3), y1[3 * n : 6 * n].reshape(n, 3)
         if row.project:
-            q1 = q1 / np.linalg.norm(q1, axis=1)[:, None]
-        return q1, w1, float(y1[-1])
+            q1 = q1 / np.sqrt(np.sum(q1 * q1, axis=1))[:, None]  # |q_i|, also for complex q
+        return q1, w1, scalar(y1[-1])
 
     return advance
 

@@ -47,7 +47,7 @@ from s2gen.reference.errors import InfeasibleStep
 from s2gen.reference.forced import DrivenProblem
 from s2gen.reference.geometry import _cross, _off_diagonal, inertia_operator
 from s2gen.reference.newton import newton
-from s2gen.reference.problem import Array
+from s2gen.reference.problem import Array, numbers
 from s2gen.reference.vi import _cayley_apply, _newton_cayley
 
 __all__ = ["forced_rattle_step", "forced_vi_step", "step_work"]
@@ -65,15 +65,15 @@ def _newton_velocity(
 
     def linearize(w: Array) -> tuple[Array, Array]:
         G = (w - phi(w)).ravel()
-        J = np.empty((m, m))
+        J = np.empty((m, m))  # real: an approximate Jacobian, also for a complex w (below)
         for c in range(m):
-            e = 1e-7 * max(1.0, abs(float(w.flat[c])))
+            e = 1e-7 * max(1.0, abs(float(w.flat[c].real)))
             wc = w.copy()
             wc.flat[c] += e
-            J[:, c] = ((wc - phi(wc)).ravel() - G) / e
+            J[:, c] = (((wc - phi(wc)).ravel() - G) / e).real
         return G, J
 
-    return newton(np.array(w0, dtype=float), linearize, tol, maxiter, step, "velocity update")
+    return newton(np.array(numbers(w0)), linearize, tol, maxiter, step, "velocity update")
 
 
 def _end_velocity(
@@ -125,8 +125,8 @@ def forced_vi_step(
         >>> w1.round(12).tolist()  # w+ = h tau / m
         [[0.0, 0.0, 0.2]]
     """
-    q = np.asarray(q, dtype=float)
-    w = np.asarray(w, dtype=float)
+    q = numbers(q)
+    w = numbers(w)
     M = problem.M
     g0 = problem.dVdq(q, t, u)
     F0 = problem.F(q, w, t, u)
@@ -140,10 +140,10 @@ def forced_vi_step(
         a = d / m
         aa = np.sum(a * a, axis=1)
         for i in range(problem.n):
-            if aa[i] > 1.0:
+            if aa.real[i] > 1.0:
                 raise InfeasibleStep(
                     step,
-                    f"explicit VI step infeasible for body {i + 1}: |a|^2 = {aa[i]:.6g} > 1 "
+                    f"explicit VI step infeasible for body {i + 1}: |a|^2 = {aa.real[i]:.6g} > 1 "
                     f"(step size h = {h:g} too large)",
                 )
         q1 = _cross(a, q) + np.sqrt(1.0 - aa)[:, None] * q
@@ -210,8 +210,8 @@ def forced_rattle_step(
         >>> bool(abs(np.linalg.norm(q1) - 1) < 1e-15), round(float(w1[0, 2]), 12)
         (True, 1.0)
     """
-    x = np.asarray(q, dtype=float)
-    w = np.asarray(w, dtype=float)
+    x = numbers(q)
+    w = numbers(w)
     Minv = np.linalg.inv(problem.M)
     v = _cross(w, x)
     a0 = -problem.dVdq(x, t, u)

@@ -9,16 +9,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from s2gen.reference.problem import Array, ReferenceProblem
+from s2gen.reference.problem import Array, ReferenceProblem, numbers
 
 __all__ = ["angular_momentum", "energy", "hat", "inertia_operator"]
 
 
 def _cross(a: Array, b: Array) -> Array:
-    """Row-wise cross product a x b of (..., 3) arrays (np.cross without its overhead)."""
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    """Row-wise cross product a x b of (..., 3) arrays (np.cross without its overhead);
+    complex when either is."""
+    a = numbers(a)
+    b = numbers(b)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a, b))
     out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
     out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
     out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
@@ -76,7 +77,7 @@ def inertia_operator(M: Array, q: Array) -> Array:
 
 def _hats(q: Array) -> Array:
     """hat(q_i) for each row of q: shape (n, 3, 3)."""
-    H = np.zeros((q.shape[0], 3, 3))
+    H = np.zeros((q.shape[0], 3, 3), dtype=np.result_type(q, float))
     H[:, 0, 1], H[:, 0, 2], H[:, 1, 2] = -q[:, 2], q[:, 1], -q[:, 0]
     H[:, 1, 0], H[:, 2, 0], H[:, 2, 1] = q[:, 2], -q[:, 1], q[:, 0]
     return H

@@ -2,7 +2,8 @@
 
 Input: a start x0 and a function giving (residual, Jacobian) at x; the tolerance, iteration
 limit, the step (for messages) and what is being solved (for messages). Output: (x, iterations)
-with max |update| <= tol max(1, max |x|), or `NewtonFailure` after `maxiter` iterations, on a
+with max |update| <= tol max(1, max |x|) (real parts: a complex iterate, carried for a
+complex-step derivative, takes the iterations of its real part), or `NewtonFailure` after `maxiter` iterations, on a
 non-finite iterate or a singular Jacobian. The VI's Cayley parameters, the forced VI's
 velocity update and RATTLE's multipliers are solved by it.
 
@@ -47,6 +48,7 @@ def newton(
         x = x + delta
         if not np.all(np.isfinite(x)):
             raise NewtonFailure(step, f"{what}: iterate not finite at iteration {it}")
-        if np.max(np.abs(delta)) <= tol * max(1.0, float(np.max(np.abs(x)))):
+        # the real parts decide (a complex-step iterate stops when its real part would)
+        if np.max(np.abs(delta.real)) <= tol * max(1.0, float(np.max(np.abs(x.real)))):
             return x, it
     raise NewtonFailure(step, f"{what} did not converge in {maxiter} iterations")

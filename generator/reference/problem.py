@@ -21,11 +21,64 @@ from s2gen.symbols import q_symbols
 from s2gen.system import System, Term
 from s2gen.terms import Selection
 
-__all__ = ["Array", "GradFn", "PotentialFn", "ReferenceProblem", "problem_from_system"]
+__all__ = [
+    "ANALYTIC",
+    "Array",
+    "GradFn",
+    "PotentialFn",
+    "ReferenceProblem",
+    "numbers",
+    "problem_from_system",
+    "scalar",
+]
 
 Array = np.ndarray
 GradFn = Callable[[Array], Array]
 PotentialFn = Callable[[Array], float]
+
+
+def numbers(a: Any) -> Array:
+    """`a` as a float array, or as a complex array when it holds complex numbers: the
+    reference's steps carry complex states, inputs and parameters for a complex-step
+    derivative (`s2gen.reference.step_jacobian`), and a real input is cast exactly as before.
+
+    Example:
+        >>> numbers([1, 2]).dtype, numbers([1j]).dtype
+        (dtype('float64'), dtype('complex128'))
+    """
+    arr = np.asarray(a)
+    return arr if np.iscomplexobj(arr) else np.asarray(a, dtype=float)
+
+
+def scalar(x: Any) -> Any:
+    """`x` as a Python float, or complex when it is complex (see `numbers`).
+
+    Example:
+        >>> scalar(np.float64(0.5)), scalar(np.complex128(1j))
+        (0.5, 1j)
+    """
+    return complex(x) if np.iscomplexobj(x) else float(x)
+
+
+def _abs(x: Any) -> Any:
+    """|x| for real x (Python's abs, as lambdify prints it); for complex x the analytic
+    continuation of |Re x|, x sign(Re x), so that a complex-step derivative of |x| is
+    sign(x) dx (NumPy's |x| of a complex number is the modulus, which drops it)."""
+    if not np.iscomplexobj(x):
+        return abs(x)
+    return np.where(np.real(x) < 0, -x, x)
+
+
+def _sign(x: Any) -> Any:
+    """sign(x) for real x (NumPy's); for complex x the sign of the real part (constant
+    nearby: derivative 0; NumPy's sign of a complex number is x/|x|)."""
+    return np.sign(np.real(x)) if np.iscomplexobj(x) else np.sign(x)
+
+
+#: The functions lambdify takes from here before NumPy: those that are not analytic in NumPy's
+#: complex arithmetic (`_abs`, `_sign`); on real arguments they are what NumPy computes.
+ANALYTIC: dict[str, Callable[..., Any]] = {"Abs": _abs, "sign": _sign}
+MODULES: list[Any] = [ANALYTIC, "numpy"]
 
 
 @dataclass(frozen=True)
@@ -45,7 +98,7 @@ class ReferenceProblem:
     potential: PotentialFn
 
     def __post_init__(self) -> None:
-        M = np.array(self.M, dtype=float)
+        M = np.array(numbers(self.M))
         if M.ndim != 2 or M.shape[0] != M.shape[1] or M.shape[0] < 1:
             raise ValueError(f"ReferenceProblem: M must be a square matrix, got shape {M.shape}")
         if not np.array_equal(M, M.T):
@@ -111,25 +164,45 @@ def problem_from_system(
     kernels = [_compile_term(t, n, ps, values) for t in system.terms if t.count(n) > 0]
 
     def potential(q: Array) -> float:
-        qa = np.asarray(q, dtype=float)
+        qa = numbers(q)
         total = 0.0 if general is None else general[0](qa)
         if kernels:
             qT = np.ascontiguousarray(qa.reshape(n, 3).T)
             total += sum(k.potential(qT) for k in kernels)
-        return float(total)
+        return scalar(total)  # type: ignore[no-any-return]
 
     def grad(q: Array) -> Array:
-        qa = np.asarray(q, dtype=float)
+        qa = numbers(q)
         if not kernels:
             return np.zeros((n, 3)) if general is None else general[1](qa)
         qT = np.ascontiguousarray(qa.reshape(n, 3).T)
-        out = np.zeros((3, n))
+        kind = np.result_type(qT, *(np.asarray(k.params) for k in kernels))
+        out = np.zeros((3, n), dtype=kind)
         for k in kernels:
             k.add_grad(qT, out)
         g = np.ascontiguousarray(out.T)
         return g if general is None else g + general[1](qa)
 
-    return ReferenceProblem(M=system.inertia_numeric(values), grad=grad, potential=potential)
+    return ReferenceProblem(M=inertia(system, values), grad=grad, potential=potential)
+
+
+def inertia(system: System, values: Sequence[Any]) -> Array:
+    """M at the parameter values: `System.inertia_numeric` for real values; for complex ones
+    (a complex-step derivative in the parameters) each entry of the SymPy matrix evaluated by
+    NumPy in complex arithmetic (small n: the matrix is dense).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> s = builtin("double_pendulum")
+        >>> M = inertia(s, [v + 1e-30j for v in s.parameter_values])
+        >>> bool(np.array_equal(M.real, s.inertia_numeric())), bool(np.any(M.imag != 0))
+        (True, True)
+    """
+    if not np.iscomplexobj(np.asarray(values)):
+        return system.inertia_numeric(values)
+    matrix = sp.Matrix(system.inertia)
+    entries = sp.lambdify(list(system.parameter_symbols), matrix, modules=MODULES)
+    return np.asarray(entries(*values), dtype=complex).reshape(system.n, system.n)
 
 
 def _parameter_values(
@@ -144,8 +217,8 @@ def _parameter_values(
         if unknown:
             raise ValueError(f"problem_from_system: unknown parameters {sorted(unknown)}")
         merged = {**system.parameters, **parameter_values}
-        return tuple(float(merged[p]) for p in system.parameter_names)
-    values = tuple(float(v) for v in parameter_values)
+        return tuple(scalar(merged[p]) for p in system.parameter_names)
+    values = tuple(scalar(v) for v in parameter_values)
     if len(values) != len(system.parameter_names):
         raise ValueError(
             f"problem_from_system: expected {len(system.parameter_names)} parameter values, "
@@ -163,15 +236,15 @@ def _general_part(
         return None
     n = system.n
     qs = q_symbols(n)
-    v_fn = sp.lambdify([qs, ps], V, modules="numpy", dummify=True)
-    g_fn = sp.lambdify([qs, ps], [sp.diff(V, s) for s in qs], modules="numpy", dummify=True)
+    v_fn = sp.lambdify([qs, ps], V, modules=MODULES, dummify=True)
+    g_fn = sp.lambdify([qs, ps], [sp.diff(V, s) for s in qs], modules=MODULES, dummify=True)
 
     def potential(q: Array) -> float:
-        return float(v_fn(list(np.asarray(q, dtype=float).ravel()), pvals))
+        return scalar(v_fn(list(numbers(q).ravel()), pvals))  # type: ignore[no-any-return]
 
     def grad(q: Array) -> Array:
-        flat = g_fn(list(np.asarray(q, dtype=float).ravel()), pvals)
-        return np.array(flat, dtype=float).reshape(n, 3)
+        flat = g_fn(list(numbers(q).ravel()), pvals)
+        return numbers(flat).reshape(n, 3)
 
     return potential, grad
 
@@ -208,7 +281,7 @@ class _TermKernel:
     n: int
     index: tuple[Array, ...]
     data: tuple[Array, ...]
-    params: tuple[float, ...]
+    params: tuple[Any, ...]  # floats, or complex numbers for a complex-step derivative
     value: Callable[..., Any]
     gradient: Callable[..., Any]
     cutoff: float | None = None
@@ -233,13 +306,14 @@ class _TermKernel:
 
     @staticmethod
     def _members(x: Any, count: int) -> Array:
-        """A lambdified result (possibly a constant) as a (count,) float array."""
-        return np.broadcast_to(np.asarray(x, dtype=float), (count,))
+        """A lambdified result (possibly a constant) as a (count,) float (or complex) array."""
+        return np.broadcast_to(numbers(x), (count,))
 
     def potential(self, qT: Array) -> float:
         """Sum of the term over its members at positions qT (3, n)."""
         index = self._active(qT)
-        return float(np.sum(self._members(self.value(*self._args(qT, index)), index[0].size)))
+        values = self._members(self.value(*self._args(qT, index)), index[0].size)
+        return scalar(np.sum(values))  # type: ignore[no-any-return]
 
     def add_grad(self, qT: Array, out: Array) -> None:
         """Add the term's gradient at positions qT (3, n) into out (3, n)."""
@@ -248,7 +322,16 @@ class _TermKernel:
         for r, idx in enumerate(index):
             for c in range(3):
                 weights = self._members(parts[3 * r + c], idx.size)
-                out[c] += np.bincount(idx, weights=weights, minlength=self.n)
+                out[c] += _scatter(idx, weights, self.n)
+
+
+def _scatter(idx: Array, weights: Array, n: int) -> Array:
+    """The sums of `weights` per index 0..n-1 (`numpy.bincount`, which takes real weights:
+    a complex array is summed as its real and imaginary parts)."""
+    if np.iscomplexobj(weights):
+        real = np.bincount(idx, weights=weights.real, minlength=n)
+        return real + 1j * np.bincount(idx, weights=weights.imag, minlength=n)
+    return np.bincount(idx, weights=weights, minlength=n)
 
 
 def _compile_term(term: Term, n: int, ps: list[sp.Symbol], values: Sequence[float]) -> _TermKernel:
@@ -275,13 +358,13 @@ def _compile_term(term: Term, n: int, ps: list[sp.Symbol], values: Sequence[floa
     args = [*positions, *data_syms, *params]
     expr = sp.sympify(term.expr)
     derivatives = [sp.diff(expr, s) for s in positions]
-    value = sp.lambdify(args, expr, modules="numpy", dummify=True, cse=True)
-    gradient = sp.lambdify(args, derivatives, modules="numpy", dummify=True, cse=True)
+    value = sp.lambdify(args, expr, modules=MODULES, dummify=True, cse=True)
+    gradient = sp.lambdify(args, derivatives, modules=MODULES, dummify=True, cse=True)
     return _TermKernel(
         n=n,
         index=index,
         data=tuple(columns),
-        params=tuple(float(v) for v in values),
+        params=tuple(scalar(v) for v in values),
         value=value,
         gradient=gradient,
         cutoff=term.cutoff,

@@ -18,7 +18,7 @@ import numpy as np
 from s2gen.reference.errors import NonFiniteState, ReferenceIntegrationError, SingularSystem
 from s2gen.reference.field import continuous_rhs
 from s2gen.reference.geometry import energy
-from s2gen.reference.problem import Array, ReferenceProblem
+from s2gen.reference.problem import Array, ReferenceProblem, numbers
 
 __all__ = ["RefTrajectory"]
 
@@ -87,7 +87,7 @@ class _Recorder:
 
 
 def _state(q: Array, w: Array) -> Array:
-    return np.concatenate([np.asarray(q, dtype=float).ravel(), np.asarray(w, dtype=float).ravel()])
+    return np.concatenate([numbers(q).ravel(), numbers(w).ravel()])
 
 
 def _vector_field(rec: _Recorder) -> Callable[[Array], Array]:

@@ -63,6 +63,6 @@ def _rk_advance(rec: _Recorder, method: str, h: float) -> Callable[[Array, int],
         if not row.project:
             return y1
         q, w = rec.split(y1)
-        return _state(q / np.linalg.norm(q, axis=1)[:, None], w)
+        return _state(q / np.sqrt(np.sum(q * q, axis=1))[:, None], w)  # |q_i|, also complex
 
     return advance

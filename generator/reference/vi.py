@@ -19,7 +19,7 @@ import numpy as np
 from s2gen.reference.errors import InfeasibleStep
 from s2gen.reference.geometry import _assemble, _cross, _hats, _off_diagonal, inertia_operator
 from s2gen.reference.newton import newton
-from s2gen.reference.problem import Array, ReferenceProblem
+from s2gen.reference.problem import Array, ReferenceProblem, numbers
 from s2gen.reference.recorder import _Recorder, _state
 
 __all__ = ["vi_d", "vi_jacobian", "vi_residual", "vi_step"]
@@ -42,7 +42,7 @@ def vi_d(problem: ReferenceProblem, q: Array, w: Array, h: float) -> Array:
         [[0.0, 0.0, 0.6]]
     """
     M = problem.M
-    g = np.asarray(problem.grad(q), dtype=float)
+    g = numbers(problem.grad(q))
     coupling = _off_diagonal(M) @ _cross(w, q)
     return h * np.diag(M)[:, None] * w + h * _cross(q, coupling) - 0.5 * h * h * _cross(q, g)
 
@@ -117,15 +117,15 @@ def _vi_explicit(
     a = d / m
     aa = np.sum(a * a, axis=1)
     for i in range(problem.n):
-        if aa[i] > 1.0:
+        if aa.real[i] > 1.0:
             raise InfeasibleStep(
                 step,
-                f"explicit VI step infeasible for body {i + 1}: |a|^2 = {aa[i]:.6g} > 1 "
+                f"explicit VI step infeasible for body {i + 1}: |a|^2 = {aa.real[i]:.6g} > 1 "
                 f"(step size h = {h:g} too large)",
             )
     q1 = _cross(a, q) + np.sqrt(1.0 - aa)[:, None] * q
-    g0 = np.asarray(problem.grad(q), dtype=float)
-    g1 = np.asarray(problem.grad(q1), dtype=float)
+    g0 = numbers(problem.grad(q))
+    g1 = numbers(problem.grad(q1))
     w1 = w - h / (2.0 * m) * _cross(q, g0) - h / (2.0 * m) * _cross(q1, g1)
     return q1, w1
 
@@ -135,7 +135,7 @@ def _vi_velocity(problem: ReferenceProblem, q: Array, q1: Array, h: float) -> Ar
 
     c_i = (1/h) q1_i x sum_j M_ij (q1_j - q_j) - (h/2) q1_i x g_i(q1).
     """
-    g1 = np.asarray(problem.grad(q1), dtype=float)
+    g1 = numbers(problem.grad(q1))
     c = _cross(q1, problem.M @ (q1 - q)) / h - 0.5 * h * _cross(q1, g1)
     return np.linalg.solve(inertia_operator(problem.M, q1), c.ravel()).reshape(q.shape)
 
@@ -161,8 +161,8 @@ def vi_step(
         >>> q1.round(12).tolist(), its
         ([[0.8, 0.6, 0.0]], 0)
     """
-    q = np.asarray(q, dtype=float)
-    w = np.asarray(w, dtype=float)
+    q = numbers(q)
+    w = numbers(w)
     d = vi_d(problem, q, w, h)
     if problem.is_diagonal:
         q1, w1 = _vi_explicit(problem, q, w, h, d, step)

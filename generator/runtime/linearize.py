@@ -2,7 +2,8 @@
 embedding coordinates.
 
 Input: a C or NumPy backend whose module has step_jacobian() (built from
-`System.with_jacobians`: systems of a few bodies), a state, a step size, a fixed-step method,
+`System.with_jacobians`: systems of a few bodies), or the reference backend (its step's
+complex-step derivative, `s2gen.reference.step_jacobian`: an independent check), a state, a step size, a fixed-step method,
 time and inputs. Output: a `Linearization`. The two backends' step_jacobian() print the same
 kernels and agree to round-off (`tests/test_numpy_jacobian.py`).
 
@@ -139,8 +140,8 @@ def jacobian_features(backend: Any) -> tuple[bool, bool]:
     if isinstance(backend, NumpyBackend):
         return backend.jacobian, backend.jacobian_vi
     raise TypeError(
-        f"{backend.system.name}: the step Jacobians run on the C or NumPy backend, not "
-        f"{backend.name!r}"
+        f"{backend.system.name}: the emitted Jacobians run on the C or NumPy backend, not "
+        f"{backend.name!r} (whose linearize is its own step's complex-step derivative)"
     )
 
 
@@ -149,6 +150,8 @@ def _refuse(backend: Any, method_name: str, basis: str) -> None:
     system = backend.system
     if basis not in BASES:
         raise ValueError(f"basis {basis!r}: choose one of {', '.join(BASES)}")
+    if backend.name == "reference":
+        return  # the reference's step_jacobian names the methods it takes
     jacobian, jacobian_vi = jacobian_features(backend)
     if not jacobian:
         why = jacobian_refusal(system) or "built without them (System.with_jacobians)"
@@ -178,9 +181,10 @@ def step_jacobian(
     params: np.ndarray,
     options: Options,
 ) -> tuple[np.ndarray, ...]:
-    """One call of the module's step_jacobian() on a C or NumPy backend: (qn, wn, A, B, P) in
-    the embedding coordinates, q, w of shape (n, 3), u the inputs (None: the defaults);
-    ValueError naming the status of a failed step.
+    """One call of the module's step_jacobian() on a C or NumPy backend (or the reference
+    backend's, a complex-step derivative): (qn, wn, A, B, P) in the embedding coordinates,
+    q, w of shape (n, 3), u the inputs (None: the defaults); ValueError naming the status of a
+    failed step.
 
     Example:
         >>> from s2gen.systems import builtin
@@ -193,6 +197,8 @@ def step_jacobian(
         ((12, 12), (12, 0), (12, 5))
     """
     system = backend.system
+    if backend.name == "reference":
+        return tuple(backend.step_jacobian(method_name, t, h, q, w, u, params, options))
     n, ni, npar = system.n, len(system.inputs.names), len(system.parameter_names)
     q0 = contiguous(np.asarray(q, dtype=float).reshape(n, 3))
     w0 = contiguous(np.asarray(w, dtype=float).reshape(n, 3))
@@ -249,8 +255,8 @@ def linearize(
     options: Options | None = None,
 ) -> Linearization:
     """The `Linearization` of one step of `method_name` from (q, w) (shape (n, 3)) at time t
-    with the inputs u (None: the spec's defaults) on a `CBackend` or a `NumpyBackend`, with
-    the step's `options` (None: the defaults).
+    with the inputs u (None: the spec's defaults) on a `CBackend`, a `NumpyBackend` or the
+    reference backend, with the step's `options` (None: the defaults).
 
     Example:
         >>> from s2gen.systems import builtin

@@ -277,8 +277,10 @@ class Model(JacobianMethods):
         `params`) in the tangent basis of T(S^2)^n (4n coordinates) or the embedding
         coordinates (6n), with the state after the step and the bases (`s2gen.runtime.linearize`); the VI family (M
         any M) and the fixed-step Runge-Kutta methods, C or NumPy backend (the first
-        call builds the module with step_jacobian(), `System.with_jacobians`). `options`: the
-        step's (Newton's tolerance for a coupled M).
+        call builds the module with step_jacobian(), `System.with_jacobians`); on the
+        reference backend the complex-step derivative of the reference's own step (the VI and
+        RATTLE families, the fixed-step Runge-Kutta methods; `s2gen.reference.step_jacobian`).
+        `options`: the step's (Newton's tolerance for a coupled M).
 
         Example:
             >>> from s2gen.systems import builtin
@@ -291,7 +293,7 @@ class Model(JacobianMethods):
 
         p = parameter_vector(self.system, params)
         uu = None if u is None else np.asarray(u, dtype=float)
-        backend = self._jacobian_backend()
+        backend = self._backend if self.backend_name == "reference" else self._jacobian_backend()
         return linearize(backend, q, omega, h, method, p, t, uu, basis, options)
 
     def step_jvp(

@@ -73,6 +73,45 @@ class ReferenceBackend:
 
         return np.asarray(reference.angular_momentum(self._problem(params), q, w))
 
+    def step_jacobian(
+        self,
+        method: str,
+        t: float,
+        h: float,
+        q: np.ndarray,
+        w: np.ndarray,
+        u: np.ndarray | None,
+        params: np.ndarray,
+        options: Options,
+    ) -> tuple[np.ndarray, ...]:
+        """(q+, w+, A, B, P) of one step in the embedding coordinates, as the C and NumPy
+        modules' step_jacobian(), by the complex-step derivative of the reference's own step
+        (`s2gen.reference.step_jacobian`); u None: the spec's inputs.
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> s = builtin("double_pendulum")
+            >>> be = ReferenceBackend(s)
+            >>> qn, wn, A, B, P = be.step_jacobian("vi", 0.0, 0.01, s.q0, s.omega0, None,
+            ...                                    be.default_params(), Options())
+            >>> A.shape, P.shape
+            ((12, 12), (12, 5))
+        """
+        from s2gen.methods import Status
+        from s2gen.reference import ReferenceIntegrationError
+        from s2gen.reference.step_jacobian import step_jacobian
+
+        try:
+            return step_jacobian(
+                self.system, method, t, h, q, w, u, params, options.newton_tol,
+                options.newton_maxiter,
+            )  # fmt: skip
+        except (ReferenceIntegrationError, np.linalg.LinAlgError) as exc:
+            st = exc.status if isinstance(exc, ReferenceIntegrationError) else Status.SINGULAR
+            raise ValueError(
+                f"{self.system.name}: step_jacobian: {st.c_name}: {st.message}"
+            ) from exc
+
     def integrate(
         self,
         method: str,

@@ -11,7 +11,9 @@ stdout as the work goes on.
 Our methods all run on the same emitted C (`runtime.simulate`, backend "c"): the VI family (the
 VI "vi", RATTLE "rattle" and their symmetric compositions of orders 4, 6 and 8: "vi4", "vi6",
 "vi8", "rattle4", "rattle6", "rattle8"), RK2, RK2 with renormalization, RK4, RK45 under both
-error controls and DOP853. Outside peers (`peers.py`) run in the same process: scipy's
+error controls and DOP853; on the systems whose emitted C has their driver (closed, with
+monitored pair terms or a monitor given as [run] g) also the time-transformed VI
+("vi-adaptive", "vi4-adaptive", "vi6-adaptive", "vi8-adaptive") over its fictitious step eps. Outside peers (`peers.py`) run in the same process: scipy's
 `solve_ivp` (RK45, DOP853) on the emitted NumPy right-hand side, and PyDy (double pendulum).
 
 Definitions (repeated in bench.md):
@@ -19,9 +21,10 @@ Definitions (repeated in bench.md):
   reference being our C DOP853 (rtol = atol = 3e-14), cross-checked against vi8 and rattle8 at
   three small steps (the smallest discrepancy is the reference's stated accuracy);
 - energy error: max |E - E0| over every step (fixed-step methods) or over T/200-spaced
-  samples (adaptive methods and peers), also divided by the largest kinetic energy along the
-  reference ("relative"); for our methods from a second run that keeps those samples (the
-  adaptive ones take the same steps either way);
+  samples (adaptive methods and peers; the time-transformed ones: every eps of time), also
+  divided by the largest kinetic energy along the reference ("relative"); for our methods
+  from a second run that keeps those samples (the adaptive ones take the same steps either
+  way);
 - cost: best-of-k wall time of the integration call only (our methods: keeping only the final
   state, without energy), and gradient evaluations (for the peers: right-hand-side
   evaluations, each one gradient).
@@ -71,6 +74,7 @@ _WHERE = {
     "StabRow": "model",
     "StabilityCase": "model",
     "TIE": "report_example",
+    "TIME_TRANSFORMED": "model",
     "VI_FAMILY": "model",
     "WPRow": "model",
     "WP_COLUMNS": "tables",
@@ -89,6 +93,7 @@ _WHERE = {
     "example_system": "common",
     "findings": "report_example",
     "fitted_orders": "sweeps",
+    "has_transformed": "sweeps",
     "kinetic_energy": "common",
     "largest_stable": "envelope",
     "long_setup": "long_study",
@@ -123,6 +128,7 @@ __all__ = [
     "RK_C",
     "SAMPLES",
     "TIE",
+    "TIME_TRANSFORMED",
     "VI_FAMILY",
     "WP_COLUMNS",
     "BenchReport",
@@ -145,6 +151,7 @@ __all__ = [
     "example_system",
     "findings",
     "fitted_orders",
+    "has_transformed",
     "kinetic_energy",
     "largest_stable",
     "long_setup",

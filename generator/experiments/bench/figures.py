@@ -6,8 +6,8 @@ h per hard case) and ``scaling.png`` (generation and step time against n), for t
 that ran.
 
 Example:
-    >>> _style("vi")["lw"], _style("scipy-RK45")["ls"]
-    (2.2, '--')
+    >>> _style("vi")["lw"], _style("scipy-RK45")["ls"], _style("vi8-adaptive")["marker"]
+    (2.2, '--', 'D')
 """
 
 from __future__ import annotations
@@ -20,7 +20,15 @@ from typing import Any
 import numpy as np
 
 from .envelope import largest_stable
-from .model import FIXED, VI_FAMILY, BenchReport, ExampleBench, ScaleRow, StabRow
+from .model import (
+    FIXED,
+    TIME_TRANSFORMED,
+    VI_FAMILY,
+    BenchReport,
+    ExampleBench,
+    ScaleRow,
+    StabRow,
+)
 
 _COLORS = {
     "vi": "C0",
@@ -39,6 +47,10 @@ _COLORS = {
     "dop853": "#b8860b",
     "scipy-RK45": "C8",
     "scipy-DOP853": "C9",
+    "vi-adaptive": "#dd3497",
+    "vi4-adaptive": "#ae017e",
+    "vi6-adaptive": "#7a0177",
+    "vi8-adaptive": "#49006a",
 }
 
 #: Our adaptive methods on the emitted C (rows named by method, or rk45-<control>).
@@ -47,6 +59,8 @@ _OUR_ADAPTIVE = ("rk45", "dop853")
 
 def _style(method: str) -> dict[str, Any]:
     color = _COLORS.get(method, "k" if "lsoda" in method else "0.5")
+    if method in TIME_TRANSFORMED:  # geometric and adaptive: the VI's weight, their own mark
+        return {"color": color, "ls": "-.", "lw": 2.2, "marker": "D", "ms": 4}
     ours = method.startswith(_OUR_ADAPTIVE)
     ls = "-" if method in FIXED or ours else "--"
     lw = 2.2 if method in VI_FAMILY else 1.2

@@ -1,6 +1,7 @@
 """The records of `s2gen bench` and the constants that describe its methods.
 
-Input: nothing (definitions only). Output: the method lists (`FIXED`, `VI_FAMILY`, `RK_C`),
+Input: nothing (definitions only). Output: the method lists (`FIXED`, `VI_FAMILY`, `RK_C`,
+`TIME_TRANSFORMED`),
 their expected orders and gradient evaluations per step (from `s2gen.methods`), and the
 dataclasses every other module of
 the package passes around: `WPRow` (one work-precision run), `Reference`, `ExampleBench`
@@ -41,9 +42,16 @@ FIXED = (
         if m.family is Family.FIXED_RK and "c" in m.backends
     ),
 )
+#: The time-transformed VI methods of the emitted C (swept over their fictitious step eps, on
+#: the systems whose emitted C has their driver).
+TIME_TRANSFORMED = tuple(
+    m.name
+    for m in sorted(METHODS, key=lambda m: m.order)
+    if m.family is Family.TIME_VI and "c" in m.backends
+)
 #: The Runge-Kutta runs on the emitted C that the VI family is measured against (by row name).
 RK_C = ("rk4", "rk45-hairer", "rk45-matlab", "dop853")
-ORDERS = {m: float(method(m).order) for m in FIXED}
+ORDERS = {m: float(method(m).order) for m in (*FIXED, *TIME_TRANSFORMED)}
 #: Gradient evaluations per step of the fixed-step methods.
 EVALS_PER_STEP = {m: method(m).evals for m in FIXED}
 #: Tolerance of the reference runs (C DOP853).
@@ -72,7 +80,10 @@ class WPRow:
 
     @property
     def setting(self) -> str:
-        """The swept setting as text: h for fixed-step methods, else the tolerance."""
+        """The swept setting as text: h for fixed-step methods, eps for the time-transformed
+        ones, else the tolerance."""
+        if self.method in TIME_TRANSFORMED:
+            return f"eps={self.h:.4g}"
         return f"h={self.h:.4g}" if self.method in FIXED else f"tol={self.rtol:.0e}"
 
     @property

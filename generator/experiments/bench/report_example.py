@@ -22,7 +22,16 @@ import numpy as np
 
 from .common import _fmt, _ms, _table, _times
 from .kernels import md_kernel_ops
-from .model import FIXED, ORDERS, REF_RTOL, RK_C, VI_FAMILY, ExampleBench, WPRow
+from .model import (
+    FIXED,
+    ORDERS,
+    REF_RTOL,
+    RK_C,
+    TIME_TRANSFORMED,
+    VI_FAMILY,
+    ExampleBench,
+    WPRow,
+)
 from .per_step import NEWTON_STEPS
 from .report_long import _md_long
 from .sweeps import fitted_orders
@@ -109,6 +118,40 @@ def _md_versus_rk(ex: ExampleBench) -> list[str]:
     ]
 
 
+def _md_transformed(ex: ExampleBench) -> list[str]:
+    """Per state-error target: the cheapest time-transformed run and the cheapest DOP853 run
+    (wall time, gradient evaluations) and the ratio of their times; nothing when the example
+    has no time-transformed rows."""
+    if not any(r.method in TIME_TRANSFORMED for r in ex.rows):
+        return []
+    table = []
+    for target in _targets(ex, "state_err"):
+        tt = cheapest([r for r in ex.rows if r.method in TIME_TRANSFORMED], "state_err", target)
+        dop = cheapest([r for r in ex.rows if r.method == "dop853"], "state_err", target)
+        if tt is None and dop is None:
+            continue
+        table.append(
+            [
+                f"≤ {target:.0e}",
+                f"{tt.method} ({tt.setting}): {_ms(tt.wall)}, {tt.evals}" if tt else "not reached",
+                f"dop853 ({dop.setting}): {_ms(dop.wall)}, {dop.evals}" if dop else "not reached",
+                _fmt(tt.wall / dop.wall, ".2f") + "×" if tt and dop else "—",
+            ]
+        )
+    head = (
+        "state error",
+        "best time-transformed VI (wall, gradient evals)",
+        "best DOP853 (wall, gradient evals)",
+        "time-transformed / DOP853",
+    )
+    title = (
+        "The time-transformed VI (steps eps / xi in time, xi tracking the monitor of the "
+        "system's pair terms) against DOP853, both on the emitted C: the cheapest run of each "
+        "that reaches the target."
+    )
+    return ["### The time-transformed VI against DOP853", "", title, "", *_table(head, table), ""]
+
+
 #: Wall-time ratios within this factor of 1 are reported as ties (timing noise).
 TIE = 1.15
 
@@ -170,9 +213,10 @@ def _vi_vs_rattle(ex: ExampleBench) -> str:
 
 def _md_orders(ex: ExampleBench) -> list[str]:
     orders = fitted_orders(ex.rows, ex.reference.accuracy)
-    rows = [[m, _fmt(orders.get(m), ".3f"), f"{ORDERS[m]:g}"] for m in FIXED]
-    title = "Fitted order (slope of log state error against log h, errors in 100× reference "
-    title += "accuracy … 1e-2):"
+    swept = [m for m in TIME_TRANSFORMED if any(r.method == m for r in ex.rows)]
+    rows = [[m, _fmt(orders.get(m), ".3f"), f"{ORDERS[m]:g}"] for m in (*FIXED, *swept)]
+    title = "Fitted order (slope of log state error against log h, or log eps for the "
+    title += "time-transformed methods, errors in 100× reference accuracy … 1e-2):"
     return [title, "", *_table(("method", "fitted", "expected"), rows)]
 
 
@@ -289,6 +333,7 @@ def _md_example(ex: ExampleBench, out: Path) -> list[str]:
         head2 = ("rel. energy error", *head[1:])
         lines += [*_table(head2, _winner_rows(ex, "rel_dE")), ""]
         lines += _md_versus_rk(ex)
+        lines += _md_transformed(ex)
         lines += ["### Where the VI loses and where it wins (generated from the rows above)", ""]
         lines += findings(ex, "state_err") + findings(ex, "rel_dE")
         lines += [_vi_vs_rattle(ex), ""]

@@ -1,9 +1,9 @@
 """Work-precision sweeps of one example: our integrators and the outside peers.
 
 Input: an example name, `quick`, an optional horizon T and PyDy's code generator. Output: an
-`ExampleBench` whose `rows` hold one `WPRow` per run (fixed-step methods over h = T/N, RK45
-under both error controls and DOP853 on the emitted C, scipy's RK45/DOP853 and PyDy over
-tolerances), measured against a converged `reference`; also the per-call overhead and the
+`ExampleBench` whose `rows` hold one `WPRow` per run (fixed-step methods over h = T/N, the
+time-transformed ones over eps = T/N where the emitted C has them, RK45 under both error
+controls and DOP853 on the emitted C, scipy's RK45/DOP853 and PyDy over tolerances), measured against a converged `reference`; also the per-call overhead and the
 per-step timings (`per_step.py`). `fitted_orders` turns the rows into convergence orders.
 The full sweeps step h by 2^(1/4) and the tolerance by 10^(1/4), so that the cheapest run
 below an error target is close to it; the quick ones by 2 and 100.
@@ -24,10 +24,10 @@ import numpy as np
 
 from s2gen import IntegrationError, Options, System, Trajectory, simulate
 from s2gen.experiments import peers
-from s2gen.inspect import get_backend
+from s2gen.inspect import get_backend, lowered
 
 from .common import Log, _best_wall, _err, _ms, _print, _state, _why, example_system, kinetic_energy
-from .model import FIXED, REF_RTOL, SAMPLES, ExampleBench, Reference, WPRow
+from .model import FIXED, REF_RTOL, SAMPLES, TIME_TRANSFORMED, ExampleBench, Reference, WPRow
 from .per_step import newton_per_substep, per_step_times
 
 #: Horizons (full, quick) of the work-precision sweeps, chosen so the reference is trustworthy.
@@ -74,6 +74,41 @@ def _sweep_steps(system: System, T: float, quick: bool) -> list[int]:
     return sorted({round(n0 * 2 ** (k / 4)) for k in range(45)})
 
 
+#: Fictitious steps of the run that measures a time-transformed chain's mean step (eps = T/N)
+PROBE_STEPS = 4096
+
+
+def _eps_steps(system: System, T: float, quick: bool) -> list[int]:
+    """Fictitious step counts N (eps = T/N) of the time-transformed methods, coarse to fine,
+    matched to the fixed-step sweep (`_sweep_steps`) two octaves coarser: eps = T/N takes
+    about a quarter as many steps in time as h = T/n does (adaptive steps resolve the
+    encounters with fewer), the ratio measured by one fine run of ``vi-adaptive`` (eps =
+    T/`PROBE_STEPS`); so the sweep starts where the methods resolve the motion, not at an eps
+    whose chain wanders off (or fails: no real root for the step size)."""
+    steps = _sweep_steps(system, T, quick)
+    try:
+        probe = simulate(
+            system, "vi-adaptive", "c", h=T / PROBE_STEPS, T=T, every=PROBE_STEPS, energy=False
+        )
+    except IntegrationError:
+        return steps
+    ratio = PROBE_STEPS / max(int(probe.stats["steps"]), 1) / 4
+    return sorted({max(1, round(n * ratio)) for n in steps})
+
+
+def has_transformed(system: System) -> bool:
+    """Whether the emitted C of `system` has the time-transformed driver: a closed system with
+    monitored pair terms (none within a cutoff) or a monitor given as [run] g.
+
+    Example:
+        >>> has_transformed(example_system("three_bodies"))
+        True
+        >>> has_transformed(example_system("double_pendulum"))
+        False
+    """
+    return "transformed" in lowered(system).parts
+
+
 def _runs(
     system: System, method: str, h: float, T: float, k: int, options: Options | None = None
 ) -> tuple[Trajectory, Trajectory]:
@@ -101,7 +136,7 @@ def _our_row(
         name,
         method,
         "s2gen",
-        tr.h if method in FIXED else float("nan"),
+        tr.h if method in FIXED or method in TIME_TRANSFORMED else float("nan"),
         rtol,
         ref.T,
         steps,
@@ -124,7 +159,12 @@ def _failed_row(
 def _fixed_sweep(
     name: str, method: str, ref: Reference, steps: Sequence[int], budget: float, k: int, log: Log
 ) -> list[WPRow]:
+    """`method` at h = T/N (a time-transformed one at eps = T/N) for N in `steps`, until its
+    error reaches 30x the reference accuracy, grows past 10x its smallest so far once that
+    is below 1e-4 (round-off has taken over: more steps only add to it) or a run takes longer
+    than `budget`."""
     rows: list[WPRow] = []
+    best = math.inf
     for n in steps:
         h = ref.T / n
         try:
@@ -134,7 +174,9 @@ def _fixed_sweep(
             continue
         row = _our_row(name, method, runs, ref)
         rows.append(row)
-        if row.state_err < 30 * ref.accuracy or row.wall > budget:
+        worse = best < 1e-4 and row.state_err > 10 * best
+        best = min(best, row.state_err)
+        if row.state_err < 30 * ref.accuracy or worse or row.wall > budget:
             break
     log(f"    {method:11s} {_sweep_line(rows)}")
     return rows
@@ -275,6 +317,10 @@ def work_precision(
     steps = _sweep_steps(system, T, quick)
     for method in FIXED:
         ex.rows += _fixed_sweep(name, method, ref, steps, budget, k, log)
+    if has_transformed(system):
+        eps_steps = _eps_steps(system, T, quick)
+        for method in TIME_TRANSFORMED:
+            ex.rows += _fixed_sweep(name, method, ref, eps_steps, budget, k, log)
     for control in ("hairer", "matlab"):
         ex.rows += _adaptive_sweep(name, "rk45", control, ref, quick, k, log)
     ex.rows += _adaptive_sweep(name, "dop853", "hairer", ref, quick, k, log)
@@ -297,24 +343,32 @@ def _call_overhead(system: System, T: float) -> float:
 
 
 def fitted_orders(rows: Sequence[WPRow], floor: float) -> dict[str, float]:
-    """Least-squares slope of log(state error) against log(h) per fixed-step method.
+    """Least-squares slope of log(state error) against log(h) per fixed-step method (and
+    against log(eps) per time-transformed one).
 
-    Uses the runs whose error lies between 100 x the reference accuracy and 1e-2 (the
-    asymptotic range), when there are at least three.
+    Uses the runs whose error lies between 100 x the reference accuracy and 1e-2 and whose h
+    is at least that of the most accurate run (the asymptotic range: below it round-off
+    grows), when there are at least three.
 
     Example:
         >>> rows = [WPRow("x", "vi", "s2gen", h, 0, 1, 0, 0, 0, 0, 3 * h**2, 0, 0)
         ...         for h in (0.01, 0.005, 0.0025)]
         >>> round(fitted_orders(rows, 1e-12)["vi"], 6)
         2.0
+        >>> tail = WPRow("x", "vi", "s2gen", 0.001, 0, 1, 0, 0, 0, 0, 1e-3, 0, 0)  # round-off
+        >>> round(fitted_orders([*rows, tail], 1e-12)["vi"], 6)
+        2.0
     """
     out = {}
-    for method in FIXED:
+    for method in (*FIXED, *TIME_TRANSFORMED):
         pts = [
             (r.h, r.state_err)
             for r in rows
             if r.method == method and r.ok and 100 * floor < r.state_err < 1e-2
         ]
+        if pts:
+            finest = min(pts, key=lambda p: p[1])[0]
+            pts = [p for p in pts if p[0] >= finest]
         if len(pts) >= 3:
             hs, es = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
             out[method] = float(np.polyfit(hs, es, 1)[0])
