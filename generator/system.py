@@ -26,6 +26,7 @@ import dataclasses
 import hashlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import sympy as sp
@@ -247,10 +248,11 @@ class System:
             return self.n == 1 or self.chain.max_index == 0 or self.chain.scale == 0
         return all(v == 0 for (r, c), v in self.inertia.todok().items() if r != c)
 
-    @property
+    @cached_property
     def driven(self) -> bool:
         """True when the system has forces, inputs or a time-dependent potential (the part
-        of the spec the emitted code does not handle yet).
+        of the spec the emitted code does not handle yet). Computed once per system (a walk
+        over the potential's expressions that every run would otherwise repeat).
 
         Example:
             >>> from s2gen.systems import builtin

@@ -243,8 +243,10 @@ def c_api_jacobian_rst() -> str:
     lines = [
         f".. c:macro:: {upper}_JACOBIAN_WORK_SIZE",
         "",
-        "   The doubles ``work`` must hold for step_jacobian and field_jacobian (more than "
-        "WORK_SIZE).",
+        (
+            "   The doubles ``work`` must hold for step_jacobian and field_jacobian (more than "
+            "WORK_SIZE)."
+        ),
         "",
         f".. c:macro:: {upper}_JACOBIAN_VI",
         "",

@@ -63,6 +63,7 @@ _WHERE = {
     "fit_lyapunov": "divergence",
     "identity": "admission",
     "initial_state": "members",
+    "initial_states": "members",
     "member_table": "members",
     "require": "requirements",
     "run": "driver",

@@ -27,6 +27,8 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -39,11 +41,11 @@ from .worker import (
     failed_task,
     run_member,
     sample_statistics,
-    task_state,
+    task_states,
     thin,
 )
 
-__all__ = ["run_batched", "run_members"]
+__all__ = ["Packed", "pack", "run_batched", "run_members", "run_packed", "unpack"]
 
 _local = threading.local()
 
@@ -85,18 +87,27 @@ def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
     n = system.n
     out: dict[int, MemberResult] = {}
     ready: list[tuple[Task, np.ndarray, np.ndarray, np.ndarray]] = []
-    for task in tasks:  # the checks of Model.integrate and run, in their order
+    try:  # the run's checks do not depend on the member: made once, raised for each
+        nsteps, refused = check_run(system, method, h, payload.T, opts, 1), None
+    except ValueError as exc:
+        nsteps, refused = 0, exc
+    states = task_states(payload, tasks)
+    for task, state in zip(tasks, states, strict=True):  # the checks of run, in their order
         try:
             p = parameter_vector(system, parameter_vector(system, dict(task.params)))
-            check_run(system, method, h, payload.T, opts, 1)
-            q0, w0 = initial_state(system, *task_state(payload, task), opts.unit_tol)
-            energy_scale(be, q0, w0, p, True)
+            if refused is not None:
+                raise refused
+            if isinstance(state, Exception):
+                raise state
+            q0, w0 = initial_state(system, *state, opts.unit_tol)
+            # the gradient's check; the energy's (`energy_scale` with energy) only where the
+            # batch's energy at t = 0 is not finite, which is exactly where it would refuse
+            energy_scale(be, q0, w0, p, False)
         except Exception as exc:  # noqa: BLE001 (the member's outcome, as run_members records it)
             out[task.index] = failed_task(task, n, f"{type(exc).__name__}: {exc}")
         else:
             ready.append((task, q0, w0, p))
     if ready:
-        nsteps = check_run(system, method, h, payload.T, opts, 1)
         start = time.perf_counter()
         b = integrate_batch(
             be,
@@ -110,8 +121,15 @@ def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
         )
         wall = (time.perf_counter() - start) / len(ready)
         assert b.energy is not None
-        ends = []
-        for j, (task, *_) in enumerate(ready):
+        ends: list[tuple[Task, int, str, int] | None] = []
+        for j, (task, q0, w0, p) in enumerate(ready):
+            if not np.isfinite(b.energy[j, 0]):  # V or the kinetic energy at t = 0 (see above)
+                try:
+                    energy_scale(be, q0, w0, p, True)
+                except ValueError as exc:
+                    out[task.index] = failed_task(task, n, f"{type(exc).__name__}: {exc}")
+                    ends.append(None)
+                    continue
             status = int(b.status[j])
             k = int(b.stats["fail_step"][j]) if status else len(b.t)
             why = Status(status).message if status in Status._value2member_map_ else str(status)
@@ -119,8 +137,11 @@ def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
             if bad is not None:
                 k, status, why = bad, int(Status.NONFINITE), nonfinite_energy(b.t, k)
             ends.append((task, status, failure(method, "c", b.t, k, why) if status else "ok", k))
-        stats = sample_statistics(b.energy, b.q, [end[3] for end in ends])
-        for j, (task, status, message, k) in enumerate(ends):
+        stats = sample_statistics(b.energy, b.q, [end[3] if end else 0 for end in ends])
+        for j, end in enumerate(ends):
+            if end is None:
+                continue
+            task, status, message, k = end
             numbers = (stats[0][j], stats[1][j], stats[2][j])
             out[task.index] = _result(payload, task, status, message, b, j, k, numbers, wall, setup)
             setup = 0.0
@@ -192,3 +213,85 @@ def run_members(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
         except Exception as exc:  # noqa: BLE001 (the member's outcome; the batch goes on)
             out.append(failed_task(task, payload.system.n, f"{type(exc).__name__}: {exc}"))
     return tuple(out)
+
+
+@dataclass(frozen=True)
+class Packed:
+    """A batch of `MemberResult`s as a few arrays, the form results travel in from a worker:
+    each member's samples one after another along the first axis of `t`, `q`, `omega`,
+    `energy` (member j's from ``starts[j]`` to ``starts[j + 1]``), its numbers in one column
+    each (`columns`, by `MemberResult` field) and its messages, workers and field values that
+    are not numbers in `text`. A handful of buffers per batch instead of four arrays and a
+    dozen objects per member: what the transport (pickle protocol 5, a frame per buffer)
+    costs per member shrinks accordingly."""
+
+    starts: np.ndarray
+    t: np.ndarray
+    q: np.ndarray
+    omega: np.ndarray
+    energy: np.ndarray
+    columns: dict[str, np.ndarray]
+    text: dict[str, tuple[str, ...]]
+
+
+#: The `MemberResult` fields that `Packed` keeps as columns: integers, then floats.
+_INTEGERS = ("index", "status", "samples", "steps", "rejected", "gradient_evals")
+_FLOATS = ("mean_dE", "max_dE", "max_unit", "wall_time", "setup_time")
+
+
+def pack(results: Sequence[MemberResult], n: int) -> Packed:
+    """`results` (of a system of `n` bodies) as one `Packed` record; `unpack` gives them back
+    equal field by field, bit for bit.
+
+    Example:
+        >>> from s2gen.ensemble.worker import Task, failed_task
+        >>> r = failed_task(Task(7, 0.1, None, None, ()), 2, "why")
+        >>> back = unpack(pack([r, r], 2))
+        >>> [x.index for x in back], back[1].message, back[0].q.shape
+        ([7, 7], 'why', (0, 2, 3))
+    """
+    lengths = [len(r.t) for r in results]
+    starts = np.concatenate([[0], np.cumsum(lengths, dtype=np.int64)])
+
+    def joined(name: str, shape: tuple[int, ...]) -> np.ndarray:
+        parts = [getattr(r, name) for r in results]
+        return np.concatenate(parts) if parts else np.zeros((0, *shape))
+
+    return Packed(
+        starts=starts,
+        t=joined("t", ()),
+        q=joined("q", (n, 3)),
+        omega=joined("omega", (n, 3)),
+        energy=joined("energy", ()),
+        columns={
+            **{k: np.array([getattr(r, k) for r in results], dtype=np.int64) for k in _INTEGERS},
+            **{k: np.array([getattr(r, k) for r in results], dtype=float) for k in _FLOATS},
+        },
+        text={k: tuple(getattr(r, k) for r in results) for k in ("message", "worker")},
+    )
+
+
+def unpack(packed: Packed) -> tuple[MemberResult, ...]:
+    """The `MemberResult`s `pack` was given (their arrays are views of the packed ones)."""
+    out = []
+    for j in range(len(packed.starts) - 1):
+        a, b = int(packed.starts[j]), int(packed.starts[j + 1])
+        numbers: dict[str, Any] = {k: int(packed.columns[k][j]) for k in _INTEGERS}
+        numbers.update({k: float(packed.columns[k][j]) for k in _FLOATS})
+        out.append(
+            MemberResult(
+                **numbers,
+                message=packed.text["message"][j],
+                worker=packed.text["worker"][j],
+                t=packed.t[a:b],
+                q=packed.q[a:b],
+                omega=packed.omega[a:b],
+                energy=packed.energy[a:b],
+            )
+        )
+    return tuple(out)
+
+
+def run_packed(payload: Payload, tasks: tuple[Task, ...]) -> Packed:
+    """`run_members`' results, packed for the trip to the client (`pack`)."""
+    return pack(run_members(payload, tasks), payload.system.n)

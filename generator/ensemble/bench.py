@@ -41,8 +41,6 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from s2gen.runtime.options import Options
 
 __all__ = ["BenchReport", "BenchRun", "benchmark"]
@@ -219,7 +217,7 @@ def _plain_batched(system: Any, table: Any, mine: Any, method: str, opts: Option
     import s2gen
 
     from .dispatch import MAX_BATCH
-    from .members import initial_state
+    from .members import initial_states
 
     model = s2gen.compile(system)
     start = time.perf_counter()
@@ -228,11 +226,10 @@ def _plain_batched(system: Any, table: Any, mine: Any, method: str, opts: Option
         groups.setdefault((m.h, m.params), []).append(m)
     for (h, params), ms in groups.items():
         for lo in range(0, len(ms), MAX_BATCH):
-            states = [initial_state(system, table, m) for m in ms[lo : lo + MAX_BATCH]]
+            q0, w0 = initial_states(system, table, ms[lo : lo + MAX_BATCH])
             model.integrate_batch(
-                method, h, table.T, q0=np.stack([s[0] for s in states]),
-                omega0=np.stack([s[1] for s in states]), params=dict(params), options=opts,
-            )  # fmt: skip
+                method, h, table.T, q0=q0, omega0=w0, params=dict(params), options=opts
+            )
     return time.perf_counter() - start
 
 

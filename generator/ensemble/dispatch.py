@@ -56,7 +56,7 @@ from typing import TYPE_CHECKING, Any
 from s2gen.runtime.options import Options
 
 from .admission import check_workers
-from .batched import run_batched, run_members
+from .batched import run_batched, run_packed, unpack
 from .cluster import CONNECT_TIMEOUT, connect, needs_cluster, worker_count
 from .members import MemberTable, initial_state, member_table
 from .requirements import require
@@ -337,7 +337,7 @@ def _on_dask(
 
     def submit(batch: tuple[Task, ...], attempt: int) -> None:
         key = f"s2gen-members-{token}-{batch[0].index}-{len(batch)}-{attempt}"
-        future = client.submit(run_members, data, batch, key=key)
+        future = client.submit(run_packed, data, batch, key=key)
         flying[future.key] = (batch, attempt)
         done.add(future)
 
@@ -362,7 +362,7 @@ def _on_dask(
     for future in done:
         batch, attempt = flying.pop(future.key)
         try:
-            results: Batch = future.result()
+            results: Batch = unpack(future.result())
         except Exception as exc:  # noqa: BLE001 (a lost worker is retried, anything else recorded)
             if _lost(exc) and attempt + 1 < ATTEMPTS:
                 if data.status != "finished":  # every copy of the payload went with its worker

@@ -56,6 +56,7 @@ __all__ = [
     "MemberTable",
     "Sweep",
     "initial_state",
+    "initial_states",
     "member_table",
     "parse_assignment",
     "sweep_values",
@@ -286,17 +287,18 @@ def member_table(
     return MemberTable(tuple(members), n, sizes, sweeps, int(seed), float(h), float(T))
 
 
-def _unit_tangent(rng: np.random.Generator, q: np.ndarray) -> np.ndarray:
-    """One random unit vector per body in the tangent plane of q_i (shape (n, 3))."""
-    g = rng.standard_normal(q.shape)
-    g -= np.einsum("ij,ij->i", g, q)[:, None] * q
-    return g / np.linalg.norm(g, axis=1)[:, None]
+def _unit_tangent(g: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Each g_i (standard normal draws, shape (..., n, 3)) projected on the tangent plane of
+    q_i and normalised: one random unit tangent vector per body."""
+    g = g - np.einsum("...ij,...ij->...i", g, q)[..., None] * q
+    return g / np.linalg.norm(g, axis=-1)[..., None]
 
 
 def initial_state(
     system: System, table: MemberTable, member: Member
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(q0, omega0) of a member: the system's initial state, perturbed for replica >= 1.
+    """(q0, omega0) of a member: the system's initial state, perturbed for replica >= 1
+    (`initial_states` for one member).
 
     Example:
         >>> from s2gen.systems import builtin
@@ -308,20 +310,52 @@ def initial_state(
         >>> float(abs(np.einsum("ij,ij->i", q0, w0)).max()) < 1e-15
         True
     """
+    q, w = initial_states(system, table, (member,))
+    return q[0], w[0]
+
+
+def initial_states(
+    system: System, table: MemberTable, members: Sequence[Member]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The initial states of `members` (arrays of shape (K, n, 3)): the system's, perturbed
+    for replica >= 1 along random unit tangent directions drawn from the generator seeded by
+    (table seed, replica), so that a member's state does not depend on which others are made
+    with it (the same arithmetic, row by row).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> s = builtin("double_pendulum")
+        >>> t = member_table(s, replicas=3, perturb={"omega": 1e-9})
+        >>> q, w = initial_states(s, t, t.members)
+        >>> q.shape, bool(np.array_equal(w[2], initial_state(s, t, t.members[2])[1]))
+        ((3, 2, 3), True)
+    """
     if system.q0 is None or system.omega0 is None:
         raise EnsembleError(f"{system.origin}: no initial state ([initial] q and omega)")
-    q = np.array(system.q0, dtype=float).reshape(-1, 3)
-    w = np.array(system.omega0, dtype=float).reshape(-1, 3)
-    if not member.perturbed:
+    q0 = np.array(system.q0, dtype=float).reshape(-1, 3)
+    w0 = np.array(system.omega0, dtype=float).reshape(-1, 3)
+    count = len(members)
+    q = np.broadcast_to(q0, (count, *q0.shape)).copy()
+    w = np.broadcast_to(w0, (count, *w0.shape)).copy()
+    moved = [j for j, m in enumerate(members) if m.perturbed]
+    if not moved:
         return q, w
-    rng = np.random.default_rng([table.seed, member.replica])
-    u = _unit_tangent(rng, q)
+    # each member's two draws (n x 3 for q, then n x 3 for omega) from its own generator
+    g = np.stack(
+        [
+            np.random.default_rng([table.seed, members[j].replica]).standard_normal((2, *q0.shape))
+            for j in moved
+        ]
+    )
+    qm, wm = q[moved], w[moved]
+    u = _unit_tangent(g[:, 0], qm)
     eps_q, eps_w = table.size("q"), table.size("omega")
     if eps_q:
-        q = q + eps_q * u
-        q /= np.linalg.norm(q, axis=1)[:, None]
-    v = _unit_tangent(rng, q)
-    scale = float(np.linalg.norm(w, axis=1).max()) or 1.0
-    w = w + eps_w * scale * v
-    w -= np.einsum("ij,ij->i", w, q)[:, None] * q
+        qm = qm + eps_q * u
+        qm /= np.linalg.norm(qm, axis=-1)[..., None]
+    v = _unit_tangent(g[:, 1], qm)
+    scale = float(np.linalg.norm(w0, axis=1).max()) or 1.0
+    wm = wm + eps_w * scale * v
+    wm -= np.einsum("...ij,...ij->...i", wm, qm)[..., None] * qm
+    q[moved], w[moved] = qm, wm
     return q, w

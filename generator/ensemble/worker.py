@@ -57,6 +57,7 @@ __all__ = [
     "sample_statistics",
     "sources_digest",
     "task_state",
+    "task_states",
     "thin",
 ]
 
@@ -66,6 +67,7 @@ MODEL_CACHE = 4
 TASK_ERROR = -2
 
 _local = threading.local()
+_NO_STATE = "member {}: no initial state and no member table to make it"
 
 
 @dataclass(frozen=True)
@@ -181,8 +183,51 @@ def task_state(payload: Payload, task: Task) -> tuple[np.ndarray, np.ndarray]:
 
     table = payload.table
     if table is None:
-        raise ValueError(f"member {task.index}: no initial state and no member table to make it")
+        raise ValueError(_NO_STATE.format(task.index))
     return initial_state(payload.system, table, table.members[task.index])
+
+
+def task_states(
+    payload: Payload, tasks: Sequence[Task]
+) -> list[tuple[np.ndarray, np.ndarray] | Exception]:
+    """Each task's initial state as `task_state` gives it (or the exception it raises), the
+    states left to the worker made together (`members.initial_states`: the same numbers).
+
+    Example:
+        >>> import s2gen
+        >>> from s2gen.ensemble.members import member_table
+        >>> s = s2gen.load("double_pendulum")
+        >>> p = make_payload(s, {}, "vi", T=0.1, table=member_table(s, 3, {"omega": 1e-10}))
+        >>> tasks = [Task(j, 0.01, None, None, ()) for j in range(3)]
+        >>> states = task_states(p, tasks)
+        >>> all(np.array_equal(a[1], task_state(p, t)[1]) for a, t in zip(states, tasks))
+        True
+    """
+    from .members import initial_states
+
+    out: list[tuple[np.ndarray, np.ndarray] | Exception] = []
+    left: list[int] = []
+    for j, task in enumerate(tasks):
+        if task.q0 is not None and task.omega0 is not None:
+            out.append((task.q0, task.omega0))
+        elif payload.table is None:
+            out.append(ValueError(_NO_STATE.format(task.index)))
+        else:
+            out.append(ValueError())  # made below
+            left.append(j)
+    if left:
+        table = payload.table
+        try:
+            q, w = initial_states(
+                payload.system, table, [table.members[tasks[j].index] for j in left]
+            )
+        except Exception as exc:  # noqa: BLE001 (each task's outcome, raised by its caller)
+            for j in left:
+                out[j] = exc
+        else:
+            for row, j in enumerate(left):
+                out[j] = (q[row], w[row])
+    return out
 
 
 def _model(payload: Payload) -> tuple[Model, float]:
