@@ -146,6 +146,8 @@ def test_explicit_vi_stops_where_the_velocity_becomes_non_finite(method: str) ->
     kept = cstats["fail_step"]
     assert np.all(np.isfinite(cw[:kept])) and np.all(np.isfinite(ce[:kept]))
     assert np.max(np.abs(cq[:kept] - nq[:kept])) < 1e-12
+    assert np.max(np.abs(cw[:kept] - nw[:kept])) < 1e-12
+    assert np.max(np.abs(ce[:kept] - ne[:kept])) < 1e-12
     stops = {}
     for backend in ("c", "numpy", "reference") if method == "vi" else ("c", "numpy"):
         with pytest.raises(IntegrationError) as info:
