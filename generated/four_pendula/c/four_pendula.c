@@ -752,101 +752,6 @@ static int four_pendula_vi_explicit(const four_pendula_ctx *cx, double h,
     return status == FOUR_PENDULA_OK ? four_pendula_vi_kick(cx, h, xn, gn, vn, wo) : status;
 }
 
-/* The kick that completes an explicit substep of size hk fused with the drift of the next one,
- * of size hd, in one pass over the bodies (the kick's loop would otherwise store the velocity
- * and the drift's load it again, with x and gx): from x, gx = dV/dq at x and the half-step
- * velocity v, the full-step velocity (written body-major into wo), then from it as vi_drift
- * xn, vn, gn and qo. Returns ERR_NONFINITE with *done = 0 when the full-step velocity is not
- * finite (the substep hk did not complete); otherwise *done = 1 and what vi_drift returns. */
-static int four_pendula_vi_kick_drift(const four_pendula_ctx *cx, double hk, double hd,
-        const double *FOUR_PENDULA_RESTRICT x, const double *FOUR_PENDULA_RESTRICT v,
-        const double *FOUR_PENDULA_RESTRICT gx, double *FOUR_PENDULA_RESTRICT xn,
-        double *FOUR_PENDULA_RESTRICT vn, double *FOUR_PENDULA_RESTRICT gn,
-        double *FOUR_PENDULA_RESTRICT sv, double *bridge, double *FOUR_PENDULA_RESTRICT qo,
-        double *FOUR_PENDULA_RESTRICT wo, int *done)
-{
-    double chk = 0.0;
-    long i;
-    int bad = 0;
-FOUR_PENDULA_SIMD
-    for (i = 0; i < 4; ++i) {
-        const double mi = cx->mi[i];
-        const double q0 = x[i], q1 = x[4 + i], q2 = x[8 + i];
-        const double g0 = gx[i], g1 = gx[4 + i], g2 = gx[8 + i];
-        double w0, w1, w2;
-        {
-            const double h = hk;
-            const double wh0 = v[i], wh1 = v[4 + i], wh2 = v[8 + i];
-            const double qn0 = q0, qn1 = q1, qn2 = q2;
-            const double gn0 = g0, gn1 = g1, gn2 = g2;
-            const double x0 = (1.0/2.0)*h*mi;
-            const double wn0 = wh0 - x0*(-gn1*qn2 + gn2*qn1);
-            const double wn1 = wh1 - x0*(gn0*qn2 - gn2*qn0);
-            const double wn2 = wh2 - x0*(-gn0*qn1 + gn1*qn0);
-            w0 = wn0;
-            w1 = wn1;
-            w2 = wn2;
-        }
-        wo[3 * i] = w0;
-        wo[3 * i + 1] = w1;
-        wo[3 * i + 2] = w2;
-        {
-            const double h = hd;
-            const double pw0 = h*h;
-            const double pw4 = 1.0/h;
-            const double x0 = (1.0/2.0)*mi*pw0;
-            const double x1 = h*w1 - x0*(g0*q2 - g2*q0);
-            const double pw1 = x1*x1;
-            const double x2 = h*w2 + x0*(g0*q1 - g1*q0);
-            const double pw2 = x2*x2;
-            const double x3 = h*w0 + x0*(g1*q2 - g2*q1);
-            const double pw3 = x3*x3;
-            const double x4 = -pw1 - pw2 - pw3 + 1;
-            const double x5 = sqrt(x4);
-            const double x6 = pw4;
-            const double qn0 = q0*x5 - q1*x2 + q2*x1;
-            const double qn1 = q0*x2 + q1*x5 - q2*x3;
-            const double qn2 = -q0*x1 + q1*x3 + q2*x5;
-            const double wh0 = x3*x6;
-            const double wh1 = x1*x6;
-            const double wh2 = x2*x6;
-            const double s0 = x4;
-            xn[i] = qn0;
-            xn[4 + i] = qn1;
-            xn[8 + i] = qn2;
-            qo[3 * i] = qn0;
-            qo[3 * i + 1] = qn1;
-            qo[3 * i + 2] = qn2;
-            vn[i] = wh0;
-            vn[4 + i] = wh1;
-            vn[8 + i] = wh2;
-            sv[i] = s0;
-        }
-    }
-    for (i = 0; i < 4; ++i) {
-        bad += !(sv[i] >= 0.0);
-    }
-    *done = 1;
-    if (bad) {
-        /* a velocity that is not finite fails the drift after it (s_i is NaN or -inf): which
-         * of the two failed is told here, off the loop (w * 0 is 0 for a finite w, else NaN) */
-        for (i = 0; i < FOUR_PENDULA_N3; ++i) {
-            chk += wo[i] * 0.0;
-        }
-        if (chk != 0.0) {
-            *done = 0;
-            return FOUR_PENDULA_ERR_NONFINITE;
-        }
-    }
-    for (i = 0; i < 4 && bad; ++i) {
-        if (!(sv[i] >= 0.0)) {
-            return isfinite(sv[i]) ? FOUR_PENDULA_ERR_INFEASIBLE : FOUR_PENDULA_ERR_NONFINITE;
-        }
-    }
-    four_pendula_gradient_soa(cx, xn, gn, bridge);
-    return FOUR_PENDULA_OK;
-}
-
 /* One explicit step on body-major arrays (for vi_step): g holds dV/dq at q on entry; gn
  * receives dV/dq at qn (f, warm: the implicit step's Newton start, unused here).
  * work: x (12), v (12), gx (12), xn (12), vn (12), gn (12), s (4), bridge (24). */
@@ -1921,6 +1826,101 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
         }
     }
     return status;
+}
+
+/* The kick that completes an explicit substep of size hk fused with the drift of the next one,
+ * of size hd, in one pass over the bodies (the kick's loop would otherwise store the velocity
+ * and the drift's load it again, with x and gx): from x, gx = dV/dq at x and the half-step
+ * velocity v, the full-step velocity (written body-major into wo), then from it as vi_drift
+ * xn, vn, gn and qo. Returns ERR_NONFINITE with *done = 0 when the full-step velocity is not
+ * finite (the substep hk did not complete); otherwise *done = 1 and what vi_drift returns. */
+static int four_pendula_vi_kick_drift(const four_pendula_ctx *cx, double hk, double hd,
+        const double *FOUR_PENDULA_RESTRICT x, const double *FOUR_PENDULA_RESTRICT v,
+        const double *FOUR_PENDULA_RESTRICT gx, double *FOUR_PENDULA_RESTRICT xn,
+        double *FOUR_PENDULA_RESTRICT vn, double *FOUR_PENDULA_RESTRICT gn,
+        double *FOUR_PENDULA_RESTRICT sv, double *bridge, double *FOUR_PENDULA_RESTRICT qo,
+        double *FOUR_PENDULA_RESTRICT wo, int *done)
+{
+    double chk = 0.0;
+    long i;
+    int bad = 0;
+FOUR_PENDULA_SIMD
+    for (i = 0; i < 4; ++i) {
+        const double mi = cx->mi[i];
+        const double q0 = x[i], q1 = x[4 + i], q2 = x[8 + i];
+        const double g0 = gx[i], g1 = gx[4 + i], g2 = gx[8 + i];
+        double w0, w1, w2;
+        {
+            const double h = hk;
+            const double wh0 = v[i], wh1 = v[4 + i], wh2 = v[8 + i];
+            const double qn0 = q0, qn1 = q1, qn2 = q2;
+            const double gn0 = g0, gn1 = g1, gn2 = g2;
+            const double x0 = (1.0/2.0)*h*mi;
+            const double wn0 = wh0 - x0*(-gn1*qn2 + gn2*qn1);
+            const double wn1 = wh1 - x0*(gn0*qn2 - gn2*qn0);
+            const double wn2 = wh2 - x0*(-gn0*qn1 + gn1*qn0);
+            w0 = wn0;
+            w1 = wn1;
+            w2 = wn2;
+        }
+        wo[3 * i] = w0;
+        wo[3 * i + 1] = w1;
+        wo[3 * i + 2] = w2;
+        {
+            const double h = hd;
+            const double pw0 = h*h;
+            const double pw4 = 1.0/h;
+            const double x0 = (1.0/2.0)*mi*pw0;
+            const double x1 = h*w1 - x0*(g0*q2 - g2*q0);
+            const double pw1 = x1*x1;
+            const double x2 = h*w2 + x0*(g0*q1 - g1*q0);
+            const double pw2 = x2*x2;
+            const double x3 = h*w0 + x0*(g1*q2 - g2*q1);
+            const double pw3 = x3*x3;
+            const double x4 = -pw1 - pw2 - pw3 + 1;
+            const double x5 = sqrt(x4);
+            const double x6 = pw4;
+            const double qn0 = q0*x5 - q1*x2 + q2*x1;
+            const double qn1 = q0*x2 + q1*x5 - q2*x3;
+            const double qn2 = -q0*x1 + q1*x3 + q2*x5;
+            const double wh0 = x3*x6;
+            const double wh1 = x1*x6;
+            const double wh2 = x2*x6;
+            const double s0 = x4;
+            xn[i] = qn0;
+            xn[4 + i] = qn1;
+            xn[8 + i] = qn2;
+            qo[3 * i] = qn0;
+            qo[3 * i + 1] = qn1;
+            qo[3 * i + 2] = qn2;
+            vn[i] = wh0;
+            vn[4 + i] = wh1;
+            vn[8 + i] = wh2;
+            sv[i] = s0;
+        }
+    }
+    for (i = 0; i < 4; ++i) {
+        bad += !(sv[i] >= 0.0);
+    }
+    *done = 1;
+    if (bad) {
+        /* a velocity that is not finite fails the drift after it (s_i is NaN or -inf): which
+         * of the two failed is told here, off the loop (w * 0 is 0 for a finite w, else NaN) */
+        for (i = 0; i < FOUR_PENDULA_N3; ++i) {
+            chk += wo[i] * 0.0;
+        }
+        if (chk != 0.0) {
+            *done = 0;
+            return FOUR_PENDULA_ERR_NONFINITE;
+        }
+    }
+    for (i = 0; i < 4 && bad; ++i) {
+        if (!(sv[i] >= 0.0)) {
+            return isfinite(sv[i]) ? FOUR_PENDULA_ERR_INFEASIBLE : FOUR_PENDULA_ERR_NONFINITE;
+        }
+    }
+    four_pendula_gradient_soa(cx, xn, gn, bridge);
+    return FOUR_PENDULA_OK;
 }
 
 /* A composition of explicit VI steps from (q0, w0), on component-major copies of the state
