@@ -157,3 +157,24 @@ def test_explicit_vi_stops_where_the_velocity_becomes_non_finite(method: str) ->
         assert info.value.partial.q[-1, 0, 2] > -0.5
         stops[backend] = info.value.step
     assert set(stops.values()) == {kept}, stops
+
+
+@pytest.mark.parametrize("method", ["vi", "vi4"])
+def test_explicit_vi_infeasible_step_is_counted_as_on_numpy(method: str) -> None:
+    """The three bodies at h = 0.3: a drift becomes infeasible after the kick before it
+    completed its step (the emitted driver runs the two in one pass). The emitted integrator
+    reports INFEASIBLE with the same steps, failing sample and kept samples as the NumPy one."""
+    s = builtin("three_bodies")
+    p = np.array(s.parameter_values)
+    runs = {}
+    for backend in ("c", "numpy"):
+        be = get_backend(s, backend)
+        runs[backend] = be.integrate(method, 0.3, 400, s.q0, s.omega0, p, Options(), 1, True)
+    (cs, cq, cw, ce, cstats), (ns, nq, nw, ne, nstats) = runs["c"], runs["numpy"]
+    assert cs == ns == 1
+    keys = ("steps", "fail_step")
+    assert {k: cstats[k] for k in keys} == {k: nstats[k] for k in keys}
+    kept = cstats["fail_step"]
+    assert kept > 1
+    for c, n in ((cq, nq), (cw, nw), (ce, ne)):
+        assert np.max(np.abs(c[:kept] - n[:kept])) < 1e-9
