@@ -113,3 +113,68 @@ def test_a_diverging_newton_is_a_newton_failure_on_every_backend(name: str, h: f
         with pytest.raises(IntegrationError) as info:
             simulate(system, method, backend, h=h, T=20 * h)
         assert (info.value.status, info.value.step) == (Status.NEWTON, 1), (method, backend)
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
+@pytest.mark.parametrize("method", ["vi", "vi4"])
+def test_explicit_vi_stops_where_the_velocity_becomes_non_finite(method: str) -> None:
+    """The explicit VI of the square-root wall: the drift that takes the body below z = -1/2 is
+    feasible, the gradient there is NaN and so is the kick's velocity. The emitted integrator
+    (whose kicks run fused with the next drift) reports NONFINITE at the same step as the NumPy
+    one, the step whose velocity failed not counted, and keeps the same samples; `simulate`
+    stops there on every backend (the reference has no compositions)."""
+    from s2gen.spec import define_system
+
+    s = define_system(
+        name="sqrt_wall_vi",
+        bodies=1,
+        parameters={"m": 1.0},
+        diagonal=["m"],
+        potential="0.01*sqrt(q1[2] + 0.5)",
+        initial_q=[[0, 0, 1]],
+        initial_omega=[[1, 0, 0]],
+    )
+    runs = {}
+    for backend in ("c", "numpy"):
+        be = get_backend(s, backend)
+        p = np.array(s.parameter_values)
+        runs[backend] = be.integrate(method, 0.01, 1000, s.q0, s.omega0, p, Options(), 1, True)
+    (cs, cq, cw, ce, cstats), (ns, nq, nw, ne, nstats) = runs["c"], runs["numpy"]
+    assert cs == ns == 3
+    keys = ("steps", "fail_step")
+    assert {k: cstats[k] for k in keys} == {k: nstats[k] for k in keys}
+    kept = cstats["fail_step"]
+    assert np.all(np.isfinite(cw[:kept])) and np.all(np.isfinite(ce[:kept]))
+    assert np.max(np.abs(cq[:kept] - nq[:kept])) < 1e-12
+    assert np.max(np.abs(cw[:kept] - nw[:kept])) < 1e-12
+    assert np.max(np.abs(ce[:kept] - ne[:kept])) < 1e-12
+    stops = {}
+    for backend in ("c", "numpy", "reference") if method == "vi" else ("c", "numpy"):
+        with pytest.raises(IntegrationError) as info:
+            simulate(s, method, backend, h=0.01, T=10.0)
+        assert info.value.status == 3, backend
+        _check_partial(info.value, 1)
+        assert info.value.partial.q[-1, 0, 2] > -0.5
+        stops[backend] = info.value.step
+    assert set(stops.values()) == {kept}, stops
+
+
+@pytest.mark.parametrize("method", ["vi", "vi4"])
+def test_explicit_vi_infeasible_step_is_counted_as_on_numpy(method: str) -> None:
+    """The three bodies at h = 0.3: a drift becomes infeasible after the kick before it
+    completed its step (the emitted driver runs the two in one pass). The emitted integrator
+    reports INFEASIBLE with the same steps, failing sample and kept samples as the NumPy one."""
+    s = builtin("three_bodies")
+    p = np.array(s.parameter_values)
+    runs = {}
+    for backend in ("c", "numpy"):
+        be = get_backend(s, backend)
+        runs[backend] = be.integrate(method, 0.3, 400, s.q0, s.omega0, p, Options(), 1, True)
+    (cs, cq, cw, ce, cstats), (ns, nq, nw, ne, nstats) = runs["c"], runs["numpy"]
+    assert cs == ns == 1
+    keys = ("steps", "fail_step")
+    assert {k: cstats[k] for k in keys} == {k: nstats[k] for k in keys}
+    kept = cstats["fail_step"]
+    assert kept > 1
+    for c, n in ((cq, nq), (cw, nw), (ce, ne)):
+        assert np.max(np.abs(c[:kept] - n[:kept])) < 1e-9

@@ -641,20 +641,18 @@ static void four_pendula_gradient_soa(const four_pendula_ctx *cx, const double *
     }
 }
 
-/* One explicit step, all arrays component-major: from (x, v) with gx = dV/dq at x to (xn, vn)
- * and gn = dV/dq at xn (vn holds the half-step velocity in between); sv: n doubles of scratch, bridge: see gradient_soa.
- * The loops that compute xn and vn also write them body-major into qo and wo (N3 doubles
- * each), so that a stored state costs no second pass over the bodies. Returns OK,
- * ERR_INFEASIBLE (|a_i| > 1: no rotation realises the step) or ERR_NONFINITE; with x, v and
- * gx finite, OK means xn and vn (and qo, wo) are finite; otherwise qo and wo hold anything. */
-static int four_pendula_vi_explicit(const four_pendula_ctx *cx, double h,
+/* The first half of an explicit step, all arrays component-major: from (x, v) with gx = dV/dq
+ * at x to xn and the half-step velocity vn, then gn = dV/dq at xn; sv: n doubles of scratch,
+ * bridge: see gradient_soa. The loop that computes xn also writes it body-major into qo (N3
+ * doubles), so that a stored state costs no second pass over the bodies. Returns OK,
+ * ERR_INFEASIBLE (|a_i| > 1: no rotation realises the step) or ERR_NONFINITE; OK means xn is
+ * finite (s_i >= 0 makes a_i finite). */
+static int four_pendula_vi_drift(const four_pendula_ctx *cx, double h,
         const double *FOUR_PENDULA_RESTRICT x, const double *FOUR_PENDULA_RESTRICT v,
         const double *FOUR_PENDULA_RESTRICT gx, double *FOUR_PENDULA_RESTRICT xn,
         double *FOUR_PENDULA_RESTRICT vn, double *FOUR_PENDULA_RESTRICT gn,
-        double *FOUR_PENDULA_RESTRICT sv, double *bridge, double *FOUR_PENDULA_RESTRICT qo,
-        double *FOUR_PENDULA_RESTRICT wo)
+        double *FOUR_PENDULA_RESTRICT sv, double *bridge, double *FOUR_PENDULA_RESTRICT qo)
 {
-    double chk = 0.0;
     long i;
     int bad = 0;
     /* no early exit inside the loop, so that it vectorises; the check follows it */
@@ -703,8 +701,19 @@ FOUR_PENDULA_SIMD
         }
     }
     four_pendula_gradient_soa(cx, xn, gn, bridge);
-    /* xn is finite: s_i >= 0 makes a_i finite. vn is checked here: w * 0 is 0 for a finite w
-     * and NaN otherwise (see _finite) */
+    return FOUR_PENDULA_OK;
+}
+
+/* The second half of an explicit step: the half-step velocity vn (in place) to the full-step
+ * one at xn, with gn = dV/dq at xn, also written body-major into wo. Returns OK, or
+ * ERR_NONFINITE when the velocity is not finite (w * 0 is 0 for a finite w and NaN otherwise,
+ * see _finite). */
+static int four_pendula_vi_kick(const four_pendula_ctx *cx, double h,
+        const double *FOUR_PENDULA_RESTRICT xn, const double *FOUR_PENDULA_RESTRICT gn,
+        double *vn, double *FOUR_PENDULA_RESTRICT wo)
+{
+    double chk = 0.0;
+    long i;
 FOUR_PENDULA_SIMD_SUM(chk)
     for (i = 0; i < 4; ++i) {
         const double mi = cx->mi[i];
@@ -724,6 +733,23 @@ FOUR_PENDULA_SIMD_SUM(chk)
         chk += (wn0 * 0.0 + wn1 * 0.0) + wn2 * 0.0;
     }
     return chk == 0.0 ? FOUR_PENDULA_OK : FOUR_PENDULA_ERR_NONFINITE;
+}
+
+/* One explicit step, all arrays component-major: from (x, v) with gx = dV/dq at x to (xn, vn)
+ * and gn = dV/dq at xn (vn holds the half-step velocity in between); sv: n doubles of scratch,
+ * bridge: see gradient_soa. xn and vn are also written body-major into qo and wo (N3 doubles
+ * each). Returns OK, ERR_INFEASIBLE (|a_i| > 1: no rotation realises the step) or
+ * ERR_NONFINITE; with x, v and gx finite, OK means xn and vn (and qo, wo) are finite;
+ * otherwise qo and wo hold anything. */
+static int four_pendula_vi_explicit(const four_pendula_ctx *cx, double h,
+        const double *FOUR_PENDULA_RESTRICT x, const double *FOUR_PENDULA_RESTRICT v,
+        const double *FOUR_PENDULA_RESTRICT gx, double *FOUR_PENDULA_RESTRICT xn,
+        double *FOUR_PENDULA_RESTRICT vn, double *FOUR_PENDULA_RESTRICT gn,
+        double *FOUR_PENDULA_RESTRICT sv, double *bridge, double *FOUR_PENDULA_RESTRICT qo,
+        double *FOUR_PENDULA_RESTRICT wo)
+{
+    const int status = four_pendula_vi_drift(cx, h, x, v, gx, xn, vn, gn, sv, bridge, qo);
+    return status == FOUR_PENDULA_OK ? four_pendula_vi_kick(cx, h, xn, gn, vn, wo) : status;
 }
 
 /* One explicit step on body-major arrays (for vi_step): g holds dV/dq at q on entry; gn
@@ -1802,11 +1828,107 @@ static int four_pendula_integrate_geometric(const four_pendula_ctx *cx, const fo
     return status;
 }
 
+/* The kick that completes an explicit substep of size hk fused with the drift of the next one,
+ * of size hd, in one pass over the bodies (the kick's loop would otherwise store the velocity
+ * and the drift's load it again, with x and gx): from x, gx = dV/dq at x and the half-step
+ * velocity v, the full-step velocity (written body-major into wo), then from it as vi_drift
+ * xn, vn, gn and qo. Returns ERR_NONFINITE with *done = 0 when the full-step velocity is not
+ * finite (the substep hk did not complete); otherwise *done = 1 and what vi_drift returns. */
+static int four_pendula_vi_kick_drift(const four_pendula_ctx *cx, double hk, double hd,
+        const double *FOUR_PENDULA_RESTRICT x, const double *FOUR_PENDULA_RESTRICT v,
+        const double *FOUR_PENDULA_RESTRICT gx, double *FOUR_PENDULA_RESTRICT xn,
+        double *FOUR_PENDULA_RESTRICT vn, double *FOUR_PENDULA_RESTRICT gn,
+        double *FOUR_PENDULA_RESTRICT sv, double *bridge, double *FOUR_PENDULA_RESTRICT qo,
+        double *FOUR_PENDULA_RESTRICT wo, int *done)
+{
+    double chk = 0.0;
+    long i;
+    int bad = 0;
+FOUR_PENDULA_SIMD
+    for (i = 0; i < 4; ++i) {
+        const double mi = cx->mi[i];
+        const double q0 = x[i], q1 = x[4 + i], q2 = x[8 + i];
+        const double g0 = gx[i], g1 = gx[4 + i], g2 = gx[8 + i];
+        double w0, w1, w2;
+        {
+            const double h = hk;
+            const double wh0 = v[i], wh1 = v[4 + i], wh2 = v[8 + i];
+            const double qn0 = q0, qn1 = q1, qn2 = q2;
+            const double gn0 = g0, gn1 = g1, gn2 = g2;
+            const double x0 = (1.0/2.0)*h*mi;
+            const double wn0 = wh0 - x0*(-gn1*qn2 + gn2*qn1);
+            const double wn1 = wh1 - x0*(gn0*qn2 - gn2*qn0);
+            const double wn2 = wh2 - x0*(-gn0*qn1 + gn1*qn0);
+            w0 = wn0;
+            w1 = wn1;
+            w2 = wn2;
+        }
+        wo[3 * i] = w0;
+        wo[3 * i + 1] = w1;
+        wo[3 * i + 2] = w2;
+        {
+            const double h = hd;
+            const double pw0 = h*h;
+            const double pw4 = 1.0/h;
+            const double x0 = (1.0/2.0)*mi*pw0;
+            const double x1 = h*w1 - x0*(g0*q2 - g2*q0);
+            const double pw1 = x1*x1;
+            const double x2 = h*w2 + x0*(g0*q1 - g1*q0);
+            const double pw2 = x2*x2;
+            const double x3 = h*w0 + x0*(g1*q2 - g2*q1);
+            const double pw3 = x3*x3;
+            const double x4 = -pw1 - pw2 - pw3 + 1;
+            const double x5 = sqrt(x4);
+            const double x6 = pw4;
+            const double qn0 = q0*x5 - q1*x2 + q2*x1;
+            const double qn1 = q0*x2 + q1*x5 - q2*x3;
+            const double qn2 = -q0*x1 + q1*x3 + q2*x5;
+            const double wh0 = x3*x6;
+            const double wh1 = x1*x6;
+            const double wh2 = x2*x6;
+            const double s0 = x4;
+            xn[i] = qn0;
+            xn[4 + i] = qn1;
+            xn[8 + i] = qn2;
+            qo[3 * i] = qn0;
+            qo[3 * i + 1] = qn1;
+            qo[3 * i + 2] = qn2;
+            vn[i] = wh0;
+            vn[4 + i] = wh1;
+            vn[8 + i] = wh2;
+            sv[i] = s0;
+        }
+    }
+    for (i = 0; i < 4; ++i) {
+        bad += !(sv[i] >= 0.0);
+    }
+    *done = 1;
+    if (bad) {
+        /* a velocity that is not finite fails the drift after it (s_i is NaN or -inf): which
+         * of the two failed is told here, off the loop (w * 0 is 0 for a finite w, else NaN) */
+        for (i = 0; i < FOUR_PENDULA_N3; ++i) {
+            chk += wo[i] * 0.0;
+        }
+        if (chk != 0.0) {
+            *done = 0;
+            return FOUR_PENDULA_ERR_NONFINITE;
+        }
+    }
+    for (i = 0; i < 4 && bad; ++i) {
+        if (!(sv[i] >= 0.0)) {
+            return isfinite(sv[i]) ? FOUR_PENDULA_ERR_INFEASIBLE : FOUR_PENDULA_ERR_NONFINITE;
+        }
+    }
+    four_pendula_gradient_soa(cx, xn, gn, bridge);
+    return FOUR_PENDULA_OK;
+}
+
 /* A composition of explicit VI steps from (q0, w0), on component-major copies of the state
  * (see vi_explicit); every `every`-th state is stored, body-major: the substeps of a stored
  * step write it straight into its sample (the last one's is what stays), the others into qs
  * and ws of work. One gradient per substep (the gradient at the new state is reused by the
- * next substep).
+ * next substep). Each kick runs in one pass over the bodies with the drift that follows it
+ * (vi_kick_drift), the last step's alone (vi_kick).
  * work: x (16), v (16), gx (16), xn (16), vn (16), gn (16), s (8), bridge (24), qs (16), ws (16), slack (7). */
 static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, const four_pendula_scheme *sc, double h,
         long nsteps, long every, const double *q0, const double *w0, double *q, double *w,
@@ -1821,20 +1943,59 @@ static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, const fou
     double *sv = line + 96, *bridge = line + 104;
     double *const qscratch = line + 128, *const wscratch = line + 144;
     double *tmp;
+    double *qs = qscratch, *ws = wscratch;
     long k;
-    int sub, status = FOUR_PENDULA_OK;
+    int sub, done, status;
     four_pendula_to_soa(q0, x);
     four_pendula_to_soa(w0, v);
     four_pendula_gradient_soa(cx, x, gx, bridge);
     stats->gradient_evals += 1;
+    if (nsteps > 0) {
+        /* the first substep's drift; every later drift is fused with the kick before it */
+        if (every == 1) {
+            qs = q + FOUR_PENDULA_N3;
+            ws = w + FOUR_PENDULA_N3;
+        }
+        status = four_pendula_vi_drift(cx, sc->fractions[0] * h, x, v, gx, xn, vn, gn, sv, bridge, qs);
+        if (status != FOUR_PENDULA_OK) {
+            return status;
+        }
+        tmp = x;
+        x = xn;
+        xn = tmp;
+        tmp = v;
+        v = vn;
+        vn = tmp;
+        tmp = gx;
+        gx = gn;
+        gn = tmp;
+    }
     for (k = 0; k < nsteps; ++k) {
-        const int keep = (k + 1) % every == 0;
-        const long s = (k + 1) / every;
-        double *qs = keep ? q + s * FOUR_PENDULA_N3 : qscratch;
-        double *ws = keep ? w + s * FOUR_PENDULA_N3 : wscratch;
-        for (sub = 0; sub < sc->count && status == FOUR_PENDULA_OK; ++sub) {
-            status = four_pendula_vi_explicit(cx, sc->fractions[sub] * h, x, v, gx, xn, vn, gn, sv,
-                    bridge, qs, ws);
+        /* step k goes to qs and ws (its sample when kept, else the scratch), step k + 1 to
+         * qnext and wnext */
+        const int keep = qs != qscratch;
+        const int keep_next = k + 1 < nsteps && (k + 2) % every == 0;
+        double *const qnext = keep_next ? q + (k + 2) / every * FOUR_PENDULA_N3 : qscratch;
+        double *const wnext = keep_next ? w + (k + 2) / every * FOUR_PENDULA_N3 : wscratch;
+        done = 1;
+        status = FOUR_PENDULA_OK;
+        for (sub = 1; sub <= sc->count && status == FOUR_PENDULA_OK; ++sub) {
+            /* the kick of substep sub - 1 and the drift of substep sub (the next step's first) */
+            if (sub < sc->count) {
+                status = four_pendula_vi_kick_drift(cx, sc->fractions[sub - 1] * h,
+                        sc->fractions[sub] * h, x, v, gx, xn, vn, gn, sv, bridge, qs, ws, &done);
+            } else if (k + 1 < nsteps) {
+                status = four_pendula_vi_kick_drift(cx, sc->fractions[sub - 1] * h,
+                        sc->fractions[0] * h, x, v, gx, xn, vn, gn, sv, bridge, qnext, ws, &done);
+            } else {
+                status = four_pendula_vi_kick(cx, sc->fractions[sub - 1] * h, x, gx, v, ws);
+                done = status == FOUR_PENDULA_OK;
+                break;
+            }
+            /* a substep that did not complete leaves the state as it is */
+            if (sub < sc->count && status != FOUR_PENDULA_OK) {
+                return status;
+            }
             tmp = x;
             x = xn;
             xn = tmp;
@@ -1845,22 +2006,28 @@ static int four_pendula_integrate_explicit(const four_pendula_ctx *cx, const fou
             gx = gn;
             gn = tmp;
         }
-        /* vi_explicit returned OK only with a finite state */
-        if (status != FOUR_PENDULA_OK) {
+        /* step k completed when its last kick did (its velocity is finite) */
+        if (!done) {
             return status;
         }
         stats->gradient_evals += sc->count;
         stats->steps += 1;
         if (keep) {
+            const long s = (k + 1) / every;
             if (energy) {
                 energy[s] = four_pendula_energy_cx(cx, qs, ws);
             }
             stats->fail_step = s + 1;
         }
+        /* the next step's first drift, done with the kick above, may have failed */
+        if (status != FOUR_PENDULA_OK) {
+            return status;
+        }
+        qs = qnext;
+        ws = wnext;
     }
-    return status;
+    return FOUR_PENDULA_OK;
 }
-
 /* Fixed steps of the method `rk` from (q0, w0); every `every`-th state is stored.
  * work: qk (12), wk (12), q1 (12), w1 (12), step (156). */
 static int four_pendula_integrate_fixed(const four_pendula_ctx *cx, const four_pendula_rk_method *rk,
