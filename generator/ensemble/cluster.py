@@ -110,12 +110,25 @@ _NO_ROUTES: dict[str, list[str]] = {
 }
 
 
+#: The local cluster's background work, cut to what an ensemble needs: the workers' sampling
+#: profiler (a stack walk every 10 ms in every worker, competing with the members for the
+#: cores; it feeds only the dashboard's profile page), the event loops' health tick (every
+#: 20 ms) and the scheduler's work stealing (a rebalancing pass every 100 ms; the ensemble
+#: keeps each worker's queue at `dispatch.WINDOW_PER_WORKER` tasks itself).
+_QUIET: dict[str, Any] = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "200ms",
+    "distributed.scheduler.work-stealing": False,
+}
+
+
 def _local_cluster(count: int, security: Any, dashboard: str | None) -> Any:
     """A `LocalCluster` of `count` one-thread worker processes on 127.0.0.1."""
     import dask
     from distributed import LocalCluster
 
-    with dask.config.set({} if dashboard else _NO_ROUTES):  # workers inherit the config
+    settings = _QUIET if dashboard else {**_QUIET, **_NO_ROUTES}
+    with dask.config.set(settings):  # workers inherit the config
         return LocalCluster(
             n_workers=count,
             threads_per_worker=1,
