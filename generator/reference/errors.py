@@ -12,7 +12,8 @@ t_step+1), ``exc.partial`` the `RefTrajectory` up to and including t_step, ``exc
 * `NonFiniteState` (NONFINITE): the state (or a Runge-Kutta stage) became non-finite;
 * `SingularSystem` (SINGULAR): a linear solve outside Newton failed (the velocity solve of the
   VI, the continuous field's A(q) wdot = b);
-* `StepSizeUnderflow` (STEPSIZE): the adaptive RK45 step fell below its minimum.
+* `StepSizeUnderflow` (STEPSIZE): an adaptive step fell below its minimum (RK45, DOP853), or
+  a time-transformed method's step-size variable has no valid value.
 
 Example:
     >>> exc = NewtonFailure(3, "Newton's method did not converge in 50 iterations")
@@ -93,6 +94,7 @@ class SingularSystem(ReferenceIntegrationError):
 
 
 class StepSizeUnderflow(ReferenceIntegrationError):
-    """The adaptive RK45 step size fell below its minimum (MATLAB's hmin or SciPy's min_step)."""
+    """An adaptive step size fell below its minimum (MATLAB's hmin or SciPy's min_step), or
+    a time-transformed method's step-size variable xi has no valid value (`adaptive`)."""
 
     status = Status.STEPSIZE

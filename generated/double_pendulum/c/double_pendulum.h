@@ -45,7 +45,7 @@ enum {
     DOUBLE_PENDULUM_ERR_NEWTON = 2, /* Newton's method did not converge in an implicit step: reduce the step size or raise the iteration limit */
     DOUBLE_PENDULUM_ERR_NONFINITE = 3, /* the state or its gradient became non-finite */
     DOUBLE_PENDULUM_ERR_ARGUMENT = 4, /* invalid argument */
-    DOUBLE_PENDULUM_ERR_STEPSIZE = 5, /* the adaptive step size fell below its minimum */
+    DOUBLE_PENDULUM_ERR_STEPSIZE = 5, /* the adaptive step size fell below its minimum (a time-transformed method: its step-size variable has no valid value) */
     DOUBLE_PENDULUM_ERR_SINGULAR = 6 /* a linear system of the inertia was singular (the inertia is not positive definite at this state) */
 };
 

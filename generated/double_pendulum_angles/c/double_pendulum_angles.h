@@ -42,7 +42,7 @@ enum {
     DOUBLE_PENDULUM_ANGLES_OK = 0, /* success */
     DOUBLE_PENDULUM_ANGLES_ERR_NONFINITE = 3, /* the state or its gradient became non-finite */
     DOUBLE_PENDULUM_ANGLES_ERR_ARGUMENT = 4, /* invalid argument */
-    DOUBLE_PENDULUM_ANGLES_ERR_STEPSIZE = 5, /* the adaptive step size fell below its minimum */
+    DOUBLE_PENDULUM_ANGLES_ERR_STEPSIZE = 5, /* the adaptive step size fell below its minimum (a time-transformed method: its step-size variable has no valid value) */
     DOUBLE_PENDULUM_ANGLES_ERR_SINGULAR = 6, /* a linear system of the inertia was singular (the inertia is not positive definite at this state) */
     DOUBLE_PENDULUM_ANGLES_ERR_POLE = 7 /* a body is at a pole of the angle chart */
 };

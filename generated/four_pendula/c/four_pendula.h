@@ -43,7 +43,7 @@ enum {
     FOUR_PENDULA_ERR_NEWTON = 2, /* Newton's method did not converge in an implicit step: reduce the step size or raise the iteration limit */
     FOUR_PENDULA_ERR_NONFINITE = 3, /* the state or its gradient became non-finite */
     FOUR_PENDULA_ERR_ARGUMENT = 4, /* invalid argument */
-    FOUR_PENDULA_ERR_STEPSIZE = 5, /* the adaptive step size fell below its minimum */
+    FOUR_PENDULA_ERR_STEPSIZE = 5, /* the adaptive step size fell below its minimum (a time-transformed method: its step-size variable has no valid value) */
     FOUR_PENDULA_ERR_SINGULAR = 6 /* a linear system of the inertia was singular (the inertia is not positive definite at this state) */
 };
 
