@@ -17,8 +17,9 @@ settings, with the member table, go to every worker once (`client.scatter(...,
 broadcast=True)`); each task carries a batch of consecutive members (their indices, steps
 and parameters; the worker makes their initial states from the table, `worker.task_state`;
 `batch_size` of them, by default
-chosen by measurement, `batch_size_for`: the first member runs alone and its integration time
-sets how many make a task of about `TARGET_TASK_SECONDS`). At most `WINDOW_PER_WORKER` tasks
+chosen by measurement, `batch_size_for`: one member runs alone on each worker, so that none
+waits, and the integration time of the first one back sets how many make a task of about
+`TARGET_TASK_SECONDS`). At most `WINDOW_PER_WORKER` tasks
 per worker are in flight; as each completes (`distributed.as_completed`) the client fetches
 its results, hands them to the store (which writes each chunk of members once, when it is
 complete: `chunks`), drops them and
@@ -353,10 +354,11 @@ def _on_dask(
             for batch in itertools.islice(batches, max(0, window - len(flying))):
                 submit(batch, 0)
 
-    if batches is None:  # the first member alone: its time sets the batch size
-        first = tuple(itertools.islice(tasks, 1))
-        if first:
-            submit(first, 0)
+    probes = 0
+    if batches is None:  # one member alone per worker: the first one back sets the batch size
+        for task in itertools.islice(tasks, max(1, worker_count(client))):
+            submit((task,), 0)
+            probes += 1
     else:
         top_up()
     for future in done:
@@ -375,7 +377,7 @@ def _on_dask(
         if batches is None:
             slots = WINDOW_PER_WORKER * max(1, worker_count(client))
             seconds = results[0].wall_time if results and results[0].status >= 0 else 0.0
-            batches = _batches(tasks, batch_size_for(seconds, count - 1, slots))
+            batches = _batches(tasks, batch_size_for(seconds, count - probes, slots))
         yield results
         top_up()
 
