@@ -25,14 +25,16 @@ _TIMINGS = {"wall_time", "setup_time", "worker"}
 
 
 def _system() -> Any:
-    """Two bodies under gravity-like forces and a pair term log(1 + qi.qj), which is -inf
-    (its gradient infinite) when the bodies are antipodal."""
+    """Two bodies under gravity-like forces, a pair term log(1 + qi.qj), which is -inf (its
+    gradient infinite) when the bodies are antipodal, and sqrt(1 - q1[2]), finite at the
+    pole q1 = e3 where its gradient is not."""
     return s2gen.define(
         name="pair_log",
         bodies=2,
         parameters={"m": 1.0, "k": 1.0, "a": 0.1},
         diagonal=["m", "m"],
-        potential="k*(q1[2] + q2[2]) + a*log(1 + q1[0]*q2[0] + q1[1]*q2[1] + q1[2]*q2[2])",
+        potential="k*(q1[2] + q2[2]) + a*log(1 + q1[0]*q2[0] + q1[1]*q2[1] + q1[2]*q2[2])"
+        " + a*sqrt(1 - q1[2])",
         initial_q=[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
         initial_omega=[[0.0, 0.3, 0.0], [0.2, 0.0, 0.1]],
     )
@@ -76,13 +78,15 @@ def test_a_mixed_batch_equals_its_members_run_alone() -> None:
         Task(4, 0.01, q0, w0, (("k", 4.0),)),
         Task(5, 0.01, q0, w0, (("nope", 1.0),)),  # unknown parameter
         Task(6, 0.01, q0, -w0, (("a", 0.0),)),
+        Task(7, 0.01, np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]]), w0, ()),  # V finite, dV not
     )
     batched = run_members(payload, tasks)
     alone = [_alone(payload, t) for t in tasks]
-    assert [r.index for r in batched] == list(range(7))
-    assert [r.status for r in alone] == [0, -2, -2, -2, 0, -2, 0]
+    assert [r.index for r in batched] == list(range(8))
+    assert [r.status for r in alone] == [0, -2, -2, -2, 0, -2, 0, -2]
     assert "gradient of V on body 1 is not finite" in alone[1].message
     assert "kinetic energy is not finite" in alone[2].message
+    assert "gradient of V on body 1 is not finite" in alone[7].message
     for a, b in zip(batched, alone, strict=True):
         _assert_same(a, b)
     for a, b in zip(unpack(pack(batched, s.n)), batched, strict=True):

@@ -92,17 +92,23 @@ def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
     except ValueError as exc:
         nsteps, refused = 0, exc
     states = task_states(payload, tasks)
+    vectors: dict[tuple[tuple[str, float], ...], np.ndarray] = {}  # members share parameters
     for task, state in zip(tasks, states, strict=True):  # the checks of run, in their order
         try:
-            p = parameter_vector(system, parameter_vector(system, dict(task.params)))
+            p = vectors.get(task.params)
+            if p is None:
+                p = parameter_vector(system, parameter_vector(system, dict(task.params)))
+                vectors[task.params] = p
             if refused is not None:
                 raise refused
             if isinstance(state, Exception):
                 raise state
             q0, w0 = initial_state(system, *state, opts.unit_tol)
-            # the gradient's check; the energy's (`energy_scale` with energy) only where the
-            # batch's energy at t = 0 is not finite, which is exactly where it would refuse
-            energy_scale(be, q0, w0, p, False)
+            # `energy_scale`'s checks (the gradient, V and the kinetic energy finite at t = 0)
+            # run below, only for a member whose batch run failed or whose energy is not
+            # finite: a non-finite gradient at q0 makes the first step's state non-finite
+            # (IEEE inf and NaN propagate through every method's update), which the C reports,
+            # so those are exactly the members the checks refuse
         except Exception as exc:  # noqa: BLE001 (the member's outcome, as run_members records it)
             out[task.index] = failed_task(task, n, f"{type(exc).__name__}: {exc}")
         else:
@@ -122,8 +128,9 @@ def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
         wall = (time.perf_counter() - start) / len(ready)
         assert b.energy is not None
         ends: list[tuple[Task, int, str, int] | None] = []
+        recheck = (b.status != 0) | ~np.isfinite(b.energy).all(axis=1)  # see above
         for j, (task, q0, w0, p) in enumerate(ready):
-            if not np.isfinite(b.energy[j, 0]):  # V or the kinetic energy at t = 0 (see above)
+            if recheck[j]:
                 try:
                     energy_scale(be, q0, w0, p, True)
                 except ValueError as exc:
