@@ -32,6 +32,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
+from python_step import cpu_model
 
 import s2gen
 from s2gen.runtime.options import Options
@@ -41,23 +42,6 @@ __all__ = ["cpu_model", "main", "parse_args", "slope"]
 
 #: Alternating calls per method when two runs are timed side by side.
 ROUNDS = 15
-
-
-def cpu_model() -> str:
-    """The processor's name from /proc/cpuinfo, else what the platform says.
-
-    Example:
-        >>> isinstance(cpu_model(), str)
-        True
-    """
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:

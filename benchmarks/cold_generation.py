@@ -51,6 +51,8 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from python_step import cpu_model
+
 __all__ = ["CHILD", "bytecode_state", "cpu_model", "main", "parse_args", "run_once"]
 
 #: What one fresh process runs: generate, then build and load; it prints its times as JSON.
@@ -76,23 +78,6 @@ built = time.perf_counter()
 print(json.dumps({"status": status, "generate": generated - start,
                   "build": built - generated, "stages": stages}))
 """
-
-
-def cpu_model() -> str:
-    """The processor's name from /proc/cpuinfo, else what the platform says.
-
-    Example:
-        >>> isinstance(cpu_model(), str)
-        True
-    """
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def _gcc() -> str:

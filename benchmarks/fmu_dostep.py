@@ -18,13 +18,14 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import subprocess
 import sys
 import tempfile
 import zipfile
 from collections.abc import Sequence
 from pathlib import Path
+
+from python_step import cpu_model
 
 import s2gen
 
@@ -167,18 +168,6 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     p.add_argument("--repeats", type=int, default=7, help="alternating runs, best kept (7)")
     p.add_argument("--fmi", type=int, choices=(2, 3), default=2, help="FMI version (2)")
     return p.parse_args(argv)
-
-
-def cpu_model() -> str:
-    """The processor's model name (from /proc/cpuinfo), or the platform's word for it."""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def build(folder: Path, fmi: int) -> tuple[Path, str]:
