@@ -15,7 +15,7 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -79,24 +79,40 @@ def _winner_rows(ex: ExampleBench, metric: str) -> list[list[str]]:
     return out
 
 
-def _versus_rk(ex: ExampleBench, metric: str) -> list[list[str]]:
-    """Per target of `metric`: the cheapest VI-family run, the cheapest Runge-Kutta run of the
-    emitted C (`RK_C`) and the ratio of their wall times."""
+def _against(
+    ex: ExampleBench,
+    metric: str,
+    mine: Callable[[str], bool],
+    theirs: Callable[[str], bool],
+    cell: Callable[[WPRow], str],
+) -> list[list[str]]:
+    """Per target of `metric`: the cheapest run of the methods `mine` picks and of those
+    `theirs` picks (each written by `cell`, "not reached" when none did) and the ratio of
+    their wall times; targets neither side reached are left out."""
     out = []
     for target in _targets(ex, metric):
-        vi = cheapest([r for r in ex.rows if r.method in VI_FAMILY], metric, target)
-        rk = cheapest([r for r in ex.rows if r.method in RK_C], metric, target)
-        if vi is None and rk is None:
+        a = cheapest([r for r in ex.rows if mine(r.method)], metric, target)
+        b = cheapest([r for r in ex.rows if theirs(r.method)], metric, target)
+        if a is None and b is None:
             continue
         out.append(
             [
                 f"≤ {target:.0e}",
-                f"{vi.method} ({vi.setting}): {_ms(vi.wall)}" if vi else "not reached",
-                f"{rk.method} ({rk.setting}): {_ms(rk.wall)}" if rk else "not reached",
-                _fmt(vi.wall / rk.wall, ".2f") + "×" if vi and rk else "—",
+                cell(a) if a else "not reached",
+                cell(b) if b else "not reached",
+                _fmt(a.wall / b.wall, ".2f") + "×" if a and b else "—",
             ]
         )
     return out
+
+
+def _versus_rk(ex: ExampleBench, metric: str) -> list[list[str]]:
+    """Per target of `metric`: the cheapest VI-family run, the cheapest Runge-Kutta run of the
+    emitted C (`RK_C`) and the ratio of their wall times."""
+    return _against(
+        ex, metric, VI_FAMILY.__contains__, RK_C.__contains__,
+        lambda r: f"{r.method} ({r.setting}): {_ms(r.wall)}",
+    )  # fmt: skip
 
 
 def _md_versus_rk(ex: ExampleBench) -> list[str]:
@@ -124,20 +140,10 @@ def _md_transformed(ex: ExampleBench) -> list[str]:
     has no time-transformed rows."""
     if not any(r.method in TIME_TRANSFORMED for r in ex.rows):
         return []
-    table = []
-    for target in _targets(ex, "state_err"):
-        tt = cheapest([r for r in ex.rows if r.method in TIME_TRANSFORMED], "state_err", target)
-        dop = cheapest([r for r in ex.rows if r.method == "dop853"], "state_err", target)
-        if tt is None and dop is None:
-            continue
-        table.append(
-            [
-                f"≤ {target:.0e}",
-                f"{tt.method} ({tt.setting}): {_ms(tt.wall)}, {tt.evals}" if tt else "not reached",
-                f"dop853 ({dop.setting}): {_ms(dop.wall)}, {dop.evals}" if dop else "not reached",
-                _fmt(tt.wall / dop.wall, ".2f") + "×" if tt and dop else "—",
-            ]
-        )
+    table = _against(
+        ex, "state_err", TIME_TRANSFORMED.__contains__, "dop853".__eq__,
+        lambda r: f"{r.method} ({r.setting}): {_ms(r.wall)}, {r.evals}",
+    )  # fmt: skip
     head = (
         "state error",
         "best time-transformed VI (wall, gradient evals)",
