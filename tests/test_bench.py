@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from s2gen.experiments import bench, peers
+from s2gen.inspect import get_backend
 
 EXPECTED_ORDERS = {
     "vi": (2.0, 0.1),
@@ -216,3 +217,51 @@ def test_stability_and_scaling_quick(tmp_path: Path) -> None:
         for method in bench.FIXED:
             rows = [r for r in report.stability if r.case == case.label and r.method == method]
             assert bench.largest_stable(rows) is not None, (case.label, method)
+
+
+def test_long_time_runs_the_time_transformed_methods() -> None:
+    # The encounter cluster's pairs meet again and again (closest approach a = 0.05); over
+    # 4,000 steps of h = 0.01 its long runs include vi4- and vi8-adaptive at eps = LONG_EPS,
+    # continued window by window up to the others' horizon, keeping unit length and energy.
+    series, _, _ = bench.long_time("encounter_cluster", 4000, log=lambda line: None, targets=())
+    by_method = {s.method: s for s in series}
+    horizon = by_method["vi"].t[-1]
+    for name in ("vi4-adaptive", "vi8-adaptive"):
+        s = by_method[name]
+        assert s.status == "ok" and len(s.t) >= 5, s.status
+        assert s.t[-1] == pytest.approx(horizon, abs=1e-9)
+        assert s.evals > s.steps > 1000
+        assert max(s.unit) < 1e-12
+    system = bench.example_system("encounter_cluster")
+    e0 = abs(get_backend(system, "c").energy(system.q0, system.omega0, system.parameter_values))
+    # vi8-adaptive keeps the energy to 1e-6 relative; fixed vi8 at h = 0.01, which does not
+    # resolve the encounters, loses it by more than 1e-3 (so the case is a hard one).
+    assert max(by_method["vi8-adaptive"].dE) < 1e-6 * e0 < 1e-3 * e0 < max(by_method["vi8"].dE)
+
+
+def test_encounter_study_compares_at_equal_energy_error() -> None:
+    # Over T = 10 of the encounter cluster: every run reaches the horizon or says why not, the
+    # time-transformed runs' energy error falls at their order in eps (vi4-adaptive: 4), and
+    # each target's pair of runs is, on each side, the cheapest run that keeps the error.
+    runs, costs, e0 = bench.encounter_study("encounter_cluster", 1000, log=lambda line: None)
+    assert [c.target for c in costs] == list(bench.ENERGY_TARGETS)
+    ok = [r for r in runs if r.status == "ok"]
+    assert {r.method for r in ok} == {"dop853", "vi4-adaptive", "vi6-adaptive", "vi8-adaptive"}
+    # (a time-transformed run ends on its grid of eps: within eps of the horizon)
+    assert all(10.0 - (r.h if r.method != "dop853" else 1e-9) < r.t[-1] < 10.0 + 1e-9 for r in ok)
+    vi4 = [r for r in ok if r.method == "vi4-adaptive"]
+    eps = np.array([r.h for r in vi4])
+    err = np.array([max(r.dE) / abs(e0) for r in vi4])
+    order = np.polyfit(np.log(eps), np.log(err), 1)[0]
+    assert 3.3 < order < 5.0, (eps, err)
+    for c in costs:
+        for side, label, evals in (
+            ("dop853", c.dop_label, c.dop_evals),
+            ("tt", c.tt_label, c.tt_evals),
+        ):
+            mine = [r for r in ok if (r.method == "dop853") == (side == "dop853")]
+            meeting = [r for r in mine if max(r.dE) / abs(e0) <= c.target]
+            assert (label == "") == (not meeting)
+            if meeting:
+                assert evals == min(r.evals for r in meeting)
+                assert label in {r.label for r in meeting if r.evals == evals}

@@ -31,7 +31,8 @@ Definitions (repeated in bench.md):
 
 The package, one responsibility per module: `model` (records and method constants), `common`
 (shared helpers), `sweeps` and `per_step` (work-precision), `long_runs`, `long_study` and
-`crossover` (long time; crossovers with RK at equal error), `envelope` (stability), `sizes`
+`crossover` (long time; crossovers with RK at equal error), `encounters` (long horizons with
+close encounters: the time-transformed VI against DOP853 at equal energy error), `envelope` (stability), `sizes`
 (scaling), `tables` (CSV), `figures` (PNG), `report_example` and `report` (bench.md), `driver`
 (`bench`, the CLI). Their public
 names (and the private ones the tests use) are re-exported here, so `s2gen.bench` reads as one
@@ -60,6 +61,12 @@ _WHERE = {
     "FIXED": "model",
     "HORIZONS": "sweeps",
     "LONG_STATES": "long_study",
+    "LONG_EPS": "long_study",
+    "LONG_TRANSFORMED": "long_study",
+    "ENERGY_TARGETS": "encounters",
+    "EnergyCost": "encounters",
+    "encounter_study": "encounters",
+    "energy_costs": "encounters",
     "Log": "common",
     "LongSeries": "model",
     "LongSetup": "model",
@@ -117,10 +124,13 @@ _WHERE = {
 __all__ = [
     "CROSSOVER_TARGETS",
     "DEFAULT_EXAMPLES",
+    "ENERGY_TARGETS",
     "EVALS_PER_STEP",
     "FIXED",
     "HORIZONS",
+    "LONG_EPS",
     "LONG_STATES",
+    "LONG_TRANSFORMED",
     "ORDERS",
     "PER_STEP_METHODS",
     "PUBLISHED_N20",
@@ -133,6 +143,7 @@ __all__ = [
     "WP_COLUMNS",
     "BenchReport",
     "Crossover",
+    "EnergyCost",
     "ExampleBench",
     "Log",
     "LongSeries",
@@ -148,6 +159,8 @@ __all__ = [
     "conserved_components",
     "crossover_horizon",
     "crossovers",
+    "encounter_study",
+    "energy_costs",
     "example_system",
     "findings",
     "fitted_orders",

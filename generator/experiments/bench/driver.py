@@ -27,13 +27,14 @@ from s2gen import SpecError
 
 from .command import DEFAULT_EXAMPLES, command_line
 from .common import Log, _print, example_system
+from .encounters import encounter_study
 from .envelope import stability
 from .figures import write_plots
 from .long_study import long_time
 from .model import BenchReport, ExampleBench, Reference
 from .report import write_markdown
 from .sizes import scaling
-from .sweeps import work_precision
+from .sweeps import has_transformed, work_precision
 from .tables import write_tables
 
 
@@ -76,6 +77,8 @@ def bench(
             n = steps or (10**5 if quick else 10**6)
             most = crossover_steps or (10**5 if quick else 10**7)
             ex.long, ex.long_notes, ex.crossovers = long_time(name, n, tight, log, most)
+            if has_transformed(ex.system):
+                ex.encounters, ex.energy_costs, ex.energy0 = encounter_study(name, n, log)
         ex.name = ex.system.name  # a TOML path names its files and sections by the spec's name
         report.examples.append(ex)
     if stability_envelope:

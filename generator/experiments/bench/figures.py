@@ -149,6 +149,32 @@ def _plot_long(ex: ExampleBench, path: Path) -> Path:
     return _save(fig, path)
 
 
+def _plot_encounters(ex: ExampleBench, path: Path) -> Path:
+    """Largest relative energy error over the horizon, and its drift slope, against gradient
+    evaluations: one line per method through its runs from loose to tight (DOP853 over its
+    tolerance, the time-transformed VI over eps; on a chaotic system the evaluations a run
+    needs are not monotone in its setting, since each run meets its own encounters)."""
+    fig, axes = _pyplot().subplots(1, 2, figsize=(12, 5))
+    e0 = abs(ex.energy0)
+    for m in dict.fromkeys(s.method for s in ex.encounters):
+        runs = [s for s in ex.encounters if s.method == m and s.status == "ok" and s.dE]
+        pts = [(s.evals, max(s.dE) / e0, s.slope()) for s in runs]  # loose to tight
+        if pts:
+            evals, err, slope = zip(*pts)
+            axes[0].loglog(evals, err, label=m, **_style(m))
+            axes[1].semilogx(evals, slope, label=m, **_style(m))
+    for c in ex.energy_costs:
+        axes[0].axhline(c.target, color="0.6", lw=0.8, ls=":")
+    axes[1].axhline(0.0, color="0.6", lw=0.8, ls=":")
+    _label(axes[0], "gradient evaluations", "max |E - E0| / |E0| over the horizon")
+    _label(axes[1], "gradient evaluations", "drift slope (log max |dE| against log t)")
+    axes[0].legend(fontsize=8)
+    horizon = max((s.t[-1] for s in ex.encounters if s.t), default=math.nan)
+    fig.suptitle(f"{ex.name}: energy error against cost over T = {horizon:g} (dotted: targets)")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
 def _plot_stability(rows: Sequence[StabRow], path: Path) -> Path:
     from matplotlib.ticker import NullFormatter
 
@@ -213,6 +239,8 @@ def write_plots(report: BenchReport) -> list[Path]:
             files.append(_plot_wp(ex, report.out / f"wp_{ex.name}.png"))
         if ex.long:
             files.append(_plot_long(ex, report.out / f"long_{ex.name}.png"))
+        if ex.encounters:
+            files.append(_plot_encounters(ex, report.out / f"encounters_{ex.name}.png"))
     if report.stability:
         files.append(_plot_stability(report.stability, report.out / "stability.png"))
     if report.scaling:

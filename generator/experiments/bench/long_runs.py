@@ -153,6 +153,43 @@ def _long_adaptive(tr: _Tracker, ends: Sequence[float], log: Log) -> LongSeries:
     return s
 
 
+def _long_transformed(tr: _Tracker, ends: Sequence[float], log: Log) -> LongSeries:
+    """The run's time-transformed method at its fictitious step eps (the series' h), one call
+    per window up to each of `ends` (rounded down to the grid of eps) beyond where it stopped,
+    at most about 32 samples a window (every sample spacing that divides the window; each
+    sample is reached by one extra step, counted in the evaluations).
+    Each call starts the step-size variable xi afresh at the monitor of its first state, so
+    the chain is reversible within a window and restarted at its end (a few dozen windows)."""
+    s = tr.series
+    eps = s.h
+    prog = _Progress(s.label, ends[-1], log)
+    for t_end in ends:
+        n = math.floor(t_end / eps + 1e-9) - round(tr.t / eps)
+        if s.status != "ok" or n <= 0:
+            continue
+        every = max(d for d in range(1, max(1, n // 32) + 1) if n % d == 0)
+        try:
+            out = simulate(
+                tr.system,
+                s.method,
+                "c",
+                h=eps,
+                T=n * eps,
+                every=every,
+                options=Options(unit_tol=0.0),
+                params=tr.params,
+                q0=tr.q,
+                omega0=tr.w,
+            )
+        except IntegrationError as exc:
+            s.status = f"{_why(exc)} in the window ending at t = {t_end:g}"
+            break
+        s.steps += int(out.stats.get("steps", 0))
+        tr.add(tr.t + n * eps, out)
+        prog(tr.t)
+    return s
+
+
 def _tracker(setup: LongSetup, label: str, method: str, h: float, rtol: float) -> _Tracker:
     series = LongSeries(setup.name, label, method, h, rtol)
     p = np.array(setup.system.parameter_values, dtype=float)

@@ -25,13 +25,19 @@ from s2gen.inspect import get_backend
 
 from .common import Log, _fmt, _print, _why, example_system
 from .crossover import CROSSOVER_TARGETS, Crossover, crossovers
-from .long_runs import _long_adaptive, _long_fixed, _tracker, _windows
+from .long_runs import _long_adaptive, _long_fixed, _long_transformed, _tracker, _windows
 from .model import VI_FAMILY, LongSeries, LongSetup
+from .sweeps import has_transformed
 
 #: Methods of the long runs at the system's step.
 LONG_FIXED = (*VI_FAMILY, "rk4")
 #: The tight adaptive runs the VI family is measured against.
 LONG_ADAPTIVE = ("rk45", "dop853")
+#: The time-transformed methods of the long runs, where the emitted C has them, and their
+#: fictitious step: eps is in units of the fastest pair's phase (s2gen.monitor), so 0.1 takes
+#: at least 2 pi / 0.1 = 63 steps per period of the fastest pair whatever the system's h.
+LONG_TRANSFORMED = ("vi4-adaptive", "vi8-adaptive")
+LONG_EPS = 0.1
 
 
 def conserved_components(
@@ -141,6 +147,11 @@ def long_time(
         tr = _tracker(setup, f"{method} tol={tight:g}", method, math.nan, tight)
         out.append(_long_adaptive(tr, ends, log))
         log(_long_line(out[-1]))
+    if has_transformed(setup.system):
+        for method in LONG_TRANSFORMED:
+            tr = _tracker(setup, f"{method} eps={LONG_EPS:g}", method, LONG_EPS, math.nan)
+            out.append(_long_transformed(tr, ends, log))
+            log(_long_line(out[-1]))
     notes = [setup.note] if setup.note else []
     found: list[Crossover] = []
     if targets:

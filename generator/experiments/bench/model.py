@@ -119,6 +119,9 @@ class ExampleBench:
     long: list[LongSeries] = field(default_factory=list)
     long_notes: list[str] = field(default_factory=list)
     crossovers: list[Any] = field(default_factory=list)  # crossover.Crossover records
+    encounters: list[LongSeries] = field(default_factory=list)  # encounters.energy_runs
+    energy_costs: list[Any] = field(default_factory=list)  # encounters.EnergyCost records
+    energy0: float = math.nan  # E0 of the long runs (the encounter runs' scale)
     call_overhead: float = math.nan
 
 

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .common import _fmt, _ms, _table, _times
+from .encounters import md_encounters
 from .kernels import md_kernel_ops
 from .model import (
     FIXED,
@@ -349,6 +350,7 @@ def _md_example(ex: ExampleBench, out: Path) -> list[str]:
         lines += _md_all_runs(ex)
     if ex.long:
         lines += _md_long(ex)
+        lines += md_encounters(ex.encounters, ex.energy_costs, ex.energy0)
     return lines
 
 

@@ -67,7 +67,7 @@ def write_tables(report: BenchReport) -> list[Path]:
     long_rows = [
         [s.example, s.label, s.method, s.h, s.rtol, t, e, u, qw, dl, s.status]
         for ex in report.examples
-        for s in ex.long
+        for s in (*ex.long, *ex.encounters)
         for t, e, u, qw, dl in zip(s.t, s.dE, s.unit, s.qw, s.dL)
     ]
     if long_rows:
