@@ -295,8 +295,8 @@ def _geometric(name: str, code: int, family: Family, comp: Composition, summary:
 
 def _transformed(name: str, code: int, comp: Composition, summary: str) -> Method:
     """A time-transformed VI: steps of `comp` of sizes eps / xi in time (h is eps); in the
-    reference and the emitted C (every S^2 module's enum has it, the modules with a monitor,
-    `s2gen.monitor`, run it)."""
+    reference and the emitted C and NumPy (every S^2 module's enum has it, the modules with a
+    monitor, `s2gen.monitor`, run it)."""
     return Method(
         name,
         code,
@@ -304,7 +304,7 @@ def _transformed(name: str, code: int, comp: Composition, summary: str) -> Metho
         len(comp.fractions),
         True,
         Family.TIME_VI,
-        ("c", "reference"),
+        _ALL,
         summary,
         driver=Driver.TIME_TRANSFORMED,
         transformed=comp,

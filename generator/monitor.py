@@ -160,8 +160,8 @@ def monitor(system: System) -> Monitor:
 
 
 def emitted_refusal(system: System) -> str | None:
-    """Why the emitted C of `system` has no time-transformed driver, in one line (None: it
-    has one): no monitor (`monitor`), pair terms within a cutoff, or more than
+    """Why the emitted C and NumPy of `system` have no time-transformed driver, in one line
+    (None: they have one): no monitor (`monitor`), pair terms within a cutoff, or more than
     `MONITOR_MAX_PAIRS` monitored pairs (a monitor given as [run] g takes any closed system).
 
     Example:

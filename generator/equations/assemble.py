@@ -222,9 +222,8 @@ def sphere_module(system: System) -> Module:
         parameter_values=system.parameter_values,
         kernels=tuple(kernels),
         parts=parts,
-        # NumPy: numpy.linalg, scipy.linalg (step_jvp() and the time-transformed driver are C
-        # only)
-        c_only=("cholesky", "lu", "band", *JVP_C_ONLY, BATCH_PART, "transformed"),
+        # NumPy: numpy.linalg, scipy.linalg (step_jvp() is C only)
+        c_only=("cholesky", "lu", "band", *JVP_C_ONLY, BATCH_PART),
         variants=_variants(solver, "transformed" in parts),
         pairs=pairs,
         terms=loops,

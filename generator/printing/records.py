@@ -305,6 +305,7 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "drive_force": ("driven",),
         "drive_operator": ("driven",),
         "vi_operator": ("vi_newton",),
+        "transformed_dispatch": ("driver",),
         "drive_start": ("driven",),
         "drive_end": ("driven",),
         "drive_stage": ("driven",),
@@ -483,6 +484,9 @@ def sections(module: Module) -> tuple[Sections, Sections]:
             (forces and not coupled, "drive_operator_diagonal"),
         ),
         "vi_operator": pick("numpy", (forces, "vi_operator_dense")),
+        "transformed_dispatch": pick(
+            "numpy", ("transformed" in module.parts, "transformed_dispatch")
+        ),
         "drive_start": pick("numpy", (forces, "drive_start_force")),
         "drive_end": pick("numpy", (forces, "drive_end_force")),
         "drive_stage": pick("numpy", (forces, "drive_stage_force")),

@@ -1,4 +1,5 @@
-"""The time-transformed VI methods' records for the C driver (`templates/c/_transformed.jinja`).
+"""The time-transformed VI methods' records for the drivers (`templates/c/_transformed.jinja`,
+`templates/numpy/_transformed.jinja`).
 
 Input: a lowered `Module`. Output: one record per time-transformed method of `s2gen.methods`
 (its enum constant, the length and the table of its composition, the tables the geometric

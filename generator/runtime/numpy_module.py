@@ -20,7 +20,8 @@ import numpy as np
 
 from s2gen.build import cache_dir
 from s2gen.emit import emit
-from s2gen.methods import CONTROLS, method
+from s2gen.methods import CONTROLS, Driver, method
+from s2gen.monitor import emitted_refusal
 from s2gen.runtime.options import Options
 from s2gen.system import System
 
@@ -96,6 +97,8 @@ class NumpyBackend:
         every: int = 1,
         with_energy: bool = True,
     ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray | None, dict[str, int]]:
+        if method(method_name).driver is Driver.TIME_TRANSFORMED:
+            self._check_transformed()
         return self.module.integrate(  # type: ignore[no-any-return]
             params,
             method(method_name).code,
@@ -113,6 +116,14 @@ class NumpyBackend:
             unit_tol=options.unit_tol,
             with_energy=with_energy,
         )
+
+    def _check_transformed(self) -> None:
+        """Refuse, in one line, the time-transformed methods for a system whose emitted module
+        has no driver for them, as the C backend does (checked once per backend)."""
+        if not hasattr(self, "_transformed_refusal"):
+            self._transformed_refusal = emitted_refusal(self.system)
+        if self._transformed_refusal is not None:
+            raise ValueError(self._transformed_refusal)
 
     def integrate_driven(
         self,
