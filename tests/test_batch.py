@@ -153,6 +153,14 @@ def test_dipoles_shared_k(opt: str) -> None:
     check("dipoles", ("vi", "rk4"), opt, own="m")
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("opt", ["portable", "native"])
+def test_dipoles_shared_k_every_method(opt: str) -> None:
+    """Every batched method of the dipoles with the first block's lanes sharing K (as in
+    test_dipoles_shared_k), -O2 and -O3 -march=native."""
+    check("dipoles", BATCH_METHODS, opt, own="m")
+
+
 def _k_reassociated(c: str, upper: str) -> str:
     """The lanes' four-column pass of Kx summed left to right instead of in pairs."""
     pair = "ai[l] += (a0 * x0[l] + a1 * x1[l]) + (a2 * x2[l] + a3 * x3[l]);"
