@@ -1,8 +1,9 @@
 """integrate_batch() against one member per call of integrate(), inside C, same flags, same run.
 
-For each system and method: K members (different parameters and initial states) through
-NAME_integrate_batch in one call, and the same K members through NAME_integrate one at a time,
-both timed by one C program built from the emitted module with the flag set's flags
+For each system and method: K members (different parameters and initial states; with
+--shared one parameter vector for all, as in an ensemble of perturbed initial states, where
+the lanes of a quadratic form share its matrix K) through NAME_integrate_batch in one call,
+and the same K members through NAME_integrate one at a time, both timed by one C program built from the emitted module with the flag set's flags
 (`s2gen.build.FLAG_SETS`, "portable" = -O2 and "native" = -O3 -march=native, without -shared),
 best of `--repeats`; the program first checks that the two give the same final states bit for
 bit (exit status 1 otherwise). Prints member-steps per second per core for both, their ratio,
@@ -17,7 +18,7 @@ iterations per step as the batch's members took them (their mean, which the prog
 with a max-index M (the 10-link rope) no flops are counted and no fraction of peak printed.
 
     python benchmarks/batch.py [--systems four_pendula double_pendulum rope:n=10]
-        [--members 1024] [--repeats 3]
+        [--members 1024] [--repeats 3] [--shared]
 """
 
 from __future__ import annotations
@@ -29,9 +30,12 @@ import sys
 import tempfile
 from pathlib import Path
 
+import numpy as np
+
 from s2gen.build import FLAG_SETS
 from s2gen.emit import emit
 from s2gen.inspect import kernel_profile, lowered
+from s2gen.runtime.model import Model
 from s2gen.system import System
 from s2gen.systems import resolve
 
@@ -52,7 +56,7 @@ static double now(void)
 int main(int argc, char **argv)
 {
     const long K = atol(argv[1]), nsteps = atol(argv[2]), every = nsteps;
-    const int method = atoi(argv[3]), repeats = atoi(argv[4]);
+    const int method = atoi(argv[3]), repeats = atoi(argv[4]), shared = atoi(argv[5]);
     const long N = @P@_NSTATE, P = @P@_NPARAMS, S = nsteps / every + 1;
     double *p = malloc(sizeof(double) * (P > 0 ? P : 1) * K), *pk = malloc(sizeof(double) * (P + 1));
     double *q0 = malloc(sizeof(double) * N * K), *w0 = malloc(sizeof(double) * N * K);
@@ -73,7 +77,7 @@ int main(int argc, char **argv)
     @NAME@_initial_state(qk, wk);
     for (k = 0; k < K; ++k) {
         for (e = 0; e < P; ++e) {
-            p[e * K + k] = pk[e] * (1.0 + 0.01 * (double)k / (double)K);
+            p[e * K + k] = shared ? pk[e] : pk[e] * (1.0 + 0.01 * (double)k / (double)K);
         }
         for (e = 0; e < N; ++e) {
             q0[e * K + k] = qk[e];
@@ -129,7 +133,7 @@ def flops_per_member_step(system: System, method: str, iters: float = 0.0) -> in
     """Floating-point operations of one member-step, from the lowered kernels' op counts
     (`s2gen.inspect.kernel_profile`; a square root or a division counts as one): dV/dq (the
     general kernel, each term's gradient kernel times its members, a quadratic form's
-    2 N3^2) plus, for the VI, each body's position and velocity updates, for RK4 four
+    2 n^2 per block of K that is not zero: `k_blocks`) plus, for the VI, each body's position and velocity updates, for RK4 four
     evaluations of the field (dV/dq and each body's rhs_diag) and the stage sums. A dense M:
     `newton_flops` (`iters` Newton iterations per step) or four fields of the coupled kind
     (rhs_body, rhs_pair, A(q) and an LU solve); None for another coupled M."""
@@ -146,11 +150,31 @@ def flops_per_member_step(system: System, method: str, iters: float = 0.0) -> in
     gradient = ops("gradient") if dict(module.facts).get("general") else 0
     for t in module.terms:
         gradient += (
-            2 * n3 * n3 // len(module.terms) if t.quadratic else t.loop.count * ops(t.gradient)
+            2 * module.n**2 * k_blocks(system) // len(module.terms)
+            if t.quadratic
+            else t.loop.count * ops(t.gradient)
         )
     if method == "vi":
         return gradient + module.n * (ops("vi_pos") + ops("vi_vel"))
     return 4 * (gradient + module.n * ops("rhs_diag")) + 2 * n3 * (2 + 2 + 2 + 8)
+
+
+def k_blocks(system: System) -> int:
+    """How many of the quadratic matrix K's nine n x n component blocks are not zero (the
+    product skips the others), at the default parameters: dV/dq = Kq + b is linear in q, so
+    column k of K is dV/dq(e_k) - dV/dq(0) (NumPy backend); a block counts as zero where all
+    its entries are below 1e-12 of K's largest."""
+    model = Model(system, "numpy")
+    n = system.n
+    zero = model.gradient(np.zeros((n, 3))).reshape(-1)
+    cols = []
+    for k in range(3 * n):
+        e = np.zeros(3 * n)
+        e[k] = 1.0
+        cols.append(model.gradient(e.reshape(n, 3)).reshape(-1) - zero)
+    k_body = np.array(cols).T  # body-major rows and columns: entry (3 i + u, 3 j + v)
+    blocks = np.abs(k_body).reshape(n, 3, n, 3).max(axis=(0, 2))
+    return int(np.count_nonzero(blocks > 1e-12 * blocks.max()))
 
 
 def newton_flops(system: System, method: str, iters: float) -> int:
@@ -179,7 +203,9 @@ def newton_flops(system: System, method: str, iters: float) -> int:
     return 4 * field + 2 * n3 * (2 + 2 + 2 + 8)
 
 
-def run(system: str, method: str, flags: str, members: int, steps: int, repeats: int) -> None:
+def run(
+    system: str, method: str, flags: str, members: int, steps: int, repeats: int, shared: bool
+) -> None:
     s = resolve(system).with_batch()
     files = emit(s, "c")
     codes = {"vi": 0, "rk4": 4}
@@ -203,7 +229,14 @@ def run(system: str, method: str, flags: str, members: int, steps: int, repeats:
             check=True,
         )
         out = subprocess.run(
-            [str(d / "bench"), str(members), str(steps), str(codes[method]), str(repeats)],
+            [
+                str(d / "bench"),
+                str(members),
+                str(steps),
+                str(codes[method]),
+                str(repeats),
+                str(int(shared)),
+            ],
             check=False,
             capture_output=True,
             text=True,
@@ -239,16 +272,24 @@ def main() -> None:
     ap.add_argument("--members", type=int, default=1024)
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument(
+        "--shared",
+        action="store_true",
+        help="the members share one parameter vector (only their initial states differ)",
+    )
     args = ap.parse_args()
     model, mhz, per_cycle = cpu()
     print(f"CPU: {model}, {mhz:.0f} MHz, peak {mhz * per_cycle / 1e3:.1f} GFLOP/s per core")
-    print("member-steps per second per core (one thread)")
+    print(
+        "member-steps per second per core (one thread); parameters "
+        + ("shared by all members" if args.shared else "each member's own")
+    )
     for system in args.systems:
         for method in args.methods:
             if system in ("dipoles", "rope:n=10") and method != "vi":
                 continue  # the issue's targets: the VI alone
             for flags in ("portable", "native"):
-                run(system, method, flags, args.members, args.steps, args.repeats)
+                run(system, method, flags, args.members, args.steps, args.repeats, args.shared)
 
 
 if __name__ == "__main__":

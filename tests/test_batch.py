@@ -54,10 +54,13 @@ def system(name: str) -> System:
     return resolve(str(SPECS / f"{name}.toml")) if name in ("springs4", "chain4") else resolve(name)
 
 
-def members(name: str, late: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def members(
+    name: str, late: bool = False, own: str | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """K perturbed copies of the spec's state and parameters, two of them made to fail (three
     when `late`: LATE_MEMBER upside down at rest, its gravity g LATE_GRAVITY times larger, and
-    SPIN_MEMBER 10^4 times faster)."""
+    SPIN_MEMBER 10^4 times faster). With `own`, the first BATCH_LANES members share member
+    0's parameters except parameter `own`, which each keeps its own."""
     s = system(name)
     rng = np.random.default_rng(7)
     q0 = s.q0[None] + 1e-2 * rng.standard_normal((K, s.n, 3))
@@ -65,6 +68,10 @@ def members(name: str, late: bool = False) -> tuple[np.ndarray, np.ndarray, np.n
     w0 = s.omega0[None] + 0.1 * rng.standard_normal((K, s.n, 3))
     w0 -= np.sum(w0 * q0, axis=2, keepdims=True) * q0
     p = np.array(s.parameter_values)[None] * (1 + 0.2 * rng.random((K, len(s.parameter_values))))
+    if own is not None:
+        keep = p[:BATCH_LANES, s.parameter_names.index(own)].copy()
+        p[:BATCH_LANES] = p[0]
+        p[:BATCH_LANES, s.parameter_names.index(own)] = keep
     q0[NAN_MEMBER, 0, 1] = np.nan
     w0[FAST_MEMBER] *= 1e170
     if late:
@@ -87,13 +94,15 @@ def check(
     late: bool = False,
     files: dict[str, str] | None = None,
     options: Options | None = None,
+    own: str | None = None,
 ) -> None:
     """Every member of the batch against integrate() of that member alone (`files`: the
-    batched module's C, by default the emitted one), both with `options` (default Options())."""
+    batched module's C, by default the emitted one), both with `options` (default Options());
+    `own`: see `members`."""
     s = system(name)
     one, batched = CBackend(s, opt=opt), CBackend(s.with_batch(), files, opt=opt)
     assert not one.library.batch and batched.library.batch
-    q0, w0, p = members(name, late)
+    q0, w0, p = members(name, late, own)
     assert K % BATCH_LANES != 0
     for m in methods:
         b = integrate_batch(batched, m, H, NSTEPS, q0, w0, p, options or Options(), EVERY)
@@ -130,8 +139,52 @@ def test_four_pendula_every_method() -> None:
 
 
 def test_dipoles_vi() -> None:
-    """The VI of a system whose gradient runs through its quadratic form (K)."""
+    """The VI and RK4 of a system whose gradient runs through its quadratic form (K), every
+    member with its own parameters: each lane's K differs (dV/dq lane by lane)."""
     check("dipoles", ("vi", "rk4"), "portable")
+
+
+@pytest.mark.parametrize("opt", ["portable", "native"])
+def test_dipoles_shared_k(opt: str) -> None:
+    """The dipoles' VI and RK4 with Kx + b in loops over the lanes: the first block's members
+    share the parameters K depends on, each with its own mass m (its own M; a NaN member
+    among them), the second block's members differ in every parameter (each lane its own K,
+    lane by lane); -O2 and -O3 -march=native."""
+    check("dipoles", ("vi", "rk4"), opt, own="m")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("opt", ["portable", "native"])
+def test_dipoles_shared_k_every_method(opt: str) -> None:
+    """Every batched method of the dipoles with the first block's lanes sharing K (as in
+    test_dipoles_shared_k), -O2 and -O3 -march=native."""
+    check("dipoles", BATCH_METHODS, opt, own="m")
+
+
+def _k_reassociated(c: str, upper: str) -> str:
+    """The lanes' four-column pass of Kx summed left to right instead of in pairs."""
+    pair = "ai[l] += (a0 * x0[l] + a1 * x1[l]) + (a2 * x2[l] + a3 * x3[l]);"
+    assert c.count(pair) == 1
+    return c.replace(pair, "ai[l] += ((a0 * x0[l] + a1 * x1[l]) + a2 * x2[l]) + a3 * x3[l];")
+
+
+def _k_always_shared(c: str, upper: str) -> str:
+    """Every block's lanes take lane 0's K, whether or not their own K equals it."""
+    flag = "b->shared_k = 0;"
+    assert c.count(flag) == 1
+    return c.replace(flag, "")
+
+
+@pytest.mark.parametrize("broken", [_k_reassociated, _k_always_shared])
+def test_broken_shared_k_is_caught(broken: Callable[[str, str], str]) -> None:
+    """The lanes' Kx + b must be quadratic_soa's sum in its order, and only lanes whose K is
+    lane 0's may share it: either broken variant fails the comparison on the dipoles' VI."""
+    s = system("dipoles")
+    files = dict(emit(s.with_batch(), "c"))
+    source = f"{s.name}.c"
+    files[source] = broken(files[source], s.name.upper())
+    with pytest.raises(AssertionError, match="dipoles vi member"):
+        check("dipoles", ("vi",), "portable", files=files, own="m")
 
 
 @pytest.mark.slow

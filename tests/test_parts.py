@@ -220,6 +220,8 @@ SYSTEMS = {
     "double_pendulum_batch": lambda: builtin("double_pendulum").with_batch(),
     # integrate_batch() with a max-index M: the Newton VI and the field lane by lane
     "rope_batch": lambda: resolve("rope:n=10").with_batch(),
+    # integrate_batch() with the quadratic terms' Kx + b in loops over the lanes sharing K
+    "dipoles_batch": lambda: builtin("dipoles").with_batch(),
 }
 
 

@@ -8,9 +8,11 @@ arithmetic of the step (the explicit VI's position and velocity updates, the Run
 stages and the uncoupled vector field) runs in loops over the lanes that the compiler
 vectorises (OpenMP SIMD hints). Each lane performs the one-member code's operations in the
 same order on its own numbers, so that a member's trajectory, energy and statistics equal
-integrate()'s bit for bit; the gradient dV/dq and the energy are the one-member code's own
-functions, called lane by lane (their member loops, neighbour lists and member tables are
-kept as they are).
+integrate()'s bit for bit. dV/dq runs in loops over the lanes too where it is a general
+kernel, member loops over fixed members, or the quadratic matrix K alone, shared by a
+block's lanes whose K are equal bit for bit (`s2gen.printing.c_batch.lane_gradient`);
+otherwise it, like the energy always, is the one-member code's own function, called lane by
+lane (its member loops, neighbour lists and member tables kept as they are).
 
 With a coupled M (dense, banded or max-index), the lanes hold the state body-major: the
 Runge-Kutta stages' arithmetic still runs in loops over the lanes, and so does a dense M's

@@ -98,7 +98,8 @@ class PrintedModule:
     table_inits: tuple[dict[str, Any], ...]  # per term with a table: index, count, table, call
     py_tables: tuple[str, ...]  # calls computing the terms' member tables (NumPy)
     quadratic: int  # order of the quadratic terms' matrix K (0: none)
-    c_includes: tuple[str, ...]  # more headers: stdint.h (uintptr_t) for 64-byte aligned buffers
+    c_includes: tuple[str, ...]  # more headers: stdint.h (uintptr_t) for 64-byte aligned buffers,
+    # string.h (memcmp) for a batch whose lanes may share K
     quad_inits: tuple[dict[str, Any], ...]  # per quadratic term: loop, coefficient call, scatter
     py_quad_lines: tuple[str, ...]  # NumPy lines building K and b
     py_table_names: tuple[str, ...]
@@ -223,7 +224,8 @@ def print_module(module: Module) -> PrintedModule:
             or any(lay.name == "explicit" for lay in module.layouts)
             or "batch" in module.parts
             else ()
-        ),
+        )
+        + (("string.h",) if module.quadratic > 0 and "batch" in module.parts else ()),
         quad_inits=tuple(quad_init(module, t, calls) for t in module.terms if t.quadratic),
         py_quad_lines=tuple(
             line for t in module.terms if t.quadratic for line in py_quad_lines(t, calls, module.n)

@@ -27,6 +27,7 @@ from s2gen.methods import explicit_tableaus
 from s2gen.parts.batch import BATCH_LANES, BATCH_PART
 from s2gen.printing.c import CPrinter, c_inline, c_loop
 from s2gen.printing.c_batch_newton import newton_lane_work, newton_lanes
+from s2gen.printing.c_batch_quadratic import quadratic_lanes
 from s2gen.printing.c_calls import c_binding
 
 __all__ = ["batch_work", "coupled_field", "newton_work", "print_batch"]
@@ -86,6 +87,9 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
         at2 += t.table * t.loop.count * lanes
     off["g"] = at2
     at2 += n3 * lanes
+    if module.quadratic:  # the accumulator of Kx (one component block: n per lane)
+        off["qa"] = at2
+        at2 += n * lanes
     if "field_coupled" in module.parts:  # a dense M's field in lane loops: M's entries, A(q)
         off["md"] = at2
         off["mp"] = off["md"] + n * lanes
@@ -100,7 +104,7 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
 
 
 #: The gradient record where dV/dq runs lane by lane (no loops over the lanes).
-_NO_LANES: dict[str, Any] = {"general": False, "parts": ()}
+_NO_LANES: dict[str, Any] = {"general": False, "parts": (), "quadratic": False, "field_g": ()}
 
 
 def print_batch(module: Module) -> dict[str, Any]:
@@ -312,10 +316,25 @@ def lane_gradient(module: Module) -> dict[str, Any] | None:
     loops (their own loop heads, `c_open`), each member's kernel inline with its inputs read
     from the lanes (positions, constants, member tables, parameters) and its outputs added
     into the body-major lane gradient in the one-member code's order; None when some part of
-    the gradient is not a member loop over fixed members (rows, quadratic forms, cutoffs) or
-    reads what the lanes do not hold (the batch then calls gradient_soa lane by lane)."""
+    the gradient is not a member loop over fixed members (rows, cutoffs) or reads what the
+    lanes do not hold (the batch then calls gradient_soa lane by lane); `field_g`: the lines
+    that load a body's dV/dq for the uncoupled field's kernel.
+
+    When every term is in the quadratic matrix K, Kx + b runs in loops over the lanes instead
+    (`quadratic`: see `s2gen.printing.c_batch_quadratic.quadratic_lanes`).
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> g = lane_gradient(lower_system(builtin("dipoles").with_batch()))
+        >>> g["quadratic"], g["parts"]
+        (True, ())
+    """
     general = dict(module.facts).get("general", False)
-    if any(t.rows or t.quadratic or t.sorted_cells or not t.loop.kind.fixed for t in module.terms):
+    lanes = f"{module.name.upper()}_BATCH_LANES"
+    if module.quadratic:  # Kx + b alone, every term in K, or lane by lane
+        return quadratic_lanes(module)
+    if any(t.rows or t.sorted_cells or not t.loop.kind.fixed for t in module.terms):
         return None
     if bool(general) == bool(module.terms):
         return None  # a general kernel alone, or terms alone
@@ -366,4 +385,15 @@ def lane_gradient(module: Module) -> dict[str, Any] | None:
                 "stores": tuple(stores),
             }
         )
-    return {"general": bool(general), "parts": tuple(parts)}
+    field_g = (
+        (
+            f"const double g0 = g[(3 * i) * {lanes} + l], g1 = g[(3 * i + 1) * {lanes} + l], "
+            f"g2 = g[(3 * i + 2) * {lanes} + l];"
+        ),
+    )
+    return {
+        "general": bool(general),
+        "parts": tuple(parts),
+        "quadratic": False,
+        "field_g": field_g,
+    }

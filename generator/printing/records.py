@@ -293,6 +293,9 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "batch_layout": ("batch",),
         "batch_dense": ("batch",),
         "batch_vi": ("batch",),
+        "batch_quadratic": ("batch_gradient_lanes",),
+        "batch_quadratic_field": ("batch",),
+        "batch_quadratic_share": ("batch",),
     },
     {
         "masses_fill": ("masses", "masses_coupled", "masses_generators"),
@@ -364,6 +367,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     lanes = batch and explicit and _lane_gradient(module) is not None
     field = batch and not explicit and _coupled_field(module) is not None  # a dense M's, in lanes
     dense_vi = "vi_newton" in module.parts  # and its Newton VI in lanes too
+    shared_k = (lanes or field) and quadratic  # Kx + b in lanes where the lanes share K
     rattle_jacobian = any(k.name == "rattle_jacobian" for k in module.kernels)
 
     def pick(lang: str, *choices: tuple[bool, str]) -> tuple[str, ...]:
@@ -444,6 +448,9 @@ def sections(module: Module) -> tuple[Sections, Sections]:
             (batch and not explicit, "batch_layout_body"),
         ),
         "batch_dense": pick("c", (field, "batch_dense")),
+        "batch_quadratic": pick("c", (shared_k, "batch_quadratic_lanes")),
+        "batch_quadratic_field": pick("c", (shared_k, "batch_quadratic_field")),
+        "batch_quadratic_share": pick("c", (shared_k, "batch_quadratic_share")),
         "batch_vi": pick(
             "c",
             (batch and explicit, "batch_vi_explicit"),
