@@ -7,16 +7,19 @@ once the C modules are built (the file runs in about 10 s on 2 cores with a warm
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 
 import numpy as np
 import pytest
 
 from s2gen import load
+from s2gen.cli import main
 from s2gen.reference.forced import driven_rhs
 from s2gen.reference.step_jacobian import _problem
 from s2gen.runtime.model import Model
 from s2gen.runtime.options import Options
+from s2gen.runtime.reference_backend import ReferenceBackend
 
 #: Newton's last update below 1e-13: round-off in the step and its complex-step derivative
 EXACT = Options(unit_tol=0.0, newton_tol=1e-13)
@@ -195,3 +198,28 @@ def test_step_jvp_refuses_the_numpy_backend() -> None:
     s = load("double_pendulum")
     with pytest.raises(TypeError, match="C and reference backends, not 'numpy'"):
         _model("double_pendulum", "numpy").step_jvp(s.q0, s.omega0, H, s.q0, s.omega0)
+
+
+def test_lyapunov_command_on_the_reference_backend(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`s2gen lyapunov --backend reference` prints the spectrum of the reference's
+    complex-step Jacobians (every step after the first through them): the C's exponents
+    (Model.lyapunov on the C backend) to the printed digits."""
+    calls = []
+    state_jacobian = ReferenceBackend.state_jacobian
+
+    def counted(self: ReferenceBackend, *args: object) -> tuple[np.ndarray, ...]:
+        calls.append(args[1])
+        return state_jacobian(self, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(ReferenceBackend, "state_jacobian", counted)
+    args = ["double_pendulum", "--T", "0.5", "--transient", "0.1", "--no-progress"]
+    assert main(["lyapunov", *args, "--backend", "reference"]) == 0
+    assert len(calls) == 59  # 60 steps of h = 0.01, the first through linearize
+    text = capsys.readouterr().out
+    exponent = re.compile(r"^  lambda_\d+ +([+-][0-9.]+) \+- ", re.MULTILINE)
+    printed = [float(x) for x in exponent.findall(text)]
+    s = load("double_pendulum")
+    c = _model("double_pendulum", "c").lyapunov(s.q0, s.omega0, H, 0.5, "vi", 0.1)
+    assert len(printed) == 8 and np.allclose(printed, c.exponents, rtol=0, atol=6e-7)
