@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 import pytest
+from docs_text import code_blocks, page, section
 
 from s2gen import load
 from s2gen.cli import main
@@ -223,3 +224,23 @@ def test_lyapunov_command_on_the_reference_backend(
     s = load("double_pendulum")
     c = _model("double_pendulum", "c").lyapunov(s.q0, s.omega0, H, 0.5, "vi", 0.1)
     assert len(printed) == 8 and np.allclose(printed, c.exponents, rtol=0, atol=6e-7)
+
+
+def test_docs_reference_field_and_jvp_block() -> None:
+    """The two blocks of docs/user_guide/linearization.rst's section on the reference's
+    Jacobian, run in turn as they stand: the field Jacobian is the C's (1e-10), and the product
+    is the C's embedding A (vi) times the tangent direction (1e-10)."""
+    text = section(
+        page("user_guide/linearization.rst"), "The reference's Jacobian: an independent check"
+    )
+    ns: dict[str, object] = {}
+    for block in code_blocks(text, "python")[:2]:
+        exec(compile(block, "linearization.rst", "exec"), ns)  # noqa: S102
+    s = load("double_pendulum")
+    fj, st, dq = ns["fj"], ns["st"], ns["dq"]
+    c = _model("double_pendulum", "c")
+    assert _rel(c.jacobian_field(s.q0, s.omega0).J, fj.J) <= 1e-10  # type: ignore[attr-defined]
+    lin = c.linearize(s.q0, s.omega0, 0.01, "vi", basis="embedding")
+    Av = lin.A @ np.concatenate([np.ravel(dq), np.zeros(3 * s.n)])  # type: ignore[arg-type]
+    got = np.concatenate([st.dq.ravel(), st.domega.ravel()])  # type: ignore[attr-defined]
+    assert _rel(Av, got) <= 1e-10
