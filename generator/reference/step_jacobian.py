@@ -6,7 +6,10 @@ time t, a step h, the inputs u held over the step and the parameter values.
 Output: from `step_jacobian`, the state after the step and A = dx+/dx (6n x 6n, the
 embedding coordinates x = (q, w), the 3n components of q body-major, then the 3n of w),
 B = dx+/du (6n x inputs) and P = dx+/dp (6n x parameters, in `System.parameter_names`
-order).
+order); from `step_jvp`, the state after the step and A d for one state direction d (one
+complex step); from `state_jacobian`, A alone through a step built once by
+`reference_stepper` (for runs of many steps). The field's Jacobian is
+`s2gen.reference.field_jacobian`'s.
 
 The derivative is taken through the reference's own step (`forced_integrate`'s VI, RATTLE and
 Runge-Kutta steps on the `DrivenProblem` of the system; a closed system is the problem

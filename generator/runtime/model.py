@@ -293,8 +293,7 @@ class Model(JacobianMethods):
 
         p = parameter_vector(self.system, params)
         uu = None if u is None else np.asarray(u, dtype=float)
-        backend = self._backend if self.backend_name == "reference" else self._jacobian_backend()
-        return linearize(backend, q, omega, h, method, p, t, uu, basis, options)
+        return linearize(self._jacobian_backend(), q, omega, h, method, p, t, uu, basis, options)
 
     def step_jvp(
         self,
