@@ -3,7 +3,7 @@ derivative through the reference's own step or field (`s2gen.reference.step_jaco
 `s2gen.reference.field_jacobian`), checked against independent derivations: the emitted C's
 step_jvp() and field_jacobian() (derived symbolically by the generator), central differences
 of the reference field, and the C's Lyapunov spectrum. Every case takes well under a second
-once the C modules are built (the file runs in about 10 s on 2 cores with a warm cache)."""
+once the C modules are built (the file runs in 10 to 15 s on 2 cores with a warm cache)."""
 
 from __future__ import annotations
 
