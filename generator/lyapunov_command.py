@@ -2,14 +2,14 @@
 
 Input: the parsed command line (`s2gen.cli`). Output: the exit status and, on stdout, the
 spectrum (each exponent with its statistical error, the pair sums lambda_k + lambda_(4n+1-k)
-and the total), from `Model.lyapunov` (`s2gen.runtime.lyapunov`); with `--out DIR`, the
-running estimates against the averaging time in DIR/lyapunov.csv and their plot in
-DIR/lyapunov.png. Bad input raises ValueError before the run (one line, status 2).
+and the total), from `Model.lyapunov` (`s2gen.runtime.lyapunov`) on the C (default), NumPy or
+reference backend; with `--out DIR`, the running estimates against the averaging time in
+DIR/lyapunov.csv and their plot in DIR/lyapunov.png. Bad input raises ValueError before the run (one line, status 2).
 
 Example:
     >>> import argparse
     >>> args = argparse.Namespace(spec="double_pendulum", param=[], method="vi", h=-1.0,
-    ...     T=1.0, transient=0.0, blocks=10, out=None, progress=False)
+    ...     T=1.0, transient=0.0, blocks=10, out=None, progress=False, backend="c")
     >>> lyapunov_command(args)
     Traceback (most recent call last):
     ...
@@ -29,7 +29,7 @@ __all__ = ["add_parser", "lyapunov_command"]
 
 def add_parser(subparsers: Any) -> None:
     """Register `s2gen lyapunov` on an argparse subparsers object."""
-    from s2gen.methods import NAMES
+    from s2gen.methods import BACKENDS, NAMES
 
     p = subparsers.add_parser(
         "lyapunov",
@@ -43,6 +43,13 @@ def add_parser(subparsers: Any) -> None:
     )
     p.add_argument("spec", metavar="SPEC")
     p.add_argument("--method", choices=NAMES, default="vi", help="integrator (default vi)")
+    p.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        default="c",
+        help="c (default), numpy, or reference: the complex-step Jacobians of the reference "
+        "step (slow, an independent check)",
+    )
     p.add_argument("--h", type=float, help="step size (default: the spec's [run] h)")
     p.add_argument("--T", type=float, help="averaging time (default: the spec's [run] T)")
     p.add_argument("--transient", type=float, help="time discarded first (default: a tenth of T)")
@@ -136,7 +143,7 @@ def lyapunov_command(args: argparse.Namespace) -> int:
     transient = args.transient if args.transient is not None else T / 10
     check_lyapunov(h, T, transient, args.blocks, 1)
     out = _out_dir(args.out)
-    model = Model(system)
+    model = Model(system, backend=args.backend)
     show = args.progress
     if show is None:
         show = bool(getattr(sys.stderr, "isatty", lambda: False)())

@@ -20,8 +20,9 @@ the fixed-step Runge-Kutta methods, recording the work W so that E - E0 - W is t
 the VI and its compositions in a fictitious time, steps eps / xi with xi tracking a monitor of
 the pair terms; the monitor's rule is the definition in `s2gen.monitor`, shared with the
 emitted code as the tableaus are). `step_jacobian` differentiates one fixed step (closed or
-driven) by the complex-step derivative: the steps carry complex states, inputs and parameters
-(`problem.numbers`), and give the same numbers as before on real ones.
+driven) by the complex-step derivative, and `field_jacobian` the continuous field: the steps
+and the field carry complex states, inputs and parameters (`problem.numbers`), and give the
+same numbers as before on real ones.
 
 Input: a `ReferenceProblem` (inertia matrix M, potential V(q) and its gradient dV/dq), usually
 built from a `System` by `problem_from_system` (structured terms are evaluated vectorized over

@@ -1,7 +1,9 @@
 """The continuous field's Jacobian, in the tangent basis or the embedding coordinates.
 
 Input: a C or NumPy backend whose module has field_jacobian() (built from
-`System.with_jacobians`), a state, time and inputs. Output: a `FieldJacobian`.
+`System.with_jacobians`), or the reference backend (the complex-step derivative of its own
+field, `s2gen.reference.field_jacobian`: an independent check), a state, time and inputs.
+Output: a `FieldJacobian`.
 
 The field is f(x) = (qdot, wdot) with qdot_i = w_i x q_i and A(q) wdot = b(q, w, t, u), x =
 (q, w) in the embedding order of `s2gen.runtime.linearize`. The emitted C returns J = df/dx
@@ -113,7 +115,9 @@ def jacobian_field(
     basis: str = "tangent",
 ) -> FieldJacobian:
     """The `FieldJacobian` at (q, w) (shape (n, 3)) at time t with the inputs u (None: the
-    spec's defaults) on a `CBackend` or `NumpyBackend` whose module has field_jacobian().
+    spec's defaults) on a `CBackend` or `NumpyBackend` whose module has field_jacobian(), or
+    the reference backend (the complex-step derivative of its own field,
+    `s2gen.reference.field_jacobian`).
 
     Example:
         >>> from s2gen.systems import builtin
@@ -126,13 +130,17 @@ def jacobian_field(
     system = backend.system
     if basis not in BASES:
         raise ValueError(f"basis {basis!r}: choose one of {', '.join(BASES)}")
-    if not jacobian_features(backend)[0]:
+    reference = backend.name == "reference"
+    if not reference and not jacobian_features(backend)[0]:
         raise ValueError(f"{system.name}: field_jacobian needs the module with Jacobians")
     n, ni = system.n, len(system.inputs.names)
     q0 = contiguous(np.asarray(q, dtype=float).reshape(n, 3))
     w0 = contiguous(np.asarray(w, dtype=float).reshape(n, 3))
     uu = None if u is None else contiguous(np.asarray(u, dtype=float).reshape(ni))
-    if isinstance(backend, CBackend):
+    if reference:
+        qd, wd, J, Ju, Jp = backend.field_jacobian(np.asarray(params, dtype=float), t, q0, w0, uu)
+        status = 0
+    elif isinstance(backend, CBackend):
         qd, wd = np.empty((n, 3)), np.empty((n, 3))
         npar = len(system.parameter_names)
         J, Ju, Jp = np.empty((6 * n, 6 * n)), np.empty((6 * n, ni)), np.empty((6 * n, npar))

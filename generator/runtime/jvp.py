@@ -2,7 +2,9 @@
 
 Input: a C backend whose module has step_jvp() (built from `System.with_jacobians` for a
 system `s2gen.equations.jvp.has_jvp` covers: a diagonal M or a banded or max-index M with
-the structured solvers, closed, any n), a state (q, omega), a tangent direction
+the structured solvers, closed, any n) or the reference backend (one complex step through its
+own step per product: any system and fixed-step method it differentiates, an independent
+check), a state (q, omega), a tangent direction
 (dq, domega) in the embedding coordinates (shape (n, 3) each), a step size and a fixed-step
 Runge-Kutta method. Output: a `StepTangent`: the state after the step and the directional
 derivative (dq+, domega+) = A (dq, domega), A = dx+/dx the step's Jacobian in the embedding
@@ -88,7 +90,9 @@ def jvp_backend(model: Any) -> Any:
 def _refuse(backend: Any, method_name: str) -> None:
     system = backend.system
     if not isinstance(backend, CBackend):
-        raise TypeError(f"{system.name}: step_jvp runs on the C backend, not {backend.name!r}")
+        raise TypeError(
+            f"{system.name}: step_jvp runs on the C and reference backends, not {backend.name!r}"
+        )
     if not backend.library.jvp:
         why = jvp_refusal(system) or f"{system.name}: built without it (System.with_jacobians)"
         raise ValueError(why)
@@ -107,13 +111,36 @@ def step_jvp(
     method_name: str,
     params: np.ndarray,
     options: Options | None = None,
+    t: float = 0.0,
+    u: np.ndarray | None = None,
 ) -> StepTangent:
     """One step of `method_name` from (q, w) with its tangent along (dq, dw) (each of shape
     (n, 3)) on a `CBackend` whose module has step_jvp(), at the parameters `params`, with the
-    step's `options` (Newton's, for the VI; None: the defaults)."""
-    _refuse(backend, method_name)
+    step's `options` (Newton's, for the VI; None: the defaults); or on the reference backend
+    (one complex step through its own step, `s2gen.reference.step_jacobian.step_jvp`: every
+    method `linearize` takes there, closed or driven, from time t with the inputs u held,
+    None: the spec's). The C's step_jvp() covers closed systems, whose step does not depend
+    on t and which have no inputs.
+
+    Example:
+        >>> from s2gen.runtime.reference_backend import ReferenceBackend
+        >>> from s2gen.systems import builtin
+        >>> s = builtin("double_pendulum")
+        >>> be = ReferenceBackend(s)
+        >>> st = step_jvp(be, s.q0, s.omega0, 0.01, s.q0, 0 * s.omega0, "vi",
+        ...               be.default_params())
+        >>> st.dq.shape
+        (2, 3)
+    """
     system = backend.system
     n = system.n
+    if u is not None:
+        u = np.asarray(u, dtype=float).reshape(len(system.inputs.names))
+    if backend.name == "reference":
+        opts = Options() if options is None else options
+        p = np.asarray(params, dtype=float)
+        return StepTangent(*backend.step_jvp(method_name, t, h, q, w, dq, dw, u, p, opts))
+    _refuse(backend, method_name)
 
     def state(x: np.ndarray) -> np.ndarray:
         return contiguous(np.asarray(x, dtype=float).reshape(n, 3))

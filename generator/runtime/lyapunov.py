@@ -1,6 +1,7 @@
 """Lyapunov spectra of a system's discrete flow, from products of exact step Jacobians.
 
-Input: a C or NumPy backend whose module has step_jacobian() (`System.with_jacobians`), an initial
+Input: a C or NumPy backend whose module has step_jacobian() (`System.with_jacobians`) or the
+reference backend (the complex-step derivative of its own step: slow, a check), an initial
 state, a fixed-step method with a step Jacobian, h, the averaging time T and a transient.
 Output: a `LyapunovSpectrum`.
 
@@ -151,9 +152,10 @@ def lyapunov(
 ) -> LyapunovSpectrum:
     """The `LyapunovSpectrum` of `method_name`'s steps of size h from (q, w) (shape (n, 3))
     at time t0 with the inputs u held (None: the spec's defaults) on a `CBackend` or
-    `NumpyBackend` with step_jacobian(): `transient` (rounded to steps) discarded, then T averaged in `blocks`
-    blocks, the running estimates at `samples` times; `progress(fraction)` is called about a
-    hundred times. ValueError for bad input or a failed step (named by its time).
+    `NumpyBackend` with step_jacobian() or the reference backend: `transient` (rounded to
+    steps) discarded, then T averaged in `blocks` blocks, the running estimates at `samples`
+    times; `progress(fraction)` is called about a hundred times. ValueError for bad input or
+    a failed step (named by its time).
 
     Example:
         >>> from s2gen.systems import builtin
@@ -208,8 +210,19 @@ def _advance(
 ) -> Callable[[float, float, np.ndarray, np.ndarray], tuple[Any, ...]]:
     """The step of `lyapunov`'s loop: (t, h, q, w) -> (status, qn, wn, A), A in the embedding
     coordinates; on the C backend one call of step_jacobian() into buffers prepared once (two
-    state buffers used in turn), on the NumPy backend one call of the module's."""
+    state buffers used in turn), on the NumPy backend one call of the module's, on the
+    reference backend its complex-step A (`ReferenceBackend.state_jacobian`, no B or P)."""
     code = method(method_name).code
+    if backend.name == "reference":
+        p_ref = np.asarray(params, dtype=float)
+
+        def reference_step(t: float, h: float, q: np.ndarray, w: np.ndarray) -> tuple[Any, ...]:
+            try:
+                return (0, *backend.state_jacobian(method_name, t, h, q, w, u, p_ref, opts))
+            except ValueError as exc:  # it names the status; the time is the loop's
+                raise ValueError(f"{exc} (the step at t = {t:.6g})") from exc
+
+        return reference_step
     if not isinstance(backend, CBackend):
         fun, p = backend.module.step_jacobian, np.asarray(params, dtype=float)
 

@@ -293,8 +293,7 @@ class Model(JacobianMethods):
 
         p = parameter_vector(self.system, params)
         uu = None if u is None else np.asarray(u, dtype=float)
-        backend = self._backend if self.backend_name == "reference" else self._jacobian_backend()
-        return linearize(backend, q, omega, h, method, p, t, uu, basis, options)
+        return linearize(self._jacobian_backend(), q, omega, h, method, p, t, uu, basis, options)
 
     def step_jvp(
         self,
@@ -306,14 +305,18 @@ class Model(JacobianMethods):
         method: str = "rk4",
         params: Mapping[str, float] | None = None,
         options: Options | None = None,
+        t: float = 0.0,
+        u: Sequence[float] | np.ndarray | None = None,
     ) -> StepTangent:
         """One step of a fixed-step method from (q, omega) and its exact directional
         derivative along (dq, domega) (embedding coordinates, shape (n, 3) each):
         A (dq, domega), A = `linearize`'s embedding A, without forming it, in O(n) time and
         memory (`s2gen.runtime.jvp`): the fixed-step Runge-Kutta methods and the VI family
         (vi, vi4, vi6, vi8, with Newton's `options`), for a diagonal M or a banded or
-        max-index M with the structured solvers, closed, any n. C backend only (the first call builds the
-        module with step_jvp(), `System.with_jacobians`).
+        max-index M with the structured solvers, closed, any n. C backend (the first call builds the
+        module with step_jvp(), `System.with_jacobians`), or the reference backend: one
+        complex step through its own step, every method and system its `linearize` takes,
+        from time t with the inputs u held (None: the spec's; the C covers closed systems).
 
         Example:
             >>> from s2gen.systems import builtin
@@ -326,7 +329,8 @@ class Model(JacobianMethods):
         from s2gen.runtime.jvp import jvp_backend, step_jvp
 
         p = parameter_vector(self.system, params)
-        return step_jvp(jvp_backend(self), q, omega, h, dq, domega, method, p, options)
+        uu = None if u is None else np.asarray(u, dtype=float)
+        return step_jvp(jvp_backend(self), q, omega, h, dq, domega, method, p, options, t, uu)
 
     def stepper(
         self,

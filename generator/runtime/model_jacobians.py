@@ -38,15 +38,17 @@ class JacobianMethods:
     _jacobians: Any
 
     def _jacobian_backend(self) -> Any:
-        """The backend with step_jacobian() and field_jacobian(): this one when it has them,
-        else (C or NumPy) the module of the same backend built once from
-        `System.with_jacobians` when first asked for."""
+        """The backend with step_jacobian() and field_jacobian(): this one when it has them
+        (the reference always does), else (C or NumPy) the module of the same backend built
+        once from `System.with_jacobians` when first asked for."""
         from s2gen.equations.jacobian import jacobian_refusal
         from s2gen.runtime.c import CBackend
         from s2gen.runtime.linearize import jacobian_features
         from s2gen.runtime.numpy_module import NumpyBackend
 
         backend = self._backend
+        if backend.name == "reference":
+            return backend  # the complex-step derivatives of its own step and field
         if not jacobian_features(backend)[0]:
             why = jacobian_refusal(self.system)
             if why is not None:
@@ -70,7 +72,8 @@ class JacobianMethods:
         time t with the inputs u (None: the spec's): J = d/dx and Ju = d/du in the tangent
         basis (4n: the generator of `linearize`'s tangent A, A = I + hJ + O(h^2) for a
         Runge-Kutta step) or the embedding coordinates (6n), with the field and the basis
-        (`s2gen.runtime.field_jacobian`); C or NumPy backend, as `linearize`.
+        (`s2gen.runtime.field_jacobian`); C or NumPy backend, as `linearize`, or the
+        reference backend (the complex-step derivative of its own field).
 
         Example:
             >>> from s2gen.runtime.model import Model
@@ -108,7 +111,7 @@ class JacobianMethods:
         (`s2gen.runtime.lyapunov`): the exponents (4n, decreasing up to nearly equal ones)
         and their errors from `blocks` block means, the pair sums, the running estimates at
         `samples` times; `progress(fraction)` is called as the run goes. C or NumPy backend,
-        as `linearize`.
+        as `linearize`, or the reference backend (its complex-step A: slow, a check).
 
         Example:
             >>> from s2gen.runtime.model import Model

@@ -30,6 +30,7 @@ class ReferenceBackend:
         self.system = system
         self._problems: dict[tuple[float, ...], Any] = {}
         self._monitors: dict[tuple[float, ...], Any] = {}
+        self._steppers: dict[tuple[Any, ...], Any] = {}  # state_jacobian's steps
 
     def default_params(self) -> np.ndarray:
         return np.array(self.system.parameter_values, dtype=float)
@@ -73,6 +74,18 @@ class ReferenceBackend:
 
         return np.asarray(reference.angular_momentum(self._problem(params), q, w))
 
+    def _call(self, what: str, fun: Any, *args: Any) -> Any:
+        """fun(*args), a failed reference step or a singular A(q) raised as a one-line
+        ValueError naming the status, as the emitted modules report it."""
+        from s2gen.methods import Status
+        from s2gen.reference import ReferenceIntegrationError
+
+        try:
+            return fun(*args)
+        except (ReferenceIntegrationError, np.linalg.LinAlgError) as exc:
+            st = exc.status if isinstance(exc, ReferenceIntegrationError) else Status.SINGULAR
+            raise ValueError(f"{self.system.name}: {what}: {st.c_name}: {st.message}") from exc
+
     def step_jacobian(
         self,
         method: str,
@@ -97,20 +110,101 @@ class ReferenceBackend:
             >>> A.shape, P.shape
             ((12, 12), (12, 5))
         """
-        from s2gen.methods import Status
-        from s2gen.reference import ReferenceIntegrationError
         from s2gen.reference.step_jacobian import step_jacobian
 
-        try:
-            return step_jacobian(
-                self.system, method, t, h, q, w, u, params, options.newton_tol,
-                options.newton_maxiter,
-            )  # fmt: skip
-        except (ReferenceIntegrationError, np.linalg.LinAlgError) as exc:
-            st = exc.status if isinstance(exc, ReferenceIntegrationError) else Status.SINGULAR
-            raise ValueError(
-                f"{self.system.name}: step_jacobian: {st.c_name}: {st.message}"
-            ) from exc
+        tol, most = options.newton_tol, options.newton_maxiter
+        args = (self.system, method, t, h, q, w, u, params, tol, most)
+        return tuple(self._call("step_jacobian", step_jacobian, *args))
+
+    def state_jacobian(
+        self,
+        method: str,
+        t: float,
+        h: float,
+        q: np.ndarray,
+        w: np.ndarray,
+        u: np.ndarray | None,
+        params: np.ndarray,
+        options: Options,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(q+, w+, A) of one step, `step_jacobian` without B and P (the step of `method` at
+        these parameters and options built once and kept, for a run of many steps).
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> s = builtin("double_pendulum")
+            >>> be = ReferenceBackend(s)
+            >>> qn, wn, A = be.state_jacobian("rk4", 0.0, 0.01, s.q0, s.omega0, None,
+            ...                               be.default_params(), Options())
+            >>> A.shape
+            (12, 12)
+        """
+        from s2gen.reference.step_jacobian import _inputs, reference_stepper, state_jacobian
+
+        tol, most = options.newton_tol, options.newton_maxiter
+        key = (method, tuple(float(v) for v in params), tol, most)
+        if key not in self._steppers:
+            self._steppers[key] = reference_stepper(self.system, method, params, tol, most)
+        stepper = self._steppers[key]
+
+        def step(qa: np.ndarray, wa: np.ndarray, ua: np.ndarray) -> tuple[np.ndarray, ...]:
+            return stepper(qa, wa, t, h, ua)  # type: ignore[no-any-return]
+
+        x = np.concatenate([np.ravel(q), np.ravel(w)]).astype(float)
+        uu = _inputs(self.system, u)
+        return self._call("step_jacobian", state_jacobian, step, x, uu, self.system.n)  # type: ignore[no-any-return]
+
+    def step_jvp(
+        self,
+        method: str,
+        t: float,
+        h: float,
+        q: np.ndarray,
+        w: np.ndarray,
+        dq: np.ndarray,
+        dw: np.ndarray,
+        u: np.ndarray | None,
+        params: np.ndarray,
+        options: Options,
+    ) -> tuple[np.ndarray, ...]:
+        """(q+, w+, dq+, dw+) of one step and its derivative along (dq, dw) (embedding
+        coordinates), by one complex step through the reference's own step
+        (`s2gen.reference.step_jacobian.step_jvp`); u None: the spec's inputs.
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> s = builtin("double_pendulum")
+            >>> be = ReferenceBackend(s)
+            >>> qn, wn, dqn, dwn = be.step_jvp("vi", 0.0, 0.01, s.q0, s.omega0, s.q0,
+            ...                                0 * s.omega0, None, be.default_params(), Options())
+            >>> dqn.shape
+            (2, 3)
+        """
+        from s2gen.reference.step_jacobian import step_jvp
+
+        tol, most = options.newton_tol, options.newton_maxiter
+        args = (self.system, method, t, h, q, w, dq, dw, u, params, tol, most)
+        return tuple(self._call("step_jvp", step_jvp, *args))
+
+    def field_jacobian(
+        self, params: np.ndarray, t: float, q: np.ndarray, w: np.ndarray, u: np.ndarray | None
+    ) -> tuple[np.ndarray, ...]:
+        """(qdot, wdot, J, Ju, Jp) of the continuous field in the embedding coordinates, as the
+        C and NumPy modules' field_jacobian(), by the complex-step derivative of the reference's
+        own field (`s2gen.reference.field_jacobian`); u None: the spec's inputs.
+
+        Example:
+            >>> from s2gen.systems import builtin
+            >>> s = builtin("double_pendulum")
+            >>> be = ReferenceBackend(s)
+            >>> qd, wd, J, Ju, Jp = be.field_jacobian(be.default_params(), 0.0, s.q0,
+            ...                                       s.omega0, None)
+            >>> J.shape, Jp.shape
+            ((12, 12), (12, 5))
+        """
+        from s2gen.reference.field_jacobian import field_jacobian
+
+        return tuple(self._call("field_jacobian", field_jacobian, self.system, t, q, w, u, params))
 
     def integrate(
         self,
