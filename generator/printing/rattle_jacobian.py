@@ -1,5 +1,5 @@
 """Print the records of RATTLE's step Jacobians (``m.rattle_jac``, read by the ``jacobian_rattle``
-sections of ``c/_jacobian.jinja`` and ``numpy/_jacobian.jinja``).
+sections of ``c/_jacobian.jinja`` and ``numpy/_jacobian.jinja``; a driven module's in C only).
 
 Input: a lowered sphere `Module` with the ``rattle_jacobian`` kernels
 (`s2gen.equations.rattle_jacobian`). Output: the RATTLE family's methods (their substeps' step
@@ -34,6 +34,7 @@ RATTLE_SITES = frozenset({"rattle_jacobian", "rattle_jacobian_pair"})
 
 _KEYS = (
     "methods",
+    "py_methods",
     "count",
     "max_sub",
     "ny",
@@ -75,8 +76,11 @@ def print_rattle_jacobian(module: Module) -> dict[str, Any]:
         for m in METHODS
         if m.family is Family.RATTLE and m.composition is not None
     )
+    # the NumPy module has no driven RATTLE step (`s2gen.runtime.driven`): nor its Jacobian
+    numpy = module.drive is None
     return {
         "methods": methods,
+        "py_methods": methods if numpy else (),
         "count": str(len(methods)),
         "max_sub": str(max(int(m["count"]) for m in methods)),
         "ny": str(11 * module.n),
@@ -88,7 +92,9 @@ def print_rattle_jacobian(module: Module) -> dict[str, Any]:
                 "    status, qn, wn, d = _jac_rattle(p, cc, method, h, q, w, newton_tol, "
                 "newton_maxiter)"
             ),
-        ),
+        )
+        if numpy
+        else (),
         "c_other": (
             f"if ({name}_jac_rattle_method_of(method)) {{",
             (
