@@ -1,5 +1,5 @@
 """Print the records of RATTLE's step Jacobians (``m.rattle_jac``, read by the ``jacobian_rattle``
-sections of ``c/_jacobian.jinja`` and ``numpy/_jacobian.jinja``; a driven module's in C only).
+sections of ``c/_jacobian.jinja`` and ``numpy/_jacobian.jinja``).
 
 Input: a lowered sphere `Module` with the ``rattle_jacobian`` kernels
 (`s2gen.equations.rattle_jacobian`). Output: the RATTLE family's methods (their substeps' step
@@ -34,7 +34,7 @@ RATTLE_SITES = frozenset({"rattle_jacobian", "rattle_jacobian_pair"})
 
 _KEYS = (
     "methods",
-    "py_methods",
+    "py_correction",
     "count",
     "max_sub",
     "ny",
@@ -76,25 +76,29 @@ def print_rattle_jacobian(module: Module) -> dict[str, Any]:
         for m in METHODS
         if m.family is Family.RATTLE and m.composition is not None
     )
-    # the NumPy module has no driven RATTLE step (`s2gen.runtime.driven`): nor its Jacobian
-    numpy = module.drive is None
+    drive = module.drive
+    # a driven module's (C: _jacobian_rattle_driven) with the forces' end velocity correction
+    correction: tuple[str, ...] = ()
+    if drive is not None and drive.forces:
+        correction = (
+            "status, wd, _, its = _end_velocity(p, cc, hs, xd, wd, tu, newton_tol, newton_maxiter)",
+            "if status != OK:",
+            "    return status, None, None, None",
+        )
+    call = (
+        "_jac_rattle(p, cc, method, h, q, w, newton_tol, newton_maxiter)"
+        if drive is None
+        else "_jac_rattle_driven(p, cc, method, t, h, q, w, tu, newton_tol, newton_maxiter)"
+    )
     return {
         "methods": methods,
-        "py_methods": methods if numpy else (),
+        "py_correction": correction,
         "count": str(len(methods)),
         "max_sub": str(max(int(m["count"]) for m in methods)),
         "ny": str(11 * module.n),
         "c_equations": _c_lines(module, body, pair),
         "py_equations": _py_lines(module, body, pair),
-        "py_dispatch": (
-            "else:",
-            (
-                "    status, qn, wn, d = _jac_rattle(p, cc, method, h, q, w, newton_tol, "
-                "newton_maxiter)"
-            ),
-        )
-        if numpy
-        else (),
+        "py_dispatch": ("else:", f"    status, qn, wn, d = {call}"),
         "c_other": (
             f"if ({name}_jac_rattle_method_of(method)) {{",
             (

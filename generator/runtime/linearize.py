@@ -159,8 +159,7 @@ def _refuse(backend: Any, method_name: str, basis: str) -> None:
     names = [m.name for m in fixed_methods("sphere")]
     if jacobian_vi:
         names += [m.name for m in METHODS if m.family is Family.VI]
-    # the NumPy module has no driven RATTLE step, nor its Jacobian
-    if has_rattle_jacobian(system) and not (system.driven and backend.name == "numpy"):
+    if has_rattle_jacobian(system):
         names += [m.name for m in METHODS if m.family is Family.RATTLE]
     allowed = [m for m in names if not system.driven or m in driven_methods()]
     if method_name not in allowed:
