@@ -148,4 +148,3 @@ def test_jacobians_match_central_differences_of_the_emitted_step(key: str, name:
         assert _rel(tan.basis_out @ tan.A, along) <= 1e-7, backend
         assert _rel(emb.A, whole) <= 1e-7, backend
         assert _rel(emb.B, inputs) <= 1e-7, backend
-
