@@ -205,6 +205,8 @@ SYSTEMS = {
     "driven_timed": lambda: resolve(str(SPECS / "driven_timed.toml")),
     # the step Jacobians: Runge-Kutta and the VI (dense M, Newton), forces and an input
     "driven_double_jacobians": lambda: resolve(str(SPECS / "driven_double.toml")).with_jacobians(),
+    # and RATTLE's of a driven module (diagonal M, forces reading w, inputs)
+    "driven_ring_jacobians": lambda: resolve(str(SPECS / "driven_ring.toml")).with_jacobians(),
     # closed: RATTLE's too (dense M, Newton on the multipliers)
     "double_pendulum_jacobians": lambda: builtin("double_pendulum").with_jacobians(),
     # step_jvp(): the structured field's tangent (max-index M, chain terms, beyond the dense

@@ -1,6 +1,6 @@
 """The exact Jacobian of one RATTLE step, by the implicit function theorem.
 
-Input: a closed `System` with step Jacobians (`has_rattle_jacobian`), any M. Output: the
+Input: a `System` with step Jacobians (`has_rattle_jacobian`), any M. Output: the
 kernels of the derivatives of the equations one RATTLE step of size h from (x, v) (positions
 on |x_i| = 1 and velocities v_i = xdot_i) to (x+, v+) solves, E(y; x, v, p) = 0, in its
 unknowns y, in (x, v), in g = dV/dq at x and g+ at x+ (held) and in M. The ``jacobian`` part
@@ -9,6 +9,12 @@ assembles them at run time, multiplies the ones in g and g+ into the Hessian of 
 substep's derivative, multiplies a composition's substeps' (rattle4, rattle6, rattle8) and
 maps the state (q, w) in and out of (x, v) as the step does (x = q, v = w x q at the start,
 w+ = x+ x v+ at the end).
+
+A driven system's RATTLE (`s2gen.reference.forced_steps`) solves the same equations with g
+replaced by G = g - F(x, w, t, u) at the start and g+ by g+ - F+, F+ = F(x+, w+, t + h, u),
+w+ = x+ x v+ (implicit when F reads w); E being linear in g and g+, the kernels are the same
+and the driven step's Jacobian chains them with the forces' derivatives (dF+/dv+ through
+w+), each substep mapped in and out of (x, v) as the driven step maps it.
 
 The equations are the constrained Stormer-Verlet step the emitted RATTLE solves (in closed form
 for a diagonal M, by Newton on the multipliers otherwise, `s2gen.equations.rattle`), with the
@@ -47,15 +53,16 @@ RATTLE_BODY = ("vh", "xn", "vn", "x", "v", "g", "gn")
 
 
 def has_rattle_jacobian(system: System) -> bool:
-    """Whether the emitted step_jacobian() differentiates the RATTLE family: a closed system
-    with step Jacobians (a driven module's RATTLE steps take the forces in their own way).
+    """Whether the emitted step_jacobian() differentiates the RATTLE family: a system with
+    step Jacobians whose module integrates with it (a driven one: without forces, or with a
+    diagonal M, `s2gen.methods.driven_methods`).
 
     Example:
         >>> from s2gen.systems import builtin
         >>> has_rattle_jacobian(builtin("double_pendulum").with_jacobians())
         True
     """
-    return has_jacobian(system) and not system.driven
+    return has_jacobian(system) and not (system.driven and system.forces and not system.is_diagonal)
 
 
 def _vec(name: str) -> sp.Matrix:

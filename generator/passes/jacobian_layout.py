@@ -73,10 +73,11 @@ def jacobian_layout(module: Module) -> Layout:
     if any(k.name == "rattle_jacobian" for k in module.kernels):
         # RATTLE's equations: 11n unknowns (v+1/2, lambda, x+, v+, mu), their derivatives
         # (rey, rex, rex0 = dE/dx, reg, regn, rep), v+1/2, the multipliers, Newton's start
+        # (a closed module's: a driven one's step keeps its own)
         ny = 11 * n
         sizes += [("rey", ny * ny), ("rex", ny * cols), ("rex0", ny * ns), ("reg", ny * m3)]
         sizes += [("regn", ny * m3), ("rep", ny * npar), ("rvh", m3)]
-        sizes += [("rlam", n), ("rmu", n), ("rsv", n)]
+        sizes += [("rlam", n), ("rmu", n), *((("rsv", n),) if module.drive is None else ())]
     buffers, offset = [], 0
     for name, size in sizes:
         buffers.append(Buffer(name, size, offset))

@@ -34,6 +34,7 @@ RATTLE_SITES = frozenset({"rattle_jacobian", "rattle_jacobian_pair"})
 
 _KEYS = (
     "methods",
+    "py_correction",
     "count",
     "max_sub",
     "ny",
@@ -75,20 +76,29 @@ def print_rattle_jacobian(module: Module) -> dict[str, Any]:
         for m in METHODS
         if m.family is Family.RATTLE and m.composition is not None
     )
+    drive = module.drive
+    # a driven module's (C: _jacobian_rattle_driven) with the forces' end velocity correction
+    correction: tuple[str, ...] = ()
+    if drive is not None and drive.forces:
+        correction = (
+            "status, wd, _, its = _end_velocity(p, cc, hs, xd, wd, tu, newton_tol, newton_maxiter)",
+            "if status != OK:",
+            "    return status, None, None, None",
+        )
+    call = (
+        "_jac_rattle(p, cc, method, h, q, w, newton_tol, newton_maxiter)"
+        if drive is None
+        else "_jac_rattle_driven(p, cc, method, t, h, q, w, tu, newton_tol, newton_maxiter)"
+    )
     return {
         "methods": methods,
+        "py_correction": correction,
         "count": str(len(methods)),
         "max_sub": str(max(int(m["count"]) for m in methods)),
         "ny": str(11 * module.n),
         "c_equations": _c_lines(module, body, pair),
         "py_equations": _py_lines(module, body, pair),
-        "py_dispatch": (
-            "else:",
-            (
-                "    status, qn, wn, d = _jac_rattle(p, cc, method, h, q, w, newton_tol, "
-                "newton_maxiter)"
-            ),
-        ),
+        "py_dispatch": ("else:", f"    status, qn, wn, d = {call}"),
         "c_other": (
             f"if ({name}_jac_rattle_method_of(method)) {{",
             (

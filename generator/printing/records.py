@@ -427,7 +427,12 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "jacobian_vi": pick(
             "c", (any(k.name == "vi_jacobian" for k in module.kernels), "jacobian_vi")
         ),
-        "jacobian_rattle": pick("c", (rattle_jacobian, "jacobian_rattle")),
+        "jacobian_rattle": pick(
+            "c",
+            (rattle_jacobian, "jacobian_rattle"),
+            (rattle_jacobian and not driven, "jacobian_rattle_closed"),
+            (rattle_jacobian and driven, "jacobian_rattle_driven"),
+        ),
         # integrate_batch(): dV/dq and the field in loops over the lanes, or lane by lane
         "batch_gradient": pick(
             "c",
@@ -500,7 +505,12 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "jacobian_vi": pick(
             "numpy", (any(k.name == "vi_jacobian" for k in module.kernels), "jacobian_vi")
         ),
-        "jacobian_rattle": pick("numpy", (rattle_jacobian, "jacobian_rattle")),
+        "jacobian_rattle": pick(
+            "numpy",
+            (rattle_jacobian, "jacobian_rattle"),
+            (rattle_jacobian and not driven, "jacobian_rattle_closed"),
+            (rattle_jacobian and driven, "jacobian_rattle_driven"),
+        ),
     }
     variant = dict(module.variants)
     laid = {variant.get(p, p) for p in module.parts} | {"module"}
