@@ -2,10 +2,11 @@
 
 The emitted C solves the coupled systems of a max-index M body by body (block elimination
 with pivoting within each body's block) and falls back to the band elimination with partial
-pivoting over all rows when a block's pivot is small against the block, the blocks grow or the
-result is not finite. These systems make the first body's block singular, or nearly so, while
-M stays positive definite and well conditioned, so the fallback must take over; the rope and
-the rods (no fallback) are compared with the dense solvers in tests/test_chains.py.
+pivoting over all rows when a block's entries grow (a nearly singular block before it), a
+pivot is 0 or the result is not finite. These systems make the first body's block singular,
+or nearly so, while M stays positive definite and well conditioned, so the fallback must take
+over; the rope and the rods (no fallback) are compared with the dense solvers in
+tests/test_chains.py.
 """
 
 from __future__ import annotations
@@ -47,9 +48,10 @@ def _pivoted(first: float) -> System:
 
 @pytest.mark.parametrize("first", [-1.0, -1.0 + 1e-9])
 def test_singular_first_block_falls_back_and_matches_the_reference(first: float) -> None:
-    """Exactly singular (a zero pivot) and nearly singular (a pivot of 1e-9, whose block
-    elimination would lose about nine digits: 1e-9 in the field, 1e-5 in the VI's velocities
-    when the fallback is removed): the C agrees with the reference's dense M to round-off."""
+    """Singular (its pivot at round-off level) and nearly singular (a pivot of 1e-9, whose
+    block elimination would lose about nine digits: 1e-9 in the field, 4e-5 in the VI's
+    velocities when the fallback is removed; the growth test is what catches both): the C
+    agrees with the reference's dense M to round-off."""
     s = _pivoted(first)
     assert choose_solver(s) is InertiaKind.MAX_INDEX
     for method in ("rk4", "vi"):

@@ -700,19 +700,22 @@ static void rope_m_apply(const rope_ctx *cx, int r, const double *u, double *z)
     }
 }
 
-/* Solve L x = b as above by block elimination over the bodies: row i of blocks holds the
- * (p + r) x (p + r) diagonal block D_i of (x_i, y_i) and the couplings -1/delta of y_i to
- * y_i-1 and y_i+1, scalar multiples of I_r (block tridiagonal). With the rows of each body
- * equilibrated, S_i = D_i - L_i S_i-1^-1 U_i-1 is factored by Gaussian elimination with
- * partial pivoting within the block, giving G_i = S_i^-1 U_i (r columns) and
- * g_i = S_i^-1 (b_i - L_i g_i-1); then x_i = g_i - G_i x_i+1 from the last body up. Pivoting
- * within the block copes with E_i - a_i^2 c_i H_i K_i = 0 (a chain of point masses); the
- * order of the blocks is fixed, so when a pivot is small against its block (below 1e-4 of
- * its largest entry, or the block has grown beyond 1e4 from the equilibrated rows) or the
- * result is not finite, the solve returns 0 and the band elimination with partial pivoting
- * over all rows is used instead; b is written only on success (returns 1). Blocks of up to
- * p + r = 7 unknowns and r + nrhs = 6 columns (the solves below), else 0. work: n (p + r)
- * (r + nrhs) doubles. */
+/* Solve L x = b of rope_coupled_solve (below) by block elimination over the bodies:
+ * row i of blocks holds the (p + r) x (p + r) diagonal block D_i of (x_i, y_i) and the
+ * couplings -1/delta of y_i to y_i-1 and y_i+1, scalar multiples of I_r (block tridiagonal).
+ * With the rows of each body equilibrated, S_i = D_i - L_i S_i-1^-1 U_i-1 (which changes only
+ * the y-block) is factored by Gaussian elimination with partial pivoting within the block,
+ * giving G_i = S_i^-1 U_i (r columns) and g_i = S_i^-1 (b_i - L_i g_i-1); then
+ * x_i = g_i - G_i x_i+1 from the last body up. Pivoting within the block copes with
+ * E_i - a_i^2 c_i H_i K_i = 0 (a chain of point masses). The order of the blocks is fixed:
+ * a nearly singular S_i (with L regular, its null vectors have y-parts) makes G_i large and
+ * S_i+1 grow, so when an S_i's entries exceed 1e4 (the equilibrated rows' are at most 1), a
+ * pivot is 0 or the result is not finite, the solve returns 0 and the band elimination with
+ * partial pivoting over all rows is used instead. (A small pivot alone is no sign: the x
+ * columns carry M's units, 1e-4 of the rows' largest entry for the rod. The determinants of
+ * the S_i multiply to L's, so a nearly singular last block means a nearly singular L.) b is
+ * written only on success (returns 1). Blocks of up to p + r = 7 unknowns and
+ * r + nrhs = 6 columns (the solves below), else 0. work: n (p + r) (r + nrhs) doubles. */
 ROPE_KERNEL int rope_block_solve(const rope_ctx *cx, int p, int r, const double *E,
         const double *H, const double *K, double *b, int nrhs, double *work)
 {
@@ -803,7 +806,7 @@ ROPE_KERNEL int rope_block_solve(const rope_ctx *cx, int p, int r, const double 
                     piv = a;
                 }
             }
-            if (!(best >= 1e-4 * big)) {
+            if (!(best > 0.0)) {
                 return 0;
             }
             if (piv != k) {
