@@ -55,6 +55,13 @@ def solve_cost(kind: InertiaKind, n: int, bandwidth: int = 0) -> float:
     operations), or the band elimination of `s2gen.equations.assemble` (rows x kl x
     (kl + ku) multiply-adds, plus ~300 operations per body to build the blocks).
 
+    The emitted C solves a max-index M body by body (about 300 multiply-adds per body, the
+    band as its fallback), but the estimate keeps the band's count: it also stands for the
+    dense LU's fixed-width row updates, which vectorise. Measured
+    (``benchmarks/structured_crossover.py``, rope and rod), the structured VI step is the
+    faster from n = 6-7 at -O2 and n = 7-9 at -O3 -march=native; one emitted code serves
+    both, and the estimate switches at n = 7.
+
     Example:
         >>> solve_cost(InertiaKind.MAX_INDEX, 100) < solve_cost(InertiaKind.DENSE, 100)
         True

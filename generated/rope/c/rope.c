@@ -700,6 +700,182 @@ static void rope_m_apply(const rope_ctx *cx, int r, const double *u, double *z)
     }
 }
 
+/* Solve L x = b of rope_coupled_solve (below) by block elimination over the bodies:
+ * row i of blocks holds the (p + r) x (p + r) diagonal block D_i of (x_i, y_i) and the
+ * couplings -1/delta of y_i to y_i-1 and y_i+1, scalar multiples of I_r (block tridiagonal).
+ * With the rows of each body equilibrated, S_i = D_i - L_i S_i-1^-1 U_i-1 (which changes only
+ * the y-block) is factored by Gaussian elimination with partial pivoting within the block,
+ * giving G_i = S_i^-1 U_i (r columns) and g_i = S_i^-1 (b_i - L_i g_i-1); then
+ * x_i = g_i - G_i x_i+1 from the last body up. Pivoting within the block copes with
+ * E_i - a_i^2 c_i H_i K_i = 0 (a chain of point masses). The order of the blocks is fixed:
+ * a nearly singular S_i (with L regular, its null vectors have y-parts) makes G_i large and
+ * S_i+1 grow, so when an S_i's entries exceed 1e4 (the equilibrated rows' are at most 1), a
+ * pivot is 0 or the result is not finite, the solve returns 0 and the band elimination with
+ * partial pivoting over all rows is used instead. (A small pivot alone is no sign: the x
+ * columns carry M's units, 1e-4 of the rows' largest entry for the rod. The determinants of
+ * the S_i multiply to L's, so a nearly singular last block means a nearly singular L.) b is
+ * written only on success (returns 1). Blocks of up to p + r = 7 unknowns and
+ * r + nrhs = 6 columns (the solves below), else 0. work: n (p + r) (r + nrhs) doubles. */
+ROPE_KERNEL int rope_block_solve(const rope_ctx *cx, int p, int r, const double *E,
+        const double *H, const double *K, double *b, int nrhs, double *work)
+{
+    const double *sa = cx->mp, *sc = cx->mp + 20;
+    const int s = p + r, w = r + nrhs;
+    long i;
+    int a, c, k, j;
+    if (s > 7 || w > 6) {
+        return 0;
+    }
+    for (i = 0; i < 20; ++i) {
+        double S[7][7], R[7][6], big = 0.0;
+        double *X = work + i * s * w;
+        const double *Xp = work + (i > 0 ? i - 1 : 0) * s * w;
+        const double ai = sa[i], ci = sc[i];
+        const double tn = 1.0 / (ci - (i + 1 < 20 ? sc[i + 1] : 0.0));
+        const double tp = i > 0 ? 1.0 / (sc[i - 1] - ci) : 0.0;
+        const double un = i + 1 < 20 ? tn : 0.0;
+        for (a = 0; a < p; ++a) {
+            for (k = 0; k < p; ++k) {
+                double hk = 0.0;
+                for (c = 0; c < r; ++c) {
+                    hk += (H ? H[(i * p + a) * r + c] : (double)(a == c))
+                            * (K ? K[(i * r + c) * p + k] : (double)(c == k));
+                }
+                S[a][k] = E[(i * p + a) * p + k] - ai * ai * ci * hk;
+            }
+            for (c = 0; c < r; ++c) {
+                S[a][p + c] = ai * (H ? H[(i * p + a) * r + c] : (double)(a == c));
+                R[a][c] = 0.0;
+            }
+            for (k = 0; k < nrhs; ++k) {
+                R[a][r + k] = b[(i * p + a) * nrhs + k];
+            }
+        }
+        for (c = 0; c < r; ++c) {
+            for (k = 0; k < p; ++k) {
+                S[p + c][k] = -ai * (K ? K[(i * r + c) * p + k] : (double)(c == k));
+            }
+            for (k = 0; k < r; ++k) {
+                S[p + c][p + k] = c == k ? tn + tp : 0.0;
+                R[p + c][k] = c == k ? -un : 0.0;
+            }
+            for (k = 0; k < nrhs; ++k) {
+                R[p + c][r + k] = 0.0;
+            }
+        }
+        /* equilibrate each row (its largest entry in L, the couplings included, becomes 1),
+         * then subtract L_i [G_i-1 | g_i-1]: L_i couples y_i,c to y_i-1,c by -tp */
+        for (a = 0; a < s; ++a) {
+            double m = a >= p ? (tp > un ? tp : un) : 0.0;
+            for (k = 0; k < s; ++k) {
+                m = fabs(S[a][k]) > m ? fabs(S[a][k]) : m;
+            }
+            if (!(m > 0.0) || !isfinite(m)) {
+                return 0;
+            }
+            m = 1.0 / m;
+            for (k = 0; k < s; ++k) {
+                S[a][k] *= m;
+            }
+            for (k = 0; k < w; ++k) {
+                R[a][k] *= m;
+            }
+            if (a >= p && i > 0) {
+                const double l = tp * m;
+                for (k = 0; k < r; ++k) {
+                    S[a][p + k] += l * Xp[a * w + k];
+                }
+                for (k = 0; k < nrhs; ++k) {
+                    R[a][r + k] += l * Xp[a * w + r + k];
+                }
+            }
+            for (k = 0; k < s; ++k) {
+                big = fabs(S[a][k]) > big ? fabs(S[a][k]) : big;
+            }
+        }
+        if (!(big <= 1e4)) {
+            return 0;
+        }
+        /* Gaussian elimination with partial pivoting on [S | R], then back substitution */
+        for (k = 0; k < s; ++k) {
+            int piv = k;
+            double best = fabs(S[k][k]), inv;
+            for (a = k + 1; a < s; ++a) {
+                if (fabs(S[a][k]) > best) {
+                    best = fabs(S[a][k]);
+                    piv = a;
+                }
+            }
+            if (!(best > 0.0)) {
+                return 0;
+            }
+            if (piv != k) {
+                for (j = 0; j < s; ++j) {
+                    const double t = S[k][j];
+                    S[k][j] = S[piv][j];
+                    S[piv][j] = t;
+                }
+                for (j = 0; j < w; ++j) {
+                    const double t = R[k][j];
+                    R[k][j] = R[piv][j];
+                    R[piv][j] = t;
+                }
+            }
+            inv = 1.0 / S[k][k];
+            S[k][k] = inv;
+            for (a = k + 1; a < s; ++a) {
+                const double l = S[a][k] * inv;
+                for (j = k + 1; j < s; ++j) {
+                    S[a][j] -= l * S[k][j];
+                }
+                for (j = 0; j < w; ++j) {
+                    R[a][j] -= l * R[k][j];
+                }
+            }
+        }
+        for (a = s - 1; a >= 0; --a) {
+            for (j = 0; j < w; ++j) {
+                double t = R[a][j];
+                for (k = a + 1; k < s; ++k) {
+                    t -= S[a][k] * X[k * w + j];
+                }
+                X[a * w + j] = t * S[a][a];
+            }
+        }
+    }
+    /* x_i = g_i - G_i y_i+1, from the last body up */
+    for (i = 20 - 2; i >= 0; --i) {
+        double *X = work + i * s * w;
+        const double *Xn = work + (i + 1) * s * w;
+        for (a = 0; a < s; ++a) {
+            for (k = 0; k < nrhs; ++k) {
+                double t = X[a * w + r + k];
+                for (c = 0; c < r; ++c) {
+                    t -= X[a * w + c] * Xn[(p + c) * w + r + k];
+                }
+                X[a * w + r + k] = t;
+            }
+        }
+    }
+    for (i = 0; i < 20; ++i) {
+        for (a = 0; a < p; ++a) {
+            for (k = 0; k < nrhs; ++k) {
+                if (!isfinite(work[(i * s + a) * w + r + k])) {
+                    return 0;
+                }
+            }
+        }
+    }
+    for (i = 0; i < 20; ++i) {
+        for (a = 0; a < p; ++a) {
+            for (k = 0; k < nrhs; ++k) {
+                b[(i * p + a) * nrhs + k] = work[(i * s + a) * w + r + k];
+            }
+        }
+    }
+    return 1;
+}
+
 /* Solve L x = b for L = E + H (M_off (x) I_r) K, E, H, K block diagonal: E_i (p x p), H_i
  * (p x r), K_i (r x p) row-major per body; H = K = NULL stand for [I; 0] and [I, 0].
  * With C_ij = c_max(i,j), A = diag(a) and y = (C A (x) I) K x, M_off = A C A - diag(a^2 c), so
@@ -712,7 +888,9 @@ static void rope_m_apply(const rope_ctx *cx, int r, const double *u, double *z)
  * where M_ii = a_i^2 c_i (a chain of point masses), so elimination in the natural order would
  * divide by zero although L is regular; with partial pivoting it is backward stable (the
  * dense path's LU is the same algorithm without the band). b holds p nrhs-vectors per body
- * (b[(i p + a) nrhs + k]), overwritten by x. Returns ROPE_ERR_SINGULAR when L is
+ * (b[(i p + a) nrhs + k]), overwritten by x. The block elimination above is tried first (about 300
+ * multiply-adds per body for p = r = 3, against about 750 of the band, whose storage it
+ * shares) and the band is the fallback when it declines. Returns ROPE_ERR_SINGULAR when L is
  * singular or some delta_i is 0 (the parameters break the structure), else what the band
  * solve returns. work: rows (2 kl + ku + 1) doubles, then rows nrhs. */
 ROPE_KERNEL int rope_coupled_solve(const rope_ctx *cx, int p, int r, long kl, long ku,
@@ -723,6 +901,9 @@ ROPE_KERNEL int rope_coupled_solve(const rope_ctx *cx, int p, int r, long kl, lo
     double *ab = work, *rhs = work + rows * (stride + 1);
     long i, e;
     int a, c, k, status;
+    if (rope_block_solve(cx, p, r, E, H, K, b, nrhs, work)) {
+        return ROPE_OK;
+    }
     for (e = 0; e < rows * (stride + 1); ++e) {
         ab[e] = 0.0;
     }
