@@ -253,7 +253,10 @@ def test_encounter_study_compares_at_equal_energy_error() -> None:
     eps = np.array([r.h for r in vi4])
     err = np.array([max(r.dE) / abs(e0) for r in vi4])
     order = np.polyfit(np.log(eps), np.log(err), 1)[0]
-    assert 3.3 < order < 5.0, (eps, err)
+    # The cluster is chaotic: the fit moves with the trajectory (3.33-4.33 over 22 initial
+    # velocities perturbed by 1e-9..1e-6, as another libm's last bits would move it), well
+    # above the order 2 of vi-adaptive.
+    assert 2.8 < order < 5.2, (eps, err)
     for c in costs:
         for side, label, evals in (
             ("dop853", c.dop_label, c.dop_evals),
