@@ -5,15 +5,18 @@ samples q and omega, its energy, its status and every field of its statistics mu
 as raw doubles (uint64), bit for bit. That holds although the batch works on all members at
 once: every operation is elementwise over the member axis, the sums over a term's members or
 the bodies run over each member's own contiguous row as integrate()'s numpy.sum does, and a
-dense M's solve is LAPACK's on each member's own matrix. The batch holds K = 11 members,
-each with its own parameters and initial state; one has a NaN in q0 (fails before its first
-sample), one an angular velocity so large that its first step fails (infeasible for the VI,
-not finite for Runge-Kutta) and, with a dense M, one spins 10^4 times faster, so that RK4
-meets a singular A(q) in a stage after its first step (ERR_SINGULAR): the others must not notice.
-The C backend's integrate_batch() (an independent implementation, in C with lanes) must
-agree with every member to 1e-10, the same members failing at the same samples. Two broken variants of the emitted
-module (every member stops when one fails; every member gets member 0's constants) must fail
-the comparison.
+dense M's solves (Newton's and the velocities', the field's) are LAPACK's on each member's
+own matrix. The batch holds K = 11 members, each with its own parameters and initial state;
+one has a NaN in q0 (fails before its first sample), one an angular velocity so large that
+its first step fails (infeasible for the VI, not finite for Runge-Kutta or Newton) and, with
+a dense M, one spins 10^4 times faster, so that RK4 meets a singular A(q) in a stage after
+its first step (ERR_SINGULAR), and one starts upside down at rest under a far stronger
+gravity, so that its Newton iteration fails some steps in (ERR_NEWTON) while the others,
+iterating their own number of times, go on. The C backend's integrate_batch() (an
+independent implementation, in C with lanes) must agree with every member to 1e-10, the
+same members failing at the same samples. Three broken variants of the emitted module (every
+member stops when one fails; every member gets member 0's constants; a member whose Newton
+converged goes on iterating while others do) must fail the comparison.
 """
 
 from __future__ import annotations
@@ -34,14 +37,15 @@ from s2gen.runtime.options import Options
 from s2gen.systems import builtin
 
 K, H, NSTEPS, EVERY = 11, 0.01, 40, 4
-NAN_MEMBER, FAST_MEMBER, SPIN_MEMBER = 3, 9, 1
+NAN_MEMBER, FAST_MEMBER, SPIN_MEMBER, LATE_MEMBER = 3, 9, 1, 6
 VI = ("vi", "vi4", "vi6", "vi8")
 RK = ("rk2", "rk2-proj", "rk3", "rk4")
 
 
 def members(name: str, spin: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """K perturbed copies of the spec's state and parameters (each parameter of each member
-    its own), two made to fail at once, and with `spin` SPIN_MEMBER 10^4 times faster."""
+    its own), two made to fail at once, and with `spin` SPIN_MEMBER 10^4 times faster and
+    LATE_MEMBER upside down at rest under a gravity 10^3 times stronger."""
     s = builtin(name)
     rng = np.random.default_rng(11)
     q0 = s.q0[None] + 1e-2 * rng.standard_normal((K, s.n, 3))
@@ -53,6 +57,10 @@ def members(name: str, spin: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     w0[FAST_MEMBER] *= 1e170
     if spin:
         w0[SPIN_MEMBER] *= 1e4
+        q0[LATE_MEMBER] = -s.q0 + 1e-3
+        q0[LATE_MEMBER] /= np.linalg.norm(q0[LATE_MEMBER], axis=1, keepdims=True)
+        w0[LATE_MEMBER] = 0.0
+        p[LATE_MEMBER, s.parameter_names.index("g")] *= 1e3
     return q0, w0, p
 
 
@@ -61,20 +69,22 @@ def bits(a: np.ndarray) -> np.ndarray:
 
 
 def compare(
-    name: str, methods: tuple[str, ...], batched: NumpyBackend, spin: bool = False
+    name: str,
+    methods: tuple[str, ...],
+    batched: NumpyBackend,
+    spin: bool = False,
+    options: Options | None = None,
 ) -> dict[str, Batch]:
     """Every member of the NumPy batch against the NumPy integrate() of that member alone,
-    bit for bit; the batches by method."""
-    one = NumpyBackend(builtin(name))
+    bit for bit, both with `options` (default Options()); the batches by method."""
+    one, opts = NumpyBackend(builtin(name)), options or Options()
     q0, w0, p = members(name, spin)
     out = {}
     for m in methods:
-        b = integrate_batch_numpy(batched, m, H, NSTEPS, q0, w0, p, Options(), EVERY)
+        b = integrate_batch_numpy(batched, m, H, NSTEPS, q0, w0, p, opts, EVERY)
         assert b.energy is not None and b.q.shape == (K, NSTEPS // EVERY + 1, one.system.n, 3)
         for k in range(K):
-            status, q, w, e, stats = one.integrate(
-                m, H, NSTEPS, q0[k], w0[k], p[k], Options(), EVERY
-            )
+            status, q, w, e, stats = one.integrate(m, H, NSTEPS, q0[k], w0[k], p[k], opts, EVERY)
             where = f"{name} {m} member {k}"
             assert int(b.status[k]) == status, where
             assert {f: v[k].item() for f, v in b.stats.items()} == stats, where
@@ -92,7 +102,9 @@ def against_c(name: str, batches: dict[str, Batch], spin: bool = False) -> None:
     same samples, and the samples and energies of every member agree to 1e-10 while it runs.
     The cause of the spinning member's failure is not compared: its state blows up within a
     step, and C's own LU reports the non-finite result (ERR_NONFINITE) where LAPACK's finds
-    the matrix singular first (ERR_SINGULAR), as their integrate() do one member at a time."""
+    the matrix singular first (ERR_SINGULAR), as their integrate() do one member at a time.
+    Nor are the samples of the spinning and the upside-down member: they grow without bound
+    (to 1e36 under RK2), so that the last bits' differences grow with them."""
     c = CBackend(builtin(name).with_batch())
     q0, w0, p = members(name, spin)
     for m, b in batches.items():
@@ -102,7 +114,7 @@ def against_c(name: str, batches: dict[str, Batch], spin: bool = False) -> None:
             cb.status[[NAN_MEMBER, FAST_MEMBER]], b.status[[NAN_MEMBER, FAST_MEMBER]]
         )
         assert np.array_equal(cb.stats["fail_step"], b.stats["fail_step"]), m
-        for k in range(K):
+        for k in sorted(set(range(K)) - ({SPIN_MEMBER, LATE_MEMBER} if spin else set())):
             done = int(b.stats["fail_step"][k])
             for x, y in ((cb.q, b.q), (cb.omega, b.omega)):
                 assert np.allclose(x[k, :done], y[k, :done], rtol=0, atol=1e-10, equal_nan=True), (
@@ -127,19 +139,40 @@ def test_explicit_every_method(name: str) -> None:
 
 
 def test_dense_every_method() -> None:
-    """A dense M and a general potential (the double pendulum): every fixed-step RK, a
-    member's singular stage (ERR_SINGULAR) alone."""
+    """A dense M and a general potential (the double pendulum): the Newton VI family, each
+    member iterating under its own mask (its own count, its own warm start; LATE_MEMBER's
+    Newton fails some steps in, ERR_NEWTON, alone), and every fixed-step RK (a member's
+    singular stage, ERR_SINGULAR, alone)."""
     batched = NumpyBackend(builtin("double_pendulum").with_batch())
-    assert numpy_batch_methods(batched) == RK
-    batches = compare("double_pendulum", RK, batched, spin=True)
+    assert numpy_batch_methods(batched) == VI + RK
+    batches = compare("double_pendulum", VI + RK, batched, spin=True)
     assert batches["rk4"].status[SPIN_MEMBER] == 6
     assert 0 < batches["rk4"].stats["steps"][SPIN_MEMBER] < NSTEPS  # after a step, not at once
+    for m in VI:
+        b = batches[m]
+        assert b.status[LATE_MEMBER] == 2 and 0 < b.stats["steps"][LATE_MEMBER] < NSTEPS, m
+    iters = batches["vi"].stats["newton_iters"][batches["vi"].status == 0]
+    assert len(set(iters.tolist())) > 1  # the members that go on took counts of their own
     against_c("double_pendulum", batches, spin=True)
 
 
 def test_dense_terms_with_tables() -> None:
-    """A dense M with terms and their member tables (the pendulum chain): RK4."""
-    compare("pendulum_chain", ("rk4",), NumpyBackend(builtin("pendulum_chain").with_batch()))
+    """A dense M with terms and their member tables (the pendulum chain): the VI and RK4."""
+    compare("pendulum_chain", ("vi", "rk4"), NumpyBackend(builtin("pendulum_chain").with_batch()))
+
+
+def test_newton_limit_fails_alone() -> None:
+    """With newton_maxiter = 3, the members that need more iterations in a substep fail at
+    the limit (ERR_NEWTON) alone, as integrate() does for each."""
+    batches = compare(
+        "double_pendulum",
+        ("vi4",),
+        NumpyBackend(builtin("double_pendulum").with_batch()),
+        spin=True,
+        options=Options(newton_maxiter=3),
+    )
+    status = batches["vi4"].status
+    assert (status == 2).sum() > 1 and (status == 0).any()
 
 
 def _stop_all(text: str) -> str:
@@ -163,13 +196,29 @@ class _Broken(NumpyBackend):
         self.module = import_cached(re.sub(r"\.py$", "_broken.py", fname), changed)
 
 
-@pytest.mark.parametrize("edit", [_stop_all, _shared_constants])
-def test_broken_variants_are_caught(edit: Callable[[str], str]) -> None:
-    """A batch whose members stop together, or share member 0's constants, is not
-    integrate() member by member."""
-    broken = _Broken("four_pendula", edit)
-    with pytest.raises(AssertionError, match="four_pendula vi member"):
-        compare("four_pendula", ("vi",), broken)
+def _converged_go_on(text: str) -> str:
+    """A member whose Newton converged goes on iterating until every member's has."""
+    return text.replace(
+        "        active[a[fail | done]] = False\n",
+        "        active[a[fail]] = False\n"
+        "        active &= not numpy.all(converged | ~running | (status != OK))\n",
+    )
+
+
+@pytest.mark.parametrize(
+    ("name", "edit"),
+    [
+        ("four_pendula", _stop_all),
+        ("four_pendula", _shared_constants),
+        ("double_pendulum", _converged_go_on),
+    ],
+)
+def test_broken_variants_are_caught(name: str, edit: Callable[[str], str]) -> None:
+    """A batch whose members stop together, share member 0's constants, or whose converged
+    members go on iterating is not integrate() member by member."""
+    broken = _Broken(name, edit)
+    with pytest.raises(AssertionError, match=f"{name} vi member"):
+        compare(name, ("vi",), broken)
 
 
 def test_model_integrate_batch() -> None:
@@ -187,14 +236,11 @@ def test_model_integrate_batch() -> None:
 
 
 def test_refusals() -> None:
-    """What the NumPy batch does not cover is refused in one line: the Newton VI of a dense
-    M, a method that is not batched, quadratic terms, a structured M, a driven system."""
-    double = Model(builtin("double_pendulum"), "numpy")
-    with pytest.raises(ValueError, match=r"method 'vi' is not batched on the NumPy backend"):
-        double.integrate_batch("vi", h=0.01, T=0.1, params={"g": [1.0, 2.0]})
+    """What the NumPy batch does not cover is refused in one line: a method that is not
+    batched, quadratic terms, a structured M, a driven system."""
     four = Model(builtin("four_pendula"), "numpy")
     for m in ("rk45", "rattle", "dop853"):
-        with pytest.raises(ValueError, match=f"method '{m}' is not batched"):
+        with pytest.raises(ValueError, match=f"method '{m}' is not batched on the NumPy backend"):
             four.integrate_batch(m, h=0.01, T=0.1, params={"g": [1.0, 2.0]})
     for name, why in (("dipoles", "no quadratic terms"), ("rope", "diagonal or dense M")):
         q0 = np.repeat(builtin(name).q0[None], 2, axis=0)

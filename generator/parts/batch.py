@@ -32,6 +32,12 @@ What is covered: closed systems (no forces, inputs or time); the VI and its comp
 Runge-Kutta methods (rk2, rk2-proj, rk3, rk4). What is not: RATTLE, the adaptive methods
 (per-member step sizes) and driven systems; `batch_refusal` says which.
 
+The NumPy module of the same system carries integrate_batch() too, vectorised over the
+members (`s2gen.printing.numpy_batch`): the same methods with a diagonal or dense M (the
+dense M's Newton VI with a convergence mask per member), for terms that read the state,
+constants, tables and parameters; `numpy_batch_refusal` says why a module has none
+(quadratic terms, cutoff terms, per-body term data, a structured M: C only).
+
 Example:
     >>> from s2gen.systems import builtin
     >>> batch_refusal(builtin("double_pendulum")) is None
@@ -77,6 +83,16 @@ _NUMPY_SITES = {
     "field_coupled": ("rhs_body", "rhs_pair"),
     "vi_explicit": ("vi_pos", "vi_vel"),
     "inertia_operator": ("a_pair",),
+    "vi_newton": (
+        "d_body",
+        "d_pair",
+        "res_body",
+        "res_pair",
+        "cayley",
+        "c_body",
+        "c_pair",
+        "a_body",
+    ),
 }
 
 

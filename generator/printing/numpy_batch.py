@@ -15,14 +15,16 @@ that structure from the IR. It reuses the one-member kernels unchanged: they wor
 states of shape (NBODIES, K, 3), and every printed call site (`q[T1_I]`, `(1.0 / md)`) reads
 the same text with per-member constants of shape (..., K). Only the general potential's
 kernels, which index q by body and build their output with numpy.array, are printed again
-for members (`py_member_kernel`).
+for members (`py_member_kernel`). Newton's iteration of a dense M's VI runs on all members
+at once, each under its own mask: a member stops updating once its own test holds (or fails
+alone), so it takes exactly the iterations integrate() takes for it.
 
 Example:
     >>> from s2gen.systems import builtin
     >>> from s2gen.passes import lower_system
     >>> b = print_numpy_batch(lower_system(builtin("double_pendulum").with_batch()))
-    >>> b["refusal"], b["methods"]
-    (None, ('METHOD_RK2', 'METHOD_RK2_PROJ', 'METHOD_RK3', 'METHOD_RK4'))
+    >>> b["refusal"], b["methods"][:4]
+    (None, ('METHOD_VI', 'METHOD_VI4', 'METHOD_VI6', 'METHOD_VI8'))
     >>> b["potential_start"]
     'total = numpy.broadcast_to(_kb_potential(q, cc), q.shape[1:2])'
 """
@@ -31,7 +33,6 @@ from __future__ import annotations
 
 from typing import Any
 
-from s2gen.inertia import InertiaKind
 from s2gen.ir import Call, Kernel, Module
 from s2gen.parts.batch import numpy_batch_refusal
 from s2gen.printing.numpy import PyPrinter, py_binding
@@ -119,11 +120,10 @@ def print_numpy_batch(module: Module) -> dict[str, Any]:
     else:
         potential = "total = numpy.zeros(q.shape[1])"
         gradient = f"g = numpy.zeros(({n}, q.shape[1], 3))"
-    dense = module.solver is InertiaKind.DENSE
     return {
         "refusal": None,
         "kernels": kernels,
         "potential_start": potential,
         "gradient_start": gradient,
-        "methods": _RK if dense else _VI + _RK,
+        "methods": _VI + _RK,
     }

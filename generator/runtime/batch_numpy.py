@@ -39,7 +39,9 @@ def numpy_batch_methods(be: NumpyBackend) -> tuple[str, ...]:
     Example:
         >>> from s2gen.systems import builtin
         >>> numpy_batch_methods(NumpyBackend(builtin("double_pendulum").with_batch()))
-        ('rk2', 'rk2-proj', 'rk3', 'rk4')
+        ('vi', 'vi4', 'vi6', 'vi8', 'rk2', 'rk2-proj', 'rk3', 'rk4')
+        >>> numpy_batch_methods(NumpyBackend(builtin("dipoles").with_batch()))
+        ()
     """
     codes = getattr(be.module, "BATCH_METHODS", ())
     return tuple(name for name in BATCH_METHODS if method(name).code in codes)
@@ -80,6 +82,8 @@ def integrate_batch_numpy(
         every=every,
         unit_tol=options.unit_tol,
         with_energy=with_energy,
+        newton_tol=options.newton_tol,
+        newton_maxiter=options.newton_maxiter,
     )
     return Batch(
         t=h * every * np.arange(nsteps // every + 1),
