@@ -7,7 +7,8 @@ once: every operation is elementwise over the member axis, the sums over a term'
 the bodies run over each member's own contiguous row as integrate()'s numpy.sum does, and a
 dense M's solves (Newton's and the velocities', the field's) are LAPACK's on each member's
 own matrix. The batch holds K = 11 members, each with its own parameters and initial state;
-one has a NaN in q0 (fails before its first sample), one an angular velocity so large that
+one has a NaN in q0 (fails before its first sample), one a body 1.001 long (refused,
+ERR_ARGUMENT, with that body's number), one an angular velocity so large that
 its first step fails (infeasible for the VI, not finite for Runge-Kutta or Newton) and, with
 a dense M, one spins 10^4 times faster, so that RK4 meets a singular A(q) in a stage after
 its first step (ERR_SINGULAR), and one starts upside down at rest under a far stronger
@@ -37,14 +38,14 @@ from s2gen.runtime.options import Options
 from s2gen.systems import builtin
 
 K, H, NSTEPS, EVERY = 11, 0.01, 40, 4
-NAN_MEMBER, FAST_MEMBER, SPIN_MEMBER, LATE_MEMBER = 3, 9, 1, 6
+NAN_MEMBER, FAST_MEMBER, SPIN_MEMBER, LATE_MEMBER, LONG_MEMBER = 3, 9, 1, 6, 5
 VI = ("vi", "vi4", "vi6", "vi8")
 RK = ("rk2", "rk2-proj", "rk3", "rk4")
 
 
 def members(name: str, spin: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """K perturbed copies of the spec's state and parameters (each parameter of each member
-    its own), two made to fail at once, and with `spin` SPIN_MEMBER 10^4 times faster and
+    its own), three made to fail at once (a NaN, a body 1.001 long, a huge velocity), and with `spin` SPIN_MEMBER 10^4 times faster and
     LATE_MEMBER upside down at rest under a gravity 10^3 times stronger."""
     s = builtin(name)
     rng = np.random.default_rng(11)
@@ -54,6 +55,7 @@ def members(name: str, spin: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     w0 -= np.sum(w0 * q0, axis=2, keepdims=True) * q0
     p = np.array(s.parameter_values)[None] * (1 + 0.2 * rng.random((K, len(s.parameter_values))))
     q0[NAN_MEMBER, 0, 1] = np.nan
+    q0[LONG_MEMBER, 1] *= 1.001
     w0[FAST_MEMBER] *= 1e170
     if spin:
         w0[SPIN_MEMBER] *= 1e4
@@ -92,6 +94,7 @@ def compare(
             assert np.array_equal(bits(b.omega[k]), bits(w)), where
             assert np.array_equal(bits(b.energy[k]), bits(e)), where
         assert b.status[NAN_MEMBER] == 3 and b.stats["fail_step"][NAN_MEMBER] == 0, m
+        assert b.status[LONG_MEMBER] == 4 and b.stats["fail_body"][LONG_MEMBER] == 1, m
         assert b.status[FAST_MEMBER] != 0 and b.stats["fail_step"][FAST_MEMBER] == 1, m
         out[m] = b
     return out
@@ -110,9 +113,8 @@ def against_c(name: str, batches: dict[str, Batch], spin: bool = False) -> None:
     for m, b in batches.items():
         cb = integrate_batch(c, m, H, NSTEPS, q0, w0, p, Options(), EVERY)
         assert np.array_equal(cb.status != 0, b.status != 0), m
-        assert np.array_equal(
-            cb.status[[NAN_MEMBER, FAST_MEMBER]], b.status[[NAN_MEMBER, FAST_MEMBER]]
-        )
+        first = [NAN_MEMBER, FAST_MEMBER, LONG_MEMBER]
+        assert np.array_equal(cb.status[first], b.status[first]), m
         assert np.array_equal(cb.stats["fail_step"], b.stats["fail_step"]), m
         for k in sorted(set(range(K)) - ({SPIN_MEMBER, LATE_MEMBER} if spin else set())):
             done = int(b.stats["fail_step"][k])
