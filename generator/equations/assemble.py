@@ -223,7 +223,7 @@ def sphere_module(system: System) -> Module:
         kernels=tuple(kernels),
         parts=parts,
         # NumPy: numpy.linalg, scipy.linalg (step_jvp() is C only)
-        c_only=("cholesky", "lu", "band", *JVP_C_ONLY, BATCH_PART),
+        c_only=("cholesky", "lu", "band", *JVP_C_ONLY),
         variants=_variants(solver, "transformed" in parts),
         pairs=pairs,
         terms=loops,

@@ -32,6 +32,12 @@ What is covered: closed systems (no forces, inputs or time); the VI and its comp
 Runge-Kutta methods (rk2, rk2-proj, rk3, rk4). What is not: RATTLE, the adaptive methods
 (per-member step sizes) and driven systems; `batch_refusal` says which.
 
+The NumPy module of the same system carries integrate_batch() too, vectorised over the
+members (`s2gen.printing.numpy_batch`): the same methods with a diagonal or dense M (the
+dense M's Newton VI with a convergence mask per member), for terms that read the state,
+constants, tables and parameters; `numpy_batch_refusal` says why a module has none
+(quadratic terms, cutoff terms, per-body term data, a structured M: C only).
+
 Example:
     >>> from s2gen.systems import builtin
     >>> batch_refusal(builtin("double_pendulum")) is None
@@ -42,10 +48,20 @@ Example:
 
 from __future__ import annotations
 
-from s2gen.parts.records import Part
+from s2gen.bindings import ContextArray, Element, Local, MemberSlot, Slot, TermTable
+from s2gen.inertia import InertiaKind
+from s2gen.ir import Module
+from s2gen.parts.records import Part, Site
 from s2gen.system import System
 
-__all__ = ["BATCH_LANES", "BATCH_METHODS", "BATCH_PART", "batch_refusal", "has_batch"]
+__all__ = [
+    "BATCH_LANES",
+    "BATCH_METHODS",
+    "BATCH_PART",
+    "batch_refusal",
+    "has_batch",
+    "numpy_batch_refusal",
+]
 
 #: The part's name (`Module.parts`) and its partial, c/_batch.jinja (C only).
 BATCH_PART = "batch"
@@ -58,7 +74,81 @@ BATCH_LANES = 8
 #: The methods integrate_batch() takes (others: ERR_ARGUMENT).
 BATCH_METHODS: tuple[str, ...] = ("vi", "vi4", "vi6", "vi8", "rk2", "rk2-proj", "rk3", "rk4")
 
-PART = Part(BATCH_PART)
+#: The call sites NumPy's members' code reads (`s2gen.printing.numpy_batch`), by the part
+#: that declares each for the one-member code
+_NUMPY_SITES = {
+    "energy": ("kin_body",),
+    "energy_coupled": ("kin_body", "kin_pair"),
+    "field_diagonal": ("rhs_diag",),
+    "field_coupled": ("rhs_body", "rhs_pair"),
+    "vi_explicit": ("vi_pos", "vi_vel"),
+    "inertia_operator": ("a_pair",),
+    "vi_newton": (
+        "d_body",
+        "d_pair",
+        "res_body",
+        "res_pair",
+        "cayley",
+        "c_body",
+        "c_pair",
+        "a_body",
+    ),
+}
+
+
+#: Bindings whose NumPy text keeps its shape for members: the state at bodies or members, the
+#: per-member constants and tables, the inverse masses (everything else, such as a term's
+#: data, has a body axis alone and would broadcast against the member axis)
+_MEMBER_SAFE = (MemberSlot, Slot, ContextArray, TermTable, Element, Local)
+
+
+def numpy_batch_refusal(module: Module) -> str | None:
+    """Why the NumPy module of `module` carries no integrate_batch(), in one line, or None.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> print(numpy_batch_refusal(lower_system(builtin("dipoles").with_batch())))
+        dipoles: integrate_batch() on the NumPy backend covers no quadratic terms (C only)
+    """
+    facts = dict(module.facts)
+    why = None
+    if module.solver not in (InertiaKind.DIAGONAL, InertiaKind.DENSE):
+        why = f"covers a diagonal or dense M, not a {module.solver.value} one"
+    elif module.quadratic > 0:
+        why = "covers no quadratic terms"
+    elif facts.get("neighbour_lists", False):
+        why = "covers no cutoff terms (neighbour lists)"
+    elif not all(
+        isinstance(b, _MEMBER_SAFE)
+        for c in module.calls
+        if c.site.startswith("t") and c.site.endswith(("_value", "_gradient"))
+        for b in c.inputs
+    ):
+        why = "covers terms reading the state and tables only (not per-body data)"
+    if why is None:
+        return None
+    return f"{module.name}: integrate_batch() on the NumPy backend {why} (C only)"
+
+
+def _numpy_sites(module: Module) -> tuple[Site, ...]:
+    """The one-member sites NumPy's members' code calls again, with members on an axis."""
+    if "batch" not in module.parts or numpy_batch_refusal(module) is not None:
+        return ()
+    from s2gen.parts.sphere import PARTS_BY_NAME  # which imports this module
+
+    variant = dict(module.variants)
+    laid = {variant.get(p, p) for p in module.parts}
+    return tuple(
+        site
+        for name, wanted in _NUMPY_SITES.items()
+        if name in laid
+        for site in PARTS_BY_NAME[name].sites
+        if site.name in wanted
+    )
+
+
+PART = Part(BATCH_PART, module_sites=_numpy_sites)
 
 
 def batch_refusal(system: System) -> str | None:

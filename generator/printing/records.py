@@ -20,6 +20,7 @@ from typing import Any
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Kernel, Module, ModuleKind
 from s2gen.methods import COMPOSITIONS, CONTROLS, METHODS, Family, Status
+from s2gen.parts.batch import numpy_batch_refusal
 from s2gen.passes.opcount import kernel_profile
 from s2gen.passes.workspace import CONTEXT
 from s2gen.printing.c import c_kernel
@@ -302,6 +303,8 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "constants": ("potential",),
         "potential": ("potential",),
         "gradient": ("potential",),
+        "batch": ("batch",),
+        "batch_field": ("batch_members",),
         "imports": ("module",),
         "initial_state": ("context",),
         "drive_tables": ("module",),
@@ -369,6 +372,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     dense_vi = "vi_newton" in module.parts  # and its Newton VI in lanes too
     shared_k = (lanes or field) and quadratic  # Kx + b in lanes where the lanes share K
     rattle_jacobian = any(k.name == "rattle_jacobian" for k in module.kernels)
+    members = batch and numpy_batch_refusal(module) is None  # NumPy's integrate_batch()
 
     def pick(lang: str, *choices: tuple[bool, str]) -> tuple[str, ...]:
         return tuple(f"{lang}/sections/_{stem}.jinja" for chosen, stem in choices if chosen)
@@ -479,6 +483,15 @@ def sections(module: Module) -> tuple[Sections, Sections]:
             (general, "general_gradient"),
             (not general, "zero_gradient"),
             (quadratic, "quadratic_gradient"),
+        ),
+        # integrate_batch(): the members' code (a diagonal or dense M's field), or why not
+        "batch": pick(
+            "numpy", (batch and members, "batch_members"), (batch and not members, "batch_refused")
+        ),
+        "batch_field": pick(
+            "numpy",
+            (members and module.solver is InertiaKind.DIAGONAL, "batch_field_diagonal"),
+            (members and module.solver is InertiaKind.DENSE, "batch_field_dense"),
         ),
         "imports": pick(
             "numpy",

@@ -141,7 +141,9 @@ class Model(JacobianMethods):
         statistics equal `integrate`'s for it bit for bit; a failing member stops alone (its
         status and stats say why and where). C backend, closed systems (M diagonal or coupled),
         the methods of `s2gen.parts.batch.BATCH_METHODS`; the first call builds the module
-        with integrate_batch() (`System.with_batch`).
+        with integrate_batch() (`System.with_batch`). The NumPy backend batches the members
+        in its emitted module, vectorised over them (`s2gen.runtime.batch_numpy`; a diagonal
+        or dense M, the methods of `numpy_batch_methods`), with the same record.
 
         Example:
             >>> from s2gen.systems import builtin
@@ -155,10 +157,9 @@ class Model(JacobianMethods):
         from s2gen.runtime.batch import integrate_batch, member_arrays
         from s2gen.runtime.c import CBackend
 
-        if self.backend_name != "c":
+        if self.backend_name not in ("c", "numpy"):
             raise ValueError(
-                f"integrate_batch: the C backend only (not {self.backend_name!r}); the NumPy "
-                "backend runs one member per call of integrate"
+                f"integrate_batch: the C and NumPy backends only (not {self.backend_name!r})"
             )
         why = batch_refusal(self.system)
         if why is not None:
@@ -170,6 +171,15 @@ class Model(JacobianMethods):
         opts = options or Options()
         nsteps = check_run(self.system, method, h, T, opts, every)
         qs, ws, p = member_arrays(self.system, q0, omega0, params)
+        if self.backend_name == "numpy":
+            from s2gen.runtime.batch_numpy import integrate_batch_numpy
+            from s2gen.runtime.numpy_module import NumpyBackend
+
+            if self._batch is None:
+                self._batch = NumpyBackend(self.system.with_batch())
+            return integrate_batch_numpy(
+                self._batch, method, h, nsteps, qs, ws, p, opts, every, energy
+            )
         if self._batch is None:
             self._batch = CBackend(self.system.with_batch(), opt=self._opt)
         return integrate_batch(self._batch, method, h, nsteps, qs, ws, p, opts, every, energy)
