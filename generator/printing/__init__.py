@@ -149,6 +149,7 @@ class PrintedModule:
     py_batch: dict[str, Any]  # NumPy's integrate_batch(): partial, kernels, lines (or empty)
     jvp: dict[str, Any]  # step_jvp()'s methods and lines (empty: no step_jvp)
     transformed: tuple[dict[str, Any], ...]  # time-transformed methods: c_name, count, table
+    py_transformed: tuple[dict[str, Any], ...]  # the same for NumPy, with py_rattle
 
 
 def print_module(module: Module) -> PrintedModule:
@@ -281,4 +282,5 @@ def print_module(module: Module) -> PrintedModule:
         py_batch=print_numpy_batch(module),
         jvp=print_jvp(module),
         transformed=print_transformed(module),
+        py_transformed=print_transformed(module, "numpy"),
     )

@@ -71,7 +71,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from s2gen.methods import CONTROLS, REFERENCE_METHODS, Family
+from s2gen.methods import CONTROLS, REFERENCE_METHODS, Driver
 from s2gen.methods import method as method_row
 from s2gen.reference.adaptive import MonitorFn, integrate_time_transformed
 from s2gen.reference.dopri import _rk45_hairer, _rk45_matlab
@@ -182,7 +182,7 @@ def integrate(
     q0a = np.array(q0, dtype=float)
     w0a = np.array(w0, dtype=float)
     _check_inputs(problem, method, q0a, w0a, h, nsteps, control)
-    if method_row(method).family is Family.TIME_VI:
+    if method_row(method).driver is Driver.TIME_TRANSFORMED:
         if monitor is None:
             raise ValueError(f"integrate: method {method!r} needs a monitor")
         return integrate_time_transformed(
