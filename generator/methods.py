@@ -320,9 +320,6 @@ def _transformed(
     )
 
 
-#: Backends of the time-transformed RATTLE methods (the emitted C's drivers step the VI only).
-_TT_RATTLE = ("numpy", "reference")
-
 #: Every method, in the order of their codes.
 METHODS: tuple[Method, ...] = (
     _geometric("vi", 0, Family.VI, PLAIN, "the paper's variational integrator"),
@@ -377,7 +374,7 @@ METHODS: tuple[Method, ...] = (
     _transformed("vi6-adaptive", 16, YOSHIDA6, "vi-adaptive composed by Yoshida's solution A"),
     _transformed("vi8-adaptive", 17, KAHAN_LI8, "vi-adaptive composed by Kahan and Li's 15 stages"),
     *(
-        _transformed(f"rattle{tag}-adaptive", code, comp, summary, Family.TIME_RATTLE, _TT_RATTLE)
+        _transformed(f"rattle{tag}-adaptive", code, comp, summary, Family.TIME_RATTLE)
         for tag, code, comp, summary in (
             ("", 18, PLAIN, "vi-adaptive with the RATTLE step (Cartesian q_i, multipliers)"),
             ("4", 19, TRIPLE_JUMP, "rattle-adaptive composed by the triple jump"),

@@ -367,7 +367,7 @@ SPHERE_PARTS = (
         sites=(_MONITOR,),
         buffers=(
             ("transformed", ("x", "v", "gx", "xa", "va", "ga", "xb", "vb", "gb")),
-            ("transformed", ("s", "bridge", "qk", "wk", "slack")),
+            ("transformed", ("s", "bridge", "qk", "wk", "step", "slack")),
         ),
     ),
     Part(
