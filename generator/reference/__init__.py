@@ -16,8 +16,8 @@ have modules of their own, not re-exported here: `forced` (`DrivenProblem`, the 
 `driven_rhs`), `forced_steps` (the forced VI and RATTLE steps and a step's work) and
 `forced_integrate` (`integrate_driven`: the VI and RATTLE families with their compositions and
 the fixed-step Runge-Kutta methods, recording the work W so that E - E0 - W is the balance).
-`adaptive` holds the time-transformed VI methods (``"vi-adaptive"``, ``"vi4-adaptive"``, ...:
-the VI and its compositions in a fictitious time, steps eps / xi with xi tracking a monitor of
+`adaptive` holds the time-transformed methods (``"vi-adaptive"``, ``"vi4-adaptive"``, ...,
+``"rattle-adaptive"``, ...: the VI or RATTLE and their compositions in a fictitious time, steps eps / xi with xi tracking a monitor of
 the pair terms; the monitor's rule is the definition in `s2gen.monitor`, shared with the
 emitted code as the tableaus are). `step_jacobian` differentiates one fixed step (closed or
 driven) by the complex-step derivative, and `field_jacobian` the continuous field: the steps
