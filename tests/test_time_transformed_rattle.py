@@ -5,7 +5,10 @@
   the emitted closed-form and Newton steps) to 1e-10 on the sampled grid, and C against NumPy
   to round-off with the same chain of steps, gradient count and Newton iterations: the three
   bodies (all four methods), the encounter cluster and the double pendulum with [run] g
-  (coupled M: Newton on the multipliers);
+  (coupled M: Newton on the multipliers), and C against NumPy on the pendulum chain's
+  structured solver;
+- vi-adaptive's statuses and refusals: ERR_STEPSIZE at the same sample, the same one-line
+  refusal of a system without a driver;
 - rattle-adaptive against vi-adaptive on the same system and eps: RATTLE on the sphere is the
   same discrete flow as the VI, so the two chains take the same steps and their samples
   agree to round-off (measured: at most 2e-12 on the cluster with rattle8-adaptive, ~1e-13
@@ -29,7 +32,7 @@ from conftest import reference_path
 
 import s2gen
 from s2gen.emit import emit
-from s2gen.methods import Family, method
+from s2gen.methods import Family, Status, method
 from s2gen.reference import adaptive
 from s2gen.reference.adaptive import (
     integrate_time_transformed,
@@ -37,6 +40,7 @@ from s2gen.reference.adaptive import (
     transformed_steps,
 )
 from s2gen.reference.problem import problem_from_system
+from s2gen.runtime import IntegrationError
 from s2gen.runtime.numpy_module import import_cached
 from s2gen.runtime.options import Options
 from s2gen.spec import load_spec_text
@@ -47,6 +51,13 @@ THREE = builtin("three_bodies")
 CLUSTER = builtin("encounter_cluster")
 PENDULUM_G = load_spec_text(
     (files("s2gen.systems.examples") / "double_pendulum.toml").read_text()
+    + 'g = "3 + dot(q1, q2)"\n'
+)
+#: Six bodies whose M the structured (max-index) solver takes, with [run] g
+CHAIN_G = load_spec_text(
+    (files("s2gen.systems.examples") / "pendulum_chain.toml")
+    .read_text()
+    .replace('scale = "l"', 'scale = "l"\nsolver = "structured"')
     + 'g = "3 + dot(q1, q2)"\n'
 )
 ALL = ("rattle-adaptive", "rattle4-adaptive", "rattle6-adaptive", "rattle8-adaptive")
@@ -98,6 +109,39 @@ def test_c_numpy_and_the_reference_agree(
             assert c.stats[key] == py.stats[key], (name, key)
         assert _gap(c, ref) < 1e-10 and _gap(py, ref) < 1e-10, (name, _gap(c, ref))
         assert _gap(c, py) < 1e-12, (name, _gap(c, py))
+
+
+def test_the_structured_solver_agrees_with_the_c() -> None:
+    """The max-index solver's RATTLE (Newton on band solves) under the time-transformed driver:
+    the NumPy and the C take the same steps and Newton iterations, and follow vi-adaptive."""
+    c = s2gen.Model(CHAIN_G).integrate("rattle-adaptive", h=0.02, T=0.2)
+    py = s2gen.Model(CHAIN_G, backend="numpy").integrate("rattle-adaptive", h=0.02, T=0.2)
+    vi = s2gen.Model(CHAIN_G).integrate("vi-adaptive", h=0.02, T=0.2)
+    assert py.stats["steps"] == c.stats["steps"] == vi.stats["steps"] > 0
+    assert py.stats["newton_iters"] == c.stats["newton_iters"] > 0
+    assert _gap(c, py) < 1e-12 and 0.0 < _gap(c, vi) < 1e-11, (_gap(c, py), _gap(c, vi))
+
+
+def test_statuses_and_refusals_are_vi_adaptive_s() -> None:
+    """A step that does not resolve the monitor stops with ERR_STEPSIZE at the sample where
+    vi-adaptive stops; a system whose module has no driver is refused in vi-adaptive's words."""
+    for backend in ("c", "numpy", "reference"):
+        model, stops = s2gen.Model(CLUSTER, backend=backend), []
+        for name in ("rattle-adaptive", "vi-adaptive"):
+            with pytest.raises(IntegrationError, match="step size") as e:
+                model.integrate(name, h=1.0, T=100.0)
+            assert e.value.status == int(Status.STEPSIZE) and "\n" not in str(e.value)
+            stops.append(e.value.step)
+        assert stops[0] == stops[1], backend
+    for backend in ("c", "numpy"):
+        said = []
+        for name in ("rattle-adaptive", "vi-adaptive"):
+            with pytest.raises(ValueError) as refused:
+                s2gen.Model(builtin("double_pendulum"), backend=backend).integrate(
+                    name, h=0.01, T=0.1
+                )
+            said.append(str(refused.value))
+        assert said[0] == said[1] and "time-transformed" in said[0], backend
 
 
 @pytest.mark.parametrize(
