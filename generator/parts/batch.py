@@ -57,6 +57,8 @@ BATCH_LANES = 8
 
 #: The methods integrate_batch() takes (others: ERR_ARGUMENT).
 BATCH_METHODS: tuple[str, ...] = ("vi", "vi4", "vi6", "vi8", "rk2", "rk2-proj", "rk3", "rk4")
+#: and RATTLE's (in loops over the lanes with a diagonal M, else lane by lane)
+BATCH_METHODS += ("rattle", "rattle4", "rattle6", "rattle8")
 
 PART = Part(BATCH_PART)
 

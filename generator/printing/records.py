@@ -293,6 +293,7 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "batch_layout": ("batch",),
         "batch_dense": ("batch",),
         "batch_vi": ("batch",),
+        "batch_rattle": ("batch",),
         "batch_quadratic": ("batch_gradient_lanes",),
         "batch_quadratic_field": ("batch",),
         "batch_quadratic_share": ("batch",),
@@ -461,6 +462,14 @@ def sections(module: Module) -> tuple[Sections, Sections]:
             (batch and explicit, "batch_vi_explicit"),
             (field and dense_vi, "batch_vi_lanes"),
             (batch and not explicit and not (field and dense_vi), "batch_vi_newton"),
+        ),
+        # RATTLE: in loops over the lanes with a diagonal M, else lane by lane
+        "batch_rattle": pick(
+            "c",
+            (lanes, "batch_rattle_gradient_lanes"),
+            (batch and explicit and not lanes, "batch_rattle_gradient_each"),
+            (batch and explicit, "batch_rattle_lanes"),
+            (batch and not explicit, "batch_rattle_each"),
         ),
     }
     py = {
