@@ -27,10 +27,18 @@ lane's own context and workspace. Either way a lane's Newton iterates exactly as
 member's would alone (its own convergence test, iteration count and warm start), and a lane
 whose Newton, solve or state fails stops alone with that status while the other lanes go on.
 
+RATTLE and its compositions keep the one-member step's body-major state: with a diagonal M
+its substep (each body's closed-form position and velocity updates, dV/dq between them) runs
+in loops over the lanes, dV/dq through the lane gradient where the Runge-Kutta field uses it
+and else the one-member gradient_cx lane by lane; with a coupled M each lane runs the
+one-member rattle_advance with its own context and workspace
+(`s2gen.printing.c_batch_rattle`).
+
 What is covered: closed systems (no forces, inputs or time); the VI and its compositions
-(vi, vi4, vi6, vi8: explicit with a diagonal M, Newton with a coupled M) and the fixed-step
-Runge-Kutta methods (rk2, rk2-proj, rk3, rk4). What is not: RATTLE, the adaptive methods
-(per-member step sizes) and driven systems; `batch_refusal` says which.
+(vi, vi4, vi6, vi8: explicit with a diagonal M, Newton with a coupled M), RATTLE and its
+compositions (rattle, rattle4, rattle6, rattle8) and the fixed-step Runge-Kutta methods (rk2,
+rk2-proj, rk3, rk4). What is not: the adaptive methods (per-member step sizes) and driven
+systems; `batch_refusal` says which.
 
 Example:
     >>> from s2gen.systems import builtin
