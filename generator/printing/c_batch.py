@@ -115,7 +115,8 @@ def print_batch(module: Module) -> dict[str, Any]:
     member tables the lanes copy, whether the lanes start component-major (`soa`, a C
     condition: the explicit VI's), with a coupled M where a lane's Newton VI steps keep
     their buffers (`newton_work`) and with a dense M its Newton VI's kernels inline for the
-    lane loops (`newton_lanes`); every key empty (or 0) without the part."""
+    lane loops (`newton_lanes`), RATTLE's step (`s2gen.printing.c_batch_rattle`); every key
+    empty (or 0) without the part."""
     if BATCH_PART not in module.parts:
         return {
             "lanes": 0,
