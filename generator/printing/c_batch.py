@@ -28,7 +28,7 @@ from s2gen.parts.batch import BATCH_LANES, BATCH_PART
 from s2gen.printing.c import CPrinter, c_inline, c_loop
 from s2gen.printing.c_batch_newton import newton_lane_work, newton_lanes
 from s2gen.printing.c_batch_quadratic import quadratic_lanes
-from s2gen.printing.c_batch_rattle import rattle_batch
+from s2gen.printing.c_batch_rattle import rattle_batch, rattle_dense_work
 from s2gen.printing.c_calls import c_binding
 
 __all__ = ["batch_work", "coupled_field", "newton_work", "print_batch"]
@@ -99,6 +99,9 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
         if "vi_newton" in module.parts:  # and its Newton VI
             off.update(newton_lane_work(module, at2, lanes))
             at2 = off.pop("end")
+        if "rattle_newton" in module.parts:  # and its RATTLE
+            off.update(rattle_dense_work(module, at2, lanes))
+            at2 = off.pop("end")
     off["slack"] = 7
     off["size"] = at + at2 + off["slack"]
     return off
@@ -154,7 +157,9 @@ def print_batch(module: Module) -> dict[str, Any]:
         "newton": {} if explicit else newton_work(module),
         "field": field or {},
         "newton_lanes": newton_lanes(module) if field else {},
-        "rattle": rattle_batch(module, work, BATCH_LANES),
+        "rattle": rattle_batch(
+            module, work, BATCH_LANES, field is not None and "rattle_newton" in module.parts
+        ),
     }
 
 
