@@ -178,7 +178,7 @@ def _cold_start_lanes(c: str, upper: str) -> str:
 def _converged_lanes_iterate(c: str, upper: str) -> str:
     """A lane whose Newton has converged goes on updating its multipliers while other lanes
     iterate (no mask)."""
-    update = "sv[i * L + l] = act[l] ? s1 : sv[i * L + l];"
+    update = "sv[i * L + l] = going[l] ? s1 : sv[i * L + l];"
     assert c.count(update) == 1
     return c.replace(update, "sv[i * L + l] = s1;")
 

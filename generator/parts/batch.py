@@ -30,8 +30,10 @@ whose Newton, solve or state fails stops alone with that status while the other 
 RATTLE and its compositions keep the one-member step's body-major state: with a diagonal M
 its substep (each body's closed-form position and velocity updates, dV/dq between them) runs
 in loops over the lanes, dV/dq through the lane gradient where the Runge-Kutta field uses it
-and else the one-member gradient_cx lane by lane; with a coupled M each lane runs the
-one-member rattle_advance with its own context and workspace
+and else the one-member gradient_cx lane by lane; with a dense M (whose field runs in the
+lanes) so does its Newton on the multipliers, each lane under its own mask, its small LU and
+Cholesky solves the one-member solvers on each lane's copy; with another coupled M each
+lane runs the one-member rattle_advance with its own context and workspace
 (`s2gen.printing.c_batch_rattle`).
 
 What is covered: closed systems (no forces, inputs or time); the VI and its compositions

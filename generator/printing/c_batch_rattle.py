@@ -7,10 +7,15 @@ body-major as the one-member step does: `pos` and `vel` are the rattle_pos and r
 kernels' bodies inline (the C printer's `c_inline`, operands read from small per-lane arrays
 x, v, g and xn, vh, gn, so that a lane performs the one-member kernel's operations in their
 order), `lanes` the offsets of the lane arrays inside the Runge-Kutta region (which a RATTLE
-block does not otherwise use). With a coupled M each lane runs the one-member rattle_advance
-on its own workspace: `each` are the offsets, in a lane's workspace (WORK_SIZE), of the
-buffers integrate_geometric() gives it, inside integrate()'s run region, so that a lane's
-Newton iterations, warm starts and failures are its member's own.
+block does not otherwise use). With a dense M whose field runs in the lanes
+(`s2gen.printing.c_batch.coupled_field`) the step of rattle_newton runs in loops over the
+lanes too, each lane's Newton under its own mask: `dense` are its lane arrays (in the
+Runge-Kutta region and past the other lane arrays: `rattle_dense_work`) and, in each lane's
+workspace, rattle_advance's buffers where the one-member solvers run on the lane's copy.
+With another coupled M each lane runs the one-member rattle_advance on its own workspace:
+`each` are the offsets, in a lane's workspace (WORK_SIZE), of the buffers
+integrate_geometric() gives it, inside integrate()'s run region, so that a lane's Newton
+iterations, warm starts and failures are its member's own.
 
 Example:
     >>> from s2gen.systems import builtin
@@ -55,7 +60,7 @@ def rattle_dense_work(module: Module, at: int, lanes: int) -> dict[str, int]:
         >>> from s2gen.passes import lower_system
         >>> w = rattle_dense_work(lower_system(builtin("double_pendulum").with_batch()), 0, 8)
         >>> w["rsv"], w["rr"] - w["rsv"], w["end"]
-        (32, 240, 288)
+        (32, 240, 320)
     """
     n = module.n
     layouts = {lay.name: lay for lay in module.layouts}
