@@ -27,10 +27,20 @@ lane's own context and workspace. Either way a lane's Newton iterates exactly as
 member's would alone (its own convergence test, iteration count and warm start), and a lane
 whose Newton, solve or state fails stops alone with that status while the other lanes go on.
 
+RATTLE and its compositions keep the one-member step's body-major state: with a diagonal M
+its substep (each body's closed-form position and velocity updates, dV/dq between them) runs
+in loops over the lanes, dV/dq through the lane gradient where the Runge-Kutta field uses it
+and else the one-member gradient_cx lane by lane; with a dense M (whose field runs in the
+lanes) so does its Newton on the multipliers, each lane under its own mask, its small LU and
+Cholesky solves the one-member solvers on each lane's copy; with another coupled M each
+lane runs the one-member rattle_advance with its own context and workspace
+(`s2gen.printing.c_batch_rattle`).
+
 What is covered: closed systems (no forces, inputs or time); the VI and its compositions
-(vi, vi4, vi6, vi8: explicit with a diagonal M, Newton with a coupled M) and the fixed-step
-Runge-Kutta methods (rk2, rk2-proj, rk3, rk4). What is not: RATTLE, the adaptive methods
-(per-member step sizes) and driven systems; `batch_refusal` says which.
+(vi, vi4, vi6, vi8: explicit with a diagonal M, Newton with a coupled M), RATTLE and its
+compositions (rattle, rattle4, rattle6, rattle8) and the fixed-step Runge-Kutta methods (rk2,
+rk2-proj, rk3, rk4). What is not: the adaptive methods (per-member step sizes) and driven
+systems; `batch_refusal` says which.
 
 The NumPy module of the same system carries integrate_batch() too, vectorised over the
 members (`s2gen.printing.numpy_batch`): the same methods with a diagonal or dense M (the
@@ -73,6 +83,8 @@ BATCH_LANES = 8
 
 #: The methods integrate_batch() takes (others: ERR_ARGUMENT).
 BATCH_METHODS: tuple[str, ...] = ("vi", "vi4", "vi6", "vi8", "rk2", "rk2-proj", "rk3", "rk4")
+#: and RATTLE's (in loops over the lanes with a diagonal M, else lane by lane)
+BATCH_METHODS += ("rattle", "rattle4", "rattle6", "rattle8")
 
 #: The call sites NumPy's members' code reads (`s2gen.printing.numpy_batch`), by the part
 #: that declares each for the one-member code

@@ -294,6 +294,7 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "batch_layout": ("batch",),
         "batch_dense": ("batch",),
         "batch_vi": ("batch",),
+        "batch_rattle": ("batch",),
         "batch_quadratic": ("batch_gradient_lanes",),
         "batch_quadratic_field": ("batch",),
         "batch_quadratic_share": ("batch",),
@@ -370,6 +371,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     lanes = batch and explicit and _lane_gradient(module) is not None
     field = batch and not explicit and _coupled_field(module) is not None  # a dense M's, in lanes
     dense_vi = "vi_newton" in module.parts  # and its Newton VI in lanes too
+    dense_rattle = field and "rattle_newton" in module.parts  # and its RATTLE
     shared_k = (lanes or field) and quadratic  # Kx + b in lanes where the lanes share K
     rattle_jacobian = any(k.name == "rattle_jacobian" for k in module.kernels)
     members = batch and numpy_batch_refusal(module) is None  # NumPy's integrate_batch()
@@ -465,6 +467,16 @@ def sections(module: Module) -> tuple[Sections, Sections]:
             (batch and explicit, "batch_vi_explicit"),
             (field and dense_vi, "batch_vi_lanes"),
             (batch and not explicit and not (field and dense_vi), "batch_vi_newton"),
+        ),
+        # RATTLE: in loops over the lanes with a diagonal or dense M, else lane by lane
+        "batch_rattle": pick(
+            "c",
+            (lanes or dense_rattle, "batch_rattle_gradient_lanes"),
+            (batch and explicit and not lanes, "batch_rattle_gradient_each"),
+            ((batch and explicit) or dense_rattle, "batch_rattle_omega"),
+            (batch and explicit, "batch_rattle_lanes"),
+            (dense_rattle, "batch_rattle_dense"),
+            (batch and not explicit and not dense_rattle, "batch_rattle_each"),
         ),
     }
     py = {
