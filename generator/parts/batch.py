@@ -152,7 +152,9 @@ PART = Part(BATCH_PART, module_sites=_numpy_sites)
 
 
 def batch_refusal(system: System) -> str | None:
-    """Why `system`'s C cannot carry integrate_batch(), in one line, or None."""
+    """Why `system`'s C cannot carry this integrate_batch() (the closed systems' one, SIMD
+    across members), in one line, or None; a driven system's C carries its own
+    (`s2gen.parts.batch_driven`)."""
     if system.driven:
         return (
             f"{system.name}: integrate_batch() covers closed systems; this one is driven "
@@ -163,7 +165,7 @@ def batch_refusal(system: System) -> str | None:
 
 def has_batch(system: System) -> bool:
     """Whether the emitted C of `system` carries integrate_batch(): asked for
-    (`System.with_batch`) and covered (`batch_refusal`).
+    (`System.with_batch`) and covered (`batch_refusal`), or driven (`s2gen.parts.batch_driven`).
 
     Example:
         >>> from s2gen.systems import builtin
@@ -171,4 +173,4 @@ def has_batch(system: System) -> bool:
         >>> has_batch(s), has_batch(s.with_batch())
         (False, True)
     """
-    return system.batch and batch_refusal(system) is None
+    return system.batch and (system.driven or batch_refusal(system) is None)
