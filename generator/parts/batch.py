@@ -30,7 +30,8 @@ whose Newton, solve or state fails stops alone with that status while the other 
 What is covered: closed systems (no forces, inputs or time); the VI and its compositions
 (vi, vi4, vi6, vi8: explicit with a diagonal M, Newton with a coupled M) and the fixed-step
 Runge-Kutta methods (rk2, rk2-proj, rk3, rk4). What is not: RATTLE, the adaptive methods
-(per-member step sizes) and driven systems; `batch_refusal` says which.
+(per-member step sizes) and driven systems, which carry an integrate_batch() of their own
+(`s2gen.parts.batch_driven`); `batch_refusal` says which.
 
 The NumPy module of the same system carries integrate_batch() too, vectorised over the
 members (`s2gen.printing.numpy_batch`): the same methods with a diagonal or dense M (the
