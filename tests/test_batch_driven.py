@@ -11,7 +11,8 @@ sample) and one with an angular velocity so large that its first step fails; on 
 with inputs a third holds a NaN input from step 17 on (ERR_NONFINITE there, the samples
 before it kept). Their neighbours must not notice. Systems: forced_double_pendulum (a coupled
 M, forces of the state and of t), kapitza (a diagonal M, a potential of t) and `SPIN` below (a
-diagonal M, two inputs: a torque and the strength of a coupling in V, whose changes are work).
+diagonal M, two inputs: a torque and the strength of a coupling in V, whose changes are work);
+the test specs driven_double (a coupled M with inputs) and driven_ring (inputs, force terms).
 Two broken variants of the emitted C (every member reads member 0's inputs; the jumps of V
 where an input changes are not booked as work) must fail the comparison.
 """
@@ -19,6 +20,7 @@ where an input changes are not booked as work) must fail the comparison.
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -31,9 +33,10 @@ from s2gen.runtime.model import Model
 from s2gen.runtime.options import Options
 from s2gen.spec import define_system
 from s2gen.system import System
-from s2gen.systems import builtin
+from s2gen.systems import builtin, resolve
 
 K, H, NSTEPS, EVERY, T0 = 11, 0.01, 60, 6, 0.37
+SPECS = Path(__file__).parent / "specs"
 NAN_MEMBER, FAST_MEMBER, INPUT_MEMBER, INPUT_STEP = 3, 9, 5, 17
 
 #: Two bodies, a diagonal M, two inputs: tau (a torque on body 1) and a (a coupling in V)
@@ -51,6 +54,10 @@ SPIN = define_system(
 
 
 def system(name: str) -> System:
+    """`SPIN`, a spec of tests/specs (driven_double: a coupled M and inputs; driven_ring: a
+    diagonal M, inputs and force terms) or a built-in."""
+    if name in ("driven_double", "driven_ring"):
+        return resolve(str(SPECS / f"{name}.toml"))
     return SPIN if name == "driven_pair" else builtin(name)
 
 
@@ -121,7 +128,9 @@ def check(
         assert np.array_equal(b.t, T0 + H * EVERY * np.arange(NSTEPS // EVERY + 1))
 
 
-@pytest.mark.parametrize("name", ["forced_double_pendulum", "kapitza", "driven_pair"])
+@pytest.mark.parametrize(
+    "name", ["forced_double_pendulum", "kapitza", "driven_pair", "driven_double", "driven_ring"]
+)
 def test_every_method(name: str) -> None:
     check(name)
 
