@@ -37,6 +37,7 @@ from s2gen.systems import builtin, resolve
 
 K, H, NSTEPS, EVERY, T0 = 11, 0.01, 60, 6, 0.37
 SPECS = Path(__file__).parent / "specs"
+SYSTEMS = ("forced_double_pendulum", "kapitza", "driven_pair", "driven_double", "driven_ring")
 NAN_MEMBER, FAST_MEMBER, INPUT_MEMBER, INPUT_STEP = 3, 9, 5, 17
 
 #: Two bodies, a diagonal M, two inputs: tau (a torque on body 1) and a (a coupling in V)
@@ -128,15 +129,13 @@ def check(
         assert np.array_equal(b.t, T0 + H * EVERY * np.arange(NSTEPS // EVERY + 1))
 
 
-@pytest.mark.parametrize(
-    "name", ["forced_double_pendulum", "kapitza", "driven_pair", "driven_double", "driven_ring"]
-)
+@pytest.mark.parametrize("name", SYSTEMS)
 def test_every_method(name: str) -> None:
     check(name)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["forced_double_pendulum", "kapitza", "driven_pair"])
+@pytest.mark.parametrize("name", SYSTEMS)
 def test_every_method_native(name: str) -> None:
     check(name, opt="native")
 
