@@ -40,7 +40,8 @@ What is covered: closed systems (no forces, inputs or time); the VI and its comp
 (vi, vi4, vi6, vi8: explicit with a diagonal M, Newton with a coupled M), RATTLE and its
 compositions (rattle, rattle4, rattle6, rattle8) and the fixed-step Runge-Kutta methods (rk2,
 rk2-proj, rk3, rk4). What is not: the adaptive methods (per-member step sizes) and driven
-systems; `batch_refusal` says which.
+systems, which carry an integrate_batch() of their own (`s2gen.parts.batch_driven`);
+`batch_refusal` says which.
 
 The NumPy module of the same system carries integrate_batch() too, vectorised over the
 members (`s2gen.printing.numpy_batch`): the same methods with a diagonal or dense M (the
@@ -164,7 +165,9 @@ PART = Part(BATCH_PART, module_sites=_numpy_sites)
 
 
 def batch_refusal(system: System) -> str | None:
-    """Why `system`'s C cannot carry integrate_batch(), in one line, or None."""
+    """Why `system`'s C cannot carry this integrate_batch() (the closed systems' one, SIMD
+    across members), in one line, or None; a driven system's C carries its own
+    (`s2gen.parts.batch_driven`)."""
     if system.driven:
         return (
             f"{system.name}: integrate_batch() covers closed systems; this one is driven "
@@ -175,7 +178,7 @@ def batch_refusal(system: System) -> str | None:
 
 def has_batch(system: System) -> bool:
     """Whether the emitted C of `system` carries integrate_batch(): asked for
-    (`System.with_batch`) and covered (`batch_refusal`).
+    (`System.with_batch`) and covered (`batch_refusal`), or driven (`s2gen.parts.batch_driven`).
 
     Example:
         >>> from s2gen.systems import builtin
@@ -183,4 +186,4 @@ def has_batch(system: System) -> bool:
         >>> has_batch(s), has_batch(s.with_batch())
         (False, True)
     """
-    return system.batch and batch_refusal(system) is None
+    return system.batch and (system.driven or batch_refusal(system) is None)

@@ -134,6 +134,8 @@ class Model(JacobianMethods):
         every: int = 1,
         energy: bool = True,
         options: Options | None = None,
+        t0: float = 0.0,
+        inputs: Any = None,
     ) -> Batch:
         """K members at once, each with its own initial state (q0, omega0 of shape (K, n, 3);
         default: the spec's) and parameters (`params`: name -> K values, or one for all),
@@ -143,7 +145,10 @@ class Model(JacobianMethods):
         the methods of `s2gen.parts.batch.BATCH_METHODS`; the first call builds the module
         with integrate_batch() (`System.with_batch`). The NumPy backend batches the members
         in its emitted module, vectorised over them (`s2gen.runtime.batch_numpy`; a diagonal
-        or dense M, the methods of `numpy_batch_methods`), with the same record.
+        or dense M, the methods of `numpy_batch_methods`), with the same record. A driven
+        system (C backend, its driven methods) starts its members at `t0` with `inputs`: one
+        schedule (steps, n_inputs) for all or one per member (K, steps, n_inputs), no
+        feedback; its record, a `s2gen.runtime.batch_driven.DrivenBatch`, adds the work W.
 
         Example:
             >>> from s2gen.systems import builtin
@@ -162,7 +167,7 @@ class Model(JacobianMethods):
                 f"integrate_batch: the C and NumPy backends only (not {self.backend_name!r})"
             )
         why = batch_refusal(self.system)
-        if why is not None:
+        if why is not None and not (self.system.driven and self.backend_name == "c"):
             raise ValueError(why)
         h = h if h is not None else self.system.run.h
         T = T if T is not None else self.system.run.T
@@ -171,6 +176,23 @@ class Model(JacobianMethods):
         opts = options or Options()
         nsteps = check_run(self.system, method, h, T, opts, every)
         qs, ws, p = member_arrays(self.system, q0, omega0, params)
+        if not self.system.driven and (t0 != 0.0 or inputs is not None):
+            raise ValueError(
+                f"integrate_batch: {self.system.name} is closed: it takes no t0 or inputs"
+            )
+        if self.system.driven:
+            from s2gen.runtime.batch_driven import integrate_driven_batch, member_inputs
+            from s2gen.runtime.driven import check_driven_method
+
+            check_driven_method(self.system, method)
+            if not math.isfinite(t0):
+                raise ValueError(f"integrate_batch: t0 = {t0!r}: must be a finite number")
+            u = member_inputs(self.system, inputs, len(qs), nsteps)
+            if self._batch is None:
+                self._batch = CBackend(self.system.with_batch(), opt=self._opt)
+            return integrate_driven_batch(
+                self._batch, method, t0, h, nsteps, qs, ws, p, u, opts, every, energy
+            )
         if self.backend_name == "numpy":
             from s2gen.runtime.batch_numpy import integrate_batch_numpy
             from s2gen.runtime.numpy_module import NumpyBackend
