@@ -44,8 +44,8 @@ FIXED = (
 )
 #: The time-transformed RATTLE methods the sweeps run beside the VI ones: orders 4 and 8 only.
 #: They take the VI's discrete flow (the same steps, errors equal to round-off), so they add
-#: a cost comparison, not a new error curve; orders 2 and 6 would add half again to the
-#: time-transformed sweeps and show nothing the VI rows do not.
+#: a cost comparison, not a new error curve: two orders add half to the VI's four sweeps (all
+#: four would double them), and orders 2 and 6 would show nothing the VI rows do not.
 TIME_RATTLE = ("rattle4-adaptive", "rattle8-adaptive")
 #: The time-transformed methods of the emitted C the sweeps run over their fictitious step
 #: eps, on the systems whose emitted C has their driver: every VI one, then `TIME_RATTLE`.
