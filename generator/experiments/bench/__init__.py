@@ -13,7 +13,9 @@ VI "vi", RATTLE "rattle" and their symmetric compositions of orders 4, 6 and 8: 
 "vi8", "rattle4", "rattle6", "rattle8"), RK2, RK2 with renormalization, RK4, RK45 under both
 error controls and DOP853; on the systems whose emitted C has their driver (closed, with
 monitored pair terms or a monitor given as [run] g) also the time-transformed VI
-("vi-adaptive", "vi4-adaptive", "vi6-adaptive", "vi8-adaptive") over its fictitious step eps. Outside peers (`peers.py`) run in the same process: scipy's
+("vi-adaptive", "vi4-adaptive", "vi6-adaptive", "vi8-adaptive") and RATTLE ("rattle4-adaptive",
+"rattle8-adaptive": the VI's flow by other operations, so two orders suffice to compare their
+cost) over the fictitious step eps. Outside peers (`peers.py`) run in the same process: scipy's
 `solve_ivp` (RK45, DOP853) on the emitted NumPy right-hand side, and PyDy (double pendulum).
 
 Definitions (repeated in bench.md):
@@ -81,6 +83,7 @@ _WHERE = {
     "StabRow": "model",
     "StabilityCase": "model",
     "TIE": "report_example",
+    "TIME_RATTLE": "model",
     "TIME_TRANSFORMED": "model",
     "VI_FAMILY": "model",
     "WPRow": "model",
@@ -138,6 +141,7 @@ __all__ = [
     "RK_C",
     "SAMPLES",
     "TIE",
+    "TIME_RATTLE",
     "TIME_TRANSFORMED",
     "VI_FAMILY",
     "WP_COLUMNS",

@@ -8,6 +8,11 @@ and one `EnergyCost` per target relative energy error: the cheapest measured run
 whose largest relative energy error over the whole horizon, max |E - E0| / |E0| over the
 window maxima, stays within the target, and the ratio of their gradient evaluations.
 
+The time-transformed RATTLE methods (rattle4-, rattle8-adaptive) are not swept here: they take
+the VI's discrete flow (the same steps and energy errors, to round-off; the long runs of
+`long_study` show rattle4-adaptive's beside vi4-adaptive's), so their rows would repeat the
+VI's errors at the same evaluations and double the study's run time.
+
 Measured, not interpolated: a side's cost is that of a run it made, so each ratio is within one
 grid step (about 1.4-1.6x in evaluations) of the one an exact tuning would give; the tables
 keep every run, so the reader can check. Energies are sampled as the long runs sample them

@@ -8,6 +8,8 @@ that ran.
 Example:
     >>> _style("vi")["lw"], _style("scipy-RK45")["ls"], _style("vi8-adaptive")["marker"]
     (2.2, '--', 'D')
+    >>> _style("rattle4-adaptive")["ls"], _style("rattle4-adaptive")["mfc"]
+    (':', 'none')
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import numpy as np
 from .envelope import largest_stable
 from .model import (
     FIXED,
+    TIME_RATTLE,
     TIME_TRANSFORMED,
     VI_FAMILY,
     BenchReport,
@@ -51,6 +54,8 @@ _COLORS = {
     "vi4-adaptive": "#ae017e",
     "vi6-adaptive": "#7a0177",
     "vi8-adaptive": "#49006a",
+    "rattle4-adaptive": "#1c9099",
+    "rattle8-adaptive": "#014636",
 }
 
 #: Our adaptive methods on the emitted C (rows named by method, or rk45-<control>).
@@ -59,6 +64,8 @@ _OUR_ADAPTIVE = ("rk45", "dop853")
 
 def _style(method: str) -> dict[str, Any]:
     color = _COLORS.get(method, "k" if "lsoda" in method else "0.5")
+    if method in TIME_RATTLE:  # the VI's flow: dotted with open marks, so both lines show
+        return {"color": color, "ls": ":", "lw": 2.2, "marker": "o", "ms": 6, "mfc": "none"}
     if method in TIME_TRANSFORMED:  # geometric and adaptive: the VI's weight, their own mark
         return {"color": color, "ls": "-.", "lw": 2.2, "marker": "D", "ms": 4}
     ours = method.startswith(_OUR_ADAPTIVE)
@@ -138,8 +145,9 @@ def _plot_long(ex: ExampleBench, path: Path) -> Path:
             t = np.asarray(s.t)
             good = np.isfinite(y) & (y > 0)
             if good.any():
-                lw = 2 if s.method in VI_FAMILY else 1.2
+                lw = 2 if s.method in (*VI_FAMILY, *TIME_RATTLE) else 1.2
                 ls = "--" if "(=" in s.label else "-"  # an equal-cost run
+                ls = ":" if s.method in TIME_RATTLE else ls  # on its VI's line: dotted
                 style = {"lw": lw, "ls": ls, "color": _COLORS.get(s.method)}
                 ax.loglog(t[good], y[good], label=s.label, **style)
         _label(ax, "t", label)

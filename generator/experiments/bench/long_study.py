@@ -2,8 +2,9 @@
 
 Input: an example name, a number of steps, the tolerance of the tight adaptive runs and the
 most steps a crossover run may take. Output: the `LongSeries` of the VI family (the VI, RATTLE
-and their compositions) and RK4 at the system's h, and of RK45 and DOP853 (emitted C) at the
-tolerance; the crossovers with RK45 and DOP853 at equal energy error (`crossover.py`), with the
+and their compositions) and RK4 at the system's h, of RK45 and DOP853 (emitted C) at the
+tolerance, and, where the emitted C has them, of the time-transformed `LONG_TRANSFORMED` at
+`LONG_EPS`; the crossovers with RK45 and DOP853 at equal energy error (`crossover.py`), with the
 runs that decided them; notes: the setup (a replacement initial state when the example's own
 collides) and one per crossover.
 
@@ -36,7 +37,9 @@ LONG_ADAPTIVE = ("rk45", "dop853")
 #: The time-transformed methods of the long runs, where the emitted C has them, and their
 #: fictitious step: eps is in units of the fastest pair's phase (s2gen.monitor), so 0.1 takes
 #: at least 2 pi / 0.1 = 63 steps per period of the fastest pair whatever the system's h.
-LONG_TRANSFORMED = ("vi4-adaptive", "vi8-adaptive")
+#: rattle4-adaptive runs beside vi4-adaptive: the same discrete flow by RATTLE's operations,
+#: so its energy error is the VI's and the two rows compare their cost over the long run.
+LONG_TRANSFORMED = ("vi4-adaptive", "rattle4-adaptive", "vi8-adaptive")
 LONG_EPS = 0.1
 
 

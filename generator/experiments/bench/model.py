@@ -1,7 +1,7 @@
 """The records of `s2gen bench` and the constants that describe its methods.
 
 Input: nothing (definitions only). Output: the method lists (`FIXED`, `VI_FAMILY`, `RK_C`,
-`TIME_TRANSFORMED`),
+`TIME_TRANSFORMED`, `TIME_RATTLE`),
 their expected orders and gradient evaluations per step (from `s2gen.methods`), and the
 dataclasses every other module of
 the package passes around: `WPRow` (one work-precision run), `Reference`, `ExampleBench`
@@ -42,12 +42,20 @@ FIXED = (
         if m.family is Family.FIXED_RK and "c" in m.backends
     ),
 )
-#: The time-transformed VI methods of the emitted C (swept over their fictitious step eps, on
-#: the systems whose emitted C has their driver).
-TIME_TRANSFORMED = tuple(
-    m.name
-    for m in sorted(METHODS, key=lambda m: m.order)
-    if m.family is Family.TIME_VI and "c" in m.backends
+#: The time-transformed RATTLE methods the sweeps run beside the VI ones: orders 4 and 8 only.
+#: They take the VI's discrete flow (the same steps, errors equal to round-off), so they add
+#: a cost comparison, not a new error curve: two orders add half to the VI's four sweeps (all
+#: four would double them), and orders 2 and 6 would show nothing the VI rows do not.
+TIME_RATTLE = ("rattle4-adaptive", "rattle8-adaptive")
+#: The time-transformed methods of the emitted C the sweeps run over their fictitious step
+#: eps, on the systems whose emitted C has their driver: every VI one, then `TIME_RATTLE`.
+TIME_TRANSFORMED = (
+    *(
+        m.name
+        for m in sorted(METHODS, key=lambda m: m.order)
+        if m.family is Family.TIME_VI and "c" in m.backends
+    ),
+    *(m.name for m in METHODS if m.name in TIME_RATTLE and "c" in m.backends),
 )
 #: The Runge-Kutta runs on the emitted C that the VI family is measured against (by row name).
 RK_C = ("rk4", "rk45-hairer", "rk45-matlab", "dop853")

@@ -2,8 +2,10 @@
 
 Input: an example name, `quick`, an optional horizon T and PyDy's code generator. Output: an
 `ExampleBench` whose `rows` hold one `WPRow` per run (fixed-step methods over h = T/N, the
-time-transformed ones over eps = T/N where the emitted C has them, RK45 under both error
-controls and DOP853 on the emitted C, scipy's RK45/DOP853 and PyDy over tolerances), measured against a converged `reference`; also the per-call overhead and the
+time-transformed ones over eps = T/N where the emitted C has them: the VI of every order and
+RATTLE of orders 4 and 8, `TIME_RATTLE`; RK45 under both error controls and DOP853 on the
+emitted C, scipy's RK45/DOP853 and PyDy over tolerances), measured against a converged
+`reference`; also the per-call overhead and the
 per-step timings (`per_step.py`). `fitted_orders` turns the rows into convergence orders.
 The full sweeps step h by 2^(1/4) and the tolerance by 10^(1/4), so that the cheapest run
 below an error target is close to it; the quick ones by 2 and 100.
@@ -178,7 +180,7 @@ def _fixed_sweep(
         best = min(best, row.state_err)
         if row.state_err < 30 * ref.accuracy or worse or row.wall > budget:
             break
-    log(f"    {method:11s} {_sweep_line(rows)}")
+    log(f"    {method:16s} {_sweep_line(rows)}")
     return rows
 
 
