@@ -56,9 +56,19 @@ BATCH_PART = "batch"
 BATCH_LANES = 8
 
 #: The methods integrate_batch() takes (others: ERR_ARGUMENT).
-BATCH_METHODS: tuple[str, ...] = ("vi", "vi4", "vi6", "vi8", "rk2", "rk2-proj", "rk3", "rk4")
+BATCH_METHODS: tuple[str, ...] = (
+    "vi", "vi4", "vi6", "vi8", "rk2", "rk2-proj", "rk3", "rk4", "rk45", "dop853"
+)
 
-PART = Part(BATCH_PART)
+#: The adaptive methods' lanes use the one-member driver's buffers in their own workspaces.
+PART = Part(
+    BATCH_PART,
+    buffers=(
+        ("integrate", ("run",)),
+        ("rk45", ("k", "y", "yn", "ys", "field")),
+        ("dop853", ("k", "y", "yt", "yn", "ys", "field")),
+    ),
+)
 
 
 def batch_refusal(system: System) -> str | None:
