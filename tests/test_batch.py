@@ -305,8 +305,8 @@ def test_refusals() -> None:
     with pytest.raises(ValueError, match="closed systems; this one is driven"):
         Model(builtin("forced_double_pendulum")).integrate_batch("vi", h=0.01, T=0.1)
     model = Model(builtin("four_pendula"))
-    with pytest.raises(ValueError, match="'rk45' is not batched"):
-        model.integrate_batch("rk45", h=0.01, T=0.1, params={"g": [1.0, 2.0]})
+    with pytest.raises(ValueError, match="'vi-adaptive' is not batched"):
+        model.integrate_batch("vi-adaptive", h=0.01, T=0.1, params={"g": [1.0, 2.0]})
     with pytest.raises(ValueError, match="one K for all"):
         model.integrate_batch("vi", h=0.01, T=0.1, params={"g": [1.0, 2.0], "m": [1.0]})
     with pytest.raises(ValueError, match="C backend only"):
