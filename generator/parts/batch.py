@@ -27,10 +27,28 @@ lane's own context and workspace. Either way a lane's Newton iterates exactly as
 member's would alone (its own convergence test, iteration count and warm start), and a lane
 whose Newton, solve or state fails stops alone with that status while the other lanes go on.
 
+The adaptive methods (rk45, dop853; c/_batch_adaptive.jinja) run a block's lanes in masked
+lockstep, not independently: every round, each live lane attempts one step of its own size
+from its own time and state, so that the stages' arithmetic (y + h_l sum a_ij k_j, each lane
+with its own h_l) and the field (the same lane field as the fixed-step methods) still run in
+loops over the lanes, while the parts that branch per member run lane by lane: the error norm
+and the initial step (the one-member rk45_error, dop853_error and *_h0 on the lane's copies in
+its own workspace), accept or reject, the step-size controller, and the samples on the output
+grid from the continuous extension (the one-member drivers' text). A rejected lane retries
+from its unchanged state in the next round; a lane whose member reached T or failed is
+masked (the field skips it or computes garbage it never reads); DOP853's extra stages for a
+sample inside a step run on the lanes that need them only. Independent lanes (each member's
+whole run one after the other) would give the same numbers but no SIMD at all; lockstep keeps
+the stages vectorised at the price of idle lanes once members need different numbers of
+attempts (a block takes as many rounds as its slowest member). Each member's samples, energy,
+status and statistics equal integrate()'s bit for bit; a failing member (a non-finite stage,
+ERR_STEPSIZE, a failed solve) stops alone with its samples before the failure kept.
+
 What is covered: closed systems (no forces, inputs or time); the VI and its compositions
-(vi, vi4, vi6, vi8: explicit with a diagonal M, Newton with a coupled M) and the fixed-step
-Runge-Kutta methods (rk2, rk2-proj, rk3, rk4). What is not: RATTLE, the adaptive methods
-(per-member step sizes) and driven systems; `batch_refusal` says which.
+(vi, vi4, vi6, vi8: explicit with a diagonal M, Newton with a coupled M), the fixed-step
+Runge-Kutta methods (rk2, rk2-proj, rk3, rk4) and the adaptive ones (rk45, dop853). What is
+not: RATTLE, the adaptive VI (vi-adaptive, ...) and driven systems; `batch_refusal` says
+which.
 
 Example:
     >>> from s2gen.systems import builtin
@@ -56,9 +74,9 @@ BATCH_PART = "batch"
 BATCH_LANES = 8
 
 #: The methods integrate_batch() takes (others: ERR_ARGUMENT).
-BATCH_METHODS: tuple[str, ...] = (
-    "vi", "vi4", "vi6", "vi8", "rk2", "rk2-proj", "rk3", "rk4", "rk45", "dop853"
-)
+BATCH_METHODS: tuple[str, ...] = ("vi", "vi4", "vi6", "vi8", "rk2", "rk2-proj", "rk3", "rk4")
+#: ... and the adaptive ones, each member with its own step sizes (masked lockstep).
+BATCH_METHODS = BATCH_METHODS + ("rk45", "dop853")
 
 #: The adaptive methods' lanes use the one-member driver's buffers in their own workspaces.
 PART = Part(
