@@ -149,3 +149,25 @@ def test_broken_lanes_are_caught(broken, method: str) -> None:  # type: ignore[n
     files[source] = broken(files[source], s.name.upper())
     with pytest.raises(AssertionError, match=f"four_pendula {method} member"):
         check("four_pendula", (method,), "portable", files=files)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("opt", ["portable", "native"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "four_pendula",
+        "dipoles",
+        "springs4",
+        "pendulum_chain",
+        "chain4",
+        "rope:n=10",
+        "rope:n=10,solver=dense",
+        "banded",
+    ],
+)
+def test_adaptive_every_system_both_flag_sets(name: str, opt: str) -> None:
+    """rk45 and dop853 on the other systems of test_batch (every way dV/dq and the field run:
+    in loops over the lanes, lane by lane, a dense, max-index or banded M), -O2 and -O3
+    -march=native."""
+    check(name, ADAPTIVE, opt)
