@@ -30,11 +30,12 @@ whose Newton, solve or state fails stops alone with that status while the other 
 The adaptive methods (rk45, dop853; c/_batch_adaptive.jinja) run a block's lanes in masked
 lockstep, not independently: every round, each live lane attempts one step of its own size
 from its own time and state, so that the stages' arithmetic (y + h_l sum a_ij k_j, each lane
-with its own h_l) and the field (the same lane field as the fixed-step methods) still run in
-loops over the lanes, while the parts that branch per member run lane by lane: the error norm
-and the initial step (the one-member rk45_error, dop853_error and *_h0 on the lane's copies in
-its own workspace), accept or reject, the step-size controller, and the samples on the output
-grid from the continuous extension (the one-member drivers' text). A rejected lane retries
+with its own h_l), the field (the same lane field as the fixed-step methods) and the error
+norm (each lane's sums in rk45_error's or dop853_error's order) still run in loops over the
+lanes, while the parts that branch per member run lane by lane: the initial step (the
+one-member rk45_h0 and dop853_h0 on the lane's copies in its own workspace), accept or
+reject, the step-size controller, and the samples on the output grid from the continuous
+extension (the one-member drivers' text, on the lane's copies of its stages). A rejected lane retries
 from its unchanged state in the next round; a lane whose member reached T or failed is
 masked (the field skips it or computes garbage it never reads); DOP853's extra stages for a
 sample inside a step run on the lanes that need them only. Independent lanes (each member's
