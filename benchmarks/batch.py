@@ -15,10 +15,11 @@ so at most half of it is reachable. The flops of a member-step are counted from 
 kernels (`flops_per_member_step`). With a dense M (the double pendulum) the count takes the
 solves as (2/3) N3^3 + 2 N3^2 flops (LU) and (1/3) N3^3 + 2 N3^2 (Cholesky) and the Newton VI's
 iterations per step as the batch's members took them (their mean, which the program prints);
-with a max-index M (the 10-link rope) no flops are counted and no fraction of peak printed.
+with a max-index M (the 10-link rope), and for RATTLE with a coupled M (its Newton on the
+multipliers), no flops are counted and no fraction of peak printed.
 
     python benchmarks/batch.py [--systems four_pendula double_pendulum rope:n=10]
-        [--methods vi rk4 rk45 dop853] [--members 1024] [--repeats 3] [--shared]
+        [--methods vi rk4 rattle rattle4 rk45 dop853] [--members 1024] [--repeats 3] [--shared]
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ import numpy as np
 from s2gen.build import FLAG_SETS
 from s2gen.emit import emit
 from s2gen.inspect import kernel_profile, lowered
-from s2gen.methods import method as method_record
+from s2gen.methods import method as method_of
 from s2gen.runtime.model import Model
 from s2gen.system import System
 from s2gen.systems import resolve
@@ -138,11 +139,13 @@ def flops_per_member_step(system: System, method: str, iters: float = 0.0) -> in
     (`s2gen.inspect.kernel_profile`; a square root or a division counts as one): dV/dq (the
     general kernel, each term's gradient kernel times its members, a quadratic form's
     2 n^2 per block of K that is not zero: `k_blocks`) plus, for the VI, each body's position and velocity updates, for RK4 four
-    evaluations of the field (dV/dq and each body's rhs_diag) and the stage sums. A dense M:
-    `newton_flops` (`iters` Newton iterations per step) or four fields of the coupled kind
-    (rhs_body, rhs_pair, A(q) and an LU solve); None for another coupled M."""
+    evaluations of the field (dV/dq and each body's rhs_diag) and the stage sums, for RATTLE
+    and its compositions dV/dq and each body's rattle_pos and rattle_vel per substep. A dense
+    M: `newton_flops` (`iters` Newton iterations per step) or four fields of the coupled kind
+    (rhs_body, rhs_pair, A(q) and an LU solve); None for another coupled M and for RATTLE
+    with a coupled M."""
     module = lowered(system)
-    if "vi_newton" in module.parts:
+    if "vi_newton" in module.parts and not method.startswith("rattle"):
         return newton_flops(system, method, iters)
     if "vi_explicit" not in module.parts:
         return None
@@ -160,6 +163,11 @@ def flops_per_member_step(system: System, method: str, iters: float = 0.0) -> in
         )
     if method == "vi":
         return gradient + module.n * (ops("vi_pos") + ops("vi_vel"))
+    if method.startswith("rattle"):  # per substep; omega = q x v once per step
+        count = max(1, len(method_of(method).substeps))
+        return (
+            count * (gradient + module.n * (ops("rattle_pos") + ops("rattle_vel"))) + 9 * module.n
+        )
     return 4 * (gradient + module.n * ops("rhs_diag")) + 2 * n3 * (2 + 2 + 2 + 8)
 
 
@@ -237,7 +245,7 @@ def run(
                 str(d / "bench"),
                 str(members),
                 str(steps),
-                str(method_record(method).code),
+                str(method_of(method).code),
                 str(repeats),
                 str(int(shared)),
                 "0.05" if adaptive else "0.001",
@@ -262,7 +270,7 @@ def run(
         if ops is not None
         else f"{done / members:.1f} steps, {int(rejected) / members:.2f} rejected per member"
         if adaptive
-        else "flops not counted (max-index M)"
+        else "flops not counted (max-index M, or RATTLE with a coupled M)"
     )
     print(
         f"{system:15s} {method:6s} {flags:8s} one/call {rate_one:11.4g}  batch {rate_batch:11.4g}"

@@ -80,7 +80,8 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument(
         "--batch",
         action="store_true",
-        help="C: also emit integrate_batch(), K members per call in SIMD lanes (closed systems)",
+        help="C: also emit integrate_batch(), K members per call (closed systems in SIMD lanes, "
+        "driven ones member by member)",
     )
 
     s = sub.add_parser("simulate", help="integrate a system and save the trajectory (.npz)")
@@ -203,7 +204,7 @@ def _generate(args: argparse.Namespace) -> int:
     if args.batch:
         from s2gen.parts.batch import batch_refusal
 
-        why = batch_refusal(system)
+        why = None if system.driven else batch_refusal(system)  # driven: s2gen.parts.batch_driven
         if why is not None:
             raise ValueError(f"--batch: {why}")
         system = system.with_batch()

@@ -467,11 +467,12 @@ def interface(
         api = _DRIVEN if driven else _SPHERE
         if not (jacobian or batch or jvp):
             return api
-        from s2gen.interface_batch import INTEGRATE_BATCH
+        from s2gen.interface_batch import INTEGRATE_BATCH, INTEGRATE_BATCH_DRIVEN
         from s2gen.interface_jacobian import JACOBIAN_FUNCTIONS
         from s2gen.interface_jvp import STEP_JVP
 
-        extra = (*(JACOBIAN_FUNCTIONS if jacobian else ()), *((INTEGRATE_BATCH,) if batch else ()))
+        batch_fn = INTEGRATE_BATCH_DRIVEN if driven else INTEGRATE_BATCH
+        extra = (*(JACOBIAN_FUNCTIONS if jacobian else ()), *((batch_fn,) if batch else ()))
         extra += (STEP_JVP,) if jvp else ()
         return Interface((*api.functions, *extra), api.options, api.stats, api.stepper)
     from s2gen.interface_angles import ANGLES

@@ -90,6 +90,7 @@ class Family(enum.Enum):
     FIXED_RK = "fixed-step Runge-Kutta"
     ADAPTIVE_RK = "adaptive Runge-Kutta"
     TIME_VI = "time-transformed VI"
+    TIME_RATTLE = "time-transformed RATTLE"
 
 
 class Status(enum.IntEnum):
@@ -242,8 +243,9 @@ class Method:
 
     @property
     def geometric(self) -> bool:
-        """True for the structure-preserving methods (VI family, RATTLE, time-transformed VI)."""
-        return self.family in (Family.VI, Family.RATTLE, Family.TIME_VI)
+        """True for the structure-preserving methods (VI family, RATTLE, time-transformed VI and
+        RATTLE)."""
+        return self.family in (Family.VI, Family.RATTLE, Family.TIME_VI, Family.TIME_RATTLE)
 
     @property
     def adaptive(self) -> bool:
@@ -293,18 +295,25 @@ def _geometric(name: str, code: int, family: Family, comp: Composition, summary:
     )
 
 
-def _transformed(name: str, code: int, comp: Composition, summary: str) -> Method:
-    """A time-transformed VI: steps of `comp` of sizes eps / xi in time (h is eps); in the
-    reference and the emitted C and NumPy (every S^2 module's enum has it, the modules with a
-    monitor, `s2gen.monitor`, run it)."""
+def _transformed(
+    name: str,
+    code: int,
+    comp: Composition,
+    summary: str,
+    family: Family = Family.TIME_VI,
+    backends: tuple[str, ...] = _ALL,
+) -> Method:
+    """A time-transformed VI (or, with `family` TIME_RATTLE, RATTLE): steps of `comp` of sizes
+    eps / xi in time (h is eps); on `backends` (every S^2 module's enum has it, the modules
+    with a monitor, `s2gen.monitor`, run it)."""
     return Method(
         name,
         code,
         comp.order,
         len(comp.fractions),
         True,
-        Family.TIME_VI,
-        _ALL,
+        family,
+        backends,
         summary,
         driver=Driver.TIME_TRANSFORMED,
         transformed=comp,
@@ -364,6 +373,15 @@ METHODS: tuple[Method, ...] = (
     _transformed("vi4-adaptive", 15, TRIPLE_JUMP, "vi-adaptive composed by the triple jump"),
     _transformed("vi6-adaptive", 16, YOSHIDA6, "vi-adaptive composed by Yoshida's solution A"),
     _transformed("vi8-adaptive", 17, KAHAN_LI8, "vi-adaptive composed by Kahan and Li's 15 stages"),
+    *(
+        _transformed(f"rattle{tag}-adaptive", code, comp, summary, Family.TIME_RATTLE)
+        for tag, code, comp, summary in (
+            ("", 18, PLAIN, "vi-adaptive with the RATTLE step (Cartesian q_i, multipliers)"),
+            ("4", 19, TRIPLE_JUMP, "rattle-adaptive composed by the triple jump"),
+            ("6", 20, YOSHIDA6, "rattle-adaptive composed by Yoshida's solution A"),
+            ("8", 21, KAHAN_LI8, "rattle-adaptive composed by Kahan and Li's 15 stages"),
+        )
+    ),
 )
 
 #: Method names, in code order.

@@ -303,14 +303,17 @@ def test_model_integrate_batch() -> None:
 
 
 def test_refusals() -> None:
-    """What is not covered is refused in one line: a driven system, a method that is not
-    batched, the NumPy backend, members that disagree on K."""
-    with pytest.raises(ValueError, match="closed systems; this one is driven"):
-        Model(builtin("forced_double_pendulum")).integrate_batch("vi", h=0.01, T=0.1)
+    """What is not covered is refused in one line: a driven system's inputs as state feedback
+    (a driven system's batch: test_batch_driven), a method that is not batched, the reference
+    backend (the NumPy backend's batch: test_batch_numpy), members that disagree on K."""
+    with pytest.raises(ValueError, match="not state feedback"):
+        Model(builtin("forced_double_pendulum")).integrate_batch(
+            "vi", h=0.01, T=0.1, params={"c": [0.1, 0.2]}, inputs=lambda t, q, w: []
+        )
     model = Model(builtin("four_pendula"))
     with pytest.raises(ValueError, match="'vi-adaptive' is not batched"):
         model.integrate_batch("vi-adaptive", h=0.01, T=0.1, params={"g": [1.0, 2.0]})
     with pytest.raises(ValueError, match="one K for all"):
         model.integrate_batch("vi", h=0.01, T=0.1, params={"g": [1.0, 2.0], "m": [1.0]})
-    with pytest.raises(ValueError, match="C backend only"):
-        Model(builtin("four_pendula"), "numpy").integrate_batch("vi", h=0.01, T=0.1)
+    with pytest.raises(ValueError, match="the C and NumPy backends only"):
+        Model(builtin("four_pendula"), "reference").integrate_batch("vi", h=0.01, T=0.1)

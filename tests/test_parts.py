@@ -224,6 +224,8 @@ SYSTEMS = {
     "rope_batch": lambda: resolve("rope:n=10").with_batch(),
     # integrate_batch() with the quadratic terms' Kx + b in loops over the lanes sharing K
     "dipoles_batch": lambda: builtin("dipoles").with_batch(),
+    # a driven system's integrate_batch(): members one after the other through the driven step
+    "forced_double_pendulum_batch": lambda: builtin("forced_double_pendulum").with_batch(),
 }
 
 

@@ -293,6 +293,37 @@ def c_api_batch_rst() -> str:
     return "\n".join(lines + _function(INTEGRATE_BATCH, PREFIX, sizes)) + "\n"
 
 
+def c_api_batch_driven_rst() -> str:
+    """A driven system's integrate_batch() (modules of driven systems emitted with
+    ``--batch``), in the C namespace of the driven module's functions.
+
+    Example:
+        >>> text = c_api_batch_driven_rst()
+        >>> "double t0" in text and "double *W" in text
+        True
+    """
+    from s2gen.interface_batch import INTEGRATE_BATCH_DRIVEN
+
+    upper = PREFIX.upper()
+    member = f"{upper}_NSTATE * K doubles, member-innermost"
+    sizes = {
+        **_SIZES,
+        "p": f"{upper}_NPARAMS * K doubles, p[j * K + k]",
+        "u": f"nsteps * {upper}_NINPUTS * K doubles, member-innermost",
+        "q0": member,
+        "w0": member,
+        "q": f"(nsteps / every + 1) * {upper}_NSTATE * K doubles",
+        "w": f"(nsteps / every + 1) * {upper}_NSTATE * K doubles",
+        "energy": "(nsteps / every + 1) * K doubles",
+        "W": "(nsteps / every + 1) * K doubles",
+        "work": f"{upper}_BATCH_WORK_SIZE doubles",
+        "stats": "K structs",
+        "status": "K ints",
+    }
+    lines = _function(INTEGRATE_BATCH_DRIVEN, PREFIX, sizes)
+    return "\n".join([".. c:namespace:: driven", "", *lines, ".. c:namespace:: NULL", ""]) + "\n"
+
+
 def c_api_jvp_rst() -> str:
     """step_jvp() and its workspace size (modules emitted with ``--jacobians`` whose field
     is solved without dense matrices).
@@ -339,6 +370,8 @@ def setup(app: Any) -> dict[str, Any]:
                 return self.parse_text_to_nodes(c_api_jacobian_rst())
             if self.arguments[0] == "batch":
                 return self.parse_text_to_nodes(c_api_batch_rst())
+            if self.arguments[0] == "batch_driven":
+                return self.parse_text_to_nodes(c_api_batch_driven_rst())
             if self.arguments[0] == "jvp":
                 return self.parse_text_to_nodes(c_api_jvp_rst())
             kinds = {"sphere": ModuleKind.SPHERE, "angles": ModuleKind.ANGLES}

@@ -92,8 +92,9 @@ def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
     except ValueError as exc:
         nsteps, refused = 0, exc
     states = task_states(payload, tasks)
+    passes = _plain_states(states, n, opts.unit_tol)
     vectors: dict[tuple[tuple[str, float], ...], np.ndarray] = {}  # members share parameters
-    for task, state in zip(tasks, states, strict=True):  # the checks of run, in their order
+    for j, (task, state) in enumerate(zip(tasks, states, strict=True)):  # run's checks, in order
         try:
             p = vectors.get(task.params)
             if p is None:
@@ -103,7 +104,10 @@ def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
                 raise refused
             if isinstance(state, Exception):
                 raise state
-            q0, w0 = initial_state(system, *state, opts.unit_tol)
+            if passes[j]:  # initial_state would return them as they are
+                q0, w0 = state
+            else:
+                q0, w0 = initial_state(system, *state, opts.unit_tol)
             # `energy_scale`'s checks (the gradient, V and the kinetic energy finite at t = 0)
             # run below, only for a member whose batch run failed or whose energy is not
             # finite: a non-finite gradient at q0 makes the first step's state non-finite
@@ -140,7 +144,7 @@ def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
             status = int(b.status[j])
             k = int(b.stats["fail_step"][j]) if status else len(b.t)
             why = Status(status).message if status in Status._value2member_map_ else str(status)
-            bad = first_nonfinite(b.energy[j], k)
+            bad = first_nonfinite(b.energy[j], k) if recheck[j] else None
             if bad is not None:
                 k, status, why = bad, int(Status.NONFINITE), nonfinite_energy(b.t, k)
             ends.append((task, status, failure(method, "c", b.t, k, why) if status else "ok", k))
@@ -153,6 +157,34 @@ def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult
             out[task.index] = _result(payload, task, status, message, b, j, k, numbers, wall, setup)
             setup = 0.0
     return tuple(out[t.index] for t in tasks)
+
+
+def _plain_states(states: Sequence[Any], n: int, unit_tol: float) -> np.ndarray:
+    """Which of the states (q0, omega0) `runtime.inputs.initial_state` would take as they are:
+    float arrays of shape (n, 3), finite, each |q_i| within unit_tol of 1 (its own test on the
+    same numbers), judged for the batch at once; the others go through it one by one (for
+    its conversions and its message).
+
+    Example:
+        >>> q = np.array([[0.0, 0.0, 1.0]])
+        >>> _plain_states([(q, q), (2 * q, q), ValueError()], 1, 1e-12).tolist()
+        [True, False, False]
+    """
+    shaped = [
+        j
+        for j, s in enumerate(states)
+        if isinstance(s, tuple)
+        and all(isinstance(a, np.ndarray) and a.dtype == float and a.shape == (n, 3) for a in s)
+    ]
+    out = np.zeros(len(states), dtype=bool)
+    if shaped:
+        q = np.stack([states[j][0] for j in shaped])
+        w = np.stack([states[j][1] for j in shaped])
+        ok = np.isfinite(q).all(axis=(1, 2)) & np.isfinite(w).all(axis=(1, 2))
+        if unit_tol > 0.0:
+            ok &= (np.abs(np.linalg.norm(q, axis=2) - 1.0) <= unit_tol).all(axis=1)
+        out[shaped] = ok
+    return out
 
 
 def _result(

@@ -145,12 +145,11 @@ def _resolve(system: System | str | Path) -> System:
     return system
 
 
-def _tasks(system: System, table: MemberTable, states: bool = True) -> Iterator[Task]:
-    """Each member's task; without `states`, the worker makes its initial state from the
-    payload's table (`worker.task_state`), so the client sends indices, not arrays."""
+def _tasks(table: MemberTable) -> Iterator[Task]:
+    """Each member's task, without its initial state: the worker makes it from the payload's
+    table (`worker.task_state`), so the client sends indices, not arrays."""
     for m in table.members:
-        q0, w0 = initial_state(system, table, m) if states else (None, None)
-        yield Task(m.index, m.h, q0, w0, m.params)
+        yield Task(m.index, m.h, None, None, m.params)
 
 
 def _attrs(
@@ -281,13 +280,13 @@ def ensemble(
         if c is not None:  # connect and admit the workers first: nothing written if not
             check_workers(c)
         store = EnsembleStore.create(folder, table, system.n, samples, attrs, overwrite)
-        if c is None:
-            results = _serial(payload, _tasks(system, table), batch_size)
-            return _collect(store, table, results, 0, start, progress)
         initial_state(system, table, table.members[0])  # no initial state: one line, here
-        payload = replace(payload, table=table)  # the workers make the members' states
+        payload = replace(payload, table=table)  # the members' states made where they run
+        if c is None:  # (a batch's together, `worker.task_states`)
+            results = _serial(payload, _tasks(table), batch_size)
+            return _collect(store, table, results, 0, start, progress)
         data = c.scatter(payload, broadcast=True, hash=False)
-        tasks = _tasks(system, table, states=False)
+        tasks = _tasks(table)
         results = _on_dask(c, data, payload, tasks, system.n, len(table), batch_size)
         return _collect(store, table, results, worker_count(c), start, progress)
 

@@ -274,8 +274,10 @@ def sample_statistics(
         e, qq = (energy, q) if every else (energy[rows, :k], q[rows, :k])  # views, not copies
         dev = np.abs(e - e[:, :1])
         # sqrt and x - 1 are monotone (correctly rounded): the largest | |q| - 1 | is at the
-        # largest or the smallest |q|^2, the same number as taken sample by sample
-        sq = np.einsum("jskc,jskc->jsk", qq, qq)
+        # largest or the smallest |q|^2, the same number as taken sample by sample. |q|^2 is
+        # summed in a fixed order, elementwise: a reduction (einsum) may group the three terms
+        # differently for a batch's strided view than for one member's contiguous array
+        sq = (qq[..., 0] * qq[..., 0] + qq[..., 1] * qq[..., 1]) + qq[..., 2] * qq[..., 2]
         lo, hi = np.sqrt(sq.min(axis=(1, 2))), np.sqrt(sq.max(axis=(1, 2)))
         u = np.maximum(np.abs(lo - 1.0), np.abs(hi - 1.0))
         for j, m, x, y in zip(rows, dev.mean(axis=1), dev.max(axis=1), u, strict=True):

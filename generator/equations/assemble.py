@@ -44,6 +44,7 @@ from s2gen.interface import INITIAL_STATE_MAX_BODIES
 from s2gen.ir import Drive, KernelDef, Loop, LoopKind, Module, ModuleKind, TermLoop
 from s2gen.monitor import monitor_kernel
 from s2gen.parts.batch import BATCH_PART, has_batch
+from s2gen.parts.batch_driven import DRIVEN_BATCH_PART
 from s2gen.parts.jvp import JVP_C_ONLY, jvp_parts
 from s2gen.system import SpecError, System, Term
 
@@ -211,7 +212,8 @@ def sphere_module(system: System) -> Module:
         parts = (*parts[:at], "transformed", *parts[at:])
     parts += ("jacobian",) if has_jacobian(system) else ()
     parts += jvp_parts(not coupled) if has_jvp(system) else ()
-    parts += (BATCH_PART,) if has_batch(system) else ()
+    if has_batch(system):  # a driven system's own integrate_batch(), C only
+        parts += (DRIVEN_BATCH_PART if system.driven else BATCH_PART,)
     return Module(
         kind=ModuleKind.SPHERE,
         name=system.name,
@@ -223,7 +225,7 @@ def sphere_module(system: System) -> Module:
         kernels=tuple(kernels),
         parts=parts,
         # NumPy: numpy.linalg, scipy.linalg (step_jvp() is C only)
-        c_only=("cholesky", "lu", "band", *JVP_C_ONLY, BATCH_PART),
+        c_only=("cholesky", "lu", "band", *JVP_C_ONLY, DRIVEN_BATCH_PART),
         variants=_variants(solver, "transformed" in parts),
         pairs=pairs,
         terms=loops,

@@ -27,6 +27,15 @@ lane's own context and workspace. Either way a lane's Newton iterates exactly as
 member's would alone (its own convergence test, iteration count and warm start), and a lane
 whose Newton, solve or state fails stops alone with that status while the other lanes go on.
 
+RATTLE and its compositions keep the one-member step's body-major state: with a diagonal M
+its substep (each body's closed-form position and velocity updates, dV/dq between them) runs
+in loops over the lanes, dV/dq through the lane gradient where the Runge-Kutta field uses it
+and else the one-member gradient_cx lane by lane; with a dense M (whose field runs in the
+lanes) so does its Newton on the multipliers, each lane under its own mask, its small LU and
+Cholesky solves the one-member solvers on each lane's copy; with another coupled M each
+lane runs the one-member rattle_advance with its own context and workspace
+(`s2gen.printing.c_batch_rattle`).
+
 The adaptive methods (rk45, dop853; c/_batch_adaptive.jinja) run a block's lanes in masked
 lockstep, not independently: every round, each live lane attempts one step of its own size
 from its own time and state, so that the stages' arithmetic (y + h_l sum a_ij k_j, each lane
@@ -35,21 +44,30 @@ norm (each lane's sums in rk45_error's or dop853_error's order) still run in loo
 lanes, while the parts that branch per member run lane by lane: the initial step (the
 one-member rk45_h0 and dop853_h0 on the lane's copies in its own workspace), accept or
 reject, the step-size controller, and the samples on the output grid from the continuous
-extension (the one-member drivers' text, on the lane's copies of its stages). A rejected lane retries
-from its unchanged state in the next round; a lane whose member reached T or failed is
-masked (the field skips it or computes garbage it never reads); DOP853's extra stages for a
-sample inside a step run on the lanes that need them only. Independent lanes (each member's
-whole run one after the other) would give the same numbers but no SIMD at all; lockstep keeps
-the stages vectorised at the price of idle lanes once members need different numbers of
-attempts (a block takes as many rounds as its slowest member). Each member's samples, energy,
-status and statistics equal integrate()'s bit for bit; a failing member (a non-finite stage,
-ERR_STEPSIZE, a failed solve) stops alone with its samples before the failure kept.
+extension (the one-member drivers' text, on the lane's copies of its stages). A rejected lane
+retries from its unchanged state in the next round; a lane whose member reached T or failed
+is masked (the field skips it or computes garbage it never reads); DOP853's extra stages for
+a sample inside a step run on the lanes that need them only. Independent lanes (each
+member's whole run one after the other) would give the same numbers but no SIMD at all;
+lockstep keeps the stages vectorised at the price of idle lanes once members need different
+numbers of attempts (a block takes as many rounds as its slowest member). Each member's
+samples, energy, status and statistics equal integrate()'s bit for bit; a failing member (a
+non-finite stage, ERR_STEPSIZE, a failed solve) stops alone with its samples before the
+failure kept.
 
 What is covered: closed systems (no forces, inputs or time); the VI and its compositions
-(vi, vi4, vi6, vi8: explicit with a diagonal M, Newton with a coupled M), the fixed-step
-Runge-Kutta methods (rk2, rk2-proj, rk3, rk4) and the adaptive ones (rk45, dop853). What is
-not: RATTLE, the adaptive VI (vi-adaptive, ...) and driven systems; `batch_refusal` says
-which.
+(vi, vi4, vi6, vi8: explicit with a diagonal M, Newton with a coupled M), RATTLE and its
+compositions (rattle, rattle4, rattle6, rattle8), the fixed-step Runge-Kutta methods (rk2,
+rk2-proj, rk3, rk4) and the adaptive ones (rk45, dop853). What is not: the time-transformed
+methods (vi-adaptive, rattle-adaptive, ...) and driven systems, which carry an
+integrate_batch() of their own (`s2gen.parts.batch_driven`); `batch_refusal` says which.
+
+The NumPy module of the same system carries integrate_batch() too, vectorised over the
+members (`s2gen.printing.numpy_batch`): the VI's and the fixed-step Runge-Kutta methods
+(not RATTLE's or the adaptive ones) with a diagonal or dense M (the
+dense M's Newton VI with a convergence mask per member), for terms that read the state,
+constants, tables and parameters; `numpy_batch_refusal` says why a module has none
+(quadratic terms, cutoff terms, per-body term data, a structured M: C only).
 
 Example:
     >>> from s2gen.systems import builtin
@@ -61,10 +79,20 @@ Example:
 
 from __future__ import annotations
 
-from s2gen.parts.records import Part
+from s2gen.bindings import ContextArray, Element, Local, MemberSlot, Slot, TermTable
+from s2gen.inertia import InertiaKind
+from s2gen.ir import Module
+from s2gen.parts.records import Part, Site
 from s2gen.system import System
 
-__all__ = ["BATCH_LANES", "BATCH_METHODS", "BATCH_PART", "batch_refusal", "has_batch"]
+__all__ = [
+    "BATCH_LANES",
+    "BATCH_METHODS",
+    "BATCH_PART",
+    "batch_refusal",
+    "has_batch",
+    "numpy_batch_refusal",
+]
 
 #: The part's name (`Module.parts`) and its partial, c/_batch.jinja (C only).
 BATCH_PART = "batch"
@@ -76,8 +104,84 @@ BATCH_LANES = 8
 
 #: The methods integrate_batch() takes (others: ERR_ARGUMENT).
 BATCH_METHODS: tuple[str, ...] = ("vi", "vi4", "vi6", "vi8", "rk2", "rk2-proj", "rk3", "rk4")
-#: ... and the adaptive ones, each member with its own step sizes (masked lockstep).
-BATCH_METHODS = BATCH_METHODS + ("rk45", "dop853")
+#: and RATTLE's (in loops over the lanes with a diagonal M, else lane by lane)
+BATCH_METHODS += ("rattle", "rattle4", "rattle6", "rattle8")
+#: and the adaptive ones, each member with its own step sizes (masked lockstep; C only)
+BATCH_METHODS += ("rk45", "dop853")
+
+#: The call sites NumPy's members' code reads (`s2gen.printing.numpy_batch`), by the part
+#: that declares each for the one-member code
+_NUMPY_SITES = {
+    "energy": ("kin_body",),
+    "energy_coupled": ("kin_body", "kin_pair"),
+    "field_diagonal": ("rhs_diag",),
+    "field_coupled": ("rhs_body", "rhs_pair"),
+    "vi_explicit": ("vi_pos", "vi_vel"),
+    "inertia_operator": ("a_pair",),
+    "vi_newton": (
+        "d_body",
+        "d_pair",
+        "res_body",
+        "res_pair",
+        "cayley",
+        "c_body",
+        "c_pair",
+        "a_body",
+    ),
+}
+
+
+#: Bindings whose NumPy text keeps its shape for members: the state at bodies or members, the
+#: per-member constants and tables, the inverse masses (everything else, such as a term's
+#: data, has a body axis alone and would broadcast against the member axis)
+_MEMBER_SAFE = (MemberSlot, Slot, ContextArray, TermTable, Element, Local)
+
+
+def numpy_batch_refusal(module: Module) -> str | None:
+    """Why the NumPy module of `module` carries no integrate_batch(), in one line, or None.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> print(numpy_batch_refusal(lower_system(builtin("dipoles").with_batch())))
+        dipoles: integrate_batch() on the NumPy backend covers no quadratic terms (C only)
+    """
+    facts = dict(module.facts)
+    why = None
+    if module.solver not in (InertiaKind.DIAGONAL, InertiaKind.DENSE):
+        why = f"covers a diagonal or dense M, not a {module.solver.value} one"
+    elif module.quadratic > 0:
+        why = "covers no quadratic terms"
+    elif facts.get("neighbour_lists", False):
+        why = "covers no cutoff terms (neighbour lists)"
+    elif not all(
+        isinstance(b, _MEMBER_SAFE)
+        for c in module.calls
+        if c.site.startswith("t") and c.site.endswith(("_value", "_gradient"))
+        for b in c.inputs
+    ):
+        why = "covers terms reading the state and tables only (not per-body data)"
+    if why is None:
+        return None
+    return f"{module.name}: integrate_batch() on the NumPy backend {why} (C only)"
+
+
+def _numpy_sites(module: Module) -> tuple[Site, ...]:
+    """The one-member sites NumPy's members' code calls again, with members on an axis."""
+    if "batch" not in module.parts or numpy_batch_refusal(module) is not None:
+        return ()
+    from s2gen.parts.sphere import PARTS_BY_NAME  # which imports this module
+
+    variant = dict(module.variants)
+    laid = {variant.get(p, p) for p in module.parts}
+    return tuple(
+        site
+        for name, wanted in _NUMPY_SITES.items()
+        if name in laid
+        for site in PARTS_BY_NAME[name].sites
+        if site.name in wanted
+    )
+
 
 #: The adaptive methods' lanes use the one-member driver's buffers in their own workspaces.
 PART = Part(
@@ -87,11 +191,14 @@ PART = Part(
         ("rk45", ("k", "y", "yn", "ys", "field")),
         ("dop853", ("k", "y", "yt", "yn", "ys", "field")),
     ),
+    module_sites=_numpy_sites,
 )
 
 
 def batch_refusal(system: System) -> str | None:
-    """Why `system`'s C cannot carry integrate_batch(), in one line, or None."""
+    """Why `system`'s C cannot carry this integrate_batch() (the closed systems' one, SIMD
+    across members), in one line, or None; a driven system's C carries its own
+    (`s2gen.parts.batch_driven`)."""
     if system.driven:
         return (
             f"{system.name}: integrate_batch() covers closed systems; this one is driven "
@@ -102,7 +209,7 @@ def batch_refusal(system: System) -> str | None:
 
 def has_batch(system: System) -> bool:
     """Whether the emitted C of `system` carries integrate_batch(): asked for
-    (`System.with_batch`) and covered (`batch_refusal`).
+    (`System.with_batch`) and covered (`batch_refusal`), or driven (`s2gen.parts.batch_driven`).
 
     Example:
         >>> from s2gen.systems import builtin
@@ -110,4 +217,4 @@ def has_batch(system: System) -> bool:
         >>> has_batch(s), has_batch(s.with_batch())
         (False, True)
     """
-    return system.batch and batch_refusal(system) is None
+    return system.batch and (system.driven or batch_refusal(system) is None)

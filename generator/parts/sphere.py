@@ -24,6 +24,7 @@ from s2gen.bindings import (
 )
 from s2gen.ir import Module
 from s2gen.parts.batch import PART as BATCH
+from s2gen.parts.batch_driven import PART as DRIVEN_BATCH
 from s2gen.parts.jvp import JVP_PARTS
 from s2gen.parts.records import CC, Context, Part, Site
 
@@ -367,7 +368,7 @@ SPHERE_PARTS = (
         sites=(_MONITOR,),
         buffers=(
             ("transformed", ("x", "v", "gx", "xa", "va", "ga", "xb", "vb", "gb")),
-            ("transformed", ("s", "bridge", "qk", "wk", "slack")),
+            ("transformed", ("s", "bridge", "qk", "wk", "step", "slack")),
         ),
     ),
     Part(
@@ -393,6 +394,7 @@ SPHERE_PARTS = (
     _JACOBIAN,
     *JVP_PARTS,
     BATCH,
+    DRIVEN_BATCH,
 )
 
 #: The sphere module's parts by name

@@ -276,12 +276,13 @@ def _geometric(module: Module, lays: _Layouts) -> Layout:
 def _transformed(module: Module, lays: _Layouts) -> Layout | None:
     """The time-transformed driver: g at the state, g1 at the next, ga and gb within a
     composed step, whose substeps alternate between (a, vc) and (b, vd); the state, the next
-    and a sample's (qs, ws); the VI's Newton starts (f) and its step's own workspace. With a
-    diagonal M, the explicit VI's (`_transformed_explicit`)."""
+    and a sample's (qs, ws); the Newton starts (f: the VI's, RATTLE's multipliers) and the VI
+    or RATTLE step's own workspace. With a diagonal M, the explicit VI's
+    (`_transformed_explicit`)."""
     if "transformed" not in module.parts:
         return None
     if not _coupled(module):
-        return _transformed_explicit(module)
+        return _transformed_explicit(module, lays)
     m3 = _m3(module)
     return layout(
         "transformed",
@@ -290,19 +291,21 @@ def _transformed(module: Module, lays: _Layouts) -> Layout | None:
         ("qs", m3),
         ("ws", m3),
         _starts(module)[0],
-        ("step", lays.size("vi_advance")),
+        ("step", max(lays.size("vi_advance"), lays.size("rattle_advance"))),
     )
 
 
-def _transformed_explicit(module: Module) -> Layout:
+def _transformed_explicit(module: Module, lays: _Layouts) -> Layout:
     """The time-transformed driver of a diagonal M, on the explicit VI's component-major
-    arrays: the state (x, v, gx), the substeps' (xa, va, ga) and (xb, vb, gb), the step's
-    scratch (s, bridge) and the body-major state (qk, wk) the monitor reads; placed as the
-    explicit driver's buffers (whole 64-byte lines from the first boundary, `KQ_SLACK`
-    doubles to spare)."""
+    arrays (RATTLE's body-major ones in the same places): the state (x, v, gx), the substeps'
+    (xa, va, ga) and (xb, vb, gb), the step's scratch (s, bridge), the body-major state
+    (qk, wk) the monitor reads and RATTLE's step's workspace (step); placed as the explicit
+    driver's buffers (whole 64-byte lines from the first boundary, `KQ_SLACK` doubles to
+    spare)."""
     m3, soa = _m3(module), dict(_soa(module))
     state = [(b, m3) for b in ("x", "v", "gx", "xa", "va", "ga", "xb", "vb", "gb")]
-    sized = (*state, ("s", soa["s"]), ("bridge", soa["bridge"]), ("qk", m3), ("wk", m3))
+    scratch = (("s", soa["s"]), ("bridge", soa["bridge"]), ("qk", m3), ("wk", m3))
+    sized = (*state, *scratch, ("step", lays.size("rattle_advance")))
     lines = [(name, -(-size // 8) * 8) for name, size in sized]
     return layout("transformed", *lines, ("slack", KQ_SLACK))
 

@@ -46,6 +46,7 @@ from s2gen.printing.numpy import (
     py_inertia_setup,
     py_table_names,
 )
+from s2gen.printing.numpy_batch import print_numpy_batch
 from s2gen.printing.numpy_jacobian import print_numpy_jacobian
 from s2gen.printing.rattle_jacobian import RATTLE_SITES, print_rattle_jacobian
 from s2gen.printing.records import PrintedKernel, print_kernel
@@ -145,8 +146,10 @@ class PrintedModule:
     py_jac: dict[str, Any]  # NumPy's step Jacobians: methods and lines (empty: none)
     rattle_jac: dict[str, Any]  # RATTLE's step Jacobians: methods, C and NumPy lines (or empty)
     batch: dict[str, Any]  # integrate_batch()'s lanes, workspace and lines (empty: none)
+    py_batch: dict[str, Any]  # NumPy's integrate_batch(): partial, kernels, lines (or empty)
     jvp: dict[str, Any]  # step_jvp()'s methods and lines (empty: no step_jvp)
     transformed: tuple[dict[str, Any], ...]  # time-transformed methods: c_name, count, table
+    py_transformed: tuple[dict[str, Any], ...]  # the same for NumPy, with py_rattle
 
 
 def print_module(module: Module) -> PrintedModule:
@@ -276,6 +279,8 @@ def print_module(module: Module) -> PrintedModule:
         py_jac=print_numpy_jacobian(module),
         rattle_jac=print_rattle_jacobian(module),
         batch=print_batch(module),
+        py_batch=print_numpy_batch(module),
         jvp=print_jvp(module),
         transformed=print_transformed(module),
+        py_transformed=print_transformed(module, "numpy"),
     )

@@ -28,6 +28,7 @@ from s2gen.parts.batch import BATCH_LANES, BATCH_PART
 from s2gen.printing.c import CPrinter, c_inline, c_loop
 from s2gen.printing.c_batch_newton import newton_lane_work, newton_lanes
 from s2gen.printing.c_batch_quadratic import quadratic_lanes
+from s2gen.printing.c_batch_rattle import rattle_batch, rattle_dense_work
 from s2gen.printing.c_calls import c_binding
 from s2gen.tableaus import DOP853
 
@@ -49,8 +50,9 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
     innermost; their offsets from `lanes`, which is aligned to 64 bytes inside `size`
     doubles, `slack` to spare): the VI's x, v, gx, xn, vn, gn, sv, mi, chk or Runge-Kutta's
     rk_y0, rk_yn, rk_k, rk_chk, rk_mi, rk_xc, rk_gs (the same region), then the lanes'
-    constants `cc`, parameters `pl`, member tables `t<k>` and gradient `g`, the field's and
-    Newton's arrays, and the adaptive methods' stages `ad_k` and trial state `ad_yt`.
+    constants `cc`, parameters `pl`, member tables `t<k>` and gradient `g`, the field's,
+    Newton's and RATTLE's arrays, and the adaptive methods' stages `ad_k` and trial state
+    `ad_yt`.
 
     Example:
         >>> from s2gen.systems import builtin
@@ -103,6 +105,9 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
         if "vi_newton" in module.parts:  # and its Newton VI
             off.update(newton_lane_work(module, at2, lanes))
             at2 = off.pop("end")
+        if "rattle_newton" in module.parts:  # and its RATTLE
+            off.update(rattle_dense_work(module, at2, lanes))
+            at2 = off.pop("end")
     # the adaptive methods' stages and trial state (their y and yn: rk_y0 and rk_yn)
     off["ad_k"], off["ad_yt"] = at2, at2 + _ADAPTIVE * ns * lanes
     at2 = off["ad_yt"] + ns * lanes
@@ -122,7 +127,8 @@ def print_batch(module: Module) -> dict[str, Any]:
     member tables the lanes copy, whether the lanes start component-major (`soa`, a C
     condition: the explicit VI's), with a coupled M where a lane's Newton VI steps keep
     their buffers (`newton_work`) and with a dense M its Newton VI's kernels inline for the
-    lane loops (`newton_lanes`); every key empty (or 0) without the part."""
+    lane loops (`newton_lanes`), RATTLE's step (`s2gen.printing.c_batch_rattle`); every key
+    empty (or 0) without the part."""
     if BATCH_PART not in module.parts:
         return {
             "lanes": 0,
@@ -136,6 +142,7 @@ def print_batch(module: Module) -> dict[str, Any]:
             "newton": {},
             "field": {},
             "newton_lanes": {},
+            "rattle": {},
         }
     explicit = "vi_explicit" in module.parts  # else a coupled M: the Newton VI
     for name in ("vi_pos", "vi_vel") if explicit else ():
@@ -143,21 +150,25 @@ def print_batch(module: Module) -> dict[str, Any]:
         assert scalars == ["h", "mi"], f"{name}: the batch loads h and mi only, not {scalars}"
     field = None if explicit else coupled_field(module)
     gradient = lane_gradient(module) if explicit or field else None
+    work = batch_work(module, BATCH_LANES)
     return {
         "lanes": BATCH_LANES,
         "nsl": 6 * module.n * BATCH_LANES,
         "nl3": 3 * module.n * BATCH_LANES,
-        "work": batch_work(module, BATCH_LANES),
+        "work": work,
         "gradient": gradient or _NO_LANES,
         "rhs": _rhs(module) if gradient and explicit else (),
         "tables": tuple(
             {"index": t.index, "size": t.table * t.loop.count} for t in module.terms if t.table
         ),
         # whether a block's lane arrays start component-major (the explicit VI's), in C
-        "soa": "scheme != NULL" if explicit else "0",
+        "soa": "scheme != NULL && !scheme->rattle" if explicit else "0",
         "newton": {} if explicit else newton_work(module),
         "field": field or {},
         "newton_lanes": newton_lanes(module) if field else {},
+        "rattle": rattle_batch(
+            module, work, BATCH_LANES, field is not None and "rattle_newton" in module.parts
+        ),
     }
 
 

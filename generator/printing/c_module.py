@@ -18,6 +18,7 @@ from s2gen.inertia import InertiaKind
 from s2gen.interface import interface
 from s2gen.ir import Kernel, Module, ModuleKind
 from s2gen.parts.batch import BATCH_LANES, BATCH_PART
+from s2gen.parts.batch_driven import DRIVEN_BATCH_PART, driven_batch_work
 from s2gen.parts.jvp import JVP_PART
 from s2gen.passes.workspace import padded
 from s2gen.printing.c import (
@@ -113,6 +114,14 @@ def _step_macros(module: Module) -> tuple[Macro, ...]:
                 "workspace doubles integrate_batch() needs, whatever K",
             ),
         )
+    if DRIVEN_BATCH_PART in module.parts:
+        jac += (
+            (
+                "BATCH_WORK_SIZE",
+                str(driven_batch_work(module)),
+                "workspace doubles integrate_batch() needs, whatever K",
+            ),
+        )
     if JVP_PART in module.parts:
         jac += (
             (
@@ -184,7 +193,7 @@ def c_functions(module: Module) -> tuple[dict[str, str | tuple[str, ...]], ...]:
         module.kind,
         module.drive is not None,
         JACOBIAN_PART in module.parts,
-        BATCH_PART in module.parts,
+        BATCH_PART in module.parts or DRIVEN_BATCH_PART in module.parts,
         JVP_PART in module.parts,
     ).functions:
         note = nullable_note(f.params)

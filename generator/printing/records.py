@@ -20,6 +20,7 @@ from typing import Any
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Kernel, Module, ModuleKind
 from s2gen.methods import COMPOSITIONS, CONTROLS, METHODS, Family, Status
+from s2gen.parts.batch import numpy_batch_refusal
 from s2gen.passes.opcount import kernel_profile
 from s2gen.passes.workspace import CONTEXT
 from s2gen.printing.c import c_kernel
@@ -293,6 +294,7 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "batch_layout": ("batch",),
         "batch_dense": ("batch",),
         "batch_vi": ("batch",),
+        "batch_rattle": ("batch",),
         "batch_quadratic": ("batch_gradient_lanes",),
         "batch_quadratic_field": ("batch",),
         "batch_quadratic_share": ("batch",),
@@ -302,6 +304,8 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "constants": ("potential",),
         "potential": ("potential",),
         "gradient": ("potential",),
+        "batch": ("batch",),
+        "batch_field": ("batch_members",),
         "imports": ("module",),
         "initial_state": ("context",),
         "drive_tables": ("module",),
@@ -367,8 +371,10 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     lanes = batch and explicit and _lane_gradient(module) is not None
     field = batch and not explicit and _coupled_field(module) is not None  # a dense M's, in lanes
     dense_vi = "vi_newton" in module.parts  # and its Newton VI in lanes too
+    dense_rattle = field and "rattle_newton" in module.parts  # and its RATTLE
     shared_k = (lanes or field) and quadratic  # Kx + b in lanes where the lanes share K
     rattle_jacobian = any(k.name == "rattle_jacobian" for k in module.kernels)
+    members = batch and numpy_batch_refusal(module) is None  # NumPy's integrate_batch()
 
     def pick(lang: str, *choices: tuple[bool, str]) -> tuple[str, ...]:
         return tuple(f"{lang}/sections/_{stem}.jinja" for chosen, stem in choices if chosen)
@@ -462,6 +468,16 @@ def sections(module: Module) -> tuple[Sections, Sections]:
             (field and dense_vi, "batch_vi_lanes"),
             (batch and not explicit and not (field and dense_vi), "batch_vi_newton"),
         ),
+        # RATTLE: in loops over the lanes with a diagonal or dense M, else lane by lane
+        "batch_rattle": pick(
+            "c",
+            (lanes or dense_rattle, "batch_rattle_gradient_lanes"),
+            (batch and explicit and not lanes, "batch_rattle_gradient_each"),
+            ((batch and explicit) or dense_rattle, "batch_rattle_omega"),
+            (batch and explicit, "batch_rattle_lanes"),
+            (dense_rattle, "batch_rattle_dense"),
+            (batch and not explicit and not dense_rattle, "batch_rattle_each"),
+        ),
     }
     py = {
         "masses_fill": pick("numpy", (uniform, "uniform_fill")),
@@ -479,6 +495,15 @@ def sections(module: Module) -> tuple[Sections, Sections]:
             (general, "general_gradient"),
             (not general, "zero_gradient"),
             (quadratic, "quadratic_gradient"),
+        ),
+        # integrate_batch(): the members' code (a diagonal or dense M's field), or why not
+        "batch": pick(
+            "numpy", (batch and members, "batch_members"), (batch and not members, "batch_refused")
+        ),
+        "batch_field": pick(
+            "numpy",
+            (members and module.solver is InertiaKind.DIAGONAL, "batch_field_diagonal"),
+            (members and module.solver is InertiaKind.DENSE, "batch_field_dense"),
         ),
         "imports": pick(
             "numpy",

@@ -16,8 +16,8 @@ have modules of their own, not re-exported here: `forced` (`DrivenProblem`, the 
 `driven_rhs`), `forced_steps` (the forced VI and RATTLE steps and a step's work) and
 `forced_integrate` (`integrate_driven`: the VI and RATTLE families with their compositions and
 the fixed-step Runge-Kutta methods, recording the work W so that E - E0 - W is the balance).
-`adaptive` holds the time-transformed VI methods (``"vi-adaptive"``, ``"vi4-adaptive"``, ...:
-the VI and its compositions in a fictitious time, steps eps / xi with xi tracking a monitor of
+`adaptive` holds the time-transformed methods (``"vi-adaptive"``, ``"vi4-adaptive"``, ...,
+``"rattle-adaptive"``, ...: the VI or RATTLE and their compositions in a fictitious time, steps eps / xi with xi tracking a monitor of
 the pair terms; the monitor's rule is the definition in `s2gen.monitor`, shared with the
 emitted code as the tableaus are). `step_jacobian` differentiates one fixed step (closed or
 driven) by the complex-step derivative, and `field_jacobian` the continuous field: the steps
@@ -71,7 +71,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from s2gen.methods import CONTROLS, REFERENCE_METHODS, Family
+from s2gen.methods import CONTROLS, REFERENCE_METHODS, Driver
 from s2gen.methods import method as method_row
 from s2gen.reference.adaptive import MonitorFn, integrate_time_transformed
 from s2gen.reference.dopri import _rk45_hairer, _rk45_matlab
@@ -182,7 +182,7 @@ def integrate(
     q0a = np.array(q0, dtype=float)
     w0a = np.array(w0, dtype=float)
     _check_inputs(problem, method, q0a, w0a, h, nsteps, control)
-    if method_row(method).family is Family.TIME_VI:
+    if method_row(method).driver is Driver.TIME_TRANSFORMED:
         if monitor is None:
             raise ValueError(f"integrate: method {method!r} needs a monitor")
         return integrate_time_transformed(

@@ -1,8 +1,10 @@
-"""Time-transformed variational integrators: the VI and its compositions in a fictitious time.
+"""Time-transformed variational integrators: the VI, RATTLE and their compositions in a
+fictitious time.
 
 Input: a `ReferenceProblem`, a monitor R(q) (`monitor_from_system`: the pair rule of
-`s2gen.monitor`, or the spec's [run] g), a time-transformed method of `s2gen.methods` (its composition of the VI
-step), an initial state, the step eps in the fictitious time s (the user's h) and an output
+`s2gen.monitor`, or the spec's [run] g), a time-transformed method of `s2gen.methods` (its
+composition of the VI step, or of the RATTLE step for ``"rattle-adaptive"``, ...), an initial
+state, the step eps in the fictitious time s (the user's h) and an output
 grid. Output: a `RefTrajectory` on the grid t_k = k every eps (`integrate_time_transformed`),
 or the raw chain of steps (`transformed_steps`, for reversibility checks).
 
@@ -18,7 +20,8 @@ and one step from (q_n, w_n, xi_n) is
 It is symmetric: the step with -eps from (q_{n+1}, w_{n+1}, xi_{n+1}) returns to
 (q_n, w_n, xi_n), because the composed VI with -h_n inverts the one with h_n. Each step is the
 fixed-step method with a step size that varies smoothly, so the error in t is O(eps^p) for a
-method of order p. A sample time t_k in (t_n, t_n + h_n] is reached by one extra step of the
+method of order p. The RATTLE methods differ only in the basic step (`forced_rattle_step` of a
+problem without forces: Cartesian q_i with multipliers, the same discrete flow). A sample time t_k in (t_n, t_n + h_n] is reached by one extra step of the
 composed VI of size t_k - t_n from (q_n, w_n), which keeps the order and does not enter the
 chain. When the quadratic has no real root (eps |R'| / xi^2 > 1/2: the step does not resolve
 the monitor) or h_n underflows, the run stops with `StepSizeUnderflow`.
@@ -40,9 +43,11 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 import sympy as sp
 
-from s2gen.methods import Family, method
+from s2gen.methods import Driver, Family, method
 from s2gen.monitor import C, monitor
 from s2gen.reference.errors import NonFiniteState, ReferenceIntegrationError, StepSizeUnderflow
+from s2gen.reference.forced import DrivenProblem
+from s2gen.reference.forced_steps import forced_rattle_step
 from s2gen.reference.geometry import _cross
 from s2gen.reference.problem import Array, ReferenceProblem, _parameter_values
 from s2gen.reference.recorder import RefTrajectory, _Recorder, _state
@@ -52,6 +57,8 @@ from s2gen.system import System
 
 __all__ = ["MonitorFn", "integrate_time_transformed", "monitor_from_system", "transformed_steps"]
 
+#: (q+, w+, Newton iterations) of a step.
+_Step = tuple[Array, Array, int]
 #: (q, w) -> (R(q), dR/dt = grad R(q) . qdot).
 MonitorFn = Callable[[Array, Array], tuple[float, float]]
 
@@ -108,15 +115,33 @@ def _given(expr: sp.Expr, n: int) -> MonitorFn:
     return evaluate
 
 
-def _fractions(name: str) -> tuple[float, ...]:
+#: One basic step (q, w) -> (q+, w+, Newton iterations) of size h (the VI's or RATTLE's).
+_Basic = Callable[[Array, Array, float, float, int, int], tuple[Array, Array, int]]
+
+
+def _scheme(problem: ReferenceProblem, name: str) -> tuple[tuple[float, ...], _Basic]:
+    """The composition's fractions and the basic step (the VI's or RATTLE's) of `name`."""
     row = method(name)
-    if row.family is not Family.TIME_VI or row.transformed is None:
+    if row.driver is not Driver.TIME_TRANSFORMED or row.transformed is None:
         raise ValueError(f"{name!r} is not a time-transformed method")
-    return row.transformed.fractions
+    if row.family is Family.TIME_RATTLE:
+        free = DrivenProblem(problem)
+
+        def rattle(q: Array, w: Array, h: float, tol: float, its: int, k: int) -> _Step:
+            return forced_rattle_step(
+                free, q, w, 0.0, h, np.zeros(0), newton_tol=tol, newton_maxiter=its, step=k
+            )
+
+        return row.transformed.fractions, rattle
+
+    def vi(q: Array, w: Array, h: float, tol: float, its: int, k: int) -> _Step:
+        return vi_step(problem, q, w, h, newton_tol=tol, newton_maxiter=its, step=k)
+
+    return row.transformed.fractions, vi
 
 
 def _composed(
-    problem: ReferenceProblem,
+    basic: _Basic,
     fractions: tuple[float, ...],
     q: Array,
     w: Array,
@@ -124,11 +149,11 @@ def _composed(
     tol: float,
     maxiter: int,
     step: int,
-) -> tuple[Array, Array, int]:
-    """One step of size h of the composition `fractions` of the VI step."""
+) -> _Step:
+    """One step of size h of the composition `fractions` of the basic step."""
     total = 0
     for f in fractions:
-        q, w, its = vi_step(problem, q, w, f * h, newton_tol=tol, newton_maxiter=maxiter, step=step)
+        q, w, its = basic(q, w, f * h, tol, maxiter, step)
         total += its
     return q, w, total
 
@@ -173,14 +198,14 @@ def transformed_steps(
         >>> bool(np.abs(q - q0).max() < 1e-13 and abs(t + back) < 1e-13)
         True
     """
-    fractions = _fractions(name)
+    fractions, basic = _scheme(problem, name)
     q, w = np.asarray(q, dtype=float), np.asarray(w, dtype=float)
     t = 0.0
     _, rate = mon(q, w)
     for k in range(nsteps):
         half = _half(xi, rate, eps, k)
         h = eps / half
-        q, w, _ = _composed(problem, fractions, q, w, h, newton_tol, newton_maxiter, k)
+        q, w, _ = _composed(basic, fractions, q, w, h, newton_tol, newton_maxiter, k)
         t += h
         _, rate = mon(q, w)
         xi = half + 0.5 * eps * rate / half
@@ -209,7 +234,7 @@ def integrate_time_transformed(
     output step, plus one at the start) and Newton's iteration counts. Raises a
     `ReferenceIntegrationError` carrying the samples so far.
     """
-    fractions = _fractions(name)
+    fractions, basic = _scheme(problem, name)
     q, w = np.array(q0, dtype=float), np.array(w0, dtype=float)
     spacing, count = h * every, nsteps // every
     rec = _Recorder(problem, name, spacing, count)
@@ -225,14 +250,14 @@ def integrate_time_transformed(
                 raise StepSizeUnderflow(n, f"the time step {step:.3g} underflowed at t = {t:.6g}")
             while k <= count and k * spacing <= t + step:
                 qs, ws, its = _composed(
-                    problem, fractions, q, w, k * spacing - t, newton_tol, newton_maxiter, n
+                    basic, fractions, q, w, k * spacing - t, newton_tol, newton_maxiter, n
                 )
                 _count(rec, its, len(fractions), "output_steps")
                 rec.push(_state(qs, ws))
                 k += 1
             if k > count:
                 break
-            q, w, its = _composed(problem, fractions, q, w, step, newton_tol, newton_maxiter, n)
+            q, w, its = _composed(basic, fractions, q, w, step, newton_tol, newton_maxiter, n)
             if not (np.all(np.isfinite(q)) and np.all(np.isfinite(w))):
                 raise NonFiniteState(n, "non-finite state")
             _count(rec, its, len(fractions), "steps")

@@ -134,6 +134,8 @@ class Model(JacobianMethods):
         every: int = 1,
         energy: bool = True,
         options: Options | None = None,
+        t0: float = 0.0,
+        inputs: Any = None,
     ) -> Batch:
         """K members at once, each with its own initial state (q0, omega0 of shape (K, n, 3);
         default: the spec's) and parameters (`params`: name -> K values, or one for all),
@@ -141,7 +143,12 @@ class Model(JacobianMethods):
         statistics equal `integrate`'s for it bit for bit; a failing member stops alone (its
         status and stats say why and where). C backend, closed systems (M diagonal or coupled),
         the methods of `s2gen.parts.batch.BATCH_METHODS`; the first call builds the module
-        with integrate_batch() (`System.with_batch`).
+        with integrate_batch() (`System.with_batch`). The NumPy backend batches the members
+        in its emitted module, vectorised over them (`s2gen.runtime.batch_numpy`; a diagonal
+        or dense M, the methods of `numpy_batch_methods`), with the same record. A driven
+        system (C backend, its driven methods) starts its members at `t0` with `inputs`: one
+        schedule (steps, n_inputs) for all or one per member (K, steps, n_inputs), no
+        feedback; its record, a `s2gen.runtime.batch_driven.DrivenBatch`, adds the work W.
 
         Example:
             >>> from s2gen.systems import builtin
@@ -155,13 +162,12 @@ class Model(JacobianMethods):
         from s2gen.runtime.batch import integrate_batch, member_arrays
         from s2gen.runtime.c import CBackend
 
-        if self.backend_name != "c":
+        if self.backend_name not in ("c", "numpy"):
             raise ValueError(
-                f"integrate_batch: the C backend only (not {self.backend_name!r}); the NumPy "
-                "backend runs one member per call of integrate"
+                f"integrate_batch: the C and NumPy backends only (not {self.backend_name!r})"
             )
         why = batch_refusal(self.system)
-        if why is not None:
+        if why is not None and not (self.system.driven and self.backend_name == "c"):
             raise ValueError(why)
         h = h if h is not None else self.system.run.h
         T = T if T is not None else self.system.run.T
@@ -170,6 +176,32 @@ class Model(JacobianMethods):
         opts = options or Options()
         nsteps = check_run(self.system, method, h, T, opts, every)
         qs, ws, p = member_arrays(self.system, q0, omega0, params)
+        if not self.system.driven and (t0 != 0.0 or inputs is not None):
+            raise ValueError(
+                f"integrate_batch: {self.system.name} is closed: it takes no t0 or inputs"
+            )
+        if self.system.driven:
+            from s2gen.runtime.batch_driven import integrate_driven_batch, member_inputs
+            from s2gen.runtime.driven import check_driven_method
+
+            check_driven_method(self.system, method)
+            if not math.isfinite(t0):
+                raise ValueError(f"integrate_batch: t0 = {t0!r}: must be a finite number")
+            u = member_inputs(self.system, inputs, len(qs), nsteps)
+            if self._batch is None:
+                self._batch = CBackend(self.system.with_batch(), opt=self._opt)
+            return integrate_driven_batch(
+                self._batch, method, t0, h, nsteps, qs, ws, p, u, opts, every, energy
+            )
+        if self.backend_name == "numpy":
+            from s2gen.runtime.batch_numpy import integrate_batch_numpy
+            from s2gen.runtime.numpy_module import NumpyBackend
+
+            if self._batch is None:
+                self._batch = NumpyBackend(self.system.with_batch())
+            return integrate_batch_numpy(
+                self._batch, method, h, nsteps, qs, ws, p, opts, every, energy
+            )
         if self._batch is None:
             self._batch = CBackend(self.system.with_batch(), opt=self._opt)
         return integrate_batch(self._batch, method, h, nsteps, qs, ws, p, opts, every, energy)

@@ -45,11 +45,11 @@ class ReferenceBackend:
 
     def _monitor(self, method: str, params: np.ndarray) -> Any:
         """The pair monitor of a time-transformed method (None for the others)."""
-        from s2gen.methods import Family
+        from s2gen.methods import Driver
         from s2gen.methods import method as method_row
         from s2gen.reference.adaptive import monitor_from_system
 
-        if method_row(method).family is not Family.TIME_VI:
+        if method_row(method).driver is not Driver.TIME_TRANSFORMED:
             return None
         key = tuple(float(v) for v in params)
         if key not in self._monitors:

@@ -66,7 +66,11 @@ enum {
     FOUR_PENDULA_METHOD_VI_ADAPTIVE = 14, /* the VI in a fictitious time s, dt = ds / xi, xi tracking the pair monitor reversibly; h is the step in s, order 2 */
     FOUR_PENDULA_METHOD_VI4_ADAPTIVE = 15, /* vi-adaptive composed by the triple jump, order 4 */
     FOUR_PENDULA_METHOD_VI6_ADAPTIVE = 16, /* vi-adaptive composed by Yoshida's solution A, order 6 */
-    FOUR_PENDULA_METHOD_VI8_ADAPTIVE = 17 /* vi-adaptive composed by Kahan and Li's 15 stages, order 8 */
+    FOUR_PENDULA_METHOD_VI8_ADAPTIVE = 17, /* vi-adaptive composed by Kahan and Li's 15 stages, order 8 */
+    FOUR_PENDULA_METHOD_RATTLE_ADAPTIVE = 18, /* vi-adaptive with the RATTLE step (Cartesian q_i, multipliers), order 2 */
+    FOUR_PENDULA_METHOD_RATTLE4_ADAPTIVE = 19, /* rattle-adaptive composed by the triple jump, order 4 */
+    FOUR_PENDULA_METHOD_RATTLE6_ADAPTIVE = 20, /* rattle-adaptive composed by Yoshida's solution A, order 6 */
+    FOUR_PENDULA_METHOD_RATTLE8_ADAPTIVE = 21 /* rattle-adaptive composed by Kahan and Li's 15 stages, order 8 */
 };
 
 /* RK45 error control: MATLAB ode45's (max norm, weights max(|y|, atol/rtol)) or Hairer's

@@ -57,6 +57,10 @@ METHOD_VI_ADAPTIVE = 14  # the VI in a fictitious time s, dt = ds / xi, xi track
 METHOD_VI4_ADAPTIVE = 15  # vi-adaptive composed by the triple jump, order 4
 METHOD_VI6_ADAPTIVE = 16  # vi-adaptive composed by Yoshida's solution A, order 6
 METHOD_VI8_ADAPTIVE = 17  # vi-adaptive composed by Kahan and Li's 15 stages, order 8
+METHOD_RATTLE_ADAPTIVE = 18  # vi-adaptive with the RATTLE step (Cartesian q_i, multipliers), order 2
+METHOD_RATTLE4_ADAPTIVE = 19  # rattle-adaptive composed by the triple jump, order 4
+METHOD_RATTLE6_ADAPTIVE = 20  # rattle-adaptive composed by Yoshida's solution A, order 6
+METHOD_RATTLE8_ADAPTIVE = 21  # rattle-adaptive composed by Kahan and Li's 15 stages, order 8
 CONTROL_MATLAB, CONTROL_HAIRER = range(2)
 EVALS = "gradient_evals"  # the statistics counter of field evaluations
 

@@ -30,7 +30,7 @@ from s2gen.inspect import Family, method
 VI_FAMILY = tuple(
     m.name
     for m in sorted(METHODS, key=lambda m: (m.family is Family.RATTLE, m.order))
-    if m.geometric and "c" in m.backends and m.family is not Family.TIME_VI
+    if m.geometric and "c" in m.backends and m.family not in (Family.TIME_VI, Family.TIME_RATTLE)
 )
 #: Every fixed-step method of the emitted C: the VI family, then the fixed-step Runge-Kutta
 #: methods (highest order first).
