@@ -19,7 +19,7 @@ with a max-index M (the 10-link rope), and for RATTLE with a coupled M (its Newt
 multipliers), no flops are counted and no fraction of peak printed.
 
     python benchmarks/batch.py [--systems four_pendula double_pendulum rope:n=10]
-        [--methods vi rk4 rattle rattle4] [--members 1024] [--repeats 3] [--shared]
+        [--methods vi rk4 rattle rattle4 rk45 dop853] [--members 1024] [--repeats 3] [--shared]
 """
 
 from __future__ import annotations
@@ -59,6 +59,7 @@ int main(int argc, char **argv)
 {
     const long K = atol(argv[1]), nsteps = atol(argv[2]), every = nsteps;
     const int method = atoi(argv[3]), repeats = atoi(argv[4]), shared = atoi(argv[5]);
+    const double hout = atof(argv[6]);
     const long N = @P@_NSTATE, P = @P@_NPARAMS, S = nsteps / every + 1;
     double *p = malloc(sizeof(double) * (P > 0 ? P : 1) * K), *pk = malloc(sizeof(double) * (P + 1));
     double *q0 = malloc(sizeof(double) * N * K), *w0 = malloc(sizeof(double) * N * K);
@@ -72,7 +73,7 @@ int main(int argc, char **argv)
     int *status = malloc(sizeof(int) * K);
     @NAME@_options opt;
     double best_one = 1e300, best_batch = 1e300;
-    long k, e, r, same = 1, iters = 0, steps = 0;
+    long k, e, r, same = 1, iters = 0, steps = 0, rejected = 0;
     @NAME@_default_options(&opt);
     opt.every = every;
     @NAME@_default_params(pk);
@@ -94,13 +95,13 @@ int main(int argc, char **argv)
                 qk[e] = q0[e * K + k];
                 wk[e] = w0[e * K + k];
             }
-            @NAME@_integrate(pk, &opt, method, 0.001, nsteps, qk, wk, qs, ws, NULL, work, &one);
+            @NAME@_integrate(pk, &opt, method, hout, nsteps, qk, wk, qs, ws, NULL, work, &one);
             for (e = 0; e < N; ++e) qe[e * K + k] = qs[(S - 1) * N + e];
         }
         t = now() - t;
         best_one = t < best_one ? t : best_one;
         t = now();
-        @NAME@_integrate_batch(K, p, &opt, method, 0.001, nsteps, q0, w0, qb, wb, NULL, bwork,
+        @NAME@_integrate_batch(K, p, &opt, method, hout, nsteps, q0, w0, qb, wb, NULL, bwork,
                 stats, status);
         t = now() - t;
         best_batch = t < best_batch ? t : best_batch;
@@ -113,8 +114,10 @@ int main(int argc, char **argv)
     for (k = 0; k < K; ++k) {
         iters += stats[k].newton_iters;
         steps += stats[k].steps;
+        rejected += stats[k].rejected;
     }
-    printf("%.6e %.6e %ld %.6e\n", best_one, best_batch, same, (double)iters / (double)(steps > 0 ? steps : 1));
+    printf("%.6e %.6e %ld %.6e %ld %ld\n", best_one, best_batch, same,
+            (double)iters / (double)(steps > 0 ? steps : 1), steps, rejected);
     return same ? 0 : 1;
 }
 """
@@ -217,6 +220,7 @@ def run(
 ) -> None:
     s = resolve(system).with_batch()
     files = emit(s, "c")
+    adaptive = method in ("rk45", "dop853")  # output spacing 0.05: T = 0.05 steps
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         for fname, text in files.items():
@@ -244,27 +248,32 @@ def run(
                 str(method_of(method).code),
                 str(repeats),
                 str(int(shared)),
+                "0.05" if adaptive else "0.001",
             ],
             check=False,
             capture_output=True,
             text=True,
         )
-    one, batch, same, iters = out.stdout.split()
+    one, batch, same, iters, taken, rejected = out.stdout.split()
     if same != "1":
         print(f"{system} {method} {flags}: batch and one-at-a-time differ", file=sys.stderr)
         sys.exit(1)
-    rate_one = members * steps / float(one)
-    rate_batch = members * steps / float(batch)
+    # the adaptive methods: the members' accepted steps (the same in both runs)
+    done = int(taken) if adaptive else members * steps
+    rate_one = done / float(one)
+    rate_batch = done / float(batch)
     _, mhz, per_cycle = cpu()
-    ops = flops_per_member_step(s, method, float(iters))
+    ops = None if adaptive else flops_per_member_step(s, method, float(iters))
     peak = mhz * 1e6 * per_cycle
     of_peak = (
         f"~{ops} flops/member-step: {100 * rate_batch * ops / peak:6.2f} % of peak"
         if ops is not None
+        else f"{done / members:.1f} steps, {int(rejected) / members:.2f} rejected per member"
+        if adaptive
         else "flops not counted (max-index M, or RATTLE with a coupled M)"
     )
     print(
-        f"{system:15s} {method:4s} {flags:8s} one/call {rate_one:11.4g}  batch {rate_batch:11.4g}"
+        f"{system:15s} {method:6s} {flags:8s} one/call {rate_one:11.4g}  batch {rate_batch:11.4g}"
         f"  ratio {rate_batch / rate_one:5.2f}  {of_peak}"
     )
 

@@ -51,13 +51,15 @@ INTEGRATE_BATCH = Function(
     "flags). Arrays are member-innermost: p[j * K + k] (NPARAMS * K doubles), q0 and w0 "
     "[(3 i + c) * K + k] (NSTATE * K), q and w [(s * NSTATE + 3 i + c) * K + k] ((nsteps / "
     "every + 1) * NSTATE * K), energy [s * K + k] (not evaluated when NULL). Methods: VI, VI4, "
-    "VI6, VI8, RATTLE, RATTLE4, RATTLE6, RATTLE8, RK2, RK2_PROJ, RK3, RK4. A member that "
+    "VI6, VI8, RATTLE, RATTLE4, RATTLE6, RATTLE8, RK2, RK2_PROJ, RK3, RK4, RK45 and DOP853 (h "
+    "the output spacing, each member its own step sizes). A member that "
     "fails (status[k] as integrate() would "
     "return it: a non-finite or non-unit q0, an infeasible or non-finite step, a Newton "
-    "iteration that does not converge, a singular solve) stops alone, "
+    "iteration that does not converge, a singular solve, a step size at its limit) stops alone, "
     "its samples before stats[k].fail_step valid; the others go on. work: BATCH_WORK_SIZE "
     "doubles, whatever K. Returns ERR_ARGUMENT (nothing written) for K < 1, h <= 0, nsteps < "
-    "0, an every that does not divide nsteps or a method it does not take; else OK when every "
+    "0, an every that does not divide nsteps, a method it does not take or (RK45, DOP853) "
+    "rtol or atol <= 0; else OK when every "
     "member's status is OK, otherwise the status of the first member that failed.",
 )
 

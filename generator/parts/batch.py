@@ -36,15 +36,35 @@ Cholesky solves the one-member solvers on each lane's copy; with another coupled
 lane runs the one-member rattle_advance with its own context and workspace
 (`s2gen.printing.c_batch_rattle`).
 
+The adaptive methods (rk45, dop853; c/_batch_adaptive.jinja) run a block's lanes in masked
+lockstep, not independently: every round, each live lane attempts one step of its own size
+from its own time and state, so that the stages' arithmetic (y + h_l sum a_ij k_j, each lane
+with its own h_l), the field (the same lane field as the fixed-step methods) and the error
+norm (each lane's sums in rk45_error's or dop853_error's order) still run in loops over the
+lanes, while the parts that branch per member run lane by lane: the initial step (the
+one-member rk45_h0 and dop853_h0 on the lane's copies in its own workspace), accept or
+reject, the step-size controller, and the samples on the output grid from the continuous
+extension (the one-member drivers' text, on the lane's copies of its stages). A rejected lane
+retries from its unchanged state in the next round; a lane whose member reached T or failed
+is masked (the field skips it or computes garbage it never reads); DOP853's extra stages for
+a sample inside a step run on the lanes that need them only. Independent lanes (each
+member's whole run one after the other) would give the same numbers but no SIMD at all;
+lockstep keeps the stages vectorised at the price of idle lanes once members need different
+numbers of attempts (a block takes as many rounds as its slowest member). Each member's
+samples, energy, status and statistics equal integrate()'s bit for bit; a failing member (a
+non-finite stage, ERR_STEPSIZE, a failed solve) stops alone with its samples before the
+failure kept.
+
 What is covered: closed systems (no forces, inputs or time); the VI and its compositions
 (vi, vi4, vi6, vi8: explicit with a diagonal M, Newton with a coupled M), RATTLE and its
-compositions (rattle, rattle4, rattle6, rattle8) and the fixed-step Runge-Kutta methods (rk2,
-rk2-proj, rk3, rk4). What is not: the adaptive methods (per-member step sizes) and driven
-systems, which carry an integrate_batch() of their own (`s2gen.parts.batch_driven`);
-`batch_refusal` says which.
+compositions (rattle, rattle4, rattle6, rattle8), the fixed-step Runge-Kutta methods (rk2,
+rk2-proj, rk3, rk4) and the adaptive ones (rk45, dop853). What is not: the time-transformed
+methods (vi-adaptive, rattle-adaptive, ...) and driven systems, which carry an
+integrate_batch() of their own (`s2gen.parts.batch_driven`); `batch_refusal` says which.
 
 The NumPy module of the same system carries integrate_batch() too, vectorised over the
-members (`s2gen.printing.numpy_batch`): the same methods with a diagonal or dense M (the
+members (`s2gen.printing.numpy_batch`): the VI's and the fixed-step Runge-Kutta methods
+(not RATTLE's or the adaptive ones) with a diagonal or dense M (the
 dense M's Newton VI with a convergence mask per member), for terms that read the state,
 constants, tables and parameters; `numpy_batch_refusal` says why a module has none
 (quadratic terms, cutoff terms, per-body term data, a structured M: C only).
@@ -86,6 +106,8 @@ BATCH_LANES = 8
 BATCH_METHODS: tuple[str, ...] = ("vi", "vi4", "vi6", "vi8", "rk2", "rk2-proj", "rk3", "rk4")
 #: and RATTLE's (in loops over the lanes with a diagonal M, else lane by lane)
 BATCH_METHODS += ("rattle", "rattle4", "rattle6", "rattle8")
+#: and the adaptive ones, each member with its own step sizes (masked lockstep; C only)
+BATCH_METHODS += ("rk45", "dop853")
 
 #: The call sites NumPy's members' code reads (`s2gen.printing.numpy_batch`), by the part
 #: that declares each for the one-member code
@@ -161,7 +183,16 @@ def _numpy_sites(module: Module) -> tuple[Site, ...]:
     )
 
 
-PART = Part(BATCH_PART, module_sites=_numpy_sites)
+#: The adaptive methods' lanes use the one-member driver's buffers in their own workspaces.
+PART = Part(
+    BATCH_PART,
+    buffers=(
+        ("integrate", ("run",)),
+        ("rk45", ("k", "y", "yn", "ys", "field")),
+        ("dop853", ("k", "y", "yt", "yn", "ys", "field")),
+    ),
+    module_sites=_numpy_sites,
+)
 
 
 def batch_refusal(system: System) -> str | None:

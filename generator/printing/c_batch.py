@@ -30,8 +30,12 @@ from s2gen.printing.c_batch_newton import newton_lane_work, newton_lanes
 from s2gen.printing.c_batch_quadratic import quadratic_lanes
 from s2gen.printing.c_batch_rattle import rattle_batch, rattle_dense_work
 from s2gen.printing.c_calls import c_binding
+from s2gen.tableaus import DOP853
 
 __all__ = ["batch_work", "coupled_field", "newton_work", "print_batch"]
+
+#: Stage arrays of the adaptive methods' lanes: rk45's 7, DOP853's stages and extension.
+_ADAPTIVE = max(7, DOP853.stages + 1 + len(DOP853.dense_a))
 
 #: The explicit VI's lane arrays of N3 doubles per lane (then sv, mi and chk); the
 #: Runge-Kutta arrays share the region with them.
@@ -46,7 +50,9 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
     innermost; their offsets from `lanes`, which is aligned to 64 bytes inside `size`
     doubles, `slack` to spare): the VI's x, v, gx, xn, vn, gn, sv, mi, chk or Runge-Kutta's
     rk_y0, rk_yn, rk_k, rk_chk, rk_mi, rk_xc, rk_gs (the same region), then the lanes'
-    constants `cc`, parameters `pl`, member tables `t<k>` and gradient `g`.
+    constants `cc`, parameters `pl`, member tables `t<k>` and gradient `g`, the field's,
+    Newton's and RATTLE's arrays, and the adaptive methods' stages `ad_k` and trial state
+    `ad_yt`.
 
     Example:
         >>> from s2gen.systems import builtin
@@ -102,6 +108,9 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
         if "rattle_newton" in module.parts:  # and its RATTLE
             off.update(rattle_dense_work(module, at2, lanes))
             at2 = off.pop("end")
+    # the adaptive methods' stages and trial state (their y and yn: rk_y0 and rk_yn)
+    off["ad_k"], off["ad_yt"] = at2, at2 + _ADAPTIVE * ns * lanes
+    at2 = off["ad_yt"] + ns * lanes
     off["slack"] = 7
     off["size"] = at + at2 + off["slack"]
     return off
