@@ -54,7 +54,8 @@ def system(name: str) -> System:
     M couples neighbours (test_chains' banded solver)."""
     if name == "banded":
         return banded_chain()
-    return resolve(str(SPECS / f"{name}.toml")) if name in ("springs4", "chain4") else resolve(name)
+    specs = ("springs4", "chain4", "coupled_field")
+    return resolve(str(SPECS / f"{name}.toml")) if name in specs else resolve(name)
 
 
 def members(
@@ -154,6 +155,12 @@ def test_dipoles_shared_k(opt: str) -> None:
     among them), the second block's members differ in every parameter (each lane its own K,
     lane by lane); -O2 and -O3 -march=native."""
     check("dipoles", ("vi", "rk4"), opt, own="m")
+
+
+def test_linear_part_shared_k() -> None:
+    """Quadratic terms with a linear part: Kx + b in loops over the lanes (the first block's
+    members share k and f, each with its own mass m), b added as quadratic_soa adds it."""
+    check("coupled_field", ("vi", "rk4"), "portable", own="m")
 
 
 @pytest.mark.slow

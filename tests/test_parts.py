@@ -165,6 +165,19 @@ def screened_rows() -> System:
     )
 
 
+def coupled_field() -> System:
+    """Every pair of 8 bodies coupled bilinearly, with a linear part (a field on each body of
+    the pair): the quadratic terms' K and b, in loops over the lanes of a batch."""
+    pairs = [[i, j] for i in range(1, 9) for j in range(i + 1, 9)]
+    return define_system(
+        name="coupled_field",
+        bodies=8,
+        parameters={"k": 0.05, "f": 0.3},
+        diagonal="1",
+        pair_terms=[{"V": "k*(dot(qi, qj) + 2*qi[0]*qj[1]) + f*qi[2]", "pairs": pairs}],
+    ).with_batch()
+
+
 def double_pendulum_monitor() -> System:
     """The double pendulum with a monitor given as [run] g: the time-transformed driver of a
     coupled M (Newton VI)."""
@@ -224,6 +237,8 @@ SYSTEMS = {
     "rope_batch": lambda: resolve("rope:n=10").with_batch(),
     # integrate_batch() with the quadratic terms' Kx + b in loops over the lanes sharing K
     "dipoles_batch": lambda: builtin("dipoles").with_batch(),
+    # the same with a linear part (b read by the products)
+    "coupled_field_batch": coupled_field,
     # a driven system's integrate_batch(): members one after the other through the driven step
     "forced_double_pendulum_batch": lambda: builtin("forced_double_pendulum").with_batch(),
 }

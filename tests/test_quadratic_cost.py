@@ -134,6 +134,35 @@ def test_the_matrix_follows_the_reference(few: System, method: str) -> None:
         assert np.max(np.abs(run.omega - truth.omega)) < 1e-11, backend
 
 
+@pytest.mark.parametrize("method", ["vi", "rk4"])
+def test_a_linear_part_is_added_and_its_absence_skips_b(few: System, method: str) -> None:
+    """A quadratic term with a linear part (a field on each body of the pair) puts it in b,
+    which the products add; the emitted C and NumPy follow the reference, which evaluates the
+    terms pair by pair. The same coupling without a linear part leaves b zero, and the emitted
+    products do not read it."""
+    field = define_system(
+        name="coupled8b",
+        bodies=8,
+        parameters={"k": 0.05, "f": 0.3},
+        diagonal="1",
+        pair_terms=[{"V": COUPLING + " + f*(qi[2] - 2*qj[0])", "pairs": listed(8)}],
+        initial_q=few.q0.tolist(),
+        initial_omega=few.omega0.tolist(),
+        run={"h": 0.01, "T": 0.5},
+    )
+    module = lower_system(field)
+    assert module.quadratic == 24
+    assert any(c < 0 <= r for t in module.terms for _, r, c in t.quadratic)
+    assert not any(c < 0 <= r for t in lower_system(few).terms for _, r, c in t.quadratic)
+    truth = simulate(field, method, "reference", h=0.01, T=0.5, energy=False)
+    for backend in ("c", "numpy"):
+        run = simulate(field, method, backend, h=0.01, T=0.5, energy=False)
+        assert np.max(np.abs(run.q - truth.q)) < 1e-12, backend
+        assert np.max(np.abs(run.omega - truth.omega)) < 1e-11, backend
+    with_b, without_b = generate(field, "c")["coupled8b.c"], generate(few, "c")["coupled8.c"]
+    assert "acc[r] + bu[r]" in with_b and "bu[" not in without_b
+
+
 ALIGNED_DRIVER = r"""
 #include "@N@.c" /* the static context too: where K starts */
 #include <stdio.h>

@@ -298,6 +298,10 @@ _OWNERS: tuple[dict[str, tuple[str, ...]], dict[str, tuple[str, ...]]] = (
         "batch_quadratic": ("batch_gradient_lanes",),
         "batch_quadratic_field": ("batch",),
         "batch_quadratic_share": ("batch",),
+        "quadratic_locals": ("quadratic",),
+        "quadratic_store": ("quadratic",),
+        "batch_quadratic_locals": ("batch_quadratic_lanes",),
+        "batch_quadratic_store": ("batch_quadratic_lanes",),
     },
     {
         "masses_fill": ("masses", "masses_coupled", "masses_generators"),
@@ -373,6 +377,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     dense_vi = "vi_newton" in module.parts  # and its Newton VI in lanes too
     dense_rattle = field and "rattle_newton" in module.parts  # and its RATTLE
     shared_k = (lanes or field) and quadratic  # Kx + b in lanes where the lanes share K
+    linear = any(c < 0 <= r for t in module.terms for _, r, c in t.quadratic)  # b not zero
     rattle_jacobian = any(k.name == "rattle_jacobian" for k in module.kernels)
     members = batch and numpy_batch_refusal(module) is None  # NumPy's integrate_batch()
 
@@ -462,6 +467,19 @@ def sections(module: Module) -> tuple[Sections, Sections]:
         "batch_quadratic": pick("c", (shared_k, "batch_quadratic_lanes")),
         "batch_quadratic_field": pick("c", (shared_k, "batch_quadratic_field")),
         "batch_quadratic_share": pick("c", (shared_k, "batch_quadratic_share")),
+        # b is read only where a quadratic term has a linear part (else it is zero)
+        "quadratic_locals": pick(
+            "c", (linear, "quadratic_locals_linear"), (quadratic and not linear, "quadratic_locals")
+        ),
+        "quadratic_store": pick(
+            "c", (linear, "quadratic_store_linear"), (quadratic and not linear, "quadratic_store")
+        ),
+        "batch_quadratic_locals": pick("c", (shared_k and linear, "batch_quadratic_locals_linear")),
+        "batch_quadratic_store": pick(
+            "c",
+            (shared_k and linear, "batch_quadratic_store_linear"),
+            (shared_k and not linear, "batch_quadratic_store"),
+        ),
         "batch_vi": pick(
             "c",
             (batch and explicit, "batch_vi_explicit"),
