@@ -47,7 +47,7 @@ from s2gen.ir import Argument, KernelDef, Output
 from s2gen.spec.parser import parse_expression
 from s2gen.symbols import local_vector, q_symbols, w_symbol
 from s2gen.system import System
-from s2gen.terms import TermKind
+from s2gen.terms import Term, TermKind
 
 __all__ = [
     "MONITOR_MAX_PAIRS",
@@ -114,6 +114,19 @@ def _check_invariant(
             )
 
 
+def _monitored_terms(system: System) -> list[Term]:
+    """The pair terms the rule of the module docstring derives the monitor from; ValueError in
+    one line when the system has other potentials or no pair term."""
+    pairs = [t for t in system.terms if t.kind is TermKind.PAIR and t.count(system.n) > 0]
+    if not pairs or system.potential != 0 or len(pairs) < len(system.terms):
+        raise ValueError(
+            f"{system.name}: the time-transformed methods take closed systems with pair terms "
+            "and no other potential, or a monitor [run] g (this one has "
+            f"{'other potential terms' if pairs else 'no pair term'})"
+        )
+    return pairs
+
+
 def monitor(system: System) -> Monitor:
     """The monitor of a closed system: the spec's [run] g when it gives one (any closed
     system), else the pair rule of the module docstring; ValueError in one line for a driven
@@ -135,13 +148,7 @@ def monitor(system: System) -> Monitor:
             system.run.g, n=system.n, parameters=system.parameter_names, where="[run] g"
         )
         return Monitor((), names, given)
-    pairs = [t for t in system.terms if t.kind is TermKind.PAIR and t.count(system.n) > 0]
-    others = system.potential != 0 or len(pairs) < len(system.terms)
-    if not pairs or others:
-        raise ValueError(
-            f"{system.name}: {why} and no other potential, or a monitor [run] g (this one "
-            f"has {'other potential terms' if pairs else 'no pair term'})"
-        )
+    pairs = _monitored_terms(system)
     params = {sp.Symbol(p, real=True): v for p, v in system.parameters.items()}
     rates = []
     for t in pairs:
@@ -169,17 +176,25 @@ def emitted_refusal(system: System) -> str | None:
         >>> emitted_refusal(builtin("three_bodies")) is None
         True
     """
+    # the refusals that need no derivation first: deriving a large system's monitor only to
+    # refuse it would cost a cold generation a third of a second
     try:
-        mon = monitor(system)
+        system.refuse_driven("the time-transformed methods")
+        terms = [] if system.run.g is not None else _monitored_terms(system)
     except ValueError as e:
         return str(e)
-    if mon.given is None and any(t.cutoff is not None for t in system.terms):
+    if any(t.cutoff is not None for t in terms):
         return (
             f"{system.name}: the emitted time-transformed methods do not take pair terms within "
             "a cutoff (their pairs are found per call): use the reference backend or give a "
             "monitor as [run] g"
         )
-    pairs = sum(len(r.members) for r in mon.rates)
+    pairs = sum(t.count(system.n) for t in terms)
+    if pairs <= MONITOR_MAX_PAIRS:
+        try:
+            monitor(system)
+        except ValueError as e:
+            return str(e)
     if pairs > MONITOR_MAX_PAIRS:
         return (
             f"{system.name}: the emitted time-transformed methods take at most "

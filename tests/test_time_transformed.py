@@ -249,3 +249,30 @@ def test_energy_error_is_bounded_over_1e5_steps() -> None:
     slope, worst, steps, closest = _energy_growth(PAIR, "vi-adaptive", 0.05, 1800.0)
     assert steps >= 100_000 and closest < 0.02
     assert slope <= 0.1 and worst < 0.2, (slope, worst)
+
+
+def test_refusals_that_need_no_derivation_come_first(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Pair terms within a cutoff, or more monitored pairs than the emitted driver takes, are
+    refused without deriving the monitor (a large system's generation would pay for it); a
+    system the driver takes is derived, and one without a monitor says why."""
+    from s2gen import monitor as module
+    from s2gen.spec import define_system
+
+    many = define_system(
+        name="many",
+        bodies=12,
+        parameters={"k": 1.0},
+        diagonal="1",
+        pair_terms=[{"V": "k/(2 - dot(qi, qj))", "pairs": "all"}],
+    )
+    derived = []
+    real = module.monitor
+    monkeypatch.setattr(module, "monitor", lambda s: derived.append(s.name) or real(s))
+    said = module.emitted_refusal(builtin("lj_cutoff"))
+    assert said is not None and "cutoff" in said
+    said = module.emitted_refusal(many)
+    assert said is not None and f"at most {module.MONITOR_MAX_PAIRS} monitored pairs" in said
+    assert "(this system has 66)" in said and derived == []
+    assert module.emitted_refusal(THREE) is None and derived == [THREE.name]
+    said = module.emitted_refusal(builtin("double_pendulum"))
+    assert said is not None and ("other potential" in said or "no pair term" in said)
