@@ -33,7 +33,7 @@ from s2gen.runtime.c import CBackend, contiguous, pointer
 from s2gen.runtime.options import Options
 from s2gen.system import System
 
-__all__ = ["Batch", "integrate_batch", "member_arrays"]
+__all__ = ["Batch", "BatchCall", "integrate_batch", "member_arrays"]
 
 
 @dataclass(frozen=True)
@@ -75,50 +75,101 @@ def integrate_batch(
             f"integrate_batch: method {method_name!r} is not batched; batched methods: "
             f"{', '.join(BATCH_METHODS)}"
         )
-    K, n = q0.shape[0], be.system.n
-    samples = nsteps // every + 1
-    # member-innermost: element e of member k at [e * K + k]
-    qi = contiguous(q0.reshape(K, 3 * n).T)
-    wi = contiguous(w0.reshape(K, 3 * n).T)
-    pi = contiguous(params.reshape(K, -1).T)
-    q = np.empty((samples, 3 * n, K))
-    w = np.empty((samples, 3 * n, K))
-    en = np.empty((samples, K)) if with_energy else None
-    stats = (lib.Stats * K)()
-    status = (ctypes.c_int * K)()
-    work = np.zeros(max(1, lib.batch_work))
+    call = BatchCall.of(be, q0, w0, params, nsteps, every, with_energy)
     code = be._fn["integrate_batch"](
-        K,
-        pi,
+        call.K,
+        call.p,
         ctypes.byref(lib.options(options, every)),
         method(method_name).code,
         h,
         nsteps,
-        qi,
-        wi,
-        q,
-        w,
-        pointer(en),
-        work,
-        stats,
-        status,
+        call.q0,
+        call.w0,
+        call.q,
+        call.w,
+        pointer(call.energy),
+        call.work,
+        call.stats,
+        call.status,
     )
-    if code and not any(status):
-        raise ValueError(f"integrate_batch: arguments refused (status {code})")
-    per = [lib.stats(st) for st in stats]
-    for k, st in enumerate(status):  # nothing written past a failure (or at all): NaN
-        if st:
-            for a in (q, w, en):
-                if a is not None:
-                    a[per[k]["fail_step"] :, ..., k] = np.nan
-    return Batch(
-        t=h * every * np.arange(samples),
-        q=q.reshape(samples, n, 3, K).transpose(3, 0, 1, 2),
-        omega=w.reshape(samples, n, 3, K).transpose(3, 0, 1, 2),
-        energy=None if en is None else en.T,
-        status=np.array(list(status), dtype=int),
-        stats={f: np.array([s[f] for s in per]) for f in (per[0] if per else {})},
-    )
+    return Batch(**call.members(lib, code, h * every * np.arange(call.samples)))
+
+
+@dataclass(frozen=True)
+class BatchCall:
+    """One call of a C integrate_batch(): the K members' initial states and parameter vectors
+    laid out member-innermost (element e of member k at [e * K + k]), the output arrays it
+    writes (samples, 3n, K) and its per-member stats and status. `extra` holds further
+    per-sample outputs, shape (samples, K), that a failure cuts as the states (a driven
+    module's work W)."""
+
+    K: int
+    n: int
+    samples: int
+    p: np.ndarray
+    q0: np.ndarray
+    w0: np.ndarray
+    q: np.ndarray
+    w: np.ndarray
+    energy: np.ndarray | None
+    extra: tuple[np.ndarray, ...]
+    work: np.ndarray
+    stats: Any
+    status: Any
+
+    @classmethod
+    def of(
+        cls,
+        be: CBackend,
+        q0: np.ndarray,
+        w0: np.ndarray,
+        params: np.ndarray,
+        nsteps: int,
+        every: int,
+        with_energy: bool,
+        extra: int = 0,
+    ) -> BatchCall:
+        """The buffers of a call for the members (q0[k], w0[k], params[k]), with `extra`
+        per-sample outputs."""
+        lib, K, n = be.library, q0.shape[0], be.system.n
+        samples = nsteps // every + 1
+        return cls(
+            K=K,
+            n=n,
+            samples=samples,
+            p=contiguous(params.reshape(K, -1).T),
+            q0=contiguous(q0.reshape(K, 3 * n).T),
+            w0=contiguous(w0.reshape(K, 3 * n).T),
+            q=np.empty((samples, 3 * n, K)),
+            w=np.empty((samples, 3 * n, K)),
+            energy=np.empty((samples, K)) if with_energy else None,
+            extra=tuple(np.empty((samples, K)) for _ in range(extra)),
+            work=np.zeros(max(1, lib.batch_work)),
+            stats=(lib.Stats * K)(),
+            status=(ctypes.c_int * K)(),
+        )
+
+    def members(self, lib: Any, code: int, t: np.ndarray) -> dict[str, Any]:
+        """The `Batch` fields after the call returned `code` (a one-line ValueError when it
+        refused its arguments): each failed member's samples from its fail_step on are NaN
+        (nothing was written there), in the states, the energy and the extra outputs."""
+        if code and not any(self.status):
+            raise ValueError(f"integrate_batch: arguments refused (status {code})")
+        per = [lib.stats(st) for st in self.stats]
+        for k, st in enumerate(self.status):
+            if st:
+                for a in (self.q, self.w, self.energy, *self.extra):
+                    if a is not None:
+                        a[per[k]["fail_step"] :, ..., k] = np.nan
+        n, K, samples = self.n, self.K, self.samples
+        return {
+            "t": t,
+            "q": self.q.reshape(samples, n, 3, K).transpose(3, 0, 1, 2),
+            "omega": self.w.reshape(samples, n, 3, K).transpose(3, 0, 1, 2),
+            "energy": None if self.energy is None else self.energy.T,
+            "status": np.array(list(self.status), dtype=int),
+            "stats": {f: np.array([s[f] for s in per]) for f in (per[0] if per else {})},
+        }
 
 
 def member_arrays(

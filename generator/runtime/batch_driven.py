@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from s2gen.methods import method
-from s2gen.runtime.batch import Batch
+from s2gen.runtime.batch import Batch, BatchCall
 from s2gen.runtime.c import CBackend, contiguous, pointer
 from s2gen.runtime.options import Options
 from s2gen.system import System
@@ -108,52 +108,25 @@ def integrate_driven_batch(
     lib = be.library
     if not lib.batch:
         raise ValueError(f"{be.system.name}: the module has no integrate_batch()")
-    K, n = q0.shape[0], be.system.n
-    samples = nsteps // every + 1
-    # member-innermost: element e of member k at [e * K + k]
-    qi = contiguous(q0.reshape(K, 3 * n).T)
-    wi = contiguous(w0.reshape(K, 3 * n).T)
-    pi = contiguous(params.reshape(K, -1).T)
-    q = np.empty((samples, 3 * n, K))
-    w = np.empty((samples, 3 * n, K))
-    en = np.empty((samples, K)) if with_energy else None
-    work_done = np.empty((samples, K))
-    stats = (lib.Stats * K)()
-    status = (ctypes.c_int * K)()
-    work = np.zeros(max(1, lib.batch_work))
+    call = BatchCall.of(be, q0, w0, params, nsteps, every, with_energy, extra=1)
     code = be._fn["integrate_batch"](
-        K,
-        pi,
+        call.K,
+        call.p,
         ctypes.byref(lib.options(options, every)),
         method(method_name).code,
         t0,
         h,
         nsteps,
         pointer(u),
-        qi,
-        wi,
-        q,
-        w,
-        pointer(en),
-        pointer(work_done),
-        work,
-        stats,
-        status,
+        call.q0,
+        call.w0,
+        call.q,
+        call.w,
+        pointer(call.energy),
+        pointer(call.extra[0]),
+        call.work,
+        call.stats,
+        call.status,
     )
-    if code and not any(status):
-        raise ValueError(f"integrate_batch: arguments refused (status {code})")
-    per = [lib.stats(st) for st in stats]
-    for k, st in enumerate(status):  # nothing written past a failure (or at all): NaN
-        if st:
-            for a in (q, w, en, work_done):
-                if a is not None:
-                    a[per[k]["fail_step"] :, ..., k] = np.nan
-    return DrivenBatch(
-        t=t0 + h * every * np.arange(samples),
-        q=q.reshape(samples, n, 3, K).transpose(3, 0, 1, 2),
-        omega=w.reshape(samples, n, 3, K).transpose(3, 0, 1, 2),
-        energy=None if en is None else en.T,
-        status=np.array(list(status), dtype=int),
-        stats={f: np.array([s[f] for s in per]) for f in (per[0] if per else {})},
-        W=work_done.T,
-    )
+    t = t0 + h * every * np.arange(call.samples)
+    return DrivenBatch(**call.members(lib, code, t), W=call.extra[0].T)
