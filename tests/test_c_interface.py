@@ -10,11 +10,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from s2gen.build import STRICT_FLAGS
 from s2gen.emit import emit
 from s2gen.methods import Status, method
 from s2gen.runtime import Options, get_backend, simulate
 from s2gen.runtime.c import contiguous, pointer
-from s2gen.systems import builtin
+from s2gen.systems import builtin, resolve
 from s2gen.version import __version__
 
 DRIVER = r"""
@@ -78,6 +79,21 @@ def test_the_c_compiles_as_cpp(tmp_path: Path) -> None:
         proc = _run(cmd, tmp_path)
         assert proc.returncode == 0, proc.stderr[:3000]
 
+
+
+@pytest.mark.parametrize(
+    "name", ["double_pendulum", "dipoles", "four_pendula", "rope:n=10", "forced_double_pendulum"]
+)
+def test_batch_modules_compile_without_warnings(tmp_path: Path, name: str) -> None:
+    """A module with integrate_batch() (the dense M's lanes, the quadratic terms' lanes without
+    a linear part, member tables, lane by lane, a driven one) compiles under -Wall -Wextra
+    -Werror: no unused variable or parameter in any of its lane layouts."""
+    system = resolve(name).with_batch()
+    for fname, text in emit(system, "c").items():
+        (tmp_path / fname).write_text(text)
+    source = f"{system.name}.c"
+    proc = _run(["gcc", *STRICT_FLAGS, "-O2", "-c", source, "-o", "m.o"], tmp_path)
+    assert proc.returncode == 0, proc.stderr[:3000]
 
 def test_two_systems_in_one_translation_unit(tmp_path: Path) -> None:
     """Two systems' .c files included into one file compile (no unprefixed internal macro or
