@@ -80,7 +80,6 @@ def test_the_c_compiles_as_cpp(tmp_path: Path) -> None:
         assert proc.returncode == 0, proc.stderr[:3000]
 
 
-
 @pytest.mark.parametrize(
     "name", ["double_pendulum", "dipoles", "four_pendula", "rope:n=10", "forced_double_pendulum"]
 )
@@ -94,6 +93,7 @@ def test_batch_modules_compile_without_warnings(tmp_path: Path, name: str) -> No
     source = f"{system.name}.c"
     proc = _run(["gcc", *STRICT_FLAGS, "-O2", "-c", source, "-o", "m.o"], tmp_path)
     assert proc.returncode == 0, proc.stderr[:3000]
+
 
 def test_two_systems_in_one_translation_unit(tmp_path: Path) -> None:
     """Two systems' .c files included into one file compile (no unprefixed internal macro or
