@@ -95,7 +95,7 @@ def _read(entry: Mapping[str, Any], n: Any, folder: Path | None, where: str) -> 
 
 def _load(path: Path, suffix: str, at: str) -> np.ndarray:
     """The file's array (no pickled objects); a missing or unreadable file is a SpecError."""
-    if not path.is_file():
+    if not path.exists():
         raise SpecError(f"{at}: no such file")
     try:
         if suffix == ".npy":
