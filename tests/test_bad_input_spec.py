@@ -451,6 +451,16 @@ TOML_CASES: list[tuple[str, str, list[str]]] = [
     ),
     ("data not a table", "data = [1, 2]\n" + BASE, ["'data' must be a table [data]"]),
     (
+        "data file in text with no folder",
+        BASE + '[data]\nc = { file = "c.npy" }\n',
+        ["[data] c: file 'c.npy' is relative, and the spec text has no folder"],
+    ),
+    (
+        "data file of unknown kind",
+        BASE + '[inertia.data]\nl = { file = "/l.xlsx" }\n',
+        ["[inertia] data.l: file '/l.xlsx': unknown kind '.xlsx'"],
+    ),
+    (
         "data named like a parameter",
         BASE + "[data]\nk = [1.0, 2.0]\n",
         ["[data] k: data name 'k' clashes with the parameter 'k'"],

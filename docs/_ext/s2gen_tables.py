@@ -31,14 +31,17 @@ MEANINGS: dict[tuple[str, str], str] = {
     ("", "run"): "default run settings (its keys below; optional)",
     ("", "data"): "a table ``name = list``: per-body arrays, one number or one 3-vector per "
     "body, read by every term (``c`` in body terms, ``ci`` and ``cj`` in pair terms) and by the "
-    "per-body inertia (optional)",
+    "per-body inertia (optional); an entry may name a file instead of listing the values: "
+    '``c = { file = "c.npy" }`` (``.npy``, ``.txt`` or ``.csv``, one row per body, relative to '
+    "the spec's folder)",
     ("inertia", "M"): "the n × n entries of M, numbers or expressions in the parameters",
     ("inertia", "diagonal"): "the diagonal of M: a list of n entries, or one expression per "
     "body in ``i`` (1…n), ``n``, the parameters and the data",
     ("inertia", "max_index"): "c_k of the off-diagonal entries M_ij = scale_i scale_j "
     "c_max(i,j) (a chain); optional",
     ("inertia", "scale"): "a_i of the same (optional, default 1)",
-    ("inertia", "data"): "per-body data for these expressions: one number per body",
+    ("inertia", "data"): "per-body data for these expressions: one number per body (or a "
+    '``{ file = "..." }`` entry, as in ``[data]``)',
     ("inertia", "solver"): "how M's linear systems are solved: "
     + ", ".join(f'``"{s}"``' for s in INERTIA_SOLVERS)
     + " (default ``auto``: the structure's solver where an operation count says it is cheaper)",

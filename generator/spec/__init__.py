@@ -63,6 +63,7 @@ scalar ones by name, as it reads [inertia.data] (an alias)::
 
     [data]
     c = [1.0, -1.0, 0.5]
+    r = { file = "radii.npy" }   # or .txt / .csv, one row per body (`s2gen.spec.files`)
 
 A term expression sees its own vectors (`q`, or `qi` and `qj`), its data, the per-body data,
 the parameters and everything above except the global `q1..qn`. A datum is a list with one entry per member, all
@@ -93,6 +94,7 @@ import numpy as np
 import sympy as sp
 
 from s2gen.spec.data import body_data, scalar_data
+from s2gen.spec.files import read_data_files
 from s2gen.spec.forces import _forces, _inputs
 from s2gen.spec.inertia import chain_inertia
 from s2gen.spec.parser import RESERVED_NAMES, parse_expression
@@ -309,11 +311,15 @@ def load_spec(path: str | Path) -> System:
         raise SpecError(f"{path}: no such spec file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise SpecError(f"{path}: cannot read the spec file ({exc})") from None
-    return load_spec_text(text, origin=str(path))
+    return load_spec_text(text, origin=str(path), folder=path.parent)
 
 
-def load_spec_text(text: str, *, origin: str = "<string>") -> System:
+def load_spec_text(
+    text: str, *, origin: str = "<string>", folder: str | Path | None = None
+) -> System:
     """Parse TOML spec text; `origin` names it in error messages (raises SpecError).
+    `folder` is where relative data file names (``c = { file = "c.npy" }`` in [data] or
+    [inertia.data], see `s2gen.spec.files`) are found; without it they are an error.
 
     Example:
         >>> load_spec_text('name = "p"\\nbodies = 1\\n[parameters]\\nm = 2.0\\n'
@@ -329,6 +335,11 @@ def load_spec_text(text: str, *, origin: str = "<string>") -> System:
         if key not in data:
             raise SpecError(f"{origin}: missing required key {shown(key)}")
     tables = {key: _table(data, key, origin) for key in _TABLE_KEYS}
+    where = None if folder is None else Path(folder)
+    tables["data"] = read_data_files(tables["data"], data["bodies"], where, origin, "[data]")
+    inertia_data = read_data_files(
+        tables["inertia"].get("data"), data["bodies"], where, origin, "[inertia] data."
+    )
     potential = tables["potential"]
     if not {"V", "body", "pair"} & set(potential):
         raise SpecError(
@@ -344,7 +355,7 @@ def load_spec_text(text: str, *, origin: str = "<string>") -> System:
         diagonal=tables["inertia"].get("diagonal"),
         max_index=tables["inertia"].get("max_index"),
         scale=tables["inertia"].get("scale"),
-        inertia_data=tables["inertia"].get("data"),
+        inertia_data=inertia_data,
         inertia_solver=tables["inertia"].get("solver", "auto"),
         initial_q=tables["initial"].get("q"),
         initial_omega=tables["initial"].get("omega"),

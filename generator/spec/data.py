@@ -53,6 +53,11 @@ def _datum(name: Any, values: Any, n: int, params: Mapping[str, float], where: s
     _check_data_name(name, params, where)
     if name == "t":
         raise SpecError(f"{where}: the name 't' is time in term expressions (rename the datum)")
+    if isinstance(values, Mapping) and "file" in values:
+        raise SpecError(
+            f"{where}: a {{file = ...}} entry is read in TOML specs; in Python pass the array "
+            "(e.g. numpy.load(path))"
+        )
     if isinstance(values, (str, bytes, Mapping)) or not hasattr(values, "__len__"):
         raise SpecError(
             f"{where}: expected a list of {n} values (one per body), got {shown(values)}"
