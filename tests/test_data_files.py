@@ -69,10 +69,12 @@ def test_data_from_npy_and_txt_run_as_the_same_data_inline(tmp_path: Path) -> No
         assert np.array_equal(run.omega, truth.omega), kind
 
 
-@pytest.mark.timeout(1.9)
+@pytest.mark.timeout(20)
 def test_a_million_values_load_from_npy_files(tmp_path: Path) -> None:
     """The existing inline test's data (1000 arrays of 1000 bodies) from .npy files, spec
-    parse included; a 2 s load fails here (TOML alone needs about 2 s for them inline)."""
+    parse included. How fast is the benchmark's to say (benchmarks/data_load.py: about 0.1 s,
+    against about 2 s inline); the limit here, as the inline test's, only catches a path
+    that converts number by number (minutes for 10^6 values), on any machine."""
     n = 1000
     values = np.random.default_rng(1).normal(size=(n, 1000))
     for k in range(1000):
