@@ -340,6 +340,20 @@ def test_batches_of_members_per_task_change_nothing(local_client: Any, tmp_path:
         ensemble(s, 2, T=0.1, workers=0, out=tmp_path / "bad", batch_size=0)
 
 
+def test_fresh_workers_load_their_models_while_the_run_sets_up(tmp_path: Path) -> None:
+    """On a local cluster of fresh workers, the models are loaded in the run's set-up (each
+    worker's warm-up), not inside the first members' tasks: no member carries a load, the
+    result counts the loads, and the store is the serial run's."""
+    s = s2gen.load("double_pendulum")
+    kw: dict[str, Any] = {"perturb": {"omega": 1e-13}, "T": 0.5, "every": 5}
+    par = ensemble(s, 16, **kw, workers=2, out=tmp_path / "par")
+    ser = ensemble(s, 16, **kw, workers=0, out=tmp_path / "ser")
+    assert par.workers == 2 and par.written == 16 and par.worker_setup_time > 0.0
+    a = EnsembleStore.open(par.path)
+    assert (a.per_member()["setup_time"] == 0.0).all()
+    _assert_same_stores(a, EnsembleStore.open(ser.path))
+
+
 def test_batch_size_by_measurement() -> None:
     """About TARGET_TASK_SECONDS of integration per task, at most MAX_BATCH members, and
     never so many that some task slot stays empty."""

@@ -37,6 +37,7 @@ from .worker import (
     MemberResult,
     Payload,
     Task,
+    _model,
     _worker_name,
     failed_task,
     run_member,
@@ -45,7 +46,15 @@ from .worker import (
     thin,
 )
 
-__all__ = ["Packed", "pack", "run_batched", "run_members", "run_packed", "unpack"]
+__all__ = [
+    "Packed",
+    "pack",
+    "run_batched",
+    "run_members",
+    "run_packed",
+    "unpack",
+    "warm_up",
+]
 
 _local = threading.local()
 
@@ -62,6 +71,56 @@ def _backend(payload: Payload) -> tuple[Any, float]:
     be = CBackend(payload.system.with_batch(), files=payload.batch_files)
     _local.batch = (payload.digest, be)
     return be, time.perf_counter() - start
+
+
+def warm_up(payload: Payload) -> tuple[float, float]:
+    """Ready this worker thread for the payload's members before the first of them: check the
+    worker's identity (`admission.identity`, refused as a task would be), load the model
+    `run_member` uses and, where the payload has one, the module with integrate_batch(), and
+    import what running them needs; then time the payload table's first member through
+    `run_member` (its result is dropped: the member's own task runs it). Returns the seconds
+    the loads took and that member's integration time (0 when it failed, or without a
+    table), which sets the batch size (`dispatch.batch_size_for`). Each member's result is
+    the same with or without it (the members' tasks load whatever is not loaded yet); an
+    ensemble runs it once per worker while it sets up, so that its members' phase does not
+    pay for a fresh worker's imports and loads, nor wait for a first member to measure.
+
+    Example:
+        >>> import s2gen
+        >>> from s2gen.ensemble.members import member_table
+        >>> from s2gen.ensemble.worker import make_payload
+        >>> s = s2gen.load("double_pendulum")
+        >>> payload = make_payload(s, s2gen.generate(s, "c"), "vi", T=0.1,
+        ...                        batch_files=s2gen.generate(s.with_batch(), "c"),
+        ...                        table=member_table(s, 2, {"omega": 1e-10}, T=0.1))
+        >>> seconds, member = warm_up(payload)
+        >>> seconds >= 0.0, member > 0.0, getattr(_local, "batch")[0] == payload.digest
+        (True, True, True)
+    """
+    start = time.perf_counter()
+    # what running the members imports: now rather than by the first batch
+    import s2gen.runtime.batch
+    import s2gen.runtime.diagnostics
+    import s2gen.runtime.inputs  # noqa: F401
+
+    from . import members  # noqa: F401
+    from .admission import identity
+
+    different = payload.identity.differences(identity())
+    if different:
+        raise RuntimeError(f"worker {_worker_name()} runs {different}: refused")
+    _model(payload)
+    if payload.batch_files is not None:
+        _backend(payload)
+    seconds = time.perf_counter() - start
+    if payload.table is None or not payload.table.members:
+        return seconds, 0.0
+    first = payload.table.members[0]
+    try:
+        r = run_member(payload, Task(first.index, first.h, None, None, first.params))
+    except Exception:  # noqa: BLE001 (the member's own task records why)
+        return seconds, 0.0
+    return seconds, r.wall_time if r.status >= 0 else 0.0
 
 
 def run_batched(payload: Payload, tasks: tuple[Task, ...]) -> tuple[MemberResult, ...] | None:

@@ -14,12 +14,12 @@ the client's s2gen version, generator and build flags (`admission.check_workers`
 How it runs on Dask: the system, its emitted C sources (and those of its module with
 integrate_batch() where the members can run through it, `batched.run_batched`) and the run's
 settings, with the member table, go to every worker once (`client.scatter(...,
-broadcast=True)`); each task carries a batch of consecutive members (their indices, steps
+broadcast=True)`), and each worker loads its models while the run sets up (`_warm_up`); each task carries a batch of consecutive members (their indices, steps
 and parameters; the worker makes their initial states from the table, `worker.task_state`;
 `batch_size` of them, by default
-chosen by measurement, `batch_size_for`: one member runs alone on each worker, so that none
-waits, and the integration time of the first one back sets how many make a task of about
-`TARGET_TASK_SECONDS`). At most `WINDOW_PER_WORKER` tasks
+chosen by measurement, `batch_size_for`: each worker's warm-up times the first member, and
+the first time back sets how many make a task of about `TARGET_TASK_SECONDS`; without one,
+one member runs alone on each worker and the first one back sets it). At most `WINDOW_PER_WORKER` tasks
 per worker are in flight; as each completes (`distributed.as_completed`) the client fetches
 its results, hands them to the store (which writes each chunk of members once, when it is
 complete: `chunks`), drops them and
@@ -57,7 +57,7 @@ from typing import TYPE_CHECKING, Any
 from s2gen.runtime.options import Options
 
 from .admission import check_workers
-from .batched import run_batched, run_packed, unpack
+from .batched import run_batched, run_packed, unpack, warm_up
 from .cluster import CONNECT_TIMEOUT, connect, needs_cluster, worker_count
 from .members import MemberTable, initial_state, member_table
 from .requirements import require
@@ -122,7 +122,7 @@ class EnsembleResult:
     """What an ensemble run did. Times in seconds: `setup_time` from the call to the first
     submission (emission, store, cluster start, payload), `wall_time` from the first
     submission to the last member written, `integration_time` the members' own integration
-    times added up, `worker_setup_time` the models loaded on workers added up."""
+    times added up, `worker_setup_time` the workers' warm-ups and model loads added up."""
 
     path: Path
     members: int
@@ -286,9 +286,10 @@ def ensemble(
             results = _serial(payload, _tasks(table), batch_size)
             return _collect(store, table, results, 0, start, progress)
         data = c.scatter(payload, broadcast=True, hash=False)
+        warm, member = _warm_up(c, data)
         tasks = _tasks(table)
-        results = _on_dask(c, data, payload, tasks, system.n, len(table), batch_size)
-        return _collect(store, table, results, worker_count(c), start, progress)
+        results = _on_dask(c, data, payload, tasks, system.n, len(table), batch_size, member)
+        return _collect(store, table, results, worker_count(c), start, progress, warm)
 
 
 def _serial(payload: Payload, tasks: Iterator[Task], size: int | None) -> Iterator[Batch]:
@@ -309,6 +310,31 @@ def _serial(payload: Payload, tasks: Iterator[Task], size: int | None) -> Iterat
         yield tuple(out)
 
 
+def _warm_up(client: Any, data: Any) -> tuple[float, float | None]:
+    """Each worker readied for the members while the run sets up (`batched.warm_up`: its
+    imports and model loads, which a fresh worker would otherwise pay inside its first
+    tasks, and the first member timed): one task per worker, placed on it but free to run
+    elsewhere if it leaves. The seconds the loads took, added up, and the first member's
+    integration time as the first warm-up back measured it (None if none came back); a
+    warm-up that fails is left alone (the members' tasks then load what they need, and
+    raise what they raise, as without it)."""
+    token = uuid.uuid4().hex[:12]
+    futures = [
+        client.submit(
+            warm_up,
+            data,
+            key=f"s2gen-warm-up-{token}-{j}",
+            workers=[address],
+            allow_other_workers=True,
+        )
+        for j, address in enumerate(client.scheduler_info()["workers"])
+    ]
+    answers = client.gather(futures, errors="skip")
+    for f in futures:
+        f.release()
+    return float(sum(a[0] for a in answers)), (answers[0][1] if answers else None)
+
+
 def _lost(exc: BaseException) -> bool:
     """Whether a task failed because its worker or its data went away (worth resubmitting)."""
     from concurrent.futures import CancelledError
@@ -327,8 +353,11 @@ def _on_dask(
     n: int,
     count: int,
     size: int | None,
+    member: float | None = None,
 ) -> Iterator[Batch]:
-    """Results as their batches complete on the cluster (`data`: the scattered payload)."""
+    """Results as their batches complete on the cluster (`data`: the scattered payload;
+    `member`: one member's measured integration time, which sets the batch size when `size`
+    is None; without either, one member alone per worker measures it first)."""
     from distributed import as_completed
 
     token = uuid.uuid4().hex[:12]
@@ -342,7 +371,12 @@ def _on_dask(
         done.add(future)
 
     window, checked = 0, -math.inf
-    batches: Iterator[tuple[Task, ...]] | None = None if size is None else _batches(tasks, size)
+    batches: Iterator[tuple[Task, ...]] | None = None
+    if size is not None:
+        batches = _batches(tasks, size)
+    elif member is not None:
+        slots = WINDOW_PER_WORKER * max(1, worker_count(client))
+        batches = _batches(tasks, batch_size_for(member, count, slots))
 
     def top_up() -> None:  # keep WINDOW_PER_WORKER tasks per worker in flight, workers may join
         nonlocal window, checked
@@ -388,14 +422,15 @@ def _collect(
     workers: int,
     start: float,
     progress: Progress | None,
+    setup: float = 0.0,
 ) -> EnsembleResult:
     """Write each batch of results as it arrives; flush the statistics at the end, even on
-    interrupt."""
+    interrupt (`setup`: the workers' warm-up seconds, added to their model loads)."""
     first = time.perf_counter()
     order: list[int] = []
     failed: list[int] = []
     errors: list[int] = []
-    integration = setup = 0.0
+    integration = 0.0
     try:
         for batch in results:
             store.write_many(batch)
