@@ -210,3 +210,19 @@ def test_bad_budget_refused_in_one_line(bad: object) -> None:
     with pytest.raises(ValueError, match="max_steps") as info:
         simulate(s, "rk45", h=0.1, T=0.2, backend="numpy", options=Options(max_steps=bad))  # type: ignore[arg-type]
     assert "\n" not in str(info.value)
+
+
+@pytest.mark.timeout(60)
+def test_cli_max_steps(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """``s2gen simulate --max-steps``: a negative budget is one line on stderr (exit 2); a
+    budget of 1 stops the spec's RK45 run at its first interval (exit 1: a failed
+    integration), where the default budget finishes it."""
+    from s2gen.cli import main
+
+    out = str(tmp_path / "t.npz")
+    args = ["simulate", "four_pendula", "--method", "rk45", "--T", "0.5", "--out", out]
+    assert main([*args, "--max-steps", "-1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "max_steps" in err and "\n" not in err
+    assert main([*args, "--max-steps", "1"]) == 1
+    assert main(args) == 0
