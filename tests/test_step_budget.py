@@ -7,7 +7,9 @@ plus rejected) between two output grid points, its samples before that kept. Che
 emitted C (one member, the batch, a driven system), the emitted NumPy and the reference
 integrator, against each other and against step counts of unlimited runs: a budget equal to
 the attempts a run needs lets it finish, one less stops it after exactly that many attempts.
-Each test carries a timeout, so that a driver that ignores the budget fails instead of hanging.
+Each test carries a timeout by pytest-timeout's thread method (a hang inside the emitted C
+never returns to Python, where the signal method would act), so that a driver that ignores the
+budget fails the run instead of stalling it.
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ def attempts(tr: Trajectory) -> int:
     return int(tr.stats["steps"]) + int(tr.stats["rejected"])
 
 
-@pytest.mark.timeout(60)
+@pytest.mark.timeout(60, method="thread")
 @pytest.mark.parametrize("method", ADAPTIVE)
 def test_spin_ends_on_c_with_the_default_budget(method: str) -> None:
     """The 1e100 spin on the emitted C with the default options: ERR_STEPSIZE after exactly
@@ -64,7 +66,7 @@ def test_spin_ends_on_c_with_the_default_budget(method: str) -> None:
     assert 0.0 < float(exc.partial.stats["fail_time"]) < 1e-90  # steps of ~1e-102
 
 
-@pytest.mark.timeout(120)
+@pytest.mark.timeout(120, method="thread")
 @pytest.mark.parametrize("method", ADAPTIVE)
 def test_spin_backends_agree(method: str) -> None:
     """The 1e100 spin with a budget of 300 on C, NumPy and (RK45) the reference: all stop with
@@ -94,7 +96,7 @@ def single_interval(s: System, method: str, backend: str, budget: int) -> Trajec
         raise
 
 
-@pytest.mark.timeout(300)
+@pytest.mark.timeout(300, method="thread")
 @pytest.mark.parametrize(
     ("method", "backend"),
     [("rk45", "c"), ("dop853", "c"), ("rk45", "numpy"), ("dop853", "numpy"), ("rk45", "reference")],
@@ -117,7 +119,7 @@ def test_budget_just_large_enough(method: str, backend: str) -> None:
     assert info.value.partial.t.tolist() == [0.0]
 
 
-@pytest.mark.timeout(300)
+@pytest.mark.timeout(300, method="thread")
 def test_budget_mid_run_backends_agree() -> None:
     """The pendula from rest just off upside down (rtol 1e-6): they speed up as they fall, so
     a later output interval needs the most attempts. The smallest budget that lets the
@@ -154,23 +156,14 @@ def test_budget_mid_run_backends_agree() -> None:
         assert np.allclose(exc.partial.omega, ref.partial.omega, rtol=0.0, atol=1e-8), be
 
 
-@pytest.mark.timeout(120)
-@pytest.mark.parametrize("method", ADAPTIVE)
-def test_batch_lane_spin_fails_alone(method: str) -> None:
-    """integrate_batch with one member spinning 1e100 times too fast (default options): that
-    lane stops with ERR_STEPSIZE after 100000 attempts, every member (it too) bit for bit its
-    one-member run, the others finish."""
+def batch_against_members(
+    method: str, q0: np.ndarray, w0: np.ndarray, opts: Options
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """integrate_batch on four_pendula (h 0.05, 20 steps, every 2nd kept), every member bit
+    for bit its one-member integrate() with the same options: (statuses, batch stats)."""
     s = builtin("four_pendula")
     one, batched = CBackend(s, opt="portable"), CBackend(s.with_batch(), opt="portable")
-    rng = np.random.default_rng(5)
-    q0 = np.array(s.q0)[None] + 1e-2 * rng.standard_normal((K, s.n, 3))
-    q0 /= np.linalg.norm(q0, axis=2, keepdims=True)
-    w0 = np.repeat(np.array(s.omega0)[None], K, axis=0)
     p = np.repeat(np.array(s.parameter_values)[None], K, axis=0)
-    spin = 1  # in the first block, with live neighbours
-    assert spin < BATCH_LANES
-    w0[spin] *= SPIN
-    opts = Options()
     b = integrate_batch(batched, method, 0.05, 20, q0, w0, p, opts, 2)
     for k in range(K):
         status, q, w, _, stats = one.integrate(method, 0.05, 20, q0[k], w0[k], p[k], opts, 2)
@@ -178,14 +171,55 @@ def test_batch_lane_spin_fails_alone(method: str) -> None:
         assert int(b.status[k]) == status, k
         assert np.array_equal(bits(b.q[k, :done]), bits(q[:done])), k
         assert np.array_equal(bits(b.omega[k, :done]), bits(w[:done])), k
-        assert int(b.stats["steps"][k]) == stats["steps"], k
-        assert int(b.stats["rejected"][k]) == stats["rejected"], k
-    assert b.status[spin] == Status.STEPSIZE and b.stats["fail_step"][spin] == 1
-    assert b.stats["steps"][spin] + b.stats["rejected"][spin] == 100000
-    assert (np.delete(b.status, spin) == 0).all()
+        assert np.isnan(b.q[k, done:]).all(), k
+        for f in ("steps", "rejected", "fail_step"):
+            assert int(b.stats[f][k]) == stats[f], (k, f)
+    return np.asarray(b.status), b.stats
 
 
-@pytest.mark.timeout(120)
+def batch_states(spread: float) -> tuple[np.ndarray, np.ndarray]:
+    """K perturbed copies of four_pendula's initial state, the speeds scaled by factors in
+    [1, 1 + spread)."""
+    s = builtin("four_pendula")
+    rng = np.random.default_rng(5)
+    q0 = np.array(s.q0)[None] + 1e-2 * rng.standard_normal((K, s.n, 3))
+    q0 /= np.linalg.norm(q0, axis=2, keepdims=True)
+    w0 = np.repeat(np.array(s.omega0)[None], K, axis=0) * (1 + spread * rng.random((K, 1, 1)))
+    return q0, w0
+
+
+@pytest.mark.timeout(120, method="thread")
+@pytest.mark.parametrize("method", ADAPTIVE)
+def test_batch_lane_spin_fails_alone(method: str) -> None:
+    """integrate_batch with one member spinning 1e100 times too fast (default options): that
+    lane stops with ERR_STEPSIZE after 100000 attempts, every member (it too) bit for bit its
+    one-member run, the others finish."""
+    q0, w0 = batch_states(0.0)
+    spin = 1  # in the first block, with live neighbours
+    assert spin < BATCH_LANES
+    w0[spin] *= SPIN
+    status, stats = batch_against_members(method, q0, w0, Options())
+    assert status[spin] == Status.STEPSIZE and stats["fail_step"][spin] == 1
+    assert stats["steps"][spin] + stats["rejected"][spin] == 100000
+    assert (np.delete(status, spin) == 0).all()
+
+
+@pytest.mark.timeout(120, method="thread")
+@pytest.mark.parametrize(("method", "budget"), [("rk45", 8), ("dop853", 3)])
+def test_batch_budget_per_lane(method: str, budget: int) -> None:
+    """A tight budget (rtol 1e-6) on members of different speeds: each lane spends its own
+    budget, reset at each of its own grid points, so some finish and others stop (DOP853: some
+    of them mid-run), each bit for bit its one-member run."""
+    q0, w0 = batch_states(3.0)
+    status, stats = batch_against_members(method, q0, w0, Options(rtol=1e-6, max_steps=budget))
+    assert (status == 0).any() and (status == Status.STEPSIZE).any()
+    assert set(status.tolist()) <= {0, int(Status.STEPSIZE)}
+    if method == "dop853":
+        late = stats["fail_step"][status == Status.STEPSIZE]
+        assert (late > 1).any()
+
+
+@pytest.mark.timeout(120, method="thread")
 @pytest.mark.parametrize("method", ADAPTIVE)
 def test_driven_spin_ends(method: str) -> None:
     """A driven system (forced_double_pendulum, its default inputs) spinning 1e60 times too
@@ -212,7 +246,7 @@ def test_bad_budget_refused_in_one_line(bad: object) -> None:
     assert "\n" not in str(info.value)
 
 
-@pytest.mark.timeout(60)
+@pytest.mark.timeout(60, method="thread")
 def test_cli_max_steps(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     """``s2gen simulate --max-steps``: a negative budget is one line on stderr (exit 2); a
     budget of 1 stops the spec's RK45 run at its first interval (exit 1: a failed
