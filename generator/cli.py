@@ -101,6 +101,14 @@ def _parser() -> argparse.ArgumentParser:
         help="RK45 error control: MATLAB ode45's (default) or Hairer's/scipy's",
     )
     s.add_argument(
+        "--max-steps",
+        type=int,
+        default=100000,
+        metavar="N",
+        help="RK45/DOP853 step budget: stop after N attempted steps between two samples "
+        "(0: no limit); default 100000",
+    )
+    s.add_argument(
         "--every",
         type=int,
         default=1,

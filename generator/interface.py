@@ -294,6 +294,14 @@ _SPHERE = Interface(
             "integrate() refuses (ERR_ARGUMENT, stats->fail_body) a q0_i with | |q0_i| - 1 | "
             "above this (default 1e-12; <= 0: no check)",
         ),
+        Field(
+            "max_steps",
+            Kind.LONG,
+            "100000",
+            "RK45 and DOP853 step budget: a run stops with ERR_STEPSIZE when it attempts more "
+            "than this many steps (accepted plus rejected) between two points of the output "
+            "grid t = k h (default 100000; <= 0: no limit)",
+        ),
     ),
     stats=(
         Field("steps", Kind.LONG, "0", "accepted steps"),

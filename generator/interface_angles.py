@@ -25,6 +25,13 @@ _OPTIONS_RK45 = (
     Field("atol", Kind.DOUBLE, "1e-6", "RK45 absolute tolerance (default 1e-6)"),
     Field("hmax", Kind.DOUBLE, "0.0", "RK45 largest step; <= 0 means 0.1 * (final time)"),
     Field("control", Kind.INT, "CONTROL_MATLAB", "CONTROL_MATLAB (default) or CONTROL_HAIRER"),
+    Field(
+        "max_steps",
+        Kind.LONG,
+        "100000",
+        "RK45 step budget: ERR_STEPSIZE after more than this many attempted steps between two "
+        "output points (default 100000; <= 0: no limit)",
+    ),
 )
 
 ANGLES = Interface(

@@ -123,8 +123,9 @@ _MESSAGES = {
     "or raise the iteration limit",
     Status.NONFINITE: "the state or its gradient became non-finite",
     Status.ARGUMENT: "invalid argument",
-    Status.STEPSIZE: "the adaptive step size fell below its minimum (a time-transformed "
-    "method: its step-size variable has no valid value)",
+    Status.STEPSIZE: "the adaptive step size fell below its minimum, or the run needed more "
+    "than max_steps steps between samples (a time-transformed method: its step-size variable "
+    "has no valid value)",
     Status.SINGULAR: "a linear system of the inertia was singular (the inertia is not positive "
     "definite at this state)",
     Status.POLE: "a body is at a pole of the angle chart",

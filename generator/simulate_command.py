@@ -123,6 +123,7 @@ def simulate_command(args: argparse.Namespace, delay: float) -> int:
         atol=args.atol if args.atol is not None else (system.run.atol or 1e-6),
         control=args.control,
         energy_warn=args.energy_warn,
+        max_steps=getattr(args, "max_steps", 100000),
     )
     h = args.h if args.h is not None else system.run.h
     T = args.T if args.T is not None else system.run.T

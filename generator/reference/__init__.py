@@ -157,12 +157,14 @@ def integrate(
     newton_maxiter: int = 50,
     monitor: MonitorFn | None = None,
     every: int = 1,
+    max_steps: int = 100000,
 ) -> RefTrajectory:
     """Integrate from (q0, w0) at t = 0 and sample at t_k = k h, k = 0..nsteps.
 
     `method` is one of METHODS. For "rk45", h is only the output spacing; steps are adaptive
     with tolerances rtol/atol, `control` "matlab" (ode45; hmax defaults to T/10) or "hairer"
-    (SciPy's RK45; hmax defaults to infinity). For "vi" with coupled M, Newton stops when
+    (SciPy's RK45; hmax defaults to infinity) and at most `max_steps` attempted steps
+    between two samples (0: no limit; more raise StepSizeUnderflow). For "vi" with coupled M, Newton stops when
     max|update| <= newton_tol * max(1, max|f|) and fails after newton_maxiter iterations.
     A time-transformed method (``"vi-adaptive"``, ...) takes h as its fictitious step eps,
     needs the `monitor` (`adaptive.monitor_from_system`) and samples only t_k = k every h
@@ -207,7 +209,7 @@ def integrate(
     elif nsteps > 0:
         T = float(rec.t[-1])
         if control == "matlab":
-            _rk45_matlab(rec, y0, T, rtol, atol, 0.1 * T if hmax is None else hmax)
+            _rk45_matlab(rec, y0, T, rtol, atol, 0.1 * T if hmax is None else hmax, max_steps)
         else:
-            _rk45_hairer(rec, y0, T, rtol, atol, np.inf if hmax is None else hmax)
+            _rk45_hairer(rec, y0, T, rtol, atol, np.inf if hmax is None else hmax, max_steps)
     return rec.trajectory()

@@ -1,7 +1,8 @@
 """Dormand-Prince 5(4) with dense output on the grid, MATLAB ode45 or Hairer/SciPy control.
 
 Input: a `_Recorder` (problem, output grid t_k = k h), the initial flat state y0, the final
-time T, tolerances rtol/atol and the largest step hmax.
+time T, tolerances rtol/atol, the largest step hmax and the step budget (the most attempted
+steps between two grid points; 0: none).
 Output: the recorder filled at every grid point (accepted steps advance adaptively, FSAL; grid
 points inside a step come from Shampine's 4th-order interpolant) and its counts of accepted
 and rejected steps and field evaluations. Failures raise `SingularSystem`, `NonFiniteState`
@@ -86,6 +87,24 @@ def _emit_dense(
             rec.push(y + h * (K.T @ (_DP_BI @ np.array([s, s**2, s**3, s**4]))))
 
 
+class _Budget:
+    """The step budget: attempts since the recorder's last grid point, a `StepSizeUnderflow`
+    before one past `limit` (0: no limit)."""
+
+    def __init__(self, rec: _Recorder, limit: int) -> None:
+        self.rec, self.limit, self.mark, self.tries = rec, limit, rec.count, 0
+
+    def attempt(self, t: float) -> None:
+        """Count one attempted step from t (raises when the budget is spent)."""
+        if self.rec.count != self.mark:  # a grid point passed: a new budget
+            self.mark, self.tries = self.rec.count, 0
+        if 0 < self.limit <= self.tries:
+            raise self.rec.fail(
+                StepSizeUnderflow, f"more than {self.limit} steps between samples (t = {t:g})"
+            )
+        self.tries += 1
+
+
 def _matlab_initial_step(
     k1: Array, y0: Array, T: float, rtol: float, threshold: float, hmax: float
 ) -> float:
@@ -111,12 +130,14 @@ def _matlab_step(
     T: float,
     rtol: float,
     threshold: float,
+    budget: _Budget,
 ) -> tuple[float, Array, Array, float, float, float, bool, bool]:
     """Attempt until accepted; returns (t_new, y_new, K, h, absh, err, nofailed, done)."""
     h = T - t if done else absh
     nofailed = True
     while True:
         hmin = 16.0 * float(np.spacing(t))
+        budget.attempt(t)
         y_new, K = _dp_attempt(rec, fun, y, k1, h)
         t_new = T if done else t + h
         h = t_new - t  # "purify" h, as ode45 does
@@ -137,20 +158,21 @@ def _matlab_step(
 
 
 def _rk45_matlab(
-    rec: _Recorder, y0: Array, T: float, rtol: float, atol: float, hmax: float
+    rec: _Recorder, y0: Array, T: float, rtol: float, atol: float, hmax: float, max_steps: int
 ) -> None:
     """Dormand-Prince with MATLAB ode45's error norm and step-size logic."""
     fun = _vector_field(rec)
     threshold = atol / rtol
     t, y, k1 = 0.0, y0, _initial_slope(rec, fun, y0)
     absh = _matlab_initial_step(k1, y0, T, rtol, threshold, hmax)
+    budget = _Budget(rec, max_steps)
     done = False
     while not done:
         absh = min(hmax, max(16.0 * float(np.spacing(t)), absh))
         if 1.1 * absh >= T - t:  # stretch the last step to hit T
             absh, done = T - t, True
         t_new, y_new, K, h, absh, err, nofailed, done = _matlab_step(
-            rec, fun, t, y, k1, absh, done, T, rtol, threshold
+            rec, fun, t, y, k1, absh, done, T, rtol, threshold, budget
         )
         rec.stats["steps"] += 1
         _emit_dense(rec, t, y, t_new, y_new, K, h)
@@ -197,6 +219,7 @@ def _hairer_step(
     rtol: float,
     atol: float,
     hmax: float,
+    budget: _Budget,
 ) -> tuple[float, Array, Array, float, float]:
     """Attempt until accepted; returns (t_new, y_new, K, h, next h_abs)."""
     min_step = 10.0 * abs(float(np.nextafter(t, np.inf)) - t)
@@ -207,6 +230,7 @@ def _hairer_step(
             raise rec.fail(
                 StepSizeUnderflow, f"step size {h_abs:g} at t = {t:g} fell below {min_step:g}"
             )
+        budget.attempt(t)
         t_new = min(t + h_abs, T)  # clip the last step at T
         h = t_new - t
         y_new, K = _dp_attempt(rec, fun, y, k1, h)
@@ -223,7 +247,7 @@ def _hairer_step(
 
 
 def _rk45_hairer(
-    rec: _Recorder, y0: Array, T: float, rtol: float, atol: float, hmax: float
+    rec: _Recorder, y0: Array, T: float, rtol: float, atol: float, hmax: float, max_steps: int
 ) -> None:
     """Dormand-Prince with Hairer's (SciPy's) RMS error norm and step-size logic."""
     fun = _vector_field(rec)
@@ -232,8 +256,11 @@ def _rk45_hairer(
         h_abs = _hairer_initial_step(fun, y0, k1, T, hmax, rtol, atol)
     except np.linalg.LinAlgError as exc:
         raise rec.fail(SingularSystem, f"linear solve failed ({exc})") from exc
+    budget = _Budget(rec, max_steps)
     while t < T:
-        t_new, y_new, K, h, h_abs = _hairer_step(rec, fun, t, y, k1, h_abs, T, rtol, atol, hmax)
+        t_new, y_new, K, h, h_abs = _hairer_step(
+            rec, fun, t, y, k1, h_abs, T, rtol, atol, hmax, budget
+        )
         rec.stats["steps"] += 1
         _emit_dense(rec, t, y, t_new, y_new, K, h)
         t, y, k1 = t_new, y_new, K[6]

@@ -12,7 +12,8 @@ t_step+1), ``exc.partial`` the `RefTrajectory` up to and including t_step, ``exc
 * `NonFiniteState` (NONFINITE): the state (or a Runge-Kutta stage) became non-finite;
 * `SingularSystem` (SINGULAR): a linear solve outside Newton failed (the velocity solve of the
   VI, the continuous field's A(q) wdot = b);
-* `StepSizeUnderflow` (STEPSIZE): an adaptive step fell below its minimum (RK45, DOP853), or
+* `StepSizeUnderflow` (STEPSIZE): an adaptive step fell below its minimum (RK45, DOP853) or
+  the run spent its step budget (more than max_steps attempts between two samples), or
   a time-transformed method's step-size variable has no valid value.
 
 Example:
@@ -95,6 +96,7 @@ class SingularSystem(ReferenceIntegrationError):
 
 class StepSizeUnderflow(ReferenceIntegrationError):
     """An adaptive step size fell below its minimum (MATLAB's hmin or SciPy's min_step), or
-    a time-transformed method's step-size variable xi has no valid value (`adaptive`)."""
+    the run attempted more than max_steps steps between two samples, or a time-transformed
+    method's step-size variable xi has no valid value (`adaptive`)."""
 
     status = Status.STEPSIZE

@@ -435,6 +435,13 @@ def _check_options(opts: Options) -> None:
     maxiter = opts.newton_maxiter
     if isinstance(maxiter, bool) or not isinstance(maxiter, numbers.Integral) or maxiter < 1:
         raise ValueError(f"newton_maxiter = {maxiter!r}: must be a whole number, at least 1")
+    budget = opts.max_steps
+    if isinstance(budget, bool) or not isinstance(budget, numbers.Integral):
+        raise ValueError(  # noqa: TRY004 (bad input is a ValueError: the CLI reports those)
+            f"max_steps = {budget!r}: must be a whole number >= 0 (0: no limit)"
+        )
+    if not 0 <= int(budget) <= 2**31 - 1:
+        raise ValueError(f"max_steps = {budget}: must lie between 0 (no limit) and 2147483647")
     if math.isnan(opts.energy_warn) or opts.energy_warn < 0:
         raise ValueError(f"energy_warn = {opts.energy_warn}: must be >= 0 (0 or inf: no check)")
     if opts.control not in CONTROLS:

@@ -225,6 +225,7 @@ class AngleNumpy:
             atol=options.atol,
             control=CONTROLS.index(options.control),
             hmax=options.hmax,
+            max_steps=options.max_steps,
         )
         return int(status), x, xd, en, counts, {k: float(v) for k, v in stats.items()}
 

@@ -146,6 +146,7 @@ class CLibrary:
             "newton_tol": options.newton_tol,
             "newton_maxiter": options.newton_maxiter,
             "unit_tol": options.unit_tol,
+            "max_steps": options.max_steps,
             "every": every,
         }
         for f in self.api.options:

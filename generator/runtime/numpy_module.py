@@ -115,6 +115,7 @@ class NumpyBackend:
             every=every,
             unit_tol=options.unit_tol,
             with_energy=with_energy,
+            max_steps=options.max_steps,
         )
 
     def _check_transformed(self) -> None:

@@ -240,6 +240,7 @@ class ReferenceBackend:
                 newton_maxiter=options.newton_maxiter,
                 monitor=monitor,
                 every=every,
+                max_steps=options.max_steps,
             )
             en = tr.energy[::stride] if with_energy else None
             return 0, tr.q[::stride], tr.omega[::stride], en, dict(tr.stats)

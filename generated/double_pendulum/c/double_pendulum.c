@@ -720,6 +720,7 @@ void double_pendulum_default_options(double_pendulum_options *opt)
     opt->newton_tol = 1e-14;
     opt->newton_maxiter = 50;
     opt->unit_tol = 1e-12;
+    opt->max_steps = 100000;
 }
 /* ---- potential and its gradient ------------------------------------------------------------- */
 
@@ -1465,7 +1466,7 @@ static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pend
     const double tend = hout * (double)nsteps;
     const double hmax = opt->hmax > 0.0 ? opt->hmax : 0.1 * tend;
     double t = 0.0, h;
-    long next = 1;
+    long next = 1, tries = 0;
     int s, e, status;
     if (!(opt->rtol > 0.0) || !(opt->atol > 0.0)) {
         return DOUBLE_PENDULUM_ERR_ARGUMENT;
@@ -1492,6 +1493,10 @@ static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pend
         }
         for (;;) {
             int st;
+            if (opt->max_steps > 0 && tries >= opt->max_steps) { /* the step budget */
+                return DOUBLE_PENDULUM_ERR_STEPSIZE;
+            }
+            tries += 1;
             tn = (h == tend - t) ? tend : t + h;
             h = tn - t;
             for (st = 1; st < 7; ++st) {
@@ -1533,6 +1538,7 @@ static int double_pendulum_rk45(const double_pendulum_ctx *cx, const double_pend
         stats->steps += 1;
         /* samples in (t, tn] from the continuous extension */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            tries = 0;
             if (!(next % every == 0)) {
                 next += 1;
                 continue;
@@ -1670,7 +1676,7 @@ static int double_pendulum_dop853(const double_pendulum_ctx *cx, const double_pe
     /* h_new / h = 1 / fac lies in [0.333, 6] (fac1, fac2 of dop853.f) */
     const double fac_max = 1.0 / 0.333, fac_min = 1.0 / 6.0;
     double t = 0.0, h;
-    long next = 1;
+    long next = 1, tries = 0;
     int s, e, status, reject = 0;
     if (!(opt->rtol > 0.0) || !(opt->atol > 0.0)) {
         return DOUBLE_PENDULUM_ERR_ARGUMENT;
@@ -1695,6 +1701,10 @@ static int double_pendulum_dop853(const double_pendulum_ctx *cx, const double_pe
             h = tend - t;
         }
         for (;;) {
+            if (opt->max_steps > 0 && tries >= opt->max_steps) { /* the step budget */
+                return DOUBLE_PENDULUM_ERR_STEPSIZE;
+            }
+            tries += 1;
             tn = (h == tend - t) ? tend : t + h;
             h = tn - t;
             for (e = 0; e < DOUBLE_PENDULUM_NS; ++e) {
@@ -1858,6 +1868,7 @@ static int double_pendulum_dop853(const double_pendulum_ctx *cx, const double_pe
         stats->steps += 1;
         /* samples in (t, tn]: the new state, or the continuous extension (dop853.f's CONTD8) */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            tries = 0;
             if (!(next % every == 0)) {
                 next += 1;
                 continue;

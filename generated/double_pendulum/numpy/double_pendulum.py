@@ -37,7 +37,7 @@ ERR_INFEASIBLE = 1  # explicit step infeasible (|a_i| > 1 for some body): reduce
 ERR_NEWTON = 2  # Newton's method did not converge in an implicit step: reduce the step size or raise the iteration limit
 ERR_NONFINITE = 3  # the state or its gradient became non-finite
 ERR_ARGUMENT = 4  # invalid argument
-ERR_STEPSIZE = 5  # the adaptive step size fell below its minimum (a time-transformed method: its step-size variable has no valid value)
+ERR_STEPSIZE = 5  # the adaptive step size fell below its minimum, or the run needed more than max_steps steps between samples (a time-transformed method: its step-size variable has no valid value)
 ERR_SINGULAR = 6  # a linear system of the inertia was singular (the inertia is not positive definite at this state)
 METHOD_VI = 0  # the paper's variational integrator, order 2
 METHOD_RK45 = 1  # Dormand-Prince 5(4), adaptive, output on the grid by its 4th-order interpolant, order 5
@@ -747,7 +747,7 @@ def _rk45_h0(p, control, rtol, atol, span, hmax, y, f0, stats):
     return 1.0 / rh if h * rh > 1.0 else h
 
 
-def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
+def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, max_steps, stats, state):
     """Adaptive Dormand-Prince from y0 over nsteps output intervals of length hout; store(nxt,
     ys) writes sample nxt. For failure reports state[0] holds the last accepted y and state[1]
     the state of the last field evaluation (or trial step)."""
@@ -763,7 +763,7 @@ def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
     if status != OK:
         return status
     h = _rk45_h0(p, control, rtol, atol, tend, hmax, y, k[0], stats)
-    t, nxt = 0.0, 1
+    t, nxt, tries = 0.0, 1, 0
     while nxt <= nsteps:
         hmin = 16.0 * (numpy.nextafter(t, numpy.inf) - t)
         h = min(hmax, max(hmin, h))
@@ -771,6 +771,9 @@ def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
             h = tend - t
         failed = False
         while True:
+            if max_steps > 0 and tries >= max_steps:  # the step budget
+                return ERR_STEPSIZE
+            tries += 1
             tn = tend if h == tend - t else t + h
             h = tn - t
             for st in range(1, 7):
@@ -800,6 +803,7 @@ def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
             failed = True
         stats["steps"] += 1
         while nxt <= nsteps and (tn >= tend if nxt == nsteps else hout * nxt <= tn):
+            tries = 0
             if nxt == nsteps or hout * nxt == tn:
                 ys = yn
             else:
@@ -875,7 +879,7 @@ def _dop853_h0(p, rtol, atol, hmax, y, f0, stats):
     return min(100.0 * h, h1, hmax)
 
 
-def _dop853(p, hout, nsteps, every, y0, store, rtol, atol, hmax, stats, state):
+def _dop853(p, hout, nsteps, every, y0, store, rtol, atol, hmax, max_steps, stats, state):
     """Adaptive DOP853 from y0 over nsteps output intervals of length hout; store(nxt, ys)
     writes sample nxt for every `every`-th grid point (from the continuous extension inside a
     step). For failure reports state[0] holds the last accepted y."""
@@ -892,13 +896,16 @@ def _dop853(p, hout, nsteps, every, y0, store, rtol, atol, hmax, stats, state):
     if status != OK:
         return status
     h = _dop853_h0(p, rtol, atol, hmax, y, k[0], stats)
-    t, nxt, reject = 0.0, 1, False
+    t, nxt, reject, tries = 0.0, 1, False, 0
     while nxt <= nsteps:
         hmin = 16.0 * (numpy.nextafter(t, numpy.inf) - t)
         h = min(hmax, max(hmin, h))
         if t + 1.01 * h >= tend:
             h = tend - t
         while True:
+            if max_steps > 0 and tries >= max_steps:  # the step budget
+                return ERR_STEPSIZE
+            tries += 1
             tn = tend if h == tend - t else t + h
             h = tn - t
             status, k[1] = _field(p, y + h * (0.05260015195876773 * k[0]))
@@ -1010,6 +1017,7 @@ def _dop853(p, hout, nsteps, every, y0, store, rtol, atol, hmax, stats, state):
         stats["steps"] += 1
         dense = False
         while nxt <= nsteps and (tn >= tend if nxt == nsteps else hout * nxt <= tn):
+            tries = 0
             if nxt % every != 0:
                 nxt += 1
                 continue
@@ -1201,7 +1209,7 @@ def _fixed(p, method, h, nsteps, every, q0, w0, store, stats):
 
 def integrate(p, method, h, nsteps, q0, w0, rtol=1e-3, atol=1e-6, control=CONTROL_MATLAB,
               hmax=0.0, newton_tol=1e-14, newton_maxiter=50, every=1, unit_tol=1e-12,
-              with_energy=True):
+              with_energy=True, max_steps=100000):
     """Integrate nsteps steps of size h (RK45: output spacing h) from (q0, w0), storing every
     `every`-th sample (nsteps must be a multiple of it).
 
@@ -1213,11 +1221,11 @@ def integrate(p, method, h, nsteps, q0, w0, rtol=1e-3, atol=1e-6, control=CONTRO
     """
     with numpy.errstate(all="ignore"):
         return _integrate(p, method, h, nsteps, q0, w0, rtol, atol, control, hmax, newton_tol,
-                          newton_maxiter, every, unit_tol, with_energy)
+                          newton_maxiter, every, unit_tol, with_energy, max_steps)
 
 
 def _integrate(p, method, h, nsteps, q0, w0, rtol, atol, control, hmax, newton_tol,
-               newton_maxiter, every, unit_tol, with_energy):
+               newton_maxiter, every, unit_tol, with_energy, max_steps):
     stats = {
         "steps": 0,
         "rejected": 0,
@@ -1258,14 +1266,16 @@ def _integrate(p, method, h, nsteps, q0, w0, rtol, atol, control, hmax, newton_t
                 store(nxt // every, ys[:NBODIES], ys[NBODIES:])
 
         y0 = numpy.concatenate([q0, w0])
-        status = _rk45(p, h, nsteps, y0, sample, rtol, atol, control, hmax, stats, [None, None])
+        status = _rk45(p, h, nsteps, y0, sample, rtol, atol, control, hmax, max_steps, stats,
+                      [None, None])
     elif method == METHOD_DOP853:
 
         def kept(nxt, ys):
             store(nxt // every, ys[:NBODIES], ys[NBODIES:])
 
         y0 = numpy.concatenate([q0, w0])
-        status = _dop853(p, h, nsteps, every, y0, kept, rtol, atol, hmax, stats, [None])
+        status = _dop853(p, h, nsteps, every, y0, kept, rtol, atol, hmax, max_steps, stats,
+                        [None])
     elif method in SCHEMES:
         status = _geometric(p, method, h, nsteps, every, q0, w0, store, stats, newton_tol,
                             newton_maxiter)

@@ -355,6 +355,7 @@ void double_pendulum_angles_default_options(double_pendulum_angles_options *opt)
     opt->atol = 1e-6;
     opt->hmax = 0.0;
     opt->control = DOUBLE_PENDULUM_ANGLES_CONTROL_MATLAB;
+    opt->max_steps = 100000;
 }
 /* ---- conversions and energy ------------------------------------------------------------------ */
 
@@ -660,7 +661,7 @@ static int double_pendulum_angles_rk45(const double_pendulum_angles_ctx *cx, con
     const double tend = hout * (double)nsteps;
     const double hmax = opt->hmax > 0.0 ? opt->hmax : 0.1 * tend;
     double t = 0.0, h;
-    long next = 1;
+    long next = 1, tries = 0;
     int s, e, status;
     if (!(opt->rtol > 0.0) || !(opt->atol > 0.0)) {
         return DOUBLE_PENDULUM_ANGLES_ERR_ARGUMENT;
@@ -687,6 +688,10 @@ static int double_pendulum_angles_rk45(const double_pendulum_angles_ctx *cx, con
         }
         for (;;) {
             int st;
+            if (opt->max_steps > 0 && tries >= opt->max_steps) { /* the step budget */
+                return DOUBLE_PENDULUM_ANGLES_ERR_STEPSIZE;
+            }
+            tries += 1;
             tn = (h == tend - t) ? tend : t + h;
             h = tn - t;
             for (st = 1; st < 7; ++st) {
@@ -728,6 +733,7 @@ static int double_pendulum_angles_rk45(const double_pendulum_angles_ctx *cx, con
         stats->steps += 1;
         /* samples in (t, tn] from the continuous extension */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            tries = 0;
             if (!(1)) {
                 next += 1;
                 continue;

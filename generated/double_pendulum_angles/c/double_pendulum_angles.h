@@ -42,7 +42,7 @@ enum {
     DOUBLE_PENDULUM_ANGLES_OK = 0, /* success */
     DOUBLE_PENDULUM_ANGLES_ERR_NONFINITE = 3, /* the state or its gradient became non-finite */
     DOUBLE_PENDULUM_ANGLES_ERR_ARGUMENT = 4, /* invalid argument */
-    DOUBLE_PENDULUM_ANGLES_ERR_STEPSIZE = 5, /* the adaptive step size fell below its minimum (a time-transformed method: its step-size variable has no valid value) */
+    DOUBLE_PENDULUM_ANGLES_ERR_STEPSIZE = 5, /* the adaptive step size fell below its minimum, or the run needed more than max_steps steps between samples (a time-transformed method: its step-size variable has no valid value) */
     DOUBLE_PENDULUM_ANGLES_ERR_SINGULAR = 6, /* a linear system of the inertia was singular (the inertia is not positive definite at this state) */
     DOUBLE_PENDULUM_ANGLES_ERR_POLE = 7 /* a body is at a pole of the angle chart */
 };
@@ -62,6 +62,7 @@ typedef struct {
     double atol; /* RK45 absolute tolerance (default 1e-6) */
     double hmax; /* RK45 largest step; <= 0 means 0.1 * (final time) */
     int control; /* DOUBLE_PENDULUM_ANGLES_CONTROL_MATLAB (default) or DOUBLE_PENDULUM_ANGLES_CONTROL_HAIRER */
+    long max_steps; /* RK45 step budget: ERR_STEPSIZE after more than this many attempted steps between two output points (default 100000; <= 0: no limit) */
 } double_pendulum_angles_options;
 
 typedef struct {

@@ -35,7 +35,7 @@ DEFAULT_PARAMS = (1.0, 1.0, 9.81, 9.81, 9.81, )
 OK = 0  # success
 ERR_NONFINITE = 3  # the state or its gradient became non-finite
 ERR_ARGUMENT = 4  # invalid argument
-ERR_STEPSIZE = 5  # the adaptive step size fell below its minimum (a time-transformed method: its step-size variable has no valid value)
+ERR_STEPSIZE = 5  # the adaptive step size fell below its minimum, or the run needed more than max_steps steps between samples (a time-transformed method: its step-size variable has no valid value)
 ERR_SINGULAR = 6  # a linear system of the inertia was singular (the inertia is not positive definite at this state)
 ERR_POLE = 7  # a body is at a pole of the angle chart
 METHOD_RK45 = 1  # Dormand-Prince 5(4), adaptive, output on the grid by its 4th-order interpolant, order 5
@@ -416,7 +416,7 @@ def _rk45_h0(p, control, rtol, atol, span, hmax, y, f0, stats):
     return 1.0 / rh if h * rh > 1.0 else h
 
 
-def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
+def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, max_steps, stats, state):
     """Adaptive Dormand-Prince from y0 over nsteps output intervals of length hout; store(nxt,
     ys) writes sample nxt. For failure reports state[0] holds the last accepted y and state[1]
     the state of the last field evaluation (or trial step)."""
@@ -432,7 +432,7 @@ def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
     if status != OK:
         return status
     h = _rk45_h0(p, control, rtol, atol, tend, hmax, y, k[0], stats)
-    t, nxt = 0.0, 1
+    t, nxt, tries = 0.0, 1, 0
     while nxt <= nsteps:
         hmin = 16.0 * (numpy.nextafter(t, numpy.inf) - t)
         h = min(hmax, max(hmin, h))
@@ -440,6 +440,9 @@ def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
             h = tend - t
         failed = False
         while True:
+            if max_steps > 0 and tries >= max_steps:  # the step budget
+                return ERR_STEPSIZE
+            tries += 1
             tn = tend if h == tend - t else t + h
             h = tn - t
             for st in range(1, 7):
@@ -469,6 +472,7 @@ def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
             failed = True
         stats["steps"] += 1
         while nxt <= nsteps and (tn >= tend if nxt == nsteps else hout * nxt <= tn):
+            tries = 0
             if nxt == nsteps or hout * nxt == tn:
                 ys = yn
             else:
@@ -500,7 +504,7 @@ def _rk45(p, hout, nsteps, y0, store, rtol, atol, control, hmax, stats, state):
 
 
 def integrate(p, method, h, nsteps, x0, xd0, rtol=1e-3, atol=1e-6, control=CONTROL_MATLAB,
-              hmax=0.0):
+              hmax=0.0, max_steps=100000):
     """Integrate nsteps steps of size h (RK45: output spacing h) from (x0, xd0).
 
     Returns (status, x, xd, energy, counts, stats); x and xd have shape (nsteps+1, 4),
@@ -537,7 +541,7 @@ def integrate(p, method, h, nsteps, x0, xd0, rtol=1e-3, atol=1e-6, control=CONTR
 
         state = [None, None]
         y0 = numpy.concatenate([x[0], xd[0]])
-        status = _rk45(p, h, nsteps, y0, store, rtol, atol, control, hmax, stats, state)
+        status = _rk45(p, h, nsteps, y0, store, rtol, atol, control, hmax, max_steps, stats, state)
         if status != OK:
             _locate(state[1], state[0], stats)
         return status, x, xd, en, counts, stats

@@ -392,6 +392,7 @@ void four_pendula_default_options(four_pendula_options *opt)
     opt->newton_tol = 1e-14;
     opt->newton_maxiter = 50;
     opt->unit_tol = 1e-12;
+    opt->max_steps = 100000;
 }
 /* ---- potential and its gradient ------------------------------------------------------------- */
 
@@ -1144,7 +1145,7 @@ static int four_pendula_rk45(const four_pendula_ctx *cx, const four_pendula_opti
     const double tend = hout * (double)nsteps;
     const double hmax = opt->hmax > 0.0 ? opt->hmax : 0.1 * tend;
     double t = 0.0, h;
-    long next = 1;
+    long next = 1, tries = 0;
     int s, e, status;
     if (!(opt->rtol > 0.0) || !(opt->atol > 0.0)) {
         return FOUR_PENDULA_ERR_ARGUMENT;
@@ -1171,6 +1172,10 @@ static int four_pendula_rk45(const four_pendula_ctx *cx, const four_pendula_opti
         }
         for (;;) {
             int st;
+            if (opt->max_steps > 0 && tries >= opt->max_steps) { /* the step budget */
+                return FOUR_PENDULA_ERR_STEPSIZE;
+            }
+            tries += 1;
             tn = (h == tend - t) ? tend : t + h;
             h = tn - t;
             for (st = 1; st < 7; ++st) {
@@ -1212,6 +1217,7 @@ static int four_pendula_rk45(const four_pendula_ctx *cx, const four_pendula_opti
         stats->steps += 1;
         /* samples in (t, tn] from the continuous extension */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            tries = 0;
             if (!(next % every == 0)) {
                 next += 1;
                 continue;
@@ -1349,7 +1355,7 @@ static int four_pendula_dop853(const four_pendula_ctx *cx, const four_pendula_op
     /* h_new / h = 1 / fac lies in [0.333, 6] (fac1, fac2 of dop853.f) */
     const double fac_max = 1.0 / 0.333, fac_min = 1.0 / 6.0;
     double t = 0.0, h;
-    long next = 1;
+    long next = 1, tries = 0;
     int s, e, status, reject = 0;
     if (!(opt->rtol > 0.0) || !(opt->atol > 0.0)) {
         return FOUR_PENDULA_ERR_ARGUMENT;
@@ -1374,6 +1380,10 @@ static int four_pendula_dop853(const four_pendula_ctx *cx, const four_pendula_op
             h = tend - t;
         }
         for (;;) {
+            if (opt->max_steps > 0 && tries >= opt->max_steps) { /* the step budget */
+                return FOUR_PENDULA_ERR_STEPSIZE;
+            }
+            tries += 1;
             tn = (h == tend - t) ? tend : t + h;
             h = tn - t;
             for (e = 0; e < FOUR_PENDULA_NS; ++e) {
@@ -1537,6 +1547,7 @@ static int four_pendula_dop853(const four_pendula_ctx *cx, const four_pendula_op
         stats->steps += 1;
         /* samples in (t, tn]: the new state, or the continuous extension (dop853.f's CONTD8) */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            tries = 0;
             if (!(next % every == 0)) {
                 next += 1;
                 continue;

@@ -378,6 +378,7 @@ void lj_cutoff_default_options(lj_cutoff_options *opt)
     opt->newton_tol = 1e-14;
     opt->newton_maxiter = 50;
     opt->unit_tol = 1e-12;
+    opt->max_steps = 100000;
 }
 /* ---- potential and its gradient ------------------------------------------------------------- */
 
@@ -1362,7 +1363,7 @@ static int lj_cutoff_rk45(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
     const double tend = hout * (double)nsteps;
     const double hmax = opt->hmax > 0.0 ? opt->hmax : 0.1 * tend;
     double t = 0.0, h;
-    long next = 1;
+    long next = 1, tries = 0;
     int s, e, status;
     if (!(opt->rtol > 0.0) || !(opt->atol > 0.0)) {
         return LJ_CUTOFF_ERR_ARGUMENT;
@@ -1389,6 +1390,10 @@ static int lj_cutoff_rk45(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
         }
         for (;;) {
             int st;
+            if (opt->max_steps > 0 && tries >= opt->max_steps) { /* the step budget */
+                return LJ_CUTOFF_ERR_STEPSIZE;
+            }
+            tries += 1;
             tn = (h == tend - t) ? tend : t + h;
             h = tn - t;
             for (st = 1; st < 7; ++st) {
@@ -1430,6 +1435,7 @@ static int lj_cutoff_rk45(const lj_cutoff_ctx *cx, const lj_cutoff_options *opt,
         stats->steps += 1;
         /* samples in (t, tn] from the continuous extension */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            tries = 0;
             if (!(next % every == 0)) {
                 next += 1;
                 continue;
@@ -1567,7 +1573,7 @@ static int lj_cutoff_dop853(const lj_cutoff_ctx *cx, const lj_cutoff_options *op
     /* h_new / h = 1 / fac lies in [0.333, 6] (fac1, fac2 of dop853.f) */
     const double fac_max = 1.0 / 0.333, fac_min = 1.0 / 6.0;
     double t = 0.0, h;
-    long next = 1;
+    long next = 1, tries = 0;
     int s, e, status, reject = 0;
     if (!(opt->rtol > 0.0) || !(opt->atol > 0.0)) {
         return LJ_CUTOFF_ERR_ARGUMENT;
@@ -1592,6 +1598,10 @@ static int lj_cutoff_dop853(const lj_cutoff_ctx *cx, const lj_cutoff_options *op
             h = tend - t;
         }
         for (;;) {
+            if (opt->max_steps > 0 && tries >= opt->max_steps) { /* the step budget */
+                return LJ_CUTOFF_ERR_STEPSIZE;
+            }
+            tries += 1;
             tn = (h == tend - t) ? tend : t + h;
             h = tn - t;
             for (e = 0; e < LJ_CUTOFF_NS; ++e) {
@@ -1755,6 +1765,7 @@ static int lj_cutoff_dop853(const lj_cutoff_ctx *cx, const lj_cutoff_options *op
         stats->steps += 1;
         /* samples in (t, tn]: the new state, or the continuous extension (dop853.f's CONTD8) */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            tries = 0;
             if (!(next % every == 0)) {
                 next += 1;
                 continue;

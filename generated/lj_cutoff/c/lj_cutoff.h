@@ -43,7 +43,7 @@ enum {
     LJ_CUTOFF_ERR_NEWTON = 2, /* Newton's method did not converge in an implicit step: reduce the step size or raise the iteration limit */
     LJ_CUTOFF_ERR_NONFINITE = 3, /* the state or its gradient became non-finite */
     LJ_CUTOFF_ERR_ARGUMENT = 4, /* invalid argument */
-    LJ_CUTOFF_ERR_STEPSIZE = 5, /* the adaptive step size fell below its minimum (a time-transformed method: its step-size variable has no valid value) */
+    LJ_CUTOFF_ERR_STEPSIZE = 5, /* the adaptive step size fell below its minimum, or the run needed more than max_steps steps between samples (a time-transformed method: its step-size variable has no valid value) */
     LJ_CUTOFF_ERR_SINGULAR = 6 /* a linear system of the inertia was singular (the inertia is not positive definite at this state) */
 };
 
@@ -86,6 +86,7 @@ typedef struct {
     double newton_tol; /* Newton stops when max|delta f|, or the next update predicted by quadratic convergence, is <= tol * max(1, max|f|) (1e-14) */
     int newton_maxiter; /* Newton iteration limit per step (50) */
     double unit_tol; /* integrate() refuses (ERR_ARGUMENT, stats->fail_body) a q0_i with | |q0_i| - 1 | above this (default 1e-12; <= 0: no check) */
+    long max_steps; /* RK45 and DOP853 step budget: a run stops with ERR_STEPSIZE when it attempts more than this many steps (accepted plus rejected) between two points of the output grid t = k h (default 100000; <= 0: no limit) */
 } lj_cutoff_options;
 
 typedef struct {

@@ -571,6 +571,7 @@ void rope_default_options(rope_options *opt)
     opt->newton_tol = 1e-14;
     opt->newton_maxiter = 50;
     opt->unit_tol = 1e-12;
+    opt->max_steps = 100000;
 }
 /* ---- band elimination ------------------------------------------------------------------------ */
 
@@ -1719,7 +1720,7 @@ static int rope_rk45(const rope_ctx *cx, const rope_options *opt, double hout,
     const double tend = hout * (double)nsteps;
     const double hmax = opt->hmax > 0.0 ? opt->hmax : 0.1 * tend;
     double t = 0.0, h;
-    long next = 1;
+    long next = 1, tries = 0;
     int s, e, status;
     if (!(opt->rtol > 0.0) || !(opt->atol > 0.0)) {
         return ROPE_ERR_ARGUMENT;
@@ -1746,6 +1747,10 @@ static int rope_rk45(const rope_ctx *cx, const rope_options *opt, double hout,
         }
         for (;;) {
             int st;
+            if (opt->max_steps > 0 && tries >= opt->max_steps) { /* the step budget */
+                return ROPE_ERR_STEPSIZE;
+            }
+            tries += 1;
             tn = (h == tend - t) ? tend : t + h;
             h = tn - t;
             for (st = 1; st < 7; ++st) {
@@ -1787,6 +1792,7 @@ static int rope_rk45(const rope_ctx *cx, const rope_options *opt, double hout,
         stats->steps += 1;
         /* samples in (t, tn] from the continuous extension */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            tries = 0;
             if (!(next % every == 0)) {
                 next += 1;
                 continue;
@@ -1924,7 +1930,7 @@ static int rope_dop853(const rope_ctx *cx, const rope_options *opt, double hout,
     /* h_new / h = 1 / fac lies in [0.333, 6] (fac1, fac2 of dop853.f) */
     const double fac_max = 1.0 / 0.333, fac_min = 1.0 / 6.0;
     double t = 0.0, h;
-    long next = 1;
+    long next = 1, tries = 0;
     int s, e, status, reject = 0;
     if (!(opt->rtol > 0.0) || !(opt->atol > 0.0)) {
         return ROPE_ERR_ARGUMENT;
@@ -1949,6 +1955,10 @@ static int rope_dop853(const rope_ctx *cx, const rope_options *opt, double hout,
             h = tend - t;
         }
         for (;;) {
+            if (opt->max_steps > 0 && tries >= opt->max_steps) { /* the step budget */
+                return ROPE_ERR_STEPSIZE;
+            }
+            tries += 1;
             tn = (h == tend - t) ? tend : t + h;
             h = tn - t;
             for (e = 0; e < ROPE_NS; ++e) {
@@ -2112,6 +2122,7 @@ static int rope_dop853(const rope_ctx *cx, const rope_options *opt, double hout,
         stats->steps += 1;
         /* samples in (t, tn]: the new state, or the continuous extension (dop853.f's CONTD8) */
         while (next <= nsteps && (next == nsteps ? tn >= tend : hout * (double)next <= tn)) {
+            tries = 0;
             if (!(next % every == 0)) {
                 next += 1;
                 continue;
