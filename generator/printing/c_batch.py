@@ -26,6 +26,7 @@ from s2gen.ir import Call, Kernel, Module
 from s2gen.methods import explicit_tableaus
 from s2gen.parts.batch import BATCH_LANES, BATCH_PART
 from s2gen.printing.c import CPrinter, c_inline, c_loop
+from s2gen.printing.c_batch_chain import chain_lane_work, has_chain_lanes
 from s2gen.printing.c_batch_newton import newton_lane_work, newton_lanes
 from s2gen.printing.c_batch_quadratic import quadratic_lanes
 from s2gen.printing.c_batch_rattle import rattle_batch, rattle_dense_work
@@ -108,6 +109,9 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
         if "rattle_newton" in module.parts:  # and its RATTLE
             off.update(rattle_dense_work(module, at2, lanes))
             at2 = off.pop("end")
+    if has_chain_lanes(module):  # a max-index M's VI block solves in the lanes
+        off.update(chain_lane_work(module, at2, lanes))
+        at2 = off.pop("end")
     # the adaptive methods' stages and trial state (their y and yn: rk_y0 and rk_yn)
     off["ad_k"], off["ad_yt"] = at2, at2 + _ADAPTIVE * ns * lanes
     at2 = off["ad_yt"] + ns * lanes
