@@ -21,11 +21,16 @@ elimination with each lane's own pivots: `s2gen.printing.c_batch.coupled_field`)
 dense M's VI substeps (Newton on the Cayley parameters, then A(q+) w+ = c), the kernels of
 the one-member vi_advance inline in loops over the lanes and its LU and Cholesky solves on
 all lanes at once (`s2gen.printing.c_batch_newton`), each lane under its own mask: it stops
-updating once its own convergence test holds, or fails alone. Another M's field (its
-structured solver) and VI substeps are the one-member code's, run lane by lane with the
-lane's own context and workspace. Either way a lane's Newton iterates exactly as its
-member's would alone (its own convergence test, iteration count and warm start), and a lane
-whose Newton, solve or state fails stops alone with that status while the other lanes go on.
+updating once its own convergence test holds, or fails alone. A max-index M's VI substeps
+keep the one-member kernels and products with M, lane by lane on each lane's workspace, and
+solve their Newton and velocity systems on all lanes at once (the block elimination over
+the lanes, each lane's own pivots and decline flag; a declining lane redoes its solve with
+the one-member solver on its own copy: `s2gen.printing.c_batch_chain`), with the same masks.
+Another M's field (its structured solver) and a banded M's VI substeps are the one-member
+code's, run lane by lane with the lane's own context and workspace. Either way a lane's
+Newton iterates exactly as its member's would alone (its own convergence test, iteration
+count and warm start), and a lane whose Newton, solve or state fails stops alone with that
+status while the other lanes go on.
 
 RATTLE and its compositions keep the one-member step's body-major state: with a diagonal M
 its substep (each body's closed-form position and velocity updates, dV/dq between them) runs
