@@ -96,6 +96,7 @@ __all__ = [
     "BATCH_PART",
     "batch_refusal",
     "has_batch",
+    "has_chain_lanes",
     "numpy_batch_refusal",
 ]
 
@@ -188,6 +189,35 @@ def _numpy_sites(module: Module) -> tuple[Site, ...]:
     )
 
 
+def has_chain_lanes(module: Module) -> bool:
+    """Whether `module`'s batch solves its VI's block systems in loops over the lanes: the
+    batch part, the Newton VI (no explicit VI) and a max-index M.
+
+    Example:
+        >>> from s2gen.systems import builtin, resolve
+        >>> from s2gen.passes import lower_system
+        >>> has_chain_lanes(lower_system(resolve("rope:n=10").with_batch()))
+        True
+        >>> has_chain_lanes(lower_system(builtin("double_pendulum").with_batch()))
+        False
+    """
+    return (
+        BATCH_PART in module.parts
+        and "vi_explicit" not in module.parts
+        and module.solver is InertiaKind.MAX_INDEX
+    )
+
+
+def _sites(module: Module) -> tuple[Site, ...]:
+    """The one-member sites the batch calls again: NumPy's members' code, and with a
+    max-index M the structured VI's kernels, lane by lane (c/sections/_batch_chain_vi)."""
+    if not has_chain_lanes(module):
+        return _numpy_sites(module)
+    from s2gen.parts.sphere import PARTS_BY_NAME  # which imports this module
+
+    return (*_numpy_sites(module), *PARTS_BY_NAME["vi_structured"].sites)
+
+
 #: The adaptive methods' lanes use the one-member driver's buffers in their own workspaces.
 PART = Part(
     BATCH_PART,
@@ -196,7 +226,7 @@ PART = Part(
         ("rk45", ("k", "y", "yn", "ys", "field")),
         ("dop853", ("k", "y", "yt", "yn", "ys", "field")),
     ),
-    module_sites=_numpy_sites,
+    module_sites=_sites,
 )
 
 

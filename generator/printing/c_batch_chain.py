@@ -13,39 +13,40 @@ with the one-member solver (block elimination, then the band LU) on its own copy
 Example:
     >>> from s2gen.systems import builtin
     >>> from s2gen.passes import lower_system
-    >>> w = chain_lane_work(lower_system(builtin("rope", n=4).with_batch()), 0, 8)
+    >>> w = chain_lane_work(lower_system(builtin("rope", n=10).with_batch()), 0, 8)
     >>> w["csa"], w["ce"], w["end"] - w["cw"]
-    (0, 64, 768)
+    (0, 160, 1920)
 """
 
 from __future__ import annotations
 
-from s2gen.inertia import InertiaKind
 from s2gen.ir import Module
+from s2gen.parts.batch import has_chain_lanes
 
-__all__ = ["chain_lane_work", "has_chain_lanes"]
+__all__ = ["chain_lane_work", "chain_vi_work"]
 
 #: The structured solves of the VI whose block elimination runs in the lanes.
 _SOLVES = ("newton", "velocity")
+#: The one-member vi_advance's buffers a lane's kernels and fallback solves use.
+_VI_BUFFERS = ("d", "r", "u", "z", "e", "hb", "kb", "solve")
 
 
-def has_chain_lanes(module: Module) -> bool:
-    """Whether `module`'s batch runs its VI's block solves in loops over the lanes: the
-    batch part, a coupled M (Newton VI) and a max-index M.
+def chain_vi_work(module: Module) -> dict[str, int]:
+    """Offsets (doubles) of the one-member vi_advance's buffers in its workspace (as
+    c/_vi_structured.jinja lays them out), which each lane's kernels and fallback solves use
+    in the lane's own workspace; empty without a max-index M's batch.
 
     Example:
-        >>> from s2gen.systems import builtin
+        >>> from s2gen.systems import resolve
         >>> from s2gen.passes import lower_system
-        >>> has_chain_lanes(lower_system(builtin("rope", n=4).with_batch()))
-        True
-        >>> has_chain_lanes(lower_system(builtin("double_pendulum").with_batch()))
-        False
+        >>> w = chain_vi_work(lower_system(resolve("rope:n=10").with_batch()))
+        >>> w["d"], w["r"] - w["d"]
+        (0, 30)
     """
-    return (
-        "batch" in module.parts
-        and "vi_explicit" not in module.parts
-        and module.solver is InertiaKind.MAX_INDEX
-    )
+    if not has_chain_lanes(module):
+        return {}
+    layout = next(lay for lay in module.layouts if lay.name == "vi_advance")
+    return {name: layout.offset(name) for name in _VI_BUFFERS}
 
 
 def chain_lane_work(module: Module, at: int, lanes: int) -> dict[str, int]:
@@ -58,9 +59,9 @@ def chain_lane_work(module: Module, at: int, lanes: int) -> dict[str, int]:
     Example:
         >>> from s2gen.systems import builtin
         >>> from s2gen.passes import lower_system
-        >>> w = chain_lane_work(lower_system(builtin("rope", n=4).with_batch()), 100, 2)
+        >>> w = chain_lane_work(lower_system(builtin("rope", n=10).with_batch()), 100, 2)
         >>> w["ch"] - w["ce"], w["cb"] - w["ck"]
-        (72, 72)
+        (180, 180)
     """
     n = module.n
     bands = [b for b in module.bands if b.name in _SOLVES]

@@ -20,11 +20,10 @@ from typing import Any
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Kernel, Module, ModuleKind
 from s2gen.methods import COMPOSITIONS, CONTROLS, METHODS, Family, Status
-from s2gen.parts.batch import numpy_batch_refusal
+from s2gen.parts.batch import has_chain_lanes, numpy_batch_refusal
 from s2gen.passes.opcount import kernel_profile
 from s2gen.passes.workspace import CONTEXT
 from s2gen.printing.c import c_kernel
-from s2gen.printing.c_batch_chain import has_chain_lanes
 from s2gen.printing.numpy import py_kernel
 
 __all__ = [
