@@ -217,8 +217,9 @@ def test_double_pendulum_newton(opt: str) -> None:
 
 @pytest.mark.parametrize("opt", ["portable", "native"])
 def test_rope_newton(opt: str) -> None:
-    """A 10-link rope, M of max-index structure (its own solver, lane by lane): the Newton VI
-    and RK4, -O2 and -O3 -march=native."""
+    """A 10-link rope, M of max-index structure (its VI's block solves in loops over the
+    lanes, tests/test_batch_chain.py; its field lane by lane): the Newton VI and RK4, -O2 and
+    -O3 -march=native."""
     check("rope:n=10", ("vi", "rk4"), opt, late=True)
 
 
@@ -286,7 +287,7 @@ def test_broken_lane_masks_are_caught(broken: Callable[[str, str], str], options
 def test_coupled_every_method_both_flag_sets(name: str, opt: str) -> None:
     """Every batched method with a coupled M (dense, its Newton VI in loops over the lanes:
     the double pendulum, the pendulum chain, a four-link spec and the 10-link rope solved
-    densely; max-index, lane by lane: the rope), -O2 and -O3 -march=native."""
+    densely; max-index, its VI's block solves in the lanes: the rope), -O2 and -O3 -march=native."""
     check(name, FIXED, opt, late=True)
 
 

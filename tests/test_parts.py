@@ -233,8 +233,10 @@ SYSTEMS = {
     "three_bodies_batch": lambda: builtin("three_bodies").with_batch(),
     # integrate_batch() with a dense M: the Newton VI and the field in loops over the lanes
     "double_pendulum_batch": lambda: builtin("double_pendulum").with_batch(),
-    # integrate_batch() with a max-index M: the Newton VI and the field lane by lane
+    # integrate_batch() with a max-index M: the VI's block solves in loops over the lanes
     "rope_batch": lambda: resolve("rope:n=10").with_batch(),
+    # integrate_batch() with a banded M: the Newton VI and the field lane by lane
+    "banded_batch": lambda: banded_chain(5).with_batch(),
     # integrate_batch() with the quadratic terms' Kx + b in loops over the lanes sharing K
     "dipoles_batch": lambda: builtin("dipoles").with_batch(),
     # the same with a linear part (b read by the products)

@@ -21,11 +21,16 @@ elimination with each lane's own pivots: `s2gen.printing.c_batch.coupled_field`)
 dense M's VI substeps (Newton on the Cayley parameters, then A(q+) w+ = c), the kernels of
 the one-member vi_advance inline in loops over the lanes and its LU and Cholesky solves on
 all lanes at once (`s2gen.printing.c_batch_newton`), each lane under its own mask: it stops
-updating once its own convergence test holds, or fails alone. Another M's field (its
-structured solver) and VI substeps are the one-member code's, run lane by lane with the
-lane's own context and workspace. Either way a lane's Newton iterates exactly as its
-member's would alone (its own convergence test, iteration count and warm start), and a lane
-whose Newton, solve or state fails stops alone with that status while the other lanes go on.
+updating once its own convergence test holds, or fails alone. A max-index M's VI substeps
+keep the one-member kernels and products with M, lane by lane on each lane's workspace, and
+solve their Newton and velocity systems on all lanes at once (the block elimination over
+the lanes, each lane's own pivots and decline flag; a declining lane redoes its solve with
+the one-member solver on its own copy: `s2gen.printing.c_batch_chain`), with the same masks.
+Another M's field (its structured solver) and a banded M's VI substeps are the one-member
+code's, run lane by lane with the lane's own context and workspace. Either way a lane's
+Newton iterates exactly as its member's would alone (its own convergence test, iteration
+count and warm start), and a lane whose Newton, solve or state fails stops alone with that
+status while the other lanes go on.
 
 RATTLE and its compositions keep the one-member step's body-major state: with a diagonal M
 its substep (each body's closed-form position and velocity updates, dV/dq between them) runs
@@ -91,6 +96,7 @@ __all__ = [
     "BATCH_PART",
     "batch_refusal",
     "has_batch",
+    "has_chain_lanes",
     "numpy_batch_refusal",
 ]
 
@@ -183,6 +189,35 @@ def _numpy_sites(module: Module) -> tuple[Site, ...]:
     )
 
 
+def has_chain_lanes(module: Module) -> bool:
+    """Whether `module`'s batch solves its VI's block systems in loops over the lanes: the
+    batch part, the Newton VI (no explicit VI) and a max-index M.
+
+    Example:
+        >>> from s2gen.systems import builtin, resolve
+        >>> from s2gen.passes import lower_system
+        >>> has_chain_lanes(lower_system(resolve("rope:n=10").with_batch()))
+        True
+        >>> has_chain_lanes(lower_system(builtin("double_pendulum").with_batch()))
+        False
+    """
+    return (
+        BATCH_PART in module.parts
+        and "vi_explicit" not in module.parts
+        and module.solver is InertiaKind.MAX_INDEX
+    )
+
+
+def _sites(module: Module) -> tuple[Site, ...]:
+    """The one-member sites the batch calls again: NumPy's members' code, and with a
+    max-index M the structured VI's kernels, lane by lane (c/sections/_batch_chain_vi)."""
+    if not has_chain_lanes(module):
+        return _numpy_sites(module)
+    from s2gen.parts.sphere import PARTS_BY_NAME  # which imports this module
+
+    return (*_numpy_sites(module), *PARTS_BY_NAME["vi_structured"].sites)
+
+
 #: The adaptive methods' lanes use the one-member driver's buffers in their own workspaces.
 PART = Part(
     BATCH_PART,
@@ -191,7 +226,7 @@ PART = Part(
         ("rk45", ("k", "y", "yn", "ys", "field")),
         ("dop853", ("k", "y", "yt", "yn", "ys", "field")),
     ),
-    module_sites=_numpy_sites,
+    module_sites=_sites,
 )
 
 

@@ -24,8 +24,9 @@ import sympy as sp
 from s2gen.bindings import BodyDatum, ContextArray, Local, MemberSlot, TermDatum, TermTable
 from s2gen.ir import Call, Kernel, Module
 from s2gen.methods import explicit_tableaus
-from s2gen.parts.batch import BATCH_LANES, BATCH_PART
+from s2gen.parts.batch import BATCH_LANES, BATCH_PART, has_chain_lanes
 from s2gen.printing.c import CPrinter, c_inline, c_loop
+from s2gen.printing.c_batch_chain import chain_lane_work, chain_vi_work
 from s2gen.printing.c_batch_newton import newton_lane_work, newton_lanes
 from s2gen.printing.c_batch_quadratic import quadratic_lanes
 from s2gen.printing.c_batch_rattle import rattle_batch, rattle_dense_work
@@ -108,6 +109,9 @@ def batch_work(module: Module, lanes: int = BATCH_LANES) -> dict[str, int]:
         if "rattle_newton" in module.parts:  # and its RATTLE
             off.update(rattle_dense_work(module, at2, lanes))
             at2 = off.pop("end")
+    if has_chain_lanes(module):  # a max-index M's VI block solves in the lanes
+        off.update(chain_lane_work(module, at2, lanes))
+        at2 = off.pop("end")
     # the adaptive methods' stages and trial state (their y and yn: rk_y0 and rk_yn)
     off["ad_k"], off["ad_yt"] = at2, at2 + _ADAPTIVE * ns * lanes
     at2 = off["ad_yt"] + ns * lanes
@@ -127,7 +131,8 @@ def print_batch(module: Module) -> dict[str, Any]:
     member tables the lanes copy, whether the lanes start component-major (`soa`, a C
     condition: the explicit VI's), with a coupled M where a lane's Newton VI steps keep
     their buffers (`newton_work`) and with a dense M its Newton VI's kernels inline for the
-    lane loops (`newton_lanes`), RATTLE's step (`s2gen.printing.c_batch_rattle`); every key
+    lane loops (`newton_lanes`), with a max-index M the one-member vi_advance's buffers its
+    lanes use (`chain`), RATTLE's step (`s2gen.printing.c_batch_rattle`); every key
     empty (or 0) without the part."""
     if BATCH_PART not in module.parts:
         return {
@@ -142,6 +147,7 @@ def print_batch(module: Module) -> dict[str, Any]:
             "newton": {},
             "field": {},
             "newton_lanes": {},
+            "chain": {},
             "rattle": {},
         }
     explicit = "vi_explicit" in module.parts  # else a coupled M: the Newton VI
@@ -166,6 +172,7 @@ def print_batch(module: Module) -> dict[str, Any]:
         "newton": {} if explicit else newton_work(module),
         "field": field or {},
         "newton_lanes": newton_lanes(module) if field else {},
+        "chain": chain_vi_work(module),
         "rattle": rattle_batch(
             module, work, BATCH_LANES, field is not None and "rattle_newton" in module.parts
         ),

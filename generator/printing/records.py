@@ -20,7 +20,7 @@ from typing import Any
 from s2gen.inertia import InertiaKind
 from s2gen.ir import Kernel, Module, ModuleKind
 from s2gen.methods import COMPOSITIONS, CONTROLS, METHODS, Family, Status
-from s2gen.parts.batch import numpy_batch_refusal
+from s2gen.parts.batch import has_chain_lanes, numpy_batch_refusal
 from s2gen.passes.opcount import kernel_profile
 from s2gen.passes.workspace import CONTEXT
 from s2gen.printing.c import c_kernel
@@ -375,6 +375,7 @@ def sections(module: Module) -> tuple[Sections, Sections]:
     lanes = batch and explicit and _lane_gradient(module) is not None
     field = batch and not explicit and _coupled_field(module) is not None  # a dense M's, in lanes
     dense_vi = "vi_newton" in module.parts  # and its Newton VI in lanes too
+    chain = has_chain_lanes(module)  # a max-index M's VI: its block solves in lanes
     dense_rattle = field and "rattle_newton" in module.parts  # and its RATTLE
     shared_k = (lanes or field) and quadratic  # Kx + b in lanes where the lanes share K
     linear = any(c < 0 <= r for t in module.terms for _, r, c in t.quadratic)  # b not zero
@@ -484,7 +485,8 @@ def sections(module: Module) -> tuple[Sections, Sections]:
             "c",
             (batch and explicit, "batch_vi_explicit"),
             (field and dense_vi, "batch_vi_lanes"),
-            (batch and not explicit and not (field and dense_vi), "batch_vi_newton"),
+            (chain, "batch_chain_vi"),
+            (batch and not explicit and not (field and dense_vi) and not chain, "batch_vi_newton"),
         ),
         # RATTLE: in loops over the lanes with a diagonal or dense M, else lane by lane
         "batch_rattle": pick(

@@ -1,0 +1,84 @@
+"""A max-index M's Newton VI of a batch with its block solves in loops over the lanes.
+
+Input: a lowered sphere module with the ``batch`` part whose M is max-index (the VI's Newton
+and velocity systems solved by c/_coupled_chain.jinja's block elimination). Output: the
+offsets of the lane arrays c/sections/_batch_chain_vi.jinja uses (`chain_lane_work`): the
+lanes' max-index generators a and c, and lane copies of a structured solve's blocks E, H, K,
+its right-hand sides and the elimination's workspace (element e of lane l at [e * L + l]).
+The lanes' kernels stay the one-member code's, called lane by lane on each lane's own
+workspace; the block elimination, which is latency-bound in one member, runs on all lanes
+at once with each lane's own pivots, and a lane whose elimination declines redoes its solve
+with the one-member solver (block elimination, then the band LU) on its own copy.
+
+Example:
+    >>> from s2gen.systems import builtin
+    >>> from s2gen.passes import lower_system
+    >>> w = chain_lane_work(lower_system(builtin("rope", n=10).with_batch()), 0, 8)
+    >>> w["csa"], w["ce"], w["end"] - w["cw"]
+    (0, 160, 1920)
+"""
+
+from __future__ import annotations
+
+from s2gen.ir import Module
+from s2gen.parts.batch import has_chain_lanes
+
+__all__ = ["chain_lane_work", "chain_vi_work"]
+
+#: The structured solves of the VI whose block elimination runs in the lanes.
+_SOLVES = ("newton", "velocity")
+#: The one-member vi_advance's buffers a lane's kernels and fallback solves use.
+_VI_BUFFERS = ("d", "r", "u", "z", "e", "hb", "kb", "solve")
+
+
+def chain_vi_work(module: Module) -> dict[str, int]:
+    """Offsets (doubles) of the one-member vi_advance's buffers in its workspace (as
+    c/_vi_structured.jinja lays them out), which each lane's kernels and fallback solves use
+    in the lane's own workspace; empty without a max-index M's batch.
+
+    Example:
+        >>> from s2gen.systems import resolve
+        >>> from s2gen.passes import lower_system
+        >>> w = chain_vi_work(lower_system(resolve("rope:n=10").with_batch()))
+        >>> w["d"], w["r"] - w["d"]
+        (0, 30)
+    """
+    if not has_chain_lanes(module):
+        return {}
+    layout = next(lay for lay in module.layouts if lay.name == "vi_advance")
+    return {name: layout.offset(name) for name in _VI_BUFFERS}
+
+
+def chain_lane_work(module: Module, at: int, lanes: int) -> dict[str, int]:
+    """Offsets (doubles, from `at`) of the lane arrays of a max-index M's batch VI: the
+    generators a then c (`csa`, 2 n), the blocks E (p p), H (p r), K (r p) and the
+    right-hand sides (p nrhs) of a solve per body (`ce`, `ch`, `ck`, `cb`), the block
+    elimination's workspace (`cw`, (p + r)(r + nrhs) per body), each sized for the larger of
+    the Newton and velocity solves; `end` past them.
+
+    Example:
+        >>> from s2gen.systems import builtin
+        >>> from s2gen.passes import lower_system
+        >>> w = chain_lane_work(lower_system(builtin("rope", n=10).with_batch()), 100, 2)
+        >>> w["ch"] - w["ce"], w["cb"] - w["ck"]
+        (180, 180)
+    """
+    n = module.n
+    bands = [b for b in module.bands if b.name in _SOLVES]
+    p = max(b.p for b in bands)
+    r = max(b.r for b in bands)
+    nrhs = max(b.nrhs for b in bands)
+    sizes = {
+        "csa": 2 * n,
+        "ce": n * p * p,
+        "ch": n * p * r,
+        "ck": n * r * p,
+        "cb": n * p * nrhs,
+        "cw": n * (p + r) * (r + nrhs),
+    }
+    off: dict[str, int] = {}
+    for name, size in sizes.items():
+        off[name] = at
+        at += size * lanes
+    off["end"] = at
+    return off
