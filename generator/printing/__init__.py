@@ -4,8 +4,8 @@ Input: a lowered `Module` (IR). Output: a `PrintedModule` of plain strings, numb
 records and small dicts (call sites by name, workspace offsets by layout and buffer), the only
 thing the templates see. This module only gathers it: the C text comes from `printing/c.py`
 and `printing/c_module.py`, the NumPy text from `printing/numpy.py`, the language-neutral
-records from `printing/records.py`; declarations from `s2gen.interface`, enums from
-`s2gen.methods`.
+records from `printing/records.py` and `printing/sections.py`; declarations from
+`s2gen.interface`, enums from `s2gen.methods`.
 
 Example:
     >>> from s2gen.systems import builtin
@@ -50,6 +50,7 @@ from s2gen.printing.numpy_batch import print_numpy_batch
 from s2gen.printing.numpy_jacobian import print_numpy_jacobian
 from s2gen.printing.rattle_jacobian import RATTLE_SITES, print_rattle_jacobian
 from s2gen.printing.records import PrintedKernel, print_kernel
+from s2gen.printing.sections import sections
 from s2gen.printing.tableau import (
     PrintedExplicit,
     PrintedFixed,
@@ -177,7 +178,7 @@ def print_module(module: Module) -> PrintedModule:
     variant = dict(module.variants)
     partials = tuple(variant.get(p, p) for p in module.parts)
     py_title, py_state = py_docstring(module)
-    c_sections, py_sections = records.sections(module)
+    c_sections, py_sections = sections(module)
     return PrintedModule(
         kind=module.kind.value,
         name=name,

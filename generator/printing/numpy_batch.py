@@ -5,7 +5,7 @@ Output: the record the batch part's NumPy sections read (`m.py_batch`): why the 
 no members' code (or None), the potential's general kernels printed for members, the first
 lines of the members' potential and gradient and the methods covered. Which sections lay it
 out (the members' code or the refusal, the field of a diagonal or dense M) is chosen with
-the other sections (`s2gen.printing.records.sections`).
+the other sections (`s2gen.printing.sections.sections`).
 
 The members' code lives in the emitted module, beside the one-member functions it mirrors,
 because what it calls (the term loops, their member tables, the general kernels, the field's
