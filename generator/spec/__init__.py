@@ -208,7 +208,7 @@ def define_system(
         *_terms(body_terms, TermKind.BODY, n, params, origin, list(defaults), shared),
         *_terms(pair_terms, TermKind.PAIR, n, params, origin, list(defaults), shared),
     ]
-    drive = _forces(forces, force_terms, n, params, list(defaults), origin, force_pairs)
+    drive = _forces(forces, force_terms, n, params, list(defaults), origin, force_pairs, shared)
     if potential is None and not terms:
         raise SpecError(
             f"{origin}: [potential] V: missing (give V, or terms [[potential.body]] / "
