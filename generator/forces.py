@@ -3,7 +3,8 @@
 Input: nothing (this module is data). Output: `Force` (a 3-vector F_i conjugate to q_i, on
 one body in the global symbols; a term over bodies in a body's own q and w with per-body
 data; or a term over pairs, the forces Fi and Fj on a pair's two bodies in their qi, qj, wi,
-wj and per-pair data) and `Inputs` (the names and default values of the caller's inputs). `System` holds them;
+wj and per-pair data; both terms may read the per-body arrays of the spec's [data]) and
+`Inputs` (the names and default values of the caller's inputs). `System` holds them;
 the spec (`s2gen.spec.forces`) builds them; `System.force_vectors` sums them per body.
 
 A force F_i acts through its virtual work F_i . delta q_i (only its part orthogonal to q_i
@@ -27,7 +28,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from s2gen.symbols import local_vector, q_symbol, w_symbol
-from s2gen.terms import Selection, TermData, TermKind
+from s2gen.terms import Selection, TermData, TermKind, body_names
 
 __all__ = ["Force", "Inputs"]
 
@@ -51,6 +52,10 @@ class Force:
     #: A pair term's force on its second body (`expr` is then the first body's, Fi): both in
     #: the pair's qi, qj, wi, wj and data ("[[forces.pair]] #1"); None for a body's force.
     expr_j: sp.ImmutableMatrix | None = None
+    #: The per-body arrays of the spec's [data] the expressions read (n entries of `width`
+    #: values, body-major), under the names `body_names` gives: c in a body's force, ci and cj
+    #: (the values of the pair's bodies) in a pair term.
+    body_data: tuple[TermData, ...] = ()
 
     @property
     def kind(self) -> TermKind:
@@ -71,6 +76,23 @@ class Force:
 
     def data_symbols(self) -> tuple[sp.Symbol, ...]:
         return tuple(s for d in self.data for s in d.symbols())
+
+    def body_symbols(self) -> tuple[tuple[TermData, int, tuple[sp.Symbol, ...]], ...]:
+        """(per-body datum, body of the member (0 or 1), its symbols) for each name under
+        which the expressions read a per-body datum.
+
+        Example:
+            >>> c = TermData("c", 1, (0.5, 2.0))
+            >>> f = Force(sp.ImmutableMatrix([0, 0, 0]), "chain", expr_j=sp.ImmutableMatrix(
+            ...     [0, 0, 0]), body_data=(c,))
+            >>> [(r, s) for _, r, s in f.body_symbols()]
+            [(0, (ci,)), (1, (cj,))]
+        """
+        return tuple(
+            (d, r, TermData(local, d.width, ()).symbols())
+            for d in self.body_data
+            for r, local in enumerate(body_names(d.name, self.kind))
+        )
 
     def instance(self, member: tuple[int, ...], index: int) -> sp.ImmutableMatrix:
         """The force on one member's body in the global symbols q{i}_{c}, w{i}_{c} (a body's
@@ -103,6 +125,9 @@ class Force:
         for d in self.data:
             vals = d.values[index * d.width : (index + 1) * d.width]
             subs.update({s: sp.Float(v) for s, v in zip(d.symbols(), vals)})
+        for d, r, symbols in self.body_symbols():
+            vals = d.values[member[r] * d.width : (member[r] + 1) * d.width]
+            subs.update({s: sp.Float(v) for s, v in zip(symbols, vals)})
         out = [(member[0], sp.ImmutableMatrix(self.expr.xreplace(subs)))]
         if self.expr_j is not None:
             out.append((member[1], sp.ImmutableMatrix(self.expr_j.xreplace(subs))))

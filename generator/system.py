@@ -398,5 +398,8 @@ class System:
             h.update(sp.srepr(f.expr).encode())
             for d in f.data:
                 h.update(f"{d.name};{d.width};{d.values}".encode())
+            for d in f.body_data:  # none: the digest is unchanged
+                h.update(f"body {d.name};{d.width};".encode())
+                h.update(np.asarray(d.values, dtype=float).tobytes())
         object.__setattr__(self, "_spec_digest", h.hexdigest())  # frozen: set once, by hand
         return h.hexdigest()

@@ -161,7 +161,8 @@ def define_system(
     the keys of a ``[[forces.body]]`` table (``F``, ``bodies``, ``data``), `force_pairs` of
     a ``[[forces.pair]]`` table (``Fi``, ``Fj``, ``pairs``, ``data``); potentials may then
     hold time ``t`` and the inputs. `data` maps names to per-body arrays (n numbers or n
-    3-vectors; the [data] table), read by terms as c or ci, cj and by the per-body inertia.
+    3-vectors; the [data] table), read by terms (potential and force terms alike) as c or
+    ci, cj and by the per-body inertia.
     Raises SpecError naming `origin` and the key.
 
     Example:
@@ -208,7 +209,7 @@ def define_system(
         *_terms(body_terms, TermKind.BODY, n, params, origin, list(defaults), shared),
         *_terms(pair_terms, TermKind.PAIR, n, params, origin, list(defaults), shared),
     ]
-    drive = _forces(forces, force_terms, n, params, list(defaults), origin, force_pairs)
+    drive = _forces(forces, force_terms, n, params, list(defaults), origin, force_pairs, shared)
     if potential is None and not terms:
         raise SpecError(
             f"{origin}: [potential] V: missing (give V, or terms [[potential.body]] / "

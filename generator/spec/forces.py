@@ -22,6 +22,10 @@ Output: the inputs (name -> default value) and `Force`s labelled "[forces] F2" o
     Fj = "cross(-c*(wj - wi), qj)"   # on i (F = tau x q)
     pairs = "chain"          # "chain", "ring", "all" or a list of [i, j]; default "chain"
     [forces.pair.data]       # optional per-pair data, as for [[potential.pair]]
+
+The per-body arrays of the top-level [data] table (`s2gen.spec.data`) are read as in the
+potential terms: by name (c) in a [[forces.body]] term, as ci and cj (the pair's bodies'
+values) in a [[forces.pair]] term, whatever the selection.
 """
 
 from __future__ import annotations
@@ -36,8 +40,15 @@ from s2gen.errors import SpecError, shown
 from s2gen.forces import Force
 from s2gen.spec.parser import parse_vector
 from s2gen.spec.tables import _check_keys, _key, _number
-from s2gen.spec.term_tables import _check_symbols, _selection, _term_data
-from s2gen.terms import Term, TermKind
+from s2gen.spec.term_tables import (
+    _check_symbols,
+    _local_symbols,
+    _reads,
+    _selection,
+    _term_data,
+)
+from s2gen.symbols import local_vector as vector
+from s2gen.terms import Term, TermData, TermKind, body_names
 from s2gen.validate.forces import _check_input_name
 
 __all__: list[str] = []
@@ -68,9 +79,10 @@ def _forces(
     inputs: Sequence[str],
     origin: str,
     pairs: Any = None,
+    shared: Sequence[TermData] = (),
 ) -> list[Force]:
     """The general forces F1..Fn (a mapping), the [[forces.body]] terms and the
-    [[forces.pair]] terms (lists)."""
+    [[forces.pair]] terms (lists); `shared` are the per-body arrays of the spec's [data]."""
     out: list[Force] = []
     if general is not None:
         if not isinstance(general, Mapping):
@@ -99,12 +111,18 @@ def _forces(
             )
         for k, entry in enumerate(entries):
             term = _force_term if table == _FORCE_TERM else _pair_term
-            out.append(term(entry, k + 1, n, params, inputs, origin))
+            out.append(term(entry, k + 1, n, params, inputs, origin, shared))
     return out
 
 
 def _force_term(
-    entry: Any, k: int, n: int, params: Mapping[str, float], inputs: Sequence[str], origin: str
+    entry: Any,
+    k: int,
+    n: int,
+    params: Mapping[str, float],
+    inputs: Sequence[str],
+    origin: str,
+    shared: Sequence[TermData] = (),
 ) -> Force:
     """One [[forces.body]] table: F in the body's q and w, its bodies and per-body data."""
     label = f"{_FORCE_TERM} #{k}"
@@ -124,17 +142,24 @@ def _force_term(
     select, members = _selection(entry.get("bodies", "all"), kind, n, where)
     count = Term(kind, sp.Integer(0), select, members).count(n)
     data = _term_data(entry.get("data"), kind, select, count, params, where)
-    _check_symbols(kind, data, params, where)
+    body = _body_names(kind, data, shared, ("w",), inputs, where)
+    _check_symbols(kind, data, params, where, shared)
     for d in data:
         if d.name in ("w", *inputs):
             raise SpecError(f"{where} data.{d.name}: the name {shown(d.name)} is taken")
-    local = {"q": 3, "w": 3, **{d.name: d.width for d in data}}
+    local = {"q": 3, "w": 3, **{d.name: d.width for d in data}, **body}
     expr = _vector(entry["F"], n, [*params, *inputs], local, f"{where} F")
-    return Force(expr, select, members, data, label)
+    return Force(expr, select, members, data, label, body_data=_used(kind, shared, expr))
 
 
 def _pair_term(
-    entry: Any, k: int, n: int, params: Mapping[str, float], inputs: Sequence[str], origin: str
+    entry: Any,
+    k: int,
+    n: int,
+    params: Mapping[str, float],
+    inputs: Sequence[str],
+    origin: str,
+    shared: Sequence[TermData] = (),
 ) -> Force:
     """One [[forces.pair]] table: Fi and Fj in the pair's qi, qj, wi, wj, its pairs and
     per-pair data."""
@@ -159,15 +184,54 @@ def _pair_term(
         raise SpecError(f"{where} pairs: a force term takes 'chain', 'ring', 'all' or a list")
     count = Term(kind, sp.Integer(0), select, members).count(n)
     data = _term_data(entry.get("data"), kind, select, count, params, where)
-    _check_symbols(kind, data, params, where)
+    body = _body_names(kind, data, shared, ("wi", "wj"), inputs, where)
+    _check_symbols(kind, data, params, where, shared)
     for d in data:
         if d.name in ("wi", "wj", *inputs):
             raise SpecError(f"{where} data.{d.name}: the name {shown(d.name)} is taken")
-    local = {**dict.fromkeys(roles, 3), **{d.name: d.width for d in data}}
+    local = {**dict.fromkeys(roles, 3), **{d.name: d.width for d in data}, **body}
     names = [*params, *inputs]
     fi = _vector(entry["Fi"], n, names, local, f"{where} Fi")
     fj = _vector(entry["Fj"], n, names, local, f"{where} Fj")
-    return Force(fi, select, members, data, label, expr_j=fj)
+    used = _used(kind, shared, sp.ImmutableMatrix.vstack(fi, fj))
+    return Force(fi, select, members, data, label, expr_j=fj, body_data=used)
+
+
+def _body_names(
+    kind: TermKind,
+    data: Sequence[TermData],
+    shared: Sequence[TermData],
+    velocities: Sequence[str],
+    inputs: Sequence[str],
+    where: str,
+) -> dict[str, int]:
+    """The names a force term reads the per-body arrays of [data] under (c, or ci and cj) and
+    their widths; a name that is also a datum of the term, one of its velocities or an input
+    is an error, as in the potential terms."""
+    out: dict[str, int] = {}
+    for d in shared:
+        if any(d.name == own.name for own in data):
+            raise SpecError(
+                f"{where} data.{d.name}: {shown(d.name)} is also a per-body datum of [data] "
+                "(rename one of them)"
+            )
+        for name in body_names(d.name, kind):
+            symbols = {s.name for s in _local_symbols(name, d.width)}
+            if name in velocities or symbols & {s.name for v in velocities for s in vector(v)}:
+                raise SpecError(
+                    f"{where}: the [data] array {shown(d.name)} is read as {name}, the "
+                    f"angular velocity {name} of the term (rename the datum)"
+                )
+            if name in inputs:
+                raise SpecError(f"{where}: the datum name {shown(name)} is also an input")
+            out[name] = d.width
+    return out
+
+
+def _used(kind: TermKind, shared: Sequence[TermData], expr: sp.MatrixBase) -> tuple[TermData, ...]:
+    """The per-body arrays of [data] that the force expression reads."""
+    named = {s.name for s in expr.free_symbols}
+    return tuple(d for d in shared if _reads(d, kind, named))
 
 
 def _vector(

@@ -4,8 +4,8 @@ Input: the inputs (name -> default value), the `Force`s, the number of bodies, t
 symbols and the location for messages. Output: the `Inputs` record, or a `SpecError`: an
 input is an identifier that is not reserved and not a parameter, with a finite default; a
 force is a 3-vector in the positions and angular velocities of its bodies (q1..qn and w1..wn
-for a general force, the body's own q and w and its data for a term), time t, the inputs and
-the parameters, acting on bodies 1..n.
+for a general force, the body's own q and w, its data and the per-body data it reads for a
+term), time t, the inputs and the parameters, acting on bodies 1..n.
 """
 
 from __future__ import annotations
@@ -93,6 +93,7 @@ def _validate_force(force: Force, n: int, allowed: set[sp.Symbol], where: str) -
     else:
         roles = ("q", "w") if force.expr_j is None else ("qi", "qj", "wi", "wj")
         own = {s for role in roles for s in local_vector(role)} | set(force.data_symbols())
+        own |= {s for _, _, symbols in force.body_symbols() for s in symbols}
         kinds = (
             "the body's q and w, its data"
             if force.expr_j is None
@@ -104,6 +105,9 @@ def _validate_force(force: Force, n: int, allowed: set[sp.Symbol], where: str) -
                 raise SpecError(
                     f"{at}: data '{d.name}' needs {count} finite value(s) per {force.kind.value}"
                 )
+        for d in force.body_data:
+            if len(d.values) != d.width * n or not np.all(np.isfinite(d.values)):
+                raise SpecError(f"{at}: the [data] array '{d.name}' needs {n} finite entries")
     extra = set().union(*(e.free_symbols for e in expr)) - own - allowed
     if extra:
         bad = ", ".join(sorted(str(s) for s in extra))
