@@ -433,6 +433,14 @@ TOML_CASES: list[tuple[str, str, list[str]]] = [
         ["[[forces.body]] #1 data.w: the name 'w' is taken"],
     ),
     (
+        "force term datum named like a component of w",
+        edit(DRIVEN, 'c = [0.1, "k"]', 'c = [0.1, "k"]\nw_0 = [1, 2]'),
+        [
+            "[[forces.body]] #1 data.w_0: the datum uses the symbol w_0, a component of the "
+            "term's angular velocity w"
+        ],
+    ),
+    (
         "force term on a body that does not exist",
         edit(DRIVEN, 'F = "-c*cross(w, q)"', 'F = "-c*cross(w, q)"\nbodies = [1, 3]'),
         ["[[forces.body]] #1 bodies[2]: body 3 is not one of 1..2"],

@@ -144,9 +144,7 @@ def _force_term(
     data = _term_data(entry.get("data"), kind, select, count, params, where)
     body = _body_names(kind, data, shared, ("w",), inputs, where)
     _check_symbols(kind, data, params, where, shared)
-    for d in data:
-        if d.name in ("w", *inputs):
-            raise SpecError(f"{where} data.{d.name}: the name {shown(d.name)} is taken")
+    _check_taken(data, ("w",), inputs, where)
     local = {"q": 3, "w": 3, **{d.name: d.width for d in data}, **body}
     expr = _vector(entry["F"], n, [*params, *inputs], local, f"{where} F")
     return Force(expr, select, members, data, label, body_data=_used(kind, shared, expr))
@@ -186,15 +184,31 @@ def _pair_term(
     data = _term_data(entry.get("data"), kind, select, count, params, where)
     body = _body_names(kind, data, shared, ("wi", "wj"), inputs, where)
     _check_symbols(kind, data, params, where, shared)
-    for d in data:
-        if d.name in ("wi", "wj", *inputs):
-            raise SpecError(f"{where} data.{d.name}: the name {shown(d.name)} is taken")
+    _check_taken(data, ("wi", "wj"), inputs, where)
     local = {**dict.fromkeys(roles, 3), **{d.name: d.width for d in data}, **body}
     names = [*params, *inputs]
     fi = _vector(entry["Fi"], n, names, local, f"{where} Fi")
     fj = _vector(entry["Fj"], n, names, local, f"{where} Fj")
     used = _used(kind, shared, sp.ImmutableMatrix.vstack(fi, fj))
     return Force(fi, select, members, data, label, expr_j=fj, body_data=used)
+
+
+def _check_taken(
+    data: Sequence[TermData], velocities: Sequence[str], inputs: Sequence[str], where: str
+) -> None:
+    """A term datum may be named neither like one of the term's angular velocities nor like
+    one of their components (w_0 is the first component of w: a datum w_0 would replace it)
+    nor like an input."""
+    components = {s.name: v for v in velocities for s in vector(v)}
+    for d in data:
+        if d.name in (*velocities, *inputs):
+            raise SpecError(f"{where} data.{d.name}: the name {shown(d.name)} is taken")
+        for s in d.symbols():
+            if s.name in components:
+                raise SpecError(
+                    f"{where} data.{d.name}: the datum uses the symbol {s.name}, a component "
+                    f"of the term's angular velocity {components[s.name]} (rename the datum)"
+                )
 
 
 def _body_names(
