@@ -436,8 +436,8 @@ TOML_CASES: list[tuple[str, str, list[str]]] = [
         "force term datum named like a component of w",
         edit(DRIVEN, 'c = [0.1, "k"]', 'c = [0.1, "k"]\nw_0 = [1, 2]'),
         [
-            "[[forces.body]] #1 data.w_0: the datum uses the symbol w_0, a component of the "
-            "term's angular velocity w"
+            "[[forces.body]] #1 data.w_0: the datum uses the symbol w_0",
+            "a component of the term's angular velocity w",
         ],
     ),
     (
