@@ -132,20 +132,10 @@ def _force_term(
     _check_keys(entry, ("F", "bodies", "data"), where)
     if "F" not in entry:
         raise SpecError(f"{where}: missing required key 'F'")
-    for role in ("q", "w"):
-        if role in params or role in inputs:
-            raise SpecError(
-                f"{where}: the name {shown(role)} clashes with the body's own vector {role} "
-                "(rename the parameter or input)"
-            )
+    _check_roles(("q", "w"), params, inputs, where, "the body's")
     kind = TermKind.BODY
     select, members = _selection(entry.get("bodies", "all"), kind, n, where)
-    count = Term(kind, sp.Integer(0), select, members).count(n)
-    data = _term_data(entry.get("data"), kind, select, count, params, where)
-    body = _body_names(kind, data, shared, ("w",), inputs, where)
-    _check_symbols(kind, data, params, where, shared)
-    _check_taken(data, ("w",), inputs, where)
-    local = {"q": 3, "w": 3, **{d.name: d.width for d in data}, **body}
+    data, local = _names(entry, kind, select, members, n, params, inputs, where, shared)
     expr = _vector(entry["F"], n, [*params, *inputs], local, f"{where} F")
     return Force(expr, select, members, data, label, body_data=_used(kind, shared, expr))
 
@@ -169,28 +159,53 @@ def _pair_term(
     for key in ("Fi", "Fj"):
         if key not in entry:
             raise SpecError(f"{where}: missing required key {key!r}")
-    roles = ("qi", "qj", "wi", "wj")
-    for role in roles:
-        if role in params or role in inputs:
-            raise SpecError(
-                f"{where}: the name {shown(role)} clashes with the pair's own vector {role} "
-                "(rename the parameter or input)"
-            )
+    _check_roles(("qi", "qj", "wi", "wj"), params, inputs, where, "the pair's")
     kind = TermKind.PAIR
     select, members = _selection(entry.get("pairs", "chain"), kind, n, where)
     if select not in ("chain", "ring", "all", "list"):
         raise SpecError(f"{where} pairs: a force term takes 'chain', 'ring', 'all' or a list")
-    count = Term(kind, sp.Integer(0), select, members).count(n)
-    data = _term_data(entry.get("data"), kind, select, count, params, where)
-    body = _body_names(kind, data, shared, ("wi", "wj"), inputs, where)
-    _check_symbols(kind, data, params, where, shared)
-    _check_taken(data, ("wi", "wj"), inputs, where)
-    local = {**dict.fromkeys(roles, 3), **{d.name: d.width for d in data}, **body}
+    data, local = _names(entry, kind, select, members, n, params, inputs, where, shared)
     names = [*params, *inputs]
     fi = _vector(entry["Fi"], n, names, local, f"{where} Fi")
     fj = _vector(entry["Fj"], n, names, local, f"{where} Fj")
     used = _used(kind, shared, sp.ImmutableMatrix.vstack(fi, fj))
     return Force(fi, select, members, data, label, expr_j=fj, body_data=used)
+
+
+def _check_roles(
+    roles: Sequence[str], params: Mapping[str, float], inputs: Sequence[str], where: str, whose: str
+) -> None:
+    """No parameter or input may be named like one of the term's own vectors."""
+    for role in roles:
+        if role in params or role in inputs:
+            raise SpecError(
+                f"{where}: the name {shown(role)} clashes with {whose} own vector {role} "
+                "(rename the parameter or input)"
+            )
+
+
+def _names(
+    entry: Mapping[str, Any],
+    kind: TermKind,
+    select: Any,
+    members: Any,
+    n: int,
+    params: Mapping[str, float],
+    inputs: Sequence[str],
+    where: str,
+    shared: Sequence[TermData],
+) -> tuple[tuple[TermData, ...], dict[str, int]]:
+    """A force term's per-member data and every local name its expressions read with its
+    width: its own vectors (q, w or qi, qj, wi, wj), its data and the names of the per-body
+    arrays of [data] (`_body_names`); clashes between them are one-line errors."""
+    velocities = tuple(r.replace("q", "w") for r in kind.roles)
+    count = Term(kind, sp.Integer(0), select, members).count(n)
+    data = _term_data(entry.get("data"), kind, select, count, params, where)
+    body = _body_names(kind, data, shared, velocities, inputs, where)
+    _check_symbols(kind, data, params, where, shared)
+    _check_taken(data, velocities, inputs, where)
+    own = dict.fromkeys((*kind.roles, *velocities), 3)
+    return data, {**own, **{d.name: d.width for d in data}, **body}
 
 
 def _check_taken(
