@@ -237,15 +237,22 @@ def load_library(
         raise BuildError(f"cannot load the library just built, {build.path}: {exc}") from None
 
 
-def header_macro(header: str, suffix: str) -> int:
-    """The integer value of the macro `<NAME>_<suffix>` in an emitted header.
+def header_macro(header: str, prefix: str, suffix: str) -> int:
+    """The integer value of the macro `<PREFIX>_<suffix>` in the emitted header of module
+    `prefix` (the whole name: a module called `x_batch` defines X_BATCH_WORK_SIZE, which is
+    its WORK_SIZE, not a BATCH_WORK_SIZE).
 
     Example:
-        >>> header_macro("#define DP_WORK_SIZE 120\\n", "WORK_SIZE")
+        >>> header_macro("#define DP_WORK_SIZE 120\\n", "dp", "WORK_SIZE")
         120
+        >>> header_macro("#define X_BATCH_WORK_SIZE 9\\n", "x", "BATCH_WORK_SIZE")
+        Traceback (most recent call last):
+        ...
+        s2gen.build.BuildError: macro X_BATCH_WORK_SIZE missing from the emitted header
     """
+    name = f"{prefix.upper()}_{suffix}"
     for line in header.splitlines():
         parts = line.split()
-        if len(parts) >= 3 and parts[0] == "#define" and parts[1].endswith("_" + suffix):
+        if len(parts) >= 3 and parts[0] == "#define" and parts[1] == name:
             return int(parts[2])
-    raise BuildError(f"macro *_{suffix} missing from the emitted header")
+    raise BuildError(f"macro {name} missing from the emitted header")

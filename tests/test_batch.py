@@ -20,6 +20,7 @@ newton_maxiter does not fail) must fail the comparison.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from collections.abc import Callable
 from pathlib import Path
@@ -30,6 +31,8 @@ from test_chains import banded_chain
 
 from s2gen.emit import emit
 from s2gen.parts.batch import BATCH_LANES, BATCH_METHODS
+from s2gen.passes import lower_system
+from s2gen.printing.c_batch import batch_work
 from s2gen.runtime.batch import integrate_batch
 from s2gen.runtime.c import CBackend
 from s2gen.runtime.model import Model
@@ -99,11 +102,14 @@ def check(
     files: dict[str, str] | None = None,
     options: Options | None = None,
     own: str | None = None,
+    renamed: str | None = None,
 ) -> None:
     """Every member of the batch against integrate() of that member alone (`files`: the
     batched module's C, by default the emitted one), both with `options` (default Options());
-    `own`: see `members`."""
+    `own`: see `members`; `renamed`: the system under that module name."""
     s = system(name)
+    if renamed is not None:
+        s = dataclasses.replace(s, name=renamed)
     one, batched = CBackend(s, opt=opt), CBackend(s.with_batch(), files, opt=opt)
     assert not one.library.batch and batched.library.batch
     q0, w0, p = members(name, late, own)
@@ -140,6 +146,17 @@ def test_four_pendula_every_method() -> None:
     """Explicit VI, its compositions, the fixed-step Runge-Kutta methods and RK45 and DOP853
     (listed and body terms with member tables), portable flags."""
     check("four_pendula", BATCH_METHODS, "portable")
+
+
+def test_a_module_named_like_a_size_macro_reads_its_own_sizes() -> None:
+    """A module called four_batch defines FOUR_BATCH_WORK_SIZE, its one-member WORK_SIZE: the
+    runtime reads BATCH_WORK_SIZE by its whole name (taken by how a macro ends, the batch got
+    the one-member workspace and wrote past it)."""
+    s = dataclasses.replace(system("four_pendula"), name="four_batch").with_batch()
+    module = lower_system(s)
+    lib = CBackend(s, opt="portable").library
+    assert (lib.batch_work, lib.work.size) == (batch_work(module)["size"], module.work_size)
+    check("four_pendula", ("vi", "rk4"), "portable", renamed="four_batch")
 
 
 def test_dipoles_vi() -> None:

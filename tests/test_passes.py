@@ -293,7 +293,7 @@ def test_workspace_buffers_are_disjoint_and_fit_work_size(system: str) -> None:
         assert lay.size <= module.work_base, lay.name
     assert module.work_base == max(lay.size for lay in module.layouts) <= module.work_size
     header = render(print_module(module), "c")[f"{module.name}.h"]
-    assert header_macro(header, "WORK_SIZE") == module.work_size
+    assert header_macro(header, module.name, "WORK_SIZE") == module.work_size
 
 
 @pytest.mark.parametrize("system", ["double_pendulum", "rope", "springs4"])

@@ -42,7 +42,7 @@ class _CRun:
         from s2gen.build import header_macro
 
         s = self.be.system
-        return header_macro(emit(s, "c")[f"{s.name}.h"], suffix)
+        return header_macro(emit(s, "c")[f"{s.name}.h"], s.name, suffix)
 
     def step(
         self, h: float, q: np.ndarray, w: np.ndarray

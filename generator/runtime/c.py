@@ -88,21 +88,23 @@ class CLibrary:
         self.jvp = f"#define {prefix.upper()}_JVP_WORK_SIZE " in header
         self.api: Interface = interface(kind, driven, self.jacobian, self.batch, self.jvp)
         #: Doubles of step_jvp()'s workspace (0 without it)
-        self.jvp_work = header_macro(header, "JVP_WORK_SIZE") if self.jvp else 0
+        self.jvp_work = header_macro(header, prefix, "JVP_WORK_SIZE") if self.jvp else 0
         #: Whether step_jvp() takes the VI family too
-        self.jvp_vi = self.jvp and header_macro(header, "JVP_VI") == 1
+        self.jvp_vi = self.jvp and header_macro(header, prefix, "JVP_VI") == 1
         #: Doubles of integrate_batch()'s workspace (0 without it)
-        self.batch_work = header_macro(header, "BATCH_WORK_SIZE") if self.batch else 0
+        self.batch_work = header_macro(header, prefix, "BATCH_WORK_SIZE") if self.batch else 0
         self.lib, self.build = load_library(files, build_flags(opt))
-        self.work = np.zeros(max(1, header_macro(files[f"{prefix}.h"], "WORK_SIZE")))
+        self.work = np.zeros(max(1, header_macro(header, prefix, "WORK_SIZE")))
         #: Doubles of step_jacobian()'s workspace (0 without it)
-        self.jacobian_work = header_macro(header, "JACOBIAN_WORK_SIZE") if self.jacobian else 0
+        self.jacobian_work = (
+            header_macro(header, prefix, "JACOBIAN_WORK_SIZE") if self.jacobian else 0
+        )
         #: Whether step_jacobian() differentiates the VI family too
-        self.jacobian_vi = self.jacobian and header_macro(header, "JACOBIAN_VI") == 1
+        self.jacobian_vi = self.jacobian and header_macro(header, prefix, "JACOBIAN_VI") == 1
         names = {f.name for f in self.api.functions}
         #: Doubles of step()'s carry (0 for a module without step()).
         carry = "step" in names and not driven
-        self.carry_size = header_macro(files[f"{prefix}.h"], "STEP_CARRY") if carry else 0
+        self.carry_size = header_macro(header, prefix, "STEP_CARRY") if carry else 0
         self.Options = _struct("Options", self.api.options)
         self.Stats = _struct("Stats", self.api.stats)
         self.Stepper = _struct("Stepper", self.api.stepper)

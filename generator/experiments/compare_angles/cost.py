@@ -114,7 +114,7 @@ class RhsTimer:
         self.arrays += [
             np.zeros(a.size),
             np.zeros(a.size),
-            np.zeros(header_macro(files[header], "WORK_SIZE")),
+            np.zeros(header_macro(files[header], prefix, "WORK_SIZE")),
         ]
         self.args = [ctypes.c_void_p(x.ctypes.data) for x in self.arrays]
         self.name = prefix
