@@ -245,10 +245,12 @@ def header_macro(header: str, prefix: str, suffix: str) -> int:
     Example:
         >>> header_macro("#define DP_WORK_SIZE 120\\n", "dp", "WORK_SIZE")
         120
-        >>> header_macro("#define X_BATCH_WORK_SIZE 9\\n", "x", "BATCH_WORK_SIZE")
+        >>> header_macro("#define X_BATCH_WORK_SIZE 9\\n", "x_batch", "WORK_SIZE")
+        9
+        >>> header_macro("#define X_BATCH_WORK_SIZE 9\\n", "x_batch", "BATCH_WORK_SIZE")
         Traceback (most recent call last):
         ...
-        s2gen.build.BuildError: macro X_BATCH_WORK_SIZE missing from the emitted header
+        s2gen.build.BuildError: macro X_BATCH_BATCH_WORK_SIZE missing from the emitted header
     """
     name = f"{prefix.upper()}_{suffix}"
     for line in header.splitlines():
