@@ -9,8 +9,8 @@ Input: the unlowered `Module` of a system (`s2gen.equations.assemble`). Output: 
   once per call (`passes/reciprocal.py`);
 - `factor`: common factors pulled out of sums (`passes/factor.py`);
 - `cse`: common subexpressions of each kernel, deterministic temporaries (`passes/cse.py`);
-- `hoist`: what depends only on parameters (and a member's data) computed once per call
-  (`passes/hoist.py`);
+- `hoist`: what depends only on parameters (and a member's data, with its bodies' per-body
+  data where the loop gathers them) computed once per call (`passes/hoist.py`);
 - `strength`: powers of a base share one division, one square root and a chain of squares
   (`passes/strength.py`);
 - `powers`: small integer powers as products (`passes/powers.py`);

@@ -29,8 +29,9 @@ import sympy as sp
 
 from s2gen.ir import Argument, Assignment, Kernel, KernelDef, Module, Output, TermLoop
 from s2gen.passes.cse import lower_kernel
+from s2gen.passes.layout import contiguous
 
-__all__ = ["CONSTANT", "TABLE", "hoist_pass"]
+__all__ = ["CONSTANT", "TABLE", "hoist_pass", "member_data"]
 
 #: Names of the hoisted symbols: context constants cc_k, member-table slots tab_k.
 CONSTANT, TABLE = "cc", "tab"
@@ -118,9 +119,34 @@ class _Stager:
         return expr.func(*(self.rewrite(a) for a in expr.args))
 
 
-def _stage_kernel(kernel: Kernel, context: _Hoister, table: _Hoister | None) -> tuple[Kernel, bool]:
-    """The kernel with hoisted parts read from cc and tab; True when something was hoisted."""
+def member_data(t: TermLoop) -> bool:
+    """Whether the per-body data of term `t` are hoisted with its member's data: its members
+    are fixed and its loop gathers them (see the module's docstring).
+
+    Example:
+        >>> from s2gen.ir import Loop, LoopKind
+        >>> chain = TermLoop(0, Loop(LoopKind.CHAIN, 3), (), "t0_value", "t0_gradient")
+        >>> rows = TermLoop(1, Loop(LoopKind.ALL_PAIRS, 6), (), "t1_value", "t1_gradient")
+        >>> member_data(chain), member_data(rows)
+        (True, False)
+    """
+    return t.loop.kind.fixed and not contiguous(t)
+
+
+def _stages(kernel: Kernel | KernelDef, per_member: bool) -> dict[str, int]:
+    """Input name -> stage of a staged kernel; per-body data (listed at stage 2) at stage 1
+    when `per_member`."""
     stages = dict(kernel.stages or ())
+    if per_member:
+        stages = {name: 1 if level == 2 else level for name, level in stages.items()}
+    return stages
+
+
+def _stage_kernel(
+    kernel: Kernel, context: _Hoister, table: _Hoister | None, per_member: bool
+) -> tuple[Kernel, bool]:
+    """The kernel with hoisted parts read from cc and tab; True when something was hoisted."""
+    stages = _stages(kernel, per_member)
     stage: dict[sp.Symbol, int] = {}
     for arg in kernel.inputs:
         for s in arg.symbols:
@@ -170,8 +196,9 @@ def hoist_pass(module: Module) -> Module:
     rewritten: dict[str, Kernel] = {}
     for k in staged:
         term = owner.get(k.name)
-        table = tables[term.index] if term is not None and term.data else None
-        new, _ = _stage_kernel(k, context, table)
+        per_member = term is not None and member_data(term)
+        table = tables[term.index] if term is not None and (term.data or per_member) else None
+        new, _ = _stage_kernel(k, context, table, per_member)
         rewritten[k.name] = new
     kernels: list[KernelDef | Kernel] = []
     if context.exprs:
@@ -192,7 +219,7 @@ def hoist_pass(module: Module) -> Module:
         table = tables[t.index]
         if table.exprs:
             value = rewritten[t.value]
-            stages = dict(value.stages or ())
+            stages = _stages(value, member_data(t))
             inputs = tuple(a for a in value.inputs if stages.get(a.name, 2) < 2)
             kernels.append(
                 lower_kernel(

@@ -60,7 +60,13 @@ from s2gen.printing.tableau import (
     print_pair,
     print_tableau,
 )
-from s2gen.printing.terms import PrintedTerm, print_term, py_quad_lines, quad_init
+from s2gen.printing.terms import (
+    PrintedTerm,
+    c_table_loop,
+    print_term,
+    py_quad_lines,
+    quad_init,
+)
 from s2gen.printing.transformed import print_transformed
 from s2gen.tableaus import DOP853, DOPRI5
 from s2gen.version import __version__
@@ -212,9 +218,9 @@ def print_module(module: Module) -> PrintedModule:
         table_inits=tuple(
             {
                 "index": t.index,
-                "count": t.loop.count,
                 "table": t.table,
                 "call": calls[f"t{t.index}_table"]["c"],
+                **c_table_loop(module, t),
             }
             for t in module.terms
             if t.table

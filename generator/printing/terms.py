@@ -32,7 +32,15 @@ from s2gen.printing.c_fission import SplitRows, c_split_rows
 from s2gen.printing.numpy import py_quad, py_term_gradient, py_term_setup
 from s2gen.terms import body_names
 
-__all__ = ["PrintedTerm", "c_cells_data", "c_rows_data", "print_term", "py_quad_lines", "quad_init"]
+__all__ = [
+    "PrintedTerm",
+    "c_cells_data",
+    "c_rows_data",
+    "c_table_loop",
+    "print_term",
+    "py_quad_lines",
+    "quad_init",
+]
 
 
 @dataclass(frozen=True)
@@ -224,3 +232,25 @@ def quad_init(module: Module, t: TermLoop, calls: dict[str, Any]) -> dict[str, A
 def py_quad_lines(t: TermLoop, calls: dict[str, Any], n: int) -> tuple[str, ...]:
     """NumPy lines adding one quadratic term's members into K and kb (component-major)."""
     return py_quad(t, calls[f"t{t.index}_quad"]["py"], n)
+
+
+def c_table_loop(module: Module, t: TermLoop) -> dict[str, Any]:
+    """The loop computing a term's member table in the context (once per call): over the
+    members m, with their bodies i (and j) when the table reads per-body data.
+
+    Example:
+        >>> from s2gen.spec import define_system
+        >>> from s2gen.passes import lower_system
+        >>> s = define_system(name="tl", bodies=3, diagonal="1", data={"c": [1.0, 2.0, 3.0]},
+        ...                   pair_terms=[{"V": "k*ci*cj*dot(qi, qj)", "pairs": "chain"}],
+        ...                   parameters={"k": 1.0})
+        >>> m = lower_system(s)
+        >>> c_table_loop(m, m.terms[0])["open"][-1].strip()
+        'const long i = m, j = m + 1;'
+    """
+    call = next(c for c in module.calls if c.site == f"t{t.index}_table")
+    if any(isinstance(b, BodyDatum) for b in call.inputs):
+        c_open, c_close = c_loop(module.name, t, module.n)
+        return {"open": c_open, "close": c_close, "indent": " " * 12}
+    head = f"    for (m = 0; m < {t.loop.count}; ++m) {{"
+    return {"open": (head,), "close": ("    }",), "indent": " " * 8}
