@@ -166,7 +166,9 @@ def numpy_batch_refusal(module: Module) -> str | None:
         if c.site.startswith("t") and c.site.endswith(("_value", "_gradient"))
         for b in c.inputs
     ):
-        why = "covers terms reading the state and tables only (not per-body data)"
+        why = (
+            "covers terms reading the state and tables only (not per-body data at every evaluation)"
+        )
     if why is None:
         return None
     return f"{module.name}: integrate_batch() on the NumPy backend {why} (C only)"
