@@ -32,6 +32,7 @@ from s2gen.ensemble.store import STATISTICS, TRAJECTORIES
 from s2gen.experiments.reproduce.band import chaos_band
 from s2gen.methods import Status
 from s2gen.runtime import IntegrationError
+from s2gen.runtime.options import Options
 
 pytest.importorskip("distributed")
 
@@ -40,7 +41,9 @@ LocalCluster = pytest.importorskip("distributed").LocalCluster
 
 
 # ------------------------------------------------------------------------------------ helpers
-def _direct(system: Any, table: Any, every: int, method: str = "vi") -> list[dict[str, Any]]:
+def _direct(
+    system: Any, table: Any, every: int, method: str = "vi", options: Options | None = None
+) -> list[dict[str, Any]]:
     """Each member integrated on its own through the public API: samples (thinned) and status."""
     model = s2gen.compile(system)
     out = []
@@ -48,7 +51,9 @@ def _direct(system: Any, table: Any, every: int, method: str = "vi") -> list[dic
         q0, w0 = initial_state(system, table, m)
         status = 0
         try:
-            tr = model.integrate(method, m.h, table.T, q0=q0, omega0=w0, params=dict(m.params))
+            tr = model.integrate(
+                method, m.h, table.T, q0=q0, omega0=w0, params=dict(m.params), options=options
+            )
         except IntegrationError as exc:
             tr, status = exc.partial, exc.status
         dev = np.abs(tr.energy - tr.energy[0])
@@ -149,6 +154,7 @@ def test_lyapunov_fit_recovers_a_known_exponent() -> None:
         (["--chaos-band", "--T", "3"], "drop --T"),
         (["--bench", "--sweep", "kappa=1,2"], "no --sweep"),
         (["--dashboard"], "--workers 0 has none"),
+        (["--max-steps", "-1"], "max_steps = -1"),
     ],
 )
 def test_bad_input_is_one_line_exit_2(
@@ -255,6 +261,25 @@ def test_store_layout_and_numbers_match_direct_runs(tmp_path: Path) -> None:
     _assert_store_equals(r.path, _direct(s, table, every=5))
     unit = np.abs(np.linalg.norm(np.asarray(g["q"][:]), axis=3) - 1)
     assert np.nanmax(unit) <= np.nanmax(g["max_unit"][:]) < 1e-13  # stats cover every sample
+
+
+def test_the_step_budget_reaches_every_member(tmp_path: Path) -> None:
+    """--max-steps is each member's RK45 step budget: the members stop where integrate() with
+    the same budget stops them, and the store records the option."""
+    out = tmp_path / "out"
+    argv = ["ensemble", "double_pendulum", "--members", "2", "--perturb", "omega=1e-12"]
+    argv += ["--method", "rk45", "--T", "0.5", "--max-steps", "2", "--workers", "0"]
+    assert main([*argv, "--no-figures", "--out", str(out)]) == 0
+    s = s2gen.load("double_pendulum")
+    table = member_table(s, 2, {"omega": 1e-12}, T=0.5)
+    expected = _direct(s, table, every=1, method="rk45", options=Options(max_steps=2))
+    assert [e["status"] for e in expected] == [Status.STEPSIZE] * 2
+    store = out / "ensemble.zarr"
+    _assert_store_equals(store, expected)
+    import zarr
+
+    attrs = zarr.open_group(str(store), mode="r").attrs["s2gen"]
+    assert attrs["options"]["max_steps"] == 2 and "--max-steps 2" in attrs["command"]
 
 
 def test_interrupted_ensemble_keeps_the_members_written(tmp_path: Path) -> None:

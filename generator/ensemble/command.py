@@ -94,6 +94,14 @@ def add_parser(subparsers: Any) -> None:
     e.add_argument(
         "--control", choices=("matlab", "hairer"), default="matlab", help="RK45 error control"
     )
+    e.add_argument(
+        "--max-steps",
+        type=int,
+        default=100000,
+        metavar="N",
+        help="RK45/DOP853 step budget per member: it stops after N attempted steps between two "
+        "samples (0: no limit); default 100000",
+    )
     e.add_argument("--every", type=int, default=1, metavar="K", help="store every K-th sample")
     e.add_argument("--seed", type=int, default=0, help="seed of the perturbations (default 0)")
     e.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, tcp://...")
@@ -162,10 +170,10 @@ def command_line(args: argparse.Namespace) -> str:
             parts += [f"--{key.replace('_', '-')}", str(getattr(args, key))]
     if args.dashboard is not None:
         parts += ["--dashboard", args.dashboard]
-    defaults = {"rtol": 1e-3, "atol": 1e-6, "control": "matlab", "every": 1, "seed": 0}
-    for key, default in defaults.items():
+    defaults = {"rtol": 1e-3, "atol": 1e-6, "control": "matlab", "max_steps": 100000}
+    for key, default in {**defaults, "every": 1, "seed": 0}.items():
         if getattr(args, key) != default:
-            parts += [f"--{key}", str(getattr(args, key))]
+            parts += [f"--{key.replace('_', '-')}", str(getattr(args, key))]
     parts += ["--out", str(args.out)]
     flags = ("overwrite", "no_figures", "bench", "chaos_band")
     return " ".join(parts + [f"--{f.replace('_', '-')}" for f in flags if getattr(args, f)])

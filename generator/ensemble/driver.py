@@ -83,7 +83,7 @@ def _security(args: argparse.Namespace) -> Any:
 
 
 def _options(args: argparse.Namespace) -> Options:
-    return Options(rtol=args.rtol, atol=args.atol, control=args.control)
+    return Options(rtol=args.rtol, atol=args.atol, control=args.control, max_steps=args.max_steps)
 
 
 class ProgressBar:
