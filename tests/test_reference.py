@@ -36,7 +36,7 @@ from s2gen.reference import (
 from s2gen.runtime import IntegrationError, Options, simulate
 from s2gen.symbols import q_symbol, q_vector
 from s2gen.system import System
-from s2gen.systems import builtin
+from s2gen.systems import builtin, resolve
 
 E3 = np.array([0.0, 0.0, 1.0])
 
@@ -408,6 +408,22 @@ def test_rk45_matlab_control_respects_hmax() -> None:
     tr = integrate(free_problem(), "rk45", [[1.0, 0, 0]], [[0, 0, 1e-3]], 1.0, 1)
     assert tr.stats["steps"] >= 10 and tr.stats["rejected"] == 0
     assert tr.stats["rhs_evaluations"] == 1 + 6 * tr.stats["steps"]
+
+
+@pytest.mark.parametrize("control", ["matlab", "hairer"])
+def test_the_reference_backend_honours_hmax(control: str) -> None:
+    """Options.hmax reaches the reference backend: with steps capped at 0.003 (a tenth of what
+    the tolerance allows) it takes the emitted C's and NumPy's steps, sample for sample."""
+    s = resolve("double_pendulum")
+    o = Options(hmax=0.003, control=control, rtol=1e-6, atol=1e-9)
+    runs = {
+        b: simulate(s, "rk45", b, h=0.01, T=1.0, options=o) for b in ("c", "numpy", "reference")
+    }
+    free = simulate(s, "rk45", "reference", h=0.01, T=1.0, options=Options(control=control))
+    assert runs["reference"].stats["steps"] >= 1.0 / 0.003 > 3 * free.stats["steps"]
+    for b in ("c", "numpy"):
+        assert runs[b].stats["steps"] == runs["reference"].stats["steps"], b
+        assert np.abs(runs[b].q - runs["reference"].q).max() < 1e-12, b
 
 
 # ---------------------------------------------------------------------------------- failures

@@ -236,6 +236,7 @@ class ReferenceBackend:
                 rtol=options.rtol,
                 atol=options.atol,
                 control=options.control,
+                hmax=options.hmax if options.hmax > 0.0 else None,  # 0: the control's default
                 newton_tol=options.newton_tol,
                 newton_maxiter=options.newton_maxiter,
                 monitor=monitor,
