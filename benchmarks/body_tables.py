@@ -29,14 +29,13 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
-import time
 
 import numpy as np
 from python_step import cpu_model
+from structured_crossover import vi_cpu_per_step
 
 from s2gen.passes import lower_system
 from s2gen.runtime.c import CBackend
-from s2gen.runtime.options import Options
 from s2gen.spec import define_system
 from s2gen.system import System
 
@@ -97,17 +96,6 @@ def systems(n: int, neighbours: int) -> tuple[System, System]:
     return per_body, per_pair
 
 
-def _per_step(be: CBackend, steps: int) -> float:
-    """CPU time per VI step (µs) of one integrate call from the initial state."""
-    s = be.system
-    p = np.asarray(s.parameter_values, dtype=float)
-    t = time.process_time()
-    status, *_ = be.integrate("vi", 1e-4, steps, s.q0, s.omega0, p, Options(), steps, False)
-    if status != 0:
-        raise RuntimeError(f"{s.name}: integrate failed with status {status}")
-    return (time.process_time() - t) / steps * 1e6
-
-
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     print(f"cpu: {cpu_model()}; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
@@ -124,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
         times: list[list[float]] = [[], []]
         for _ in range(args.repeats):
             for k, be in enumerate(backs):
-                times[k].append(_per_step(be, args.steps))
+                times[k].append(vi_cpu_per_step(be, args.steps, 1e-4))
         a, b = (statistics.median(t) for t in times)
         print(f"| {flags} | {a:.2f} | {b:.2f} | {a / b:.2f} |")
     print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} after")

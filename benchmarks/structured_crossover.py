@@ -52,10 +52,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     return ap.parse_args(argv)
 
 
-def _per_step(be: CBackend, steps: int) -> float:
-    """CPU time per VI step (µs) of one integrate call from the initial state."""
+def vi_cpu_per_step(be: CBackend, steps: int, h: float | None = None) -> float:
+    """CPU time per VI step (µs) of one integrate call from the system's initial state, with
+    step `h` (default its [run] h, else 1e-3)."""
     s = be.system
-    h = s.run.h or 1e-3
+    h = h or s.run.h or 1e-3
     p = np.asarray(s.parameter_values, dtype=float)
     t = time.process_time()
     status, *_ = be.integrate("vi", h, steps, s.q0, s.omega0, p, Options(), steps, False)
@@ -79,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
                 times: list[list[float]] = [[], []]
                 for _ in range(args.repeats):
                     for k, be in enumerate(backs):
-                        times[k].append(_per_step(be, steps))
+                        times[k].append(vi_cpu_per_step(be, steps))
                 a, b = (statistics.median(t) for t in times)
                 print(f"| {name} | {n} | {flags} | {a:.2f} | {b:.2f} | {a / b:.2f} | {auto} |")
     print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} after")
