@@ -20,7 +20,7 @@ them.
 
 Example:
     >>> per_body, per_pair = systems(8, 2)
-    >>> per_body.terms[0].data, sorted(per_pair.terms[0].data)
+    >>> per_body.terms[0].data, sorted(d.name for d in per_pair.terms[0].data)
     ((), ['eps', 'sig'])
 """
 
