@@ -72,6 +72,8 @@ numbers (a scalar, symbol `name`) or all 3-vectors (usable wherever a vector is:
 parameters, evaluated to floats. Data names must not clash with parameters, reserved names or
 `q`, `qi`, `qj`. Terms are labelled "[[potential.body]] #k" / "[[potential.pair]] #k" (k from
 1, in file order); errors name them, e.g. ``spec.toml: [[potential.pair]] #2 data.k: ...``.
+A term's list and its data entries may name files, as [data] entries do: ``pairs = { file =
+"bonds.csv" }``, ``data = { k = { file = "k.txt" } }``.
 The Python API takes the same tables as dicts: ``define_system(..., body_terms=[{"V": ...,
 "bodies": ..., "data": {...}}], pair_terms=[{"V": ..., "pairs": ..., "data": {...}}])``.
 
@@ -94,7 +96,7 @@ import numpy as np
 import sympy as sp
 
 from s2gen.spec.data import body_data, scalar_data
-from s2gen.spec.files import read_data_files
+from s2gen.spec.files import read_data_files, read_term_files
 from s2gen.spec.forces import _forces, _inputs
 from s2gen.spec.inertia import chain_inertia
 from s2gen.spec.parser import RESERVED_NAMES, parse_expression
@@ -319,8 +321,9 @@ def load_spec_text(
     text: str, *, origin: str = "<string>", folder: str | Path | None = None
 ) -> System:
     """Parse TOML spec text; `origin` names it in error messages (raises SpecError).
-    `folder` is where relative data file names (``c = { file = "c.npy" }`` in [data] or
-    [inertia.data], see `s2gen.spec.files`) are found; without it they are an error.
+    `folder` is where relative file names (``c = { file = "c.npy" }`` in [data],
+    [inertia.data] or a term's data, ``pairs = { file = "bonds.csv" }``, see
+    `s2gen.spec.files`) are found; without it they are an error.
 
     Example:
         >>> load_spec_text('name = "p"\\nbodies = 1\\n[parameters]\\nm = 2.0\\n'
@@ -341,7 +344,12 @@ def load_spec_text(
     inertia_data = read_data_files(
         tables["inertia"].get("data"), data["bodies"], where, origin, "[inertia] data."
     )
-    potential = tables["potential"]
+    potential, forces = tables["potential"], tables["forces"]
+    for table, name in ((potential, "potential"), (forces, "forces")):
+        for key, arity, select in (("body", 1, "bodies"), ("pair", 2, "pairs")):
+            if key in table:  # member lists and term data that name files
+                label = f"[[{name}.{key}]]"
+                table[key] = read_term_files(table[key], arity, where, origin, label, select)
     if not {"V", "body", "pair"} & set(potential):
         raise SpecError(
             f"{origin}: [potential]: missing required key 'V' (required unless terms "
