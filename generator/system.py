@@ -115,6 +115,9 @@ class System:
     #: What `s2gen.load` rebuilds this system from: a built-in name with its options
     #: (``elastic_rod:n=12``) or the TOML text; empty for a system defined in Python.
     source: str = field(default="", compare=False)
+    #: The folder of the spec file the TOML `source` came from (absolute), where its relative
+    #: data file names are found when it is rebuilt; empty otherwise.
+    source_folder: str = field(default="", compare=False)
 
     # ------------------------------------------------------------------ construction
     @staticmethod

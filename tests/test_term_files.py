@@ -109,3 +109,31 @@ def test_a_relative_term_file_in_spec_text_without_a_folder_says_what_to_do() ->
     text = _spec(_file("b.txt"), _rows(PULL), _rows(PAIRS), _rows(STIFF), _rows(PAIRS), _rows(DAMP))
     with pytest.raises(SpecError, match=r"\[\[potential.body\]\] #1 bodies: file 'b.txt' is rel"):
         load_spec_text(text)
+
+
+def test_a_saved_trajectory_rebuilds_its_system_from_the_spec_files(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The spec text a trajectory records names its files relative to the spec's folder, which
+    it records too: rebuilt from another working folder it reads the same files (the same
+    digest); with a file gone, the one-line error names it."""
+    from s2gen.runtime.trajectory import Trajectory
+
+    specs = tmp_path / "specs"
+    specs.mkdir()
+    np.savetxt(specs / "bonds.csv", PAIRS, fmt="%d", delimiter=",")
+    np.save(specs / "k.npy", STIFF)
+    text = _spec(
+        _rows(BODIES), _rows(PULL), _file("bonds.csv"), _file("k.npy"), _rows(PAIRS), _rows(DAMP)
+    )
+    (specs / "s.toml").write_text(text)
+    system = load_spec(specs / "s.toml")
+    saved = simulate(system, "rk4", "c", h=0.01, T=0.05).save(tmp_path / "run.npz")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    rebuilt = Trajectory.load(saved).rebuild()
+    assert rebuilt.spec_digest() == system.spec_digest() == load_spec_text(INLINE).spec_digest()
+    (specs / "k.npy").unlink()
+    with pytest.raises(SpecError, match=r"data\.k: file '.*k\.npy': no such file"):
+        Trajectory.load(saved).rebuild()

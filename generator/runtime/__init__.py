@@ -327,6 +327,7 @@ def _metadata(system: System, method: str, opts: Options, p: np.ndarray) -> dict
         "system": system.name,
         "spec_hash": system.spec_hash(),
         "spec": system.source,
+        "spec_folder": system.source_folder,
         "params": dict(zip(system.parameter_names, p.tolist())),
     }
     if method_record(method).adaptive:

@@ -144,6 +144,7 @@ class Stepper(abc.ABC):
             system=s.name,
             spec_hash=s.spec_hash(),
             spec=s.source,
+            spec_folder=s.source_folder,
             params=dict(zip(s.parameter_names, self._params.tolist())),
         )
         return IntegrationError(

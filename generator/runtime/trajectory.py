@@ -58,6 +58,7 @@ METADATA_FIELDS = (
     "stats",
     "wall_time",
     "spec",
+    "spec_folder",
     "params",
     "energy_warn",
     "energy_scale",
@@ -117,6 +118,9 @@ class Trajectory:
     momentum: np.ndarray | None = field(default=None, compare=False)
     #: What `s2gen.load` rebuilds the system from (`System.source`; "" if unknown).
     spec: str = ""
+    #: The folder of the spec's file (`System.source_folder`): its data files are read from
+    #: there when the system is rebuilt ("" for built-ins, Python systems and older files).
+    spec_folder: str = ""
     #: The parameter values of the run, by name ({} if unknown: then the spec's).
     params: dict[str, float] = field(default_factory=dict)
     #: The relative energy error the run was checked against (`Options.energy_warn`), the
@@ -244,6 +248,7 @@ class Trajectory:
             version=meta.get("version", ""),
             momentum=arrays.get("angular_momentum"),
             spec=meta.get("spec", ""),
+            spec_folder=meta.get("spec_folder", ""),
             params={k: float(v) for k, v in meta.get("params", {}).items()},
             energy_warn=meta.get("energy_warn"),
             energy_scale=meta.get("energy_scale"),
@@ -316,6 +321,11 @@ class Trajectory:
             )
         from s2gen import load
 
+        if self.spec_folder and "\n" in self.spec:  # spec text whose data files live there
+            from s2gen.spec import load_spec_text
+
+            origin = f"{self.system or 'the trajectory'}'s spec"
+            return load_spec_text(self.spec, origin=origin, folder=self.spec_folder)
         return load(self.spec)
 
     def unit_length_error(self) -> np.ndarray:

@@ -378,7 +378,8 @@ def load_spec_text(
         force_pairs=tables["forces"].get("pair"),
         data=tables["data"] or None,
     )
-    return dataclasses.replace(system, source=text)
+    folder_name = "" if where is None else str(where.resolve())
+    return dataclasses.replace(system, source=text, source_folder=folder_name)
 
 
 def _table(data: Mapping[str, Any], key: str, origin: str) -> dict[str, Any]:

@@ -236,7 +236,7 @@ def with_parameters(system: System, values: Mapping[str, float]) -> System:
         inputs=system.inputs.defaults,
         forces=system.forces,
     )
-    return dataclasses.replace(changed, source=system.source)
+    return dataclasses.replace(changed, source=system.source, source_folder=system.source_folder)
 
 
 def resolve(spec: str, params: Sequence[str] = ()) -> System:
