@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import csv
 import struct
+import threading
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -104,20 +106,36 @@ def test_quick_figures_are_png(quick_out: tuple[Path, int, str]) -> None:
 
 def test_progress_lines_do_not_change_the_run(monkeypatch: pytest.MonkeyPatch) -> None:
     """Long runs report progress while the emitted C runs; the run is one call either way,
-    bit for bit the run without progress, for every method."""
+    bit for bit the run without progress, for every method. So that a run cannot end before
+    the first report whatever the machine's speed, each call waits in its thread until a
+    progress line is written."""
     monkeypatch.setattr(rp, "PROGRESS_SECONDS", 1e-9)
     monkeypatch.setattr("s2gen.runtime.c.POLL_SECONDS", 1e-3)
     lines: list[str] = []
+    reported_once = threading.Event()
+
+    class Gated(threading.Thread):
+        def __init__(self, target: Callable[[], object]) -> None:
+            super().__init__(target=lambda: (reported_once.wait(10.0), target()))
+
+    monkeypatch.setattr("s2gen.runtime.c.threading.Thread", Gated)
+
+    def log(line: str) -> None:
+        lines.append(line)
+        reported_once.set()
+
     system = builtin("double_pendulum")
     for method in ("vi", "vi4", "rattle", "rk4", "rk45"):
+        reported_once.clear()
         run = PaperRun(method, 0.01, 20.0, rtol=1e-8, atol=1e-10)
-        reported = rp.integrate(system, run, log=lines.append)
+        reported = rp.integrate(system, run, log=log)
+        assert reported_once.is_set(), method  # reported while the C had not yet run
         opts = Options(rtol=1e-8, atol=1e-10)
         whole = simulate(system, method, "c", h=0.01, T=20.0, options=opts)
         np.testing.assert_array_equal(reported.q, whole.q)
         np.testing.assert_array_equal(reported.omega, whole.omega)
         np.testing.assert_array_equal(reported.energy, whole.energy)
-    assert any("t = " in line and "%" in line for line in lines)
+    assert all("t = " in line and "%" in line for line in lines) and len(lines) >= 5
 
 
 def test_failures_are_reported_and_others_kept(
