@@ -13,8 +13,9 @@ taken, a Newton that stops converging some steps in) while their neighbours go o
 A system whose first block is singular (or within 1e-9 of it) for some members only, as
 tests/test_block_elimination.py builds it but with the offset a parameter, puts declining
 lanes beside lanes that do not decline. Broken variants of the emitted C (every lane taking
-lane 0's pivot rows; a declining lane keeping its block elimination's result instead of the
-band's) must fail the comparison.
+lane 0's pivot rows; lanes pivoting on different rows taken for lanes pivoting on one; the
+rows not exchanged where all lanes pivot on one; a declining lane keeping its block
+elimination's result instead of the band's) must fail the comparison.
 """
 
 from __future__ import annotations
@@ -156,7 +157,23 @@ def _decline_kept(c: str, upper: str) -> str:
     return c.replace(flag, "ok[l] = chk[l] == 0.0;")
 
 
-@pytest.mark.parametrize("broken", [_lane0_pivots, _decline_kept])
+def _one_row_for_split_lanes(c: str, upper: str) -> str:
+    """Lanes pivoting on different rows are taken for lanes pivoting on one (lane 0's)."""
+    split = "split |= piv[l] != piv[0];"
+    assert c.count(split) == 1
+    return c.replace(split, "split |= 0;")
+
+
+def _whole_exchange_skipped(c: str, upper: str) -> str:
+    """Where every lane pivots on one row, the rows are not exchanged."""
+    row = "const long pv = (long)piv[0];"
+    assert c.count(row) == 1
+    return c.replace(row, "const long pv = (long)k;")
+
+
+@pytest.mark.parametrize(
+    "broken", [_lane0_pivots, _decline_kept, _one_row_for_split_lanes, _whole_exchange_skipped]
+)
 def test_broken_lane_solves_are_caught(broken: Callable[[str, str], str]) -> None:
     """Each lane's own pivot rows and each lane's decline matter: the variants fail the
     comparison on the pivoted system."""
