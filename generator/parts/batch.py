@@ -210,14 +210,21 @@ def has_chain_lanes(module: Module) -> bool:
     )
 
 
+#: The structured VI's sites the max-index batch writes inline in its lane loops instead
+#: (`s2gen.printing.c_batch_chain.chain_lanes`).
+_CHAIN_INLINE = ("res_coupled",)
+
+
 def _sites(module: Module) -> tuple[Site, ...]:
     """The one-member sites the batch calls again: NumPy's members' code, and with a
-    max-index M the structured VI's kernels, lane by lane (c/sections/_batch_chain_vi)."""
+    max-index M the structured VI's kernels it runs lane by lane
+    (c/sections/_batch_chain_vi)."""
     if not has_chain_lanes(module):
         return _numpy_sites(module)
     from s2gen.parts.sphere import PARTS_BY_NAME  # which imports this module
 
-    return (*_numpy_sites(module), *PARTS_BY_NAME["vi_structured"].sites)
+    chain = PARTS_BY_NAME["vi_structured"].sites
+    return (*_numpy_sites(module), *(s for s in chain if s.name not in _CHAIN_INLINE))
 
 
 #: The adaptive methods' lanes use the one-member driver's buffers in their own workspaces.

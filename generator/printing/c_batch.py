@@ -26,7 +26,7 @@ from s2gen.ir import Call, Kernel, Module
 from s2gen.methods import explicit_tableaus
 from s2gen.parts.batch import BATCH_LANES, BATCH_PART, has_chain_lanes
 from s2gen.printing.c import CPrinter, c_inline, c_loop
-from s2gen.printing.c_batch_chain import chain_lane_work, chain_vi_work
+from s2gen.printing.c_batch_chain import chain_lane_work, chain_lanes, chain_vi_work
 from s2gen.printing.c_batch_newton import newton_lane_work, newton_lanes
 from s2gen.printing.c_batch_quadratic import quadratic_lanes
 from s2gen.printing.c_batch_rattle import rattle_batch, rattle_dense_work
@@ -132,8 +132,8 @@ def print_batch(module: Module) -> dict[str, Any]:
     condition: the explicit VI's), with a coupled M where a lane's Newton VI steps keep
     their buffers (`newton_work`) and with a dense M its Newton VI's kernels inline for the
     lane loops (`newton_lanes`), with a max-index M the one-member vi_advance's buffers its
-    lanes use (`chain`), RATTLE's step (`s2gen.printing.c_batch_rattle`); every key
-    empty (or 0) without the part."""
+    lanes use (`chain`) and its Newton kernels inline (`chain_lanes`), RATTLE's step
+    (`s2gen.printing.c_batch_rattle`); every key empty (or 0) without the part."""
     if BATCH_PART not in module.parts:
         return {
             "lanes": 0,
@@ -148,6 +148,7 @@ def print_batch(module: Module) -> dict[str, Any]:
             "field": {},
             "newton_lanes": {},
             "chain": {},
+            "chain_lanes": {},
             "rattle": {},
         }
     explicit = "vi_explicit" in module.parts  # else a coupled M: the Newton VI
@@ -173,6 +174,7 @@ def print_batch(module: Module) -> dict[str, Any]:
         "field": field or {},
         "newton_lanes": newton_lanes(module) if field else {},
         "chain": chain_vi_work(module),
+        "chain_lanes": chain_lanes(module),
         "rattle": rattle_batch(
             module, work, BATCH_LANES, field is not None and "rattle_newton" in module.parts
         ),
