@@ -15,9 +15,9 @@ tests/test_block_elimination.py builds it but with the offset a parameter, puts 
 lanes beside lanes that do not decline. Broken variants of the emitted C (every lane taking
 lane 0's pivot rows; lanes pivoting on different rows taken for lanes pivoting on one; the
 rows not exchanged where all lanes pivot on one; a declining lane keeping its block
-elimination's result instead of the band's; a lane declining in Newton's iteration solving
-with stale blocks instead of those its kernels wrote into the lanes; the lanes' kernels
-reading Cayley parameters not updated) must fail the comparison.
+elimination's result instead of the band's; a declining lane solving with stale blocks
+instead of those the kernels wrote into the lanes; the lanes' kernels reading Cayley
+parameters not updated) must fail the comparison.
 """
 
 from __future__ import annotations
@@ -166,12 +166,12 @@ def _one_row_for_split_lanes(c: str, upper: str) -> str:
     return c.replace(split, "split |= 0;")
 
 
-def _newton_blocks_not_copied(c: str, upper: str) -> str:
-    """A lane whose Newton elimination declines redoes its solve on the blocks its workspace
-    held before (the kernels wrote this iteration's into the lanes only)."""
-    fill = ", 1, act, sst);"
+def _blocks_not_copied(c: str, upper: str) -> str:
+    """A lane whose elimination declines redoes its solve on the blocks E its workspace held
+    before (the kernels wrote this solve's into the lanes only)."""
+    fill = "eb[e] = ce[e * L + l];"
     assert c.count(fill) == 1
-    return c.replace(fill, ", 0, act, sst);")
+    return c.replace(fill, "")
 
 
 def _lane_iterate_stale(c: str, upper: str) -> str:
@@ -196,14 +196,14 @@ def _whole_exchange_skipped(c: str, upper: str) -> str:
         _decline_kept,
         _one_row_for_split_lanes,
         _whole_exchange_skipped,
-        _newton_blocks_not_copied,
+        _blocks_not_copied,
         _lane_iterate_stale,
     ],
 )
 def test_broken_lane_solves_are_caught(broken: Callable[[str, str], str]) -> None:
-    """Each lane's own pivot rows, each lane's decline (with its Newton blocks, which the
-    kernels wrote into the lanes, copied back for the one-member solve) and each lane's
-    updated iterate matter: the variants fail the comparison on the pivoted system."""
+    """Each lane's own pivot rows, each lane's decline (with its blocks, which the kernels
+    wrote into the lanes, copied back for the one-member solve) and each lane's updated
+    iterate matter: the variants fail the comparison on the pivoted system."""
     s = pivoted()
     files = dict(emit(s.with_batch(), "c"))
     files["pivoted.c"] = broken(files["pivoted.c"], "PIVOTED")

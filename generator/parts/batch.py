@@ -212,7 +212,7 @@ def has_chain_lanes(module: Module) -> bool:
 
 #: The structured VI's sites the max-index batch writes inline in its lane loops instead
 #: (`s2gen.printing.c_batch_chain.chain_lanes`).
-_CHAIN_INLINE = ("res_coupled",)
+_CHAIN_INLINE = ("disp", "res_coupled", "c_coupled", "a_body", "a_blocks_vi")
 
 
 def _sites(module: Module) -> tuple[Site, ...]:
