@@ -13,6 +13,14 @@ factors have mixed stages are regrouped first, so that, e.g., `4*eps*sigma**12/r
 A kernel takes part when its definition says which inputs are parameters and data
 (`KernelDef.stages`); the generic kernels of the equations do not.
 
+Per-body data ([data], stage 2 in a term kernel's definition) count as a member's data (stage
+1) where that saves work (`member_data`): on a term over fixed members whose loop gathers its
+bodies by index (a list, the chain, the ring, every body), so that, e.g., `k*ci*cj` or a mixing
+rule `sqrt(ei*ej)` is computed once per member and call and read as one contiguous slot instead
+of two gathered loads and the operations at every evaluation. They stay per evaluation on
+all-pairs terms laid out as rows, which read them contiguously and would otherwise stream a
+table of n(n-1)/2 rows per evaluation, and on cutoff terms, whose members are found per call.
+
 Example:
     >>> from s2gen.systems import builtin
     >>> from s2gen.passes import lower_system
