@@ -27,6 +27,7 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 from test_batch import FAST_MEMBER, NAN_MEMBER, K, bits, check, members
+from variants import edited
 
 from s2gen.emit import emit
 from s2gen.equations.structure import choose_solver
@@ -147,46 +148,34 @@ def test_declining_lanes_beside_the_others(opt: str) -> None:
 
 def _lane0_pivots(c: str, upper: str) -> str:
     """Every lane exchanges the rows lane 0 chose."""
-    row = "const long pv = (long)piv[l];"
-    assert c.count(row) == 1
-    return c.replace(row, "const long pv = (long)piv[0];")
+    return edited(c, "const long pv = (long)piv[l];", "const long pv = (long)piv[0];")
 
 
 def _decline_kept(c: str, upper: str) -> str:
     """A lane whose block elimination declines keeps its (finite) result, not the band's."""
-    flag = "ok[l] = good[l] == 1.0 && chk[l] == 0.0;"
-    assert c.count(flag) == 1
-    return c.replace(flag, "ok[l] = chk[l] == 0.0;")
+    return edited(c, "ok[l] = good[l] == 1.0 && chk[l] == 0.0;", "ok[l] = chk[l] == 0.0;")
 
 
 def _one_row_for_split_lanes(c: str, upper: str) -> str:
     """Lanes pivoting on different rows are taken for lanes pivoting on one (lane 0's)."""
-    split = "split |= piv[l] != piv[0];"
-    assert c.count(split) == 1
-    return c.replace(split, "split |= 0;")
+    return edited(c, "split |= piv[l] != piv[0];", "split |= 0;")
 
 
 def _blocks_not_copied(c: str, upper: str) -> str:
     """A lane whose elimination declines redoes its solve on the blocks E its workspace held
     before (the kernels wrote this solve's into the lanes only)."""
-    fill = "eb[e] = ce[e * L + l];"
-    assert c.count(fill) == 1
-    return c.replace(fill, "")
+    return edited(c, "eb[e] = ce[e * L + l];", "")
 
 
 def _lane_iterate_stale(c: str, upper: str) -> str:
     """The Newton kernels read each lane's Cayley parameters as they were before the
     iteration's update."""
-    update = "cf[k * L + l] = f[k];"
-    assert c.count(update) == 1
-    return c.replace(update, "")
+    return edited(c, "cf[k * L + l] = f[k];", "")
 
 
 def _whole_exchange_skipped(c: str, upper: str) -> str:
     """Where every lane pivots on one row, the rows are not exchanged."""
-    row = "const long pv = (long)piv[0];"
-    assert c.count(row) == 1
-    return c.replace(row, "const long pv = (long)k;")
+    return edited(c, "const long pv = (long)piv[0];", "const long pv = (long)k;")
 
 
 @pytest.mark.parametrize(

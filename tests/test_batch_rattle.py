@@ -29,6 +29,7 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 from test_batch import LATE_MEMBER, NSTEPS, H, check, members, system
+from variants import edited
 
 from s2gen.emit import emit
 from s2gen.parts.batch import BATCH_METHODS
@@ -163,24 +164,26 @@ def _velocities_from_omega(c: str, upper: str) -> str:
 def _cold_start_each(c: str, upper: str) -> str:
     """Every lane's Newton (lane by lane) starts cold at every step (integrate() warm-starts
     it from the same substep's solution one step before)."""
-    call = "batch_rattle_lane(b, l, sc, h, k > 0, &stats[b->member[l]]);"
-    assert c.count(call) == 1
-    return c.replace(call, "batch_rattle_lane(b, l, sc, h, 0, &stats[b->member[l]]);")
+    return edited(
+        c,
+        "batch_rattle_lane(b, l, sc, h, k > 0, &stats[b->member[l]]);",
+        "batch_rattle_lane(b, l, sc, h, 0, &stats[b->member[l]]);",
+    )
 
 
 def _cold_start_lanes(c: str, upper: str) -> str:
     """The lanes' Newton (a dense M, in loops over the lanes) starts cold at every step."""
-    call = "batch_rattle_sub(b, sc->fractions[sub] * h, k > 0, evals,"
-    assert c.count(call) == 1
-    return c.replace(call, "batch_rattle_sub(b, sc->fractions[sub] * h, 0, evals,")
+    return edited(
+        c,
+        "batch_rattle_sub(b, sc->fractions[sub] * h, k > 0, evals,",
+        "batch_rattle_sub(b, sc->fractions[sub] * h, 0, evals,",
+    )
 
 
 def _converged_lanes_iterate(c: str, upper: str) -> str:
     """A lane whose Newton has converged goes on updating its multipliers while other lanes
     iterate (no mask)."""
-    update = "sv[i * L + l] = going[l] ? s1 : sv[i * L + l];"
-    assert c.count(update) == 1
-    return c.replace(update, "sv[i * L + l] = s1;")
+    return edited(c, "sv[i * L + l] = going[l] ? s1 : sv[i * L + l];", "sv[i * L + l] = s1;")
 
 
 @pytest.mark.parametrize(
